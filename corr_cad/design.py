@@ -131,8 +131,7 @@ class GearDesign:
                 z = int(z)
             else:
                 raise DesignError(
-                    f"tooth_count = {z!r}: must be an integer in [3, 1000] "
-                    "(z teeth, z + 1 rollers)"
+                    f"tooth_count = {z!r}: must be an integer in [3, 1000] (z teeth, z + 1 rollers)"
                 )
         z = int(z)
         if not 3 <= z <= 1000:
@@ -187,9 +186,7 @@ class GearDesign:
         if self.face_width is None:
             object.__setattr__(self, "face_width", float(self.roller_length))
         else:
-            object.__setattr__(
-                self, "face_width", _check_range("face_width", self.face_width, 0.0)
-            )
+            object.__setattr__(self, "face_width", _check_range("face_width", self.face_width, 0.0))
         if self.cam_bore_radius is None:
             bore = min(0.35 * Rj, 0.5 * (Rj - e))
             object.__setattr__(self, "cam_bore_radius", round(bore, 1) if bore > 1.0 else bore)

@@ -343,7 +343,9 @@ def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> P
         worst = 0.0
         for m in range(z):
             exact = curve.points(ts + m * pitch)
-            worst = max(worst, float(np.linalg.norm(joined(ts + m * span_len) - exact, axis=-1).max()))
+            worst = max(
+                worst, float(np.linalg.norm(joined(ts + m * span_len) - exact, axis=-1).max())
+            )
         dev = max(dev, worst)
         return ProfileApproximation(
             representation, ctrl, np.zeros(len(ctrl)), knots, dev, float(tolerance), n_span
@@ -386,3 +388,33 @@ def _join_spline_pieces(spl: BSpline, z: int, pitch: float) -> tuple[np.ndarray,
     c = np.vstack(all_ctrl)
     c[-1] = c[0]
     return np.concatenate(all_knots), c
+
+
+def distance_to_curve(curve: ProfileCurve, q: np.ndarray, samples_per_tooth: int = 4000):
+    """Distance from arbitrary points ``q`` (n, 2) to the closed exact ``curve``, mm.
+
+    Seeds each point at the nearest of a dense sampling (k-d tree), then
+    projects with Newton, clamped to the seed's tooth piece so that a trimmed
+    (undercut) profile is never measured against its discarded swallowtail.
+    Returns ``(distance, t)``.
+    """
+    from scipy.spatial import cKDTree
+
+    q = np.asarray(q, dtype=float).reshape(-1, 2)
+    z = curve.tooth_count
+    pitch = 2.0 * math.pi / z
+    t_a, t_b = curve.piece_t_range
+    t_local = np.linspace(t_a, t_b, samples_per_tooth + 1)
+    tooth = np.repeat(np.arange(z), t_local.size)
+    t_all = np.tile(t_local, z) + tooth * pitch
+    tree = cKDTree(curve.points(t_all))
+    _, idx = tree.query(q)
+    m = tooth[idx]
+    t_seed = t_all[idx] - m * pitch
+    # Project the points rotated back onto tooth 0.
+    q0 = np.empty_like(q)
+    for mm in np.unique(m):
+        sel = m == mm
+        q0[sel] = kin.rotate_by_polar_angle(q[sel], -mm * pitch)
+    t, dist = project_to_curve(curve, q0, t_seed, t_a, t_b, iterations=12)
+    return dist, t + m * pitch

@@ -1,0 +1,99 @@
+"""Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``.
+
+Exit codes: 0 success, 2 bad input or a refused design (one line on stderr,
+no traceback, nothing written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from . import __version__
+from .errors import CorrCadError
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="corr-cad",
+        description=(
+            "Profiles, machining files and mesh forces for compound oscillatory roller "
+            "reducers. Units: mm, N, N*mm, MPa."
+        ),
+    )
+    p.add_argument("--version", action="version", version=f"corr-cad {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    run = sub.add_parser("run", help="build what a scene file asks for")
+    run.add_argument("scene", type=Path, help="scene file (TOML)")
+    run.add_argument(
+        "--out", type=Path, default=None, help="output folder (default outputs/<scene name>)"
+    )
+    run.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    new = sub.add_parser("new", help="write a commented scene template")
+    new.add_argument("scene", type=Path, help="file to create (refuses to overwrite)")
+    return p
+
+
+def _run(args: argparse.Namespace) -> int:
+    from .outputs import StagingDir
+    from .pipeline import run_scene
+    from .scene import load_scene
+
+    scene = load_scene(args.scene)
+    out = args.out if args.out is not None else Path("outputs") / scene.name
+    say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
+    say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
+    with StagingDir(out) as stage:
+        manifest = run_scene(scene, stage, progress=say)
+    if not args.quiet:
+        acc = manifest.get("accuracy", {}).get("working_profile")
+        if acc:
+            print(
+                f"working profile: {acc['representation']}, tolerance {acc['tolerance_mm']:g} mm, "
+                f"measured max deviation {acc['max_deviation_mm']:.3g} mm"
+            )
+        f = manifest.get("forces")
+        if f:
+            print(
+                f"roller 1: F_j mean {f['F_j_mean']:.1f} N, F_n peak {f['F_n_peak']:.1f} N, "
+                f"p_max {f['p_max']:.0f} MPa, loaded rollers {f['loaded_rollers_min']}-"
+                f"{f['loaded_rollers_max']}"
+            )
+        print(f"wrote {len(manifest['files']) + 1} files to {out}")
+    return 0
+
+
+def _new(args: argparse.Namespace) -> int:
+    from .errors import SceneError
+    from .scene import template_text
+
+    path: Path = args.scene
+    if path.exists():
+        raise SceneError(f"{path} exists; choose another name")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(template_text(), encoding="utf-8")
+    tmp.replace(path)
+    print(f"wrote {path}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "run":
+            return _run(args)
+        return _new(args)
+    except CorrCadError as exc:
+        print(f"corr-cad: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("corr-cad: interrupted; previous outputs left as they were", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,98 @@
+"""Line contact between a roller and its mating parts (paper Eqs. 9-12, corrected).
+
+The paper's deformation model: the Hertz half-width of a line contact is
+
+    b^2 = 4 F R* / (pi l E'),   1/R* = k1 + k2,   1/E' = sum (1 - nu^2) / E,
+
+and the approach is the geometric overlap of the two circles whose common
+chord is ``2 b``:
+
+    delta = (R1 - sqrt(R1^2 - b^2)) + (R2 - sqrt(R2^2 - b^2))
+
+with signed curvatures ``k = 1/R`` (positive convex towards the contact,
+negative concave, zero flat). Eq. (11) as printed uses the contact length
+where the half-width belongs and orders the concave case's roots wrongly.
+``R - sqrt(R^2 - b^2)`` cancels catastrophically for ``b << R``; the form
+``k b^2 / (1 + sqrt(1 - k^2 b^2))`` used here does not.
+
+For small ``b`` the approach tends to ``2 F / (pi l E')``, independent of the
+radii: the *linear-contact limit*.
+
+Where ``b`` reaches the smaller radius the model leaves its validity; the
+approach is then continued along its tangent from ``b^2 = 0.99 / k_max^2``
+so that it stays finite, increasing and convex, and the contact is flagged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "VALIDITY_KNEE",
+    "half_width_sq_per_force",
+    "approach",
+    "approach_slope",
+    "linear_compliance",
+    "max_pressure",
+    "is_valid",
+]
+
+#: Share of the validity limit ``b = R_min`` (in ``b^2``) up to which the
+#: exact overlap formula is used; beyond it the tangent continuation.
+VALIDITY_KNEE = 0.99
+
+
+def half_width_sq_per_force(k1, k2, length: float, modulus: float):
+    """``b^2 / F`` for curvatures ``k1 + k2 > 0``, contact length and E', mm^2/N."""
+    ksum = np.maximum(np.asarray(k1, dtype=float) + np.asarray(k2, dtype=float), 1e-300)
+    return 4.0 / (np.pi * length * modulus * ksum)
+
+
+def _overlap(u, k):
+    # k u / (1 + sqrt(1 - k^2 u)): R - sqrt(R^2 - b^2) with u = b^2, stable.
+    return k * u / (1.0 + np.sqrt(np.maximum(1.0 - k * k * u, 0.0)))
+
+
+def _overlap_slope(u, k):
+    return 0.5 * k / np.sqrt(np.maximum(1.0 - k * k * u, 1e-300))
+
+
+def _knee(k1, k2):
+    kmax2 = np.maximum(np.asarray(k1) ** 2, np.asarray(k2) ** 2)
+    return VALIDITY_KNEE / np.maximum(kmax2, 1e-300)
+
+
+def approach(u, k1, k2):
+    """Approach ``delta(u)`` for ``u = b^2`` (mm^2), signed curvatures ``k1, k2``, mm."""
+    u = np.asarray(u, dtype=float)
+    uk = _knee(k1, k2)
+    ue = np.minimum(u, uk)
+    exact = _overlap(ue, k1) + _overlap(ue, k2)
+    slope = _overlap_slope(uk, k1) + _overlap_slope(uk, k2)
+    return np.where(u <= uk, exact, exact + slope * (u - uk))
+
+
+def approach_slope(u, k1, k2):
+    """d delta / d u, continuous and non-decreasing."""
+    u = np.minimum(np.asarray(u, dtype=float), _knee(k1, k2))
+    return _overlap_slope(u, k1) + _overlap_slope(u, k2)
+
+
+def linear_compliance(length: float, modulus: float) -> float:
+    """Small-``b`` limit of ``delta / F = 2 / (pi l E')``, mm/N."""
+    return 2.0 / (np.pi * length * modulus)
+
+
+def max_pressure(force, u_per_force, length: float):
+    """Maximum Hertz line-contact pressure ``2 F / (pi b l)``, MPa.
+
+    Written as ``2 sqrt(F / (b^2/F)) / (pi l)`` so that it is exact at ``F = 0``.
+    """
+    force = np.maximum(np.asarray(force, dtype=float), 0.0)
+    return 2.0 * np.sqrt(force / np.asarray(u_per_force, dtype=float)) / (np.pi * length)
+
+
+def is_valid(u, k1, k2):
+    """True where the half-width is smaller than both radii."""
+    kmax2 = np.maximum(np.asarray(k1) ** 2, np.asarray(k2) ** 2)
+    return np.asarray(u) * kmax2 < 1.0

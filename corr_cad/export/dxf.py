@@ -1,0 +1,290 @@
+"""DXF export of the second-stage parts (the only module importing ezdxf).
+
+Every file is DXF R2018 in millimetres (``$INSUNITS = 4``), one part per
+file, each contour closed and on a named layer, nothing duplicated. The
+design parameters and the measured deviation are stored as custom header
+properties so that the file documents itself.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import ezdxf
+import numpy as np
+
+from .. import __version__
+from ..design import SLOT_END_CLEARANCE, GearDesign
+from ..errors import ExportError
+from ..kinematics import unit_radial, unit_tangential
+from ..sampling import ProfileApproximation, bulge_arc_points
+
+__all__ = [
+    "PART_FILES",
+    "write_inner_gear",
+    "write_disk_cam",
+    "write_roller",
+    "write_teeth_frame",
+    "write_all",
+    "read_closed_contour",
+    "contour_area",
+    "frame_slot_outline",
+]
+
+PART_FILES = {
+    "inner_gear": "inner_gear.dxf",
+    "disk_cam": "disk_cam.dxf",
+    "roller": "roller.dxf",
+    "teeth_frame": "teeth_frame.dxf",
+}
+
+LAYERS = {
+    "WORKING_PROFILE": 1,
+    "THEORETICAL_PROFILE": 8,
+    "RING_OUTER": 7,
+    "CAM_OUTER": 7,
+    "CAM_BORE": 5,
+    "ROLLER": 7,
+    "FRAME_OUTER": 7,
+    "FRAME_INNER": 7,
+    "FRAME_SLOTS": 3,
+}
+
+
+def _new_doc(design: GearDesign, part: str, extra: dict | None = None) -> ezdxf.document.Drawing:
+    doc = ezdxf.new("R2018", setup=False)
+    doc.header["$INSUNITS"] = 4  # millimetres
+    doc.header["$MEASUREMENT"] = 1  # metric
+    doc.header["$LUNITS"] = 2  # decimal
+    doc.header["$LUPREC"] = 6
+    props = {"corr_cad.version": __version__, "corr_cad.part": part, "corr_cad.units": "mm"}
+    props.update({f"corr_cad.{k}": v for k, v in design.as_dict().items()})
+    props.update(extra or {})
+    for key, value in props.items():
+        doc.header.custom_vars.append(key, _fmt(value))
+    return doc
+
+
+def _fmt(value: object) -> str:
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _layer(doc: ezdxf.document.Drawing, name: str) -> str:
+    if name not in doc.layers:
+        doc.layers.add(name, color=LAYERS.get(name, 7))
+    return name
+
+
+def _add_profile(msp, approx: ProfileApproximation, layer: str) -> None:
+    attribs = {"layer": layer}
+    if approx.representation == "spline":
+        msp.add_open_spline(
+            [tuple(p) for p in approx.vertices],
+            degree=3,
+            knots=list(approx.knots),
+            dxfattribs=attribs,
+        )
+    else:
+        pts = [
+            (float(x), float(y), float(b))
+            for (x, y), b in zip(approx.vertices, approx.bulges, strict=True)
+        ]
+        msp.add_lwpolyline(pts, format="xyb", close=True, dxfattribs=attribs)
+
+
+def _save(doc: ezdxf.document.Drawing, path: Path) -> Path:
+    path = Path(path)
+    tmp = path.with_name(path.name + ".part")
+    doc.saveas(tmp)
+    tmp.replace(path)
+    return path
+
+
+def write_inner_gear(
+    design: GearDesign,
+    working: ProfileApproximation,
+    theoretical: ProfileApproximation,
+    path: Path,
+) -> Path:
+    """Inner gear ring: working profile, theoretical profile (own layer), outer circle."""
+    doc = _new_doc(
+        design,
+        "inner_gear",
+        {
+            "corr_cad.representation": working.representation,
+            "corr_cad.tolerance_mm": working.tolerance,
+            "corr_cad.max_deviation_mm": working.max_deviation,
+            "corr_cad.theoretical_max_deviation_mm": theoretical.max_deviation,
+        },
+    )
+    msp = doc.modelspace()
+    _add_profile(msp, working, _layer(doc, "WORKING_PROFILE"))
+    _add_profile(msp, theoretical, _layer(doc, "THEORETICAL_PROFILE"))
+    msp.add_circle(
+        (0.0, 0.0), design.ring_outer_radius, dxfattribs={"layer": _layer(doc, "RING_OUTER")}
+    )
+    return _save(doc, path)
+
+
+def write_disk_cam(design: GearDesign, path: Path) -> Path:
+    """Disk cam centred on the origin; eccentric bore (crankshaft axis) at (0, -e)."""
+    doc = _new_doc(design, "disk_cam")
+    msp = doc.modelspace()
+    msp.add_circle((0.0, 0.0), design.cam_radius, dxfattribs={"layer": _layer(doc, "CAM_OUTER")})
+    msp.add_circle(
+        (0.0, -design.eccentricity),
+        design.cam_bore_radius,
+        dxfattribs={"layer": _layer(doc, "CAM_BORE")},
+    )
+    return _save(doc, path)
+
+
+def write_roller(design: GearDesign, path: Path) -> Path:
+    """One roller (all z + 1 are identical)."""
+    doc = _new_doc(design, "roller")
+    doc.modelspace().add_circle(
+        (0.0, 0.0), design.roller_radius, dxfattribs={"layer": _layer(doc, "ROLLER")}
+    )
+    return _save(doc, path)
+
+
+def frame_slot_outline(design: GearDesign, slot_angle_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """Closed obround slot of width 2r at polar angle ``slot_angle_rad``.
+
+    Returns 4 vertices (4, 2) and their bulges (4,): two radial flanks and two
+    semicircular ends whose centres sit ``SLOT_END_CLEARANCE`` beyond the
+    roller centre's extreme radii ``L - e`` and ``L + e``.
+    """
+    r = design.roller_radius
+    rho_in = design.link_length - design.eccentricity - SLOT_END_CLEARANCE
+    rho_out = design.link_length + design.eccentricity + SLOT_END_CLEARANCE
+    u = unit_radial(slot_angle_rad)
+    v = unit_tangential(slot_angle_rad)
+    verts = np.array(
+        [rho_in * u - r * v, rho_out * u - r * v, rho_out * u + r * v, rho_in * u + r * v]
+    )
+    bulges = np.array([0.0, -1.0, 0.0, -1.0])
+    return verts, bulges
+
+
+def write_teeth_frame(design: GearDesign, path: Path) -> Path:
+    """Movable-teeth frame plate: two circles and z + 1 radial slots of width 2r."""
+    doc = _new_doc(design, "teeth_frame", {"corr_cad.slot_end_clearance_mm": SLOT_END_CLEARANCE})
+    msp = doc.modelspace()
+    msp.add_circle(
+        (0.0, 0.0), design.frame_outer_radius, dxfattribs={"layer": _layer(doc, "FRAME_OUTER")}
+    )
+    msp.add_circle(
+        (0.0, 0.0), design.frame_inner_radius, dxfattribs={"layer": _layer(doc, "FRAME_INNER")}
+    )
+    layer = _layer(doc, "FRAME_SLOTS")
+    for i in range(design.roller_count):
+        verts, bulges = frame_slot_outline(design, i * design.slot_pitch_rad)
+        pts = [(float(x), float(y), float(b)) for (x, y), b in zip(verts, bulges, strict=True)]
+        msp.add_lwpolyline(pts, format="xyb", close=True, dxfattribs={"layer": layer})
+    return _save(doc, path)
+
+
+def write_all(
+    design: GearDesign,
+    working: ProfileApproximation,
+    theoretical: ProfileApproximation,
+    out_dir: Path,
+) -> dict[str, Path]:
+    """Write the four part files into ``out_dir``; returns ``{part: path}``."""
+    out_dir = Path(out_dir)
+    return {
+        "inner_gear": write_inner_gear(
+            design, working, theoretical, out_dir / PART_FILES["inner_gear"]
+        ),
+        "disk_cam": write_disk_cam(design, out_dir / PART_FILES["disk_cam"]),
+        "roller": write_roller(design, out_dir / PART_FILES["roller"]),
+        "teeth_frame": write_teeth_frame(design, out_dir / PART_FILES["teeth_frame"]),
+    }
+
+
+# --- reading back -----------------------------------------------------------
+def read_closed_contour(
+    path: Path, layer: str, flatten_distance: float = 1e-5
+) -> tuple[np.ndarray, str]:
+    """Read the single closed contour on ``layer`` as dense points (n, 2).
+
+    Accepts a closed LWPOLYLINE (bulges honoured), a closed POLYLINE, or a
+    SPLINE whose ends meet. Raises :class:`ExportError` if the layer holds
+    none, more than one, or an open contour. Returns ``(points, dxftype)``.
+    """
+    try:
+        doc = ezdxf.readfile(str(path))
+    except (OSError, ezdxf.DXFError) as exc:
+        raise ExportError(f"{path}: not a readable DXF file ({exc})") from exc
+    ents = [e for e in doc.modelspace() if e.dxf.layer == layer]
+    if len(ents) != 1:
+        raise ExportError(
+            f"{path}: layer {layer!r} must hold exactly one contour, found {len(ents)}"
+        )
+    ent = ents[0]
+    kind = ent.dxftype()
+    if kind == "LWPOLYLINE":
+        if not ent.closed:
+            raise ExportError(f"{path}: the LWPOLYLINE on layer {layer!r} is not closed")
+        data = np.array(ent.get_points("xyb"), dtype=float)
+        return flatten_bulge_polygon(data[:, :2], data[:, 2], flatten_distance), kind
+    if kind == "POLYLINE":
+        if not ent.is_closed:
+            raise ExportError(f"{path}: the POLYLINE on layer {layer!r} is not closed")
+        pts = np.array([(v.dxf.location.x, v.dxf.location.y) for v in ent.vertices], dtype=float)
+        return pts, kind
+    if kind == "SPLINE":
+        pts = np.array([(p.x, p.y) for p in ent.construction_tool().flattening(flatten_distance)])
+        gap = float(np.linalg.norm(pts[0] - pts[-1]))
+        if gap > 1e-6:
+            raise ExportError(f"{path}: the SPLINE on layer {layer!r} is open (gap {gap:.3g} mm)")
+        return pts[:-1], kind
+    raise ExportError(f"{path}: layer {layer!r} holds a {kind}, expected LWPOLYLINE or SPLINE")
+
+
+def flatten_bulge_polygon(vertices: np.ndarray, bulges: np.ndarray, sagitta: float) -> np.ndarray:
+    """Closed bulge polygon to dense points with chord error below ``sagitta``."""
+    a = vertices
+    b = np.roll(vertices, -1, axis=0)
+    theta = np.abs(4.0 * np.arctan(bulges))
+    chord = np.linalg.norm(b - a, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        radius = np.where(theta > 1e-12, chord / (2 * np.sin(theta / 2)), np.inf)
+        step = np.where(
+            np.isfinite(radius), 2 * np.arccos(np.clip(1 - sagitta / radius, -1, 1)), np.inf
+        )
+    counts = np.where(theta > 1e-12, np.ceil(theta / np.maximum(step, 1e-12)), 1).astype(int)
+    counts = np.clip(counts, 1, 10000)
+    out = []
+    for n in np.unique(counts):
+        sel = np.flatnonzero(counts == n)
+        u = np.arange(n) / n
+        out.append((sel, bulge_arc_points(a[sel], b[sel], bulges[sel], u)))
+    pieces = [None] * len(a)
+    for sel, pts in out:
+        for j, i in enumerate(sel):
+            pieces[i] = pts[j]
+    return np.concatenate(pieces)
+
+
+def contour_area(points: np.ndarray) -> float:
+    """Unsigned shoelace area of a closed polygon (n, 2), mm^2."""
+    x, y = points[:, 0], points[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def bulge_polygon_area(vertices: np.ndarray, bulges: np.ndarray) -> float:
+    """Exact unsigned area of a closed polygon with bulge arcs, mm^2."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    signed = 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    theta = 4.0 * np.arctan(bulges)
+    chord = np.linalg.norm(np.roll(vertices, -1, axis=0) - vertices, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        radius = np.where(np.abs(theta) > 1e-15, chord / (2 * np.sin(np.abs(theta) / 2)), 0.0)
+    seg = 0.5 * radius**2 * (np.abs(theta) - np.sin(np.abs(theta))) * np.sign(theta)
+    total = signed + float(seg.sum())
+    return abs(total) if math.isfinite(total) else math.nan

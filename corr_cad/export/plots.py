@@ -1,0 +1,112 @@
+"""Matplotlib figures (PNG). The only module importing matplotlib."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..design import GearDesign  # noqa: E402
+from ..kinematics import centre_distance, unit_radial  # noqa: E402
+from ..profile import ProfileCurve  # noqa: E402
+
+__all__ = ["preview_png", "forces_png", "load_distribution_png"]
+
+
+def _save(fig, path: Path) -> Path:
+    path = Path(path)
+    tmp = path.with_name(path.name + ".part")
+    fig.savefig(tmp, dpi=130, format="png", metadata={"Software": None})
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
+def _circle(ax, centre, radius, **kw):
+    a = np.linspace(0, 2 * np.pi, 721)
+    ax.plot(centre[0] + radius * np.sin(a), centre[1] + radius * np.cos(a), **kw)
+
+
+def preview_png(
+    design: GearDesign,
+    working: ProfileCurve,
+    theoretical: ProfileCurve,
+    path: Path,
+    crank_angle_rad: float = 0.0,
+) -> Path:
+    """Second stage at one crank angle: gear, locus, cam, rollers, plus a tooth close-up."""
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 6))
+    wp = working.sample(400)
+    tp = theoretical.sample(400)
+    e, Rj, r = design.eccentricity, design.cam_radius, design.roller_radius
+    L = design.link_length
+    for a in (ax, ax2):
+        a.fill(np.r_[wp[:, 0], wp[:1, 0]], np.r_[wp[:, 1], wp[:1, 1]], color="#dde6f0", zorder=0)
+        a.plot(
+            np.r_[wp[:, 0], wp[:1, 0]],
+            np.r_[wp[:, 1], wp[:1, 1]],
+            color="C0",
+            lw=1.2,
+            label="working profile",
+        )
+        a.plot(
+            np.r_[tp[:, 0], tp[:1, 0]],
+            np.r_[tp[:, 1], tp[:1, 1]],
+            "--",
+            color="C7",
+            lw=0.8,
+            label="theoretical profile (roller centres)",
+        )
+        _circle(a, (0, 0), design.ring_outer_radius, color="k", lw=1.0)
+        cam_c = e * unit_radial(crank_angle_rad)
+        _circle(a, cam_c, Rj, color="C3", lw=1.0, label="disk cam")
+        theta = np.arange(design.roller_count) * design.slot_pitch_rad
+        s = centre_distance(crank_angle_rad - theta, e, L)
+        centres = s[:, None] * unit_radial(theta)
+        for c in centres:
+            _circle(a, c, r, color="C2", lw=0.8)
+        a.set_aspect("equal")
+        a.set_xlabel("x [mm]")
+        a.set_ylabel("y [mm]")
+    ax.set_title(f"z = {design.tooth_count}, e = {e:g}, Rj = {Rj:g}, r = {r:g} mm")
+    ax.legend(loc="lower left", fontsize=7)
+    # Close-up around the tooth space on +y and its neighbours.
+    span = 2.5 * (2 * np.pi / design.tooth_count)
+    top = L + e + r
+    ax2.set_xlim(-top * np.sin(span / 2), top * np.sin(span / 2))
+    ax2.set_ylim(top - 4 * r - 2 * e, design.ring_outer_radius + 2)
+    ax2.set_title("tooth close-up (tooth space on +y)")
+    return _save(fig, path)
+
+
+def forces_png(angles_deg: np.ndarray, F_j, F_s, F_n, path: Path, title: str = "") -> Path:
+    """Forces on roller 1 against crank angle (paper Figs. 11-16 style)."""
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ax.plot(angles_deg, F_j, label="$F_j$ (cam)")
+    ax.plot(angles_deg, F_n, label="$F_n$ (inner gear)")
+    ax.plot(angles_deg, F_s, label="$F_s$ (slot wall)")
+    ax.set_xlabel("crank angle relative to the frame [deg]")
+    ax.set_ylabel("force on roller 1 [N]")
+    ax.set_xlim(float(angles_deg.min()), float(angles_deg.max()))
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title(title or "mesh forces on roller 1")
+    return _save(fig, path)
+
+
+def load_distribution_png(
+    design: GearDesign, crank_angle_deg: float, F_n: np.ndarray, path: Path
+) -> Path:
+    """Polar picture of the gear force on every roller at one crank angle."""
+    fig = plt.figure(figsize=(6, 6))
+    ax = fig.add_subplot(projection="polar")
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)  # angles from +y towards +x, as in the paper
+    theta = np.arange(design.roller_count) * design.slot_pitch_rad
+    ax.bar(theta, F_n, width=0.6 * design.slot_pitch_rad, color="C1", alpha=0.8)
+    ax.set_title(f"gear force $F_n$ per roller [N], crank at {crank_angle_deg:g} deg")
+    return _save(fig, path)
