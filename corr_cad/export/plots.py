@@ -62,10 +62,13 @@ def preview_png(
             label="theoretical profile (roller centres)",
         )
         _circle(a, (0, 0), design.ring_outer_radius, color="k", lw=1.0)
-        cam_c = e * unit_radial(crank_angle_rad)
+        # crank_angle_rad is relative to the frame (= z * frame angle).
+        theta0 = crank_angle_rad / design.tooth_count
+        phi_abs = crank_angle_rad + theta0
+        cam_c = e * unit_radial(phi_abs)
         _circle(a, cam_c, Rj, color="C3", lw=1.0, label="disk cam")
-        theta = np.arange(design.roller_count) * design.slot_pitch_rad
-        s = centre_distance(crank_angle_rad - theta, e, L)
+        theta = theta0 + np.arange(design.roller_count) * design.slot_pitch_rad
+        s = centre_distance(phi_abs - theta, e, L)
         centres = s[:, None] * unit_radial(theta)
         for c in centres:
             _circle(a, c, r, color="C2", lw=0.8)
