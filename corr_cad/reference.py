@@ -64,7 +64,7 @@ def reference_position(
         ur, ut = kin.unit_radial(theta), kin.unit_tangential(theta)
         # Roller centre on the slot line at distance L from the cam centre.
         s = optimize.brentq(
-            lambda x: np.linalg.norm(x * ur - o1) - L, L - e - 1.0, L + e + 1.0, xtol=1e-14
+            lambda x, ur=ur: np.linalg.norm(x * ur - o1) - L, L - e - 1.0, L + e + 1.0, xtol=1e-14
         )
         h = s * ur
         c = (h - o1) / np.linalg.norm(h - o1)
