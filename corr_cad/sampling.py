@@ -242,24 +242,70 @@ def _span_primitives(curve: ProfileCurve, t_nodes: np.ndarray, representation: s
     return verts, bulges, p
 
 
+def _golden_max(f, lo: np.ndarray, hi: np.ndarray, iters: int = 48) -> np.ndarray:
+    """Vectorised golden-section search for the maximum of ``f`` on each ``[lo, hi]``."""
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    a, b = lo.astype(float), hi.astype(float)
+    c = b - g * (b - a)
+    d = a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(iters):
+        left = fc >= fd
+        b = np.where(left, d, b)
+        a = np.where(left, a, c)
+        d_new = np.where(left, c, a + g * (b - a))
+        c_new = np.where(left, b - g * (b - a), d)
+        f_new = f(np.where(left, c_new, d_new))
+        # Left: the old c becomes d, the new point is c. Right: old d becomes c.
+        fc, fd = np.where(left, f_new, fd), np.where(left, fc, f_new)
+        c, d = c_new, d_new
+    return np.maximum(fc, fd)
+
+
+def _max_per_span(f, n_span: int, m: int) -> np.ndarray:
+    """Max over ``u`` in [0, 1] of ``f(span, u)`` per span: sampled, then refined."""
+    u = np.linspace(0.0, 1.0, m + 1)
+    span = np.repeat(np.arange(n_span), m + 1)
+    vals = f(span, np.tile(u, n_span)).reshape(n_span, m + 1)
+    best = vals.max(axis=1)
+    # Refine only spans that could hold the maximum: between samples a smooth
+    # distance can exceed its sampled peak by far less than 20 %.
+    idx = np.flatnonzero(best >= 0.8 * best.max())
+    k = np.argmax(vals[idx], axis=1)
+    lo = u[np.maximum(k - 1, 0)]
+    hi = u[np.minimum(k + 1, m)]
+    refined = _golden_max(lambda x: f(idx, x), lo, hi)
+    best[idx] = np.maximum(best[idx], refined)
+    return best
+
+
+def _bulge_distance_fn(curve: ProfileCurve, t_nodes: np.ndarray, verts, bulges):
+    """f(span, u): distance from the exact curve at node interval ``span`` to its primitives."""
+    n_span = len(t_nodes) - 1
+    per_span = len(verts) // n_span
+    closed = np.vstack([verts, curve.points(t_nodes[-1:])])
+    dt = np.diff(t_nodes)
+
+    def f(span, u):
+        q = curve.points(t_nodes[span] + u * dt[span])
+        best = np.full(q.shape[0], np.inf)
+        for j in range(per_span):
+            k = span * per_span + j
+            best = np.minimum(best, point_bulge_distance(q, closed[k], closed[k + 1], bulges[k]))
+        return best
+
+    return f
+
+
 def _bulge_span_error(
     curve: ProfileCurve, t_nodes: np.ndarray, verts: np.ndarray, bulges: np.ndarray, m: int
 ) -> np.ndarray:
-    """Exact-to-approximation distance per span (max over m interior samples)."""
+    """Exact-to-approximation distance per span (max over m + 1 samples), mm."""
+    f = _bulge_distance_fn(curve, t_nodes, verts, bulges)
     n_span = len(t_nodes) - 1
-    u = (np.arange(m) + 0.5) / m
-    ts = t_nodes[:-1, None] + u[None, :] * np.diff(t_nodes)[:, None]
-    q = curve.points(ts.ravel()).reshape(n_span, m, 2)
-    per_span = len(verts) // n_span
-    closed = np.vstack([verts, curve.points(t_nodes[-1:])])
-    best = np.full((n_span, m), np.inf)
-    for j in range(per_span):
-        a = closed[j::per_span][:n_span]
-        b = closed[j + 1 :: per_span][:n_span]
-        bu = bulges[j::per_span][:n_span]
-        d = point_bulge_distance(q, a[:, None, :], b[:, None, :], bu[:, None])
-        best = np.minimum(best, d)
-    return best.max(axis=1)
+    u = np.linspace(0.0, 1.0, m + 1)
+    span = np.repeat(np.arange(n_span), m + 1)
+    return f(span, np.tile(u, n_span)).reshape(n_span, m + 1).max(axis=1)
 
 
 def _piece_spline(curve: ProfileCurve, t_nodes: np.ndarray) -> BSpline:
@@ -302,21 +348,47 @@ def _refine(curve: ProfileCurve, representation: str, tol: float, max_rounds: in
 
 
 def _measure_bulge(curve: ProfileCurve, t_nodes: np.ndarray, verts: np.ndarray, bulges):
-    """Both-direction deviation of tooth 0's bulge spans."""
-    t_lo, t_hi = t_nodes[0], t_nodes[-1]
-    m = _MEASURE_SAMPLES
-    fwd = _bulge_span_error(curve, t_nodes, verts, bulges, m).max()
+    """Both-direction deviation of tooth 0's bulge spans, refined to the local maxima."""
+    pad = 0.0 if curve.has_corners else 0.5 * (t_nodes[-1] - t_nodes[0])
+    t_lo, t_hi = t_nodes[0] - pad, t_nodes[-1] + pad
     n_span = len(t_nodes) - 1
     per_span = len(verts) // n_span
+    fwd = _max_per_span(_bulge_distance_fn(curve, t_nodes, verts, bulges), n_span, _MEASURE_SAMPLES)
     closed = np.vstack([verts, curve.points(t_nodes[-1:])])
-    u = (np.arange(m) + 0.5) / m
-    q = bulge_arc_points(closed[:-1], closed[1:], bulges, u).reshape(-1, 2)
-    # Start parameters: spread each span's samples over its node interval.
-    frac = (np.arange(len(verts))[:, None] % per_span + u[None, :]) / per_span
-    span = np.arange(len(verts))[:, None] // per_span
-    t0 = (t_nodes[span] + frac * np.diff(t_nodes)[span]).ravel()
-    _, back = project_to_curve(curve, q, t0, t_lo, t_hi)
-    return max(float(fwd), float(back.max()))
+    dt = np.diff(t_nodes)
+
+    def back(seg, u):
+        q = _points_on_bulges(closed[seg], closed[seg + 1], bulges[seg], u)
+        node = seg // per_span
+        frac = (seg % per_span + u) / per_span
+        _, d = project_to_curve(curve, q, t_nodes[node] + frac * dt[node], t_lo, t_hi)
+        return d
+
+    bwd = _max_per_span(back, len(verts), _MEASURE_SAMPLES)
+    return max(float(fwd.max()), float(bwd.max()))
+
+
+def _points_on_bulges(a: np.ndarray, b: np.ndarray, bulge: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """One point per segment at its own fraction ``u`` (n,): (n, 2)."""
+    out = a + u[:, None] * (b - a)
+    arc = np.abs(bulge) > _STRAIGHT
+    if np.any(arc):
+        centre, _, theta = _arc_geometry(a[arc], b[arc], bulge[arc])
+        va = a[arc] - centre
+        ang = theta * u[arc]
+        c, s = np.cos(ang), np.sin(ang)
+        out[arc] = centre + np.stack([va[:, 0] * c - va[:, 1] * s, va[:, 0] * s + va[:, 1] * c], -1)
+    return out
+
+
+def _measure_spline(curve: ProfileCurve, t_nodes: np.ndarray, spl) -> float:
+    dt = np.diff(t_nodes)
+
+    def f(span, u):
+        t = t_nodes[span] + u * dt[span]
+        return np.linalg.norm(spl(t) - curve.points(t), axis=-1)
+
+    return float(_max_per_span(f, len(t_nodes) - 1, _MEASURE_SAMPLES).max())
 
 
 def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> ProfileApproximation:
@@ -333,7 +405,7 @@ def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> P
     n_span = len(t_nodes) - 1
     if representation == "spline":
         spl = _piece_spline(curve, t_nodes)
-        dev = float(_spline_span_error(curve, t_nodes, spl, _MEASURE_SAMPLES).max())
+        dev = _measure_spline(curve, t_nodes, spl)
         knots, ctrl = _join_spline_pieces(spl, z, pitch)
         # The other teeth are rotations: check the joined spline there too.
         joined = BSpline(knots, ctrl, 3)
@@ -416,5 +488,7 @@ def distance_to_curve(curve: ProfileCurve, q: np.ndarray, samples_per_tooth: int
     for mm in np.unique(m):
         sel = m == mm
         q0[sel] = kin.rotate_by_polar_angle(q[sel], -mm * pitch)
-    t, dist = project_to_curve(curve, q0, t_seed, t_a, t_b, iterations=12)
+    # A smooth profile continues into the next tooth; only a trimmed one stops.
+    pad = 0.0 if curve.has_corners else 0.5 * pitch
+    t, dist = project_to_curve(curve, q0, t_seed, t_a - pad, t_b + pad, iterations=12)
     return dist, t + m * pitch

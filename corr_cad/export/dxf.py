@@ -218,8 +218,9 @@ def read_closed_contour(
     """
     try:
         doc = ezdxf.readfile(str(path))
-    except (OSError, ezdxf.DXFError) as exc:
-        raise ExportError(f"{path}: not a readable DXF file ({exc})") from exc
+    except Exception as exc:  # ezdxf raises StopIteration etc. on truncated files
+        reason = str(exc) or type(exc).__name__
+        raise ExportError(f"{path}: not a readable DXF file ({reason})") from exc
     ents = [e for e in doc.modelspace() if e.dxf.layer == layer]
     if len(ents) != 1:
         raise ExportError(
