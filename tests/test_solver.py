@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from corr_cad import GearDesign, SolverError, admissible_roller_radius
+from corr_cad import SolverError, admissible_roller_radius
 from corr_cad import kinematics as kin
 from corr_cad.deviations import ManufacturingErrors
 from corr_cad.reference import reference_position

@@ -9,6 +9,7 @@ properties so that the file documents itself.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from pathlib import Path
 
 import ezdxf
@@ -52,8 +53,20 @@ LAYERS = {
 }
 
 
+@contextmanager
+def _fixed_metadata():
+    """ezdxf's fixed metadata (2000-01-01 stamps, constant GUIDs), for reproducible bytes."""
+    previous = ezdxf.options.write_fixed_meta_data_for_testing
+    ezdxf.options.write_fixed_meta_data_for_testing = True
+    try:
+        yield
+    finally:
+        ezdxf.options.write_fixed_meta_data_for_testing = previous
+
+
 def _new_doc(design: GearDesign, part: str, extra: dict | None = None) -> ezdxf.document.Drawing:
-    doc = ezdxf.new("R2018", setup=False)
+    with _fixed_metadata():
+        doc = ezdxf.new("R2018", setup=False)
     doc.header["$INSUNITS"] = 4  # millimetres
     doc.header["$MEASUREMENT"] = 1  # metric
     doc.header["$LUNITS"] = 2  # decimal
@@ -96,9 +109,16 @@ def _add_profile(msp, approx: ProfileApproximation, layer: str) -> None:
 
 
 def _save(doc: ezdxf.document.Drawing, path: Path) -> Path:
+    """Save via a temporary file; fixed timestamps and GUIDs make the bytes reproducible.
+
+    ezdxf's fixed metadata stamps 2000-01-01 as creation/update date: the
+    same scene then gives byte-identical files (the file's real provenance is
+    in its custom properties and in manifest.json).
+    """
     path = Path(path)
     tmp = path.with_name(path.name + ".part")
-    doc.saveas(tmp)
+    with _fixed_metadata():
+        doc.saveas(tmp)
     tmp.replace(path)
     return path
 

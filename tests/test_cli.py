@@ -1,0 +1,95 @@
+"""The command line as a user runs it."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def corr_cad(*args, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "corr_cad", *args], capture_output=True, text=True, cwd=cwd
+    )
+
+
+def test_help_lists_commands():
+    r = corr_cad("--help")
+    assert r.returncode == 0 and "run" in r.stdout and "new" in r.stdout
+
+
+def test_new_then_run(tmp_path):
+    scene = tmp_path / "mine.toml"
+    assert corr_cad("new", str(scene)).returncode == 0
+    r = corr_cad("run", str(scene), "--out", str(tmp_path / "out"))
+    assert r.returncode == 0, r.stderr
+    assert "measured max deviation" in r.stdout
+    assert (tmp_path / "out" / "inner_gear.dxf").exists()
+    again = corr_cad("new", str(scene))
+    assert again.returncode == 2 and "exists" in again.stderr
+
+
+def test_default_out_dir_and_quiet(tmp_path):
+    scene = tmp_path / "quiet_one.toml"
+    scene.write_text('[export]\nformats = ["dxf"]\n')
+    r = corr_cad("run", str(scene), "--quiet", cwd=tmp_path)
+    assert r.returncode == 0 and r.stdout == "" and r.stderr == ""
+    assert (tmp_path / "outputs" / "quiet_one" / "manifest.json").exists()
+
+
+@pytest.mark.parametrize(
+    "text,needle",
+    [
+        ("[design]\nroller_radius = 11.0\n", "undercut"),
+        ("[design]\ncam_radius = nan\n", "cam_radius = nan"),
+        ("[design\n", "not valid TOML"),
+        ("[design]\nfoo = 1\n", "unknown key 'foo'"),
+    ],
+)
+def test_errors_are_one_line_exit_2_and_write_nothing(tmp_path, text, needle):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text)
+    out = tmp_path / "out"
+    r = corr_cad("run", str(scene), "--out", str(out))
+    assert r.returncode == 2
+    assert needle in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+def test_undercut_message_gives_admissible_radius(tmp_path):
+    scene = tmp_path / "u.toml"
+    scene.write_text("[design]\nroller_radius = 11.0\n")
+    r = corr_cad("run", str(scene), "--out", str(tmp_path / "o"))
+    assert "largest admissible roller radius for this design is 10.053" in r.stderr
+
+
+def test_allow_undercut_flags_the_range(tmp_path):
+    import json
+
+    scene = tmp_path / "u.toml"
+    scene.write_text(
+        '[design]\nroller_radius = 11.0\nallow_undercut = true\n[export]\nformats = ["dxf"]\n'
+    )
+    r = corr_cad("run", str(scene), "--out", str(tmp_path / "o"))
+    assert r.returncode == 0, r.stderr
+    m = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert m["undercut"]["undercut"] is True
+    lo, hi = m["undercut"]["psi_range_deg"]
+    assert lo < 180 < hi
+    assert m["profile"]["tooth_tip_trimmed"] is True
+    assert m["accuracy"]["working_profile"]["max_deviation_mm"] <= 0.001
+
+
+def test_missing_scene_file(tmp_path):
+    r = corr_cad("run", str(tmp_path / "nope.toml"))
+    assert r.returncode == 2 and "does not exist" in r.stderr
+
+
+def test_bundled_prototype_runs(tmp_path):
+    r = corr_cad("run", str(ROOT / "templates" / "prototype.toml"), "--out", str(tmp_path / "p"))
+    assert r.returncode == 0, r.stderr
+    assert "roller 1: F_j mean 1741.9 N" in r.stdout

@@ -1,0 +1,138 @@
+"""The stage graph: only what a scene asks for runs; outputs are atomic and deterministic."""
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from corr_cad import pipeline
+from corr_cad.outputs import StagingDir
+from corr_cad.scene import parse_scene
+
+PROTO = {
+    "export": {"formats": ["dxf", "png", "forces"], "representation": "arcs"},
+    "load": {"input_torque": 1.1e5},
+    "solver": {"positions": 260},
+}
+
+
+def _scene(**over):
+    data = {k: dict(v) for k, v in PROTO.items()}
+    for k, v in over.items():
+        data.setdefault(k, {}).update(v)
+    return parse_scene(data, name="t")
+
+
+def test_plan_is_minimal_and_ordered():
+    assert pipeline.plan(("dxf",)) == ["undercut", "profiles", "dxf_geometry", "dxf_files"]
+    assert pipeline.plan(("forces",)) == ["undercut", "forces", "force_files"]
+    assert pipeline.plan(("png",)) == ["undercut", "profiles", "preview_png"]
+    full = pipeline.plan(("forces", "dxf", "png"))
+    assert len(full) == len(set(full)) == len(pipeline.STAGES)
+    for name in full:
+        for dep in pipeline.STAGES[name].requires:
+            assert full.index(dep) < full.index(name)
+
+
+def _run(scene, out):
+    with StagingDir(out) as stage:
+        return pipeline.run_scene(scene, stage)
+
+
+def test_dxf_only_never_touches_the_solver(tmp_path, monkeypatch):
+    def boom(*a, **k):
+        raise AssertionError("solver called for a DXF-only scene")
+
+    monkeypatch.setattr(pipeline, "solve_forces", boom)
+    m = _run(_scene(export={"formats": ["dxf"]}), tmp_path / "o")
+    assert [s["name"] for s in m["stages"]] == pipeline.plan(("dxf",))
+    assert sorted(m["files"]) == ["disk_cam.dxf", "inner_gear.dxf", "roller.dxf", "teeth_frame.dxf"]
+
+
+def test_forces_only_never_approximates_the_profile(tmp_path, monkeypatch):
+    def boom(*a, **k):
+        raise AssertionError("profile approximated for a forces-only scene")
+
+    monkeypatch.setattr(pipeline, "approximate", boom)
+    m = _run(_scene(export={"formats": ["forces"]}), tmp_path / "o")
+    assert "forces" in m and "accuracy" not in m
+
+
+def test_crank_angles_solve_exactly_those_positions(tmp_path):
+    scene = _scene(export={"formats": ["forces"]}, solver={"crank_angles_deg": [0.0, 5.0, 10.0]})
+    out = tmp_path / "o"
+    _run(scene, out)
+    summary = json.loads((out / "forces_summary.json").read_text())
+    assert summary["solver"]["positions_solved"] == 3 and summary["solver"]["positions"] == 3
+    lines = (out / "forces.csv").read_text().splitlines()
+    assert lines[0] == "crank_angle_deg,roller,psi_deg,F_j,F_s,F_n,p_cam,p_slot,p_gear"
+    assert len(lines) == 1 + 3 * 26
+
+
+def test_manifest_records_what_ran(tmp_path):
+    out = tmp_path / "o"
+    m = _run(_scene(), out)
+    on_disk = json.loads((out / "manifest.json").read_text())
+    assert on_disk == m
+    import hashlib
+
+    for name, meta in m["files"].items():
+        assert hashlib.sha256((out / name).read_bytes()).hexdigest() == meta["sha256"]
+    acc = m["accuracy"]["working_profile"]
+    assert acc["max_deviation_mm"] <= acc["tolerance_mm"] == 0.001
+    assert m["undercut"]["undercut"] is False
+    assert {"numpy", "ezdxf", "scipy"} <= set(m["versions"])
+    assert [s["name"] for s in m["stages"]] == pipeline.plan(("dxf", "png", "forces"))
+    summary = json.loads((out / "forces_summary.json").read_text())
+    for key in (
+        "F_j_mean",
+        "F_n_mean",
+        "F_s_mean",
+        "F_j_peak",
+        "F_n_peak",
+        "F_s_peak_to_peak",
+        "p_max",
+    ):
+        assert summary[key] > 0
+    assert summary["loaded_rollers_min"] == summary["loaded_rollers_max"] == 13
+
+
+def test_outputs_are_deterministic(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    ma, mb = _run(_scene(), a), _run(_scene(), b)
+    for name in ma["files"]:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    strip = lambda m: {k: v for k, v in m.items() if k != "stages"}  # noqa: E731
+    assert strip(ma) == strip(mb)
+
+
+def test_failed_run_leaves_previous_outputs(tmp_path, monkeypatch):
+    out = tmp_path / "o"
+    _run(_scene(export={"formats": ["dxf"]}), out)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def fail_after_writing(ctx):
+        (ctx.out / "inner_gear.dxf").write_text("half")
+        raise KeyboardInterrupt  # simulated interruption mid-write
+
+    stage = pipeline.STAGES["dxf_files"]
+    monkeypatch.setitem(
+        pipeline.STAGES,
+        "dxf_files",
+        stage.__class__(stage.name, stage.requires, fail_after_writing, stage.doc),
+    )
+    with pytest.raises(KeyboardInterrupt):
+        _run(_scene(export={"formats": ["dxf"]}), out)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert [p.name for p in tmp_path.iterdir()] == ["o"]  # no staging debris
+
+
+def test_staging_replaces_previous(tmp_path):
+    out = tmp_path / "o"
+    with StagingDir(out) as s:
+        Path(s, "one").write_text("1")
+    with StagingDir(out) as s:
+        Path(s, "two").write_text("2")
+    assert sorted(p.name for p in out.iterdir()) == ["two"]
+    shutil.rmtree(out)

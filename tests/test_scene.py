@@ -1,0 +1,76 @@
+"""Scene files: keys, types, ranges, and the generated template."""
+
+import tomllib
+
+import pytest
+
+from corr_cad import SceneError
+from corr_cad.scene import SCHEMA, parse_scene, template_text
+
+
+def test_template_parses_to_prototype_defaults():
+    scene = parse_scene(tomllib.loads(template_text()))
+    assert scene.design.tooth_count == 25 and scene.design.cam_radius == 135.0
+    assert scene.formats == ("dxf", "png") and scene.tolerance == 0.001
+    assert scene.load is None and not scene.errors.any
+
+
+def test_every_schema_key_is_in_the_template():
+    text = template_text()
+    for section, keys in SCHEMA.items():
+        assert f"[{section}]" in text
+        for k in keys:
+            assert f"{k} = " in text
+
+
+@pytest.mark.parametrize(
+    "data,pattern",
+    [
+        ({"desing": {}}, r"unknown section \[desing\]; valid sections: design, material"),
+        ({"design": {"teeth": 25}}, r"unknown key 'teeth' in \[design\]; valid keys: tooth_count"),
+        ({"design": {"tooth_count": 25.5}}, r"\[design\] tooth_count = 25.5: must be an integer"),
+        ({"design": {"tooth_count": "25"}}, r"must be an integer"),
+        (
+            {"design": {"cam_radius": -1.0}},
+            r"\[design\] cam_radius = -1: allowed range is \(0, inf\]",
+        ),
+        ({"design": {"cam_radius": float("nan")}}, r"cam_radius = nan: must be a finite number"),
+        ({"design": {"eccentricity": 200.0}}, r"eccentricity = 200: allowed range is \(0, 135\)"),
+        ({"design": {"tooth_count": 2}}, r"tooth_count = 2: allowed range"),
+        ({"design": {"roller_radius": 30.0}}, r"roller_radius = 30: adjacent rollers collide"),
+        ({"design": {"allow_undercut": 1}}, r"allow_undercut = 1: must be true or false"),
+        (
+            {"material": {"poisson_ratio": 0.7}},
+            r"poisson_ratio = 0.7: allowed range is \(-1, 0.5\]",
+        ),
+        (
+            {"export": {"formats": ["dxf", "stp"]}},
+            r"formats = 'stp': must be one of dxf, png, forces",
+        ),
+        ({"export": {"formats": []}}, r"formats is empty"),
+        ({"export": {"representation": "nurbs"}}, r"must be one of polyline, arcs, spline"),
+        ({"export": {"tolerance": 0.0}}, r"tolerance = 0: allowed range"),
+        ({"export": {"formats": ["forces"]}}, r"lists 'forces' but \[load\] gives no torque"),
+        ({"load": {"input_torque": 1.0, "pinion_torque": 1.0}}, r"not both"),
+        ({"load": {"pinion_torque": 1.0}}, r"pinion_torque needs first_stage_ratio"),
+        ({"solver": {"positions": 0}}, r"positions = 0: allowed range"),
+        ({"solver": {"variants": ["eq99"]}}, r"must be one of eq3_printed"),
+        (
+            {"errors": {"roller_radius_errors": [0.0, 0.1]}},
+            r"has 2 values; the design has 26 rollers",
+        ),
+        (
+            {"errors": {"cam_radius_error": 5.0}},
+            r"cam_radius_error = 5: allowed range is \(-4, 4\)",
+        ),
+        ({"design": []}, r"\[design\] must be a table"),
+    ],
+)
+def test_bad_scenes_name_the_problem(data, pattern):
+    with pytest.raises(SceneError, match=pattern):
+        parse_scene(data)
+
+
+def test_pinion_torque_times_ratio():
+    s = parse_scene({"load": {"pinion_torque": 2.0e4, "first_stage_ratio": 5.5}})
+    assert s.load.input_torque == pytest.approx(1.1e5)
