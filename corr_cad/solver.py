@@ -324,6 +324,15 @@ class _Compliance:
                 _Contact(ws, self.cs, k1, 0.0),
             ]
 
+    def take(self, rows: np.ndarray) -> _Compliance:
+        """The compliance of a subset of positions."""
+        sub = _Compliance.__new__(_Compliance)
+        sub.linear = self.linear
+        sub.slope0 = self.slope0[rows]
+        if not self.linear:
+            sub.contacts = [c.take(rows) for c in self.contacts]
+        return sub
+
     def value_and_slope(self, F: np.ndarray, sel=None):
         if self.linear:
             k = self.slope0 if sel is None else self.slope0[sel]
@@ -413,38 +422,45 @@ def _linear_tau(a_c, a_m, h0, k0, target):
     return tau
 
 
-def _newton(geo_a_c, a_m, h0, comp: _Compliance, target, tau, max_iter=30):
+def _newton(a_c, a_m, h0, comp: _Compliance, target, tau, max_iter=30):
     """Joint Newton on (tau, F) per position, from the linear-contact solution.
 
-    Returns ``tau, F, iterations, converged (P,)``.
+    Works only on the positions not yet converged. Returns
+    ``tau, F, iterations, converged (P,)``.
     """
-    a_c = geo_a_c
+    P = len(tau)
+    tau = tau.copy()
     h = tau[:, None] * a_c + h0
     F = np.where(h > 0, h / comp.slope0, 0.0)
-    converged = np.zeros(len(tau), dtype=bool)
+    converged = np.zeros(P, dtype=bool)
+    todo = np.arange(P)
     it = 0
     for it in range(1, max_iter + 1):
-        h = tau[:, None] * a_c + h0
+        ac, am, hz = a_c[todo], a_m[todo], h0[todo]
+        sub = comp.take(todo) if len(todo) < P else comp
+        t, f = tau[todo], F[todo]
+        h = t[:, None] * ac + hz
         active = h > 0
-        F = np.where(active, np.where(F > 0, F, h / comp.slope0), 0.0)
-        g, dg = comp.value_and_slope(F)
+        f = np.where(active, np.where(f > 0, f, h / sub.slope0), 0.0)
+        g, dg = sub.value_and_slope(f)
         r = np.where(active, g - h, 0.0)
-        mom = np.sum(a_m * F, axis=1)
-        r_m = mom - target
+        r_m = np.sum(am * f, axis=1) - target
         inv = np.where(active, 1.0 / dg, 0.0)
-        den = np.sum(a_m * a_c * inv, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dtau = np.where(den > 0, (np.sum(a_m * r * inv, axis=1) - r_m) / den, 0.0)
-        dF = np.where(active, (a_c * dtau[:, None] - r) * inv, 0.0)
-        scale = np.sum(np.abs(a_m * F), axis=1)
-        done = (np.abs(r_m) <= _RTOL * (abs(target) + scale) + 1e-300) & np.all(
-            np.abs(r) <= 1e-13 * np.maximum(h, 0.0) + 1e-300, axis=1
+        den = np.sum(am * ac * inv, axis=1)
+        scale_m = np.sum(np.abs(am * f), axis=1)
+        scale_h = np.max(np.where(active, h, 0.0), axis=1)
+        done = (np.abs(r_m) <= _RTOL * (abs(target) + scale_m) + 1e-300) & np.all(
+            np.abs(r) <= 1e-13 * scale_h[:, None] + 1e-300, axis=1
         )
-        converged = done
-        if np.all(done):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dtau = np.where(den > 0, (np.sum(am * r * inv, axis=1) - r_m) / den, 0.0)
+        df = np.where(active, (ac * dtau[:, None] - r) * inv, 0.0)
+        F[todo] = np.where(done[:, None], f, np.maximum(f + df, 0.0))
+        tau[todo] = np.where(done, t, t + dtau)
+        converged[todo[done]] = True
+        todo = todo[~done]
+        if todo.size == 0:
             break
-        tau = np.where(done, tau, tau + dtau)
-        F = np.where(done[:, None], F, np.maximum(F + dF, 0.0))
     return tau, F, it, converged
 
 
@@ -526,11 +542,7 @@ def _solve_positions(geo: RollerGeometry, comp: _Compliance, target: float):
     tau, F, iterations, ok = _newton(a_c, a_m, h0, comp, target, tau)
     if not np.all(ok):
         bad = np.flatnonzero(~ok)
-        sub = _Compliance.__new__(_Compliance)
-        sub.linear = comp.linear
-        sub.slope0 = comp.slope0[bad]
-        if not comp.linear:
-            sub.contacts = [c.take(bad) for c in comp.contacts]
+        sub = comp.take(bad)
         t2, F2, it2 = _nested(a_c[bad], a_m[bad], h0[bad], sub, target)
         tau[bad] = t2
         F[bad] = F2
