@@ -101,11 +101,20 @@ def _add_profile(msp, approx: ProfileApproximation, layer: str) -> None:
             dxfattribs=attribs,
         )
     else:
-        pts = [
-            (float(x), float(y), float(b))
-            for (x, y), b in zip(approx.vertices, approx.bulges, strict=True)
-        ]
-        msp.add_lwpolyline(pts, format="xyb", close=True, dxfattribs=attribs)
+        _add_bulge_polyline(msp, approx.vertices, approx.bulges, attribs)
+
+
+def _add_bulge_polyline(msp, vertices: np.ndarray, bulges: np.ndarray, attribs: dict) -> None:
+    """Closed LWPOLYLINE from (n, 2) vertices and (n,) bulges.
+
+    ezdxf appends vertices one by one (quadratic in n); filling its packed
+    (x, y, start width, end width, bulge) array directly is linear.
+    """
+    pl = msp.add_lwpolyline([], format="xyb", close=True, dxfattribs=attribs)
+    packed = np.zeros((len(vertices), 5))
+    packed[:, :2] = vertices
+    packed[:, 4] = bulges
+    pl.lwpoints.values = packed
 
 
 def _save(doc: ezdxf.document.Drawing, path: Path) -> Path:
@@ -203,8 +212,7 @@ def write_teeth_frame(design: GearDesign, path: Path) -> Path:
     layer = _layer(doc, "FRAME_SLOTS")
     for i in range(design.roller_count):
         verts, bulges = frame_slot_outline(design, i * design.slot_pitch_rad)
-        pts = [(float(x), float(y), float(b)) for (x, y), b in zip(verts, bulges, strict=True)]
-        msp.add_lwpolyline(pts, format="xyb", close=True, dxfattribs={"layer": layer})
+        _add_bulge_polyline(msp, verts, bulges, {"layer": layer})
     return _save(doc, path)
 
 
