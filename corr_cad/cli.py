@@ -62,6 +62,10 @@ def _run(args: argparse.Namespace) -> int:
                 f"p_max {f['p_max']:.0f} MPa, loaded rollers {f['loaded_rollers_min']}-"
                 f"{f['loaded_rollers_max']}"
             )
+        i = manifest.get("interference")
+        if i:
+            state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
+            print(f"interference over {i['positions']} crank positions: {state}")
         print(f"wrote {len(manifest['files']) + 1} files to {out}")
     return 0
 

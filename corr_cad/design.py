@@ -103,8 +103,11 @@ class GearDesign:
         Radius of the cam's eccentric bore (crankshaft bearing seat); default
         ``min(0.35 Rj, (Rj - e) / 2)`` rounded to 0.1 mm.
     frame_inner_radius, frame_outer_radius : float or None, mm
-        Radii of the slotted frame plate; defaults leave ``max(5, r)`` of
+        Radii of the slotted frame plates; defaults leave ``max(5, r)`` of
         material beyond the slot ends.
+    frame_thickness : float or None, mm
+        Thickness of each frame plate (the rollers run through the plates on
+        both sides of their row); default ``max(5, r)``.
     allow_undercut : bool
         Accept a design whose working profile self-intersects; the profile
         is then the true swept boundary.
@@ -121,6 +124,7 @@ class GearDesign:
     cam_bore_radius: float | None = None
     frame_inner_radius: float | None = None
     frame_outer_radius: float | None = None
+    frame_thickness: float | None = None
     allow_undercut: bool = False
     material: Material = field(default_factory=Material)
 
@@ -202,6 +206,12 @@ class GearDesign:
                     why="the bore must lie inside the cam, bore + e < cam_radius",
                 ),
             )
+        if self.frame_thickness is None:
+            object.__setattr__(self, "frame_thickness", max(5.0, r))
+        else:
+            object.__setattr__(
+                self, "frame_thickness", _check_range("frame_thickness", self.frame_thickness, 0.0)
+            )
         slot_in = s_min - r - SLOT_END_CLEARANCE
         slot_out = s_max + r + SLOT_END_CLEARANCE
         margin = max(5.0, r)
@@ -279,6 +289,7 @@ class GearDesign:
             "cam_bore_radius": self.cam_bore_radius,
             "frame_inner_radius": self.frame_inner_radius,
             "frame_outer_radius": self.frame_outer_radius,
+            "frame_thickness": self.frame_thickness,
             "allow_undercut": self.allow_undercut,
             "young_modulus": self.material.young_modulus,
             "poisson_ratio": self.material.poisson_ratio,

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import SolverError
+from .errors import ExportError, SolverError
 from .profile import theoretical_profile, undercut_analysis, working_profile
 from .sampling import approximate
 from .scene import Scene
@@ -186,6 +186,202 @@ def _force_files(ctx: RunContext) -> None:
     ctx.manifest["forces"] = {k: v for k, v in summary.items() if k != "solver"}
 
 
+#: Part names of the files, the same for DXF, meshes and STEP.
+PART_NAMES = {"ring": "inner_gear", "cam": "disk_cam", "roller": "roller", "frame": "teeth_frame"}
+MESH_FORMATS = ("stl", "3mf", "glb", "ply")
+
+
+def _solids(ctx: RunContext) -> None:
+    from .export import mesh
+    from .parts import part_outlines
+
+    s = ctx.scene
+    tol = s.chord_tolerance
+    outlines = part_outlines(s.design, ctx.results["working"], tol)
+    solids, meshes, report = {}, {}, {}
+    for name, outline in outlines.items():
+        solid = mesh.solid(outline)
+        tm = mesh.to_trimesh(solid)
+        facts = mesh.check_mesh(tm, PART_NAMES[name])
+        exact = outline.exact_volume
+        facts.update(
+            {
+                "exact_volume_mm3": exact,
+                "volume_error_mm3": facts["volume_mm3"] - exact,
+                "volume_error_bound_mm3": tol * outline.boundary_length * outline.thickness,
+                "chord_tolerance_mm": tol,
+            }
+        )
+        solids[name], meshes[name], report[PART_NAMES[name]] = solid, tm, facts
+    ctx.results["outlines"] = outlines
+    ctx.results["solids"] = solids
+    ctx.results["meshes"] = meshes
+    ctx.manifest["solids"] = report
+
+
+def _mesh_files(ctx: RunContext) -> None:
+    from .export import mesh
+
+    s = ctx.scene
+    fmts = [f for f in MESH_FORMATS if f in s.formats]
+    solids = ctx.results["solids"]
+    stack = mesh.frame_stack(s.design, solids["frame"])
+    for name, tm in ctx.results["meshes"].items():
+        for fmt in fmts:
+            fname = f"{PART_NAMES[name]}.{fmt}"
+            mesh.write_mesh(tm, ctx.out / fname, fmt)
+            ctx.files.append(fname)
+    for angle in s.assembly_angles_deg:
+        asm = mesh.assembly(s.design, solids, math.radians(angle), stack=stack)
+        parts = {k: mesh.to_trimesh(v) for k, v in asm.all_solids().items()}
+        for name, tm in parts.items():
+            mesh.check_mesh(tm, name)
+        for fmt in fmts:
+            fname = f"assembly_{_angle_tag(angle)}.{fmt}"
+            mesh.write_mesh(parts, ctx.out / fname, fmt)
+            ctx.files.append(fname)
+
+
+def _angle_tag(angle_deg: float) -> str:
+    text = f"{angle_deg:08.3f}".rstrip("0").rstrip(".").replace("-", "m").replace(".", "p")
+    return f"{text}deg"
+
+
+def _step_files(ctx: RunContext) -> None:
+    from .export import step
+
+    step.require_ocp()
+    import trimesh
+
+    s = ctx.scene
+    tol = s.chord_tolerance
+    spline = approximate(ctx.results["working"], "spline", tol)
+    shapes = step.part_shapes(s.design, spline)
+    from .parts import part_outlines
+
+    outlines = ctx.results.get("outlines") or part_outlines(s.design, ctx.results["working"], tol)
+    # Verification mesh: coarse enough to be quick on the many-lobed B-spline
+    # face, its own deflection then bounds the volume difference.
+    deflection = max(0.1, 10 * tol)
+    report = {}
+    for name, shape in shapes.items():
+        fname = f"{PART_NAMES[name]}.step"
+        path = step.write_step(shape, ctx.out / fname, PART_NAMES[name])
+        verts, faces, bbox = step.read_step_mesh(path, deflection)
+        tm = trimesh.Trimesh(verts, faces, process=False)
+        tm.merge_vertices()
+        exact = outlines[name].exact_volume
+        bound = (deflection + tol) * outlines[name].boundary_length * outlines[name].thickness
+        facts = {
+            "readback_volume_mm3": float(tm.volume),
+            "exact_volume_mm3": exact,
+            "volume_error_mm3": float(tm.volume) - exact,
+            "volume_error_bound_mm3": bound,
+            "verification_deflection_mm": deflection,
+            "bbox_mm": bbox.tolist(),
+            "profile_spline_deviation_mm": spline.max_deviation if name == "ring" else None,
+        }
+        if not (tm.is_watertight and abs(facts["volume_error_mm3"]) <= bound):
+            raise ExportError(f"{fname}: read-back check failed ({facts})")
+        report[fname] = facts
+        ctx.files.append(fname)
+    ctx.manifest["step"] = report
+
+
+def _interference(ctx: RunContext) -> None:
+    from .export import mesh, plots
+    from .outputs import write_csv
+    from .parts import roller_outline
+
+    s = ctx.scene
+    d = s.design
+    tol = s.chord_tolerance
+    solids = ctx.results["solids"]
+    stack = mesh.frame_stack(d, solids["frame"])
+    pieces = mesh.frame_pieces(d, stack)
+    errs = s.errors.roller_errors(d.roller_count)
+    cache: dict[float, object] = {}
+    rollers = []
+    for de in errs:
+        if de not in cache:
+            cache[de] = mesh.solid(roller_outline(d, float(de), tol)) if de else solids["roller"]
+        rollers.append(cache[de])
+    allowance = interference_allowance(d, tol)
+    n = s.interference_positions
+    angles = np.arange(n) * 360.0 / n
+    rows = []
+    for k, ang in enumerate(angles):
+        asm = mesh.assembly(
+            d, solids, math.radians(ang), roller_solids=rollers, stack=stack, pieces=pieces
+        )
+        for rec in mesh.interference_at(asm, search_length=max(0.1, 50 * tol)):
+            rows.append({"crank_angle_deg": float(ang), **rec})
+        if (k + 1) % max(1, n // 10) == 0 or k + 1 == n:
+            ctx.progress(f"      interference: {k + 1}/{n} positions")
+    parts = ("ring", "cam", "frame")
+    header = ["crank_angle_deg", "row", "roller"] + [
+        f"{p}_{q}" for p in parts for q in ("volume", "gap")
+    ]
+    write_csv(
+        ctx.out / "interference.csv",
+        header,
+        (
+            [f"{r['crank_angle_deg']:.6f}", r["row"], r["roller"]]
+            + [f"{r[h]:.9g}" for h in header[3:]]
+            for r in rows
+        ),
+    )
+    bad = [
+        {"crank_angle_deg": r["crank_angle_deg"], "row": r["row"], "roller": r["roller"], "part": p}
+        for r in rows
+        for p in parts
+        if r[f"{p}_volume"] > allowance[p]["volume_mm3"] or r[f"{p}_gap"] > allowance[p]["gap_mm"]
+    ]
+    summary = {
+        "positions": n,
+        "ok": not bad,
+        "allowance": allowance,
+        "max_volume_mm3": {p: max(r[f"{p}_volume"] for r in rows) for p in parts},
+        "max_gap_mm": {p: max(r[f"{p}_gap"] for r in rows) for p in parts},
+        "violations": len(bad),
+        "first_violations": bad[:20],
+    }
+    plots.interference_png(angles, rows, parts, allowance, ctx.out / "interference.png")
+    ctx.files.extend(["interference.csv", "interference.png"])
+    ctx.manifest["interference"] = summary
+    ctx.results["interference"] = summary
+
+
+def interference_allowance(design, chord_tol: float) -> dict:
+    """What tessellation alone can produce at a tangent contact, per part.
+
+    Both meshes may miss the exact surface by up to ``chord_tol``, so a
+    nominal tangent contact can show a penetration ``d = 2 chord_tol`` (a lens
+    of area ``4/3 d sqrt(2 R* d)`` over the contact length) or a gap of
+    ``d``. ``R*`` is the largest effective radius of the contact (the most
+    conformal point of the gear flank).
+    """
+    from . import kinematics as kin
+
+    r = design.roller_radius
+    dpen = 2.0 * chord_tol
+    gap = dpen + 1e-7  # plus manifold3d's own arithmetic precision
+    psi = np.linspace(0, 2 * np.pi, 4001)
+    k_l = kin.locus_curvature(psi, design.tooth_count, design.eccentricity, design.link_length)
+    k_gear = -k_l / (1 + r * k_l)
+    r_ring = 1.0 / np.min(1.0 / r + k_gear)
+    r_cam = 1.0 / (1.0 / r + 1.0 / design.cam_radius)
+
+    def lens(R, length):
+        return 4.0 / 3.0 * dpen * math.sqrt(2.0 * R * dpen) * length
+
+    return {
+        "ring": {"volume_mm3": lens(r_ring, design.face_width), "gap_mm": gap},
+        "cam": {"volume_mm3": lens(r_cam, design.face_width), "gap_mm": gap},
+        "frame": {"volume_mm3": lens(r, 2 * design.frame_thickness), "gap_mm": gap},
+    }
+
+
 STAGES: dict[str, Stage] = {
     st.name: st
     for st in (
@@ -198,11 +394,22 @@ STAGES: dict[str, Stage] = {
         Stage("preview_png", ("profiles",), _preview_png, "preview.png"),
         Stage("forces", ("undercut",), _forces, "mesh-force solver"),
         Stage("force_files", ("forces",), _force_files, "forces.csv, summary JSON and plots"),
+        Stage("solids", ("profiles",), _solids, "watertight solids (manifold3d), volumes checked"),
+        Stage("mesh_files", ("solids",), _mesh_files, "part and assembly meshes"),
+        Stage("step_files", ("profiles",), _step_files, "STEP AP214 B-rep solids, read back"),
+        Stage("interference", ("solids",), _interference, "interference sweep over the cycle"),
     )
 }
 
 #: Which stage produces each ``[export] formats`` entry.
-FORMAT_TARGETS = {"dxf": "dxf_files", "png": "preview_png", "forces": "force_files"}
+FORMAT_TARGETS = {
+    "dxf": "dxf_files",
+    "png": "preview_png",
+    "forces": "force_files",
+    **{f: "mesh_files" for f in ("stl", "3mf", "glb", "ply")},
+    "step": "step_files",
+    "interference": "interference",
+}
 
 
 def plan(formats: tuple[str, ...]) -> list[str]:

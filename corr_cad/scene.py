@@ -34,7 +34,7 @@ __all__ = [
 ]
 
 #: Output formats a scene may list in ``[export] formats``.
-FORMATS = ("dxf", "png", "forces")
+FORMATS = ("dxf", "png", "forces", "stl", "3mf", "glb", "ply", "step", "interference")
 
 
 @dataclass(frozen=True)
@@ -82,6 +82,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_outer_radius": Key(
             "float", None, "slotted frame plate outer radius, mm", low=0, example=163.5
         ),
+        "frame_thickness": Key(
+            "float", None, "thickness of each slotted frame plate, mm", low=0, example=8.0
+        ),
         "allow_undercut": Key(
             "bool", False, "accept an undercut design; the profile is then the swept boundary"
         ),
@@ -94,6 +97,20 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "formats": Key("list[str]", ["dxf", "png"], "outputs to produce", choices=FORMATS),
         "representation": Key(
             "str", "polyline", "DXF profile representation", choices=REPRESENTATIONS
+        ),
+        "chord_tolerance": Key(
+            "float",
+            None,
+            "max deviation of mesh and STEP geometry from the exact curves, mm "
+            "(default: tolerance)",
+            low=0,
+            example=0.001,
+        ),
+        "assembly_angles_deg": Key(
+            "list[float]", [0.0], "crank angles of the assembly meshes, deg (relative to the frame)"
+        ),
+        "interference_positions": Key(
+            "int", 36, "crank positions of the interference sweep (full cycle)", low=0, high=100000
         ),
         "tolerance": Key(
             "float", 0.001, "max deviation of exported geometry from the exact curve, mm", low=0
@@ -151,6 +168,9 @@ class Scene:
     formats: tuple[str, ...] = ("dxf", "png")
     representation: str = "polyline"
     tolerance: float = 0.001
+    chord_tolerance: float = 0.001
+    assembly_angles_deg: tuple[float, ...] = (0.0,)
+    interference_positions: int = 36
     load: LoadSpec | None = None
     solver: SolverSpec = field(default_factory=SolverSpec)
     errors: ErrorSpec = field(default_factory=ErrorSpec)
@@ -235,6 +255,8 @@ def parse_scene(data: dict, name: str = "scene") -> Scene:
 
     ex = values["export"]
     formats = tuple(ex["formats"])
+    if not ex["assembly_angles_deg"]:
+        raise SceneError("[export] assembly_angles_deg is empty; give at least one crank angle")
     if not formats:
         raise SceneError(f"[export] formats is empty; choose from {', '.join(FORMATS)}")
 
@@ -295,6 +317,11 @@ def parse_scene(data: dict, name: str = "scene") -> Scene:
         formats=formats,
         representation=ex["representation"],
         tolerance=ex["tolerance"],
+        chord_tolerance=(
+            ex["chord_tolerance"] if ex["chord_tolerance"] is not None else ex["tolerance"]
+        ),
+        assembly_angles_deg=tuple(ex["assembly_angles_deg"]),
+        interference_positions=ex["interference_positions"],
         load=load,
         solver=solver,
         errors=errors,

@@ -28,7 +28,11 @@ def test_plan_is_minimal_and_ordered():
     assert pipeline.plan(("dxf",)) == ["undercut", "profiles", "dxf_geometry", "dxf_files"]
     assert pipeline.plan(("forces",)) == ["undercut", "forces", "force_files"]
     assert pipeline.plan(("png",)) == ["undercut", "profiles", "preview_png"]
-    full = pipeline.plan(("forces", "dxf", "png"))
+    assert pipeline.plan(("stl", "glb")) == ["undercut", "profiles", "solids", "mesh_files"]
+    assert pipeline.plan(("step",)) == ["undercut", "profiles", "step_files"]
+    from corr_cad.scene import FORMATS
+
+    full = pipeline.plan(FORMATS)
     assert len(full) == len(set(full)) == len(pipeline.STAGES)
     for name in full:
         for dep in pipeline.STAGES[name].requires:
@@ -40,11 +44,14 @@ def _run(scene, out):
         return pipeline.run_scene(scene, stage)
 
 
-def test_dxf_only_never_touches_the_solver(tmp_path, monkeypatch):
+def test_dxf_only_never_touches_the_solver_or_the_mesher(tmp_path, monkeypatch):
     def boom(*a, **k):
-        raise AssertionError("solver called for a DXF-only scene")
+        raise AssertionError("solver or mesher called for a DXF-only scene")
+
+    from corr_cad.export import mesh
 
     monkeypatch.setattr(pipeline, "solve_forces", boom)
+    monkeypatch.setattr(mesh, "solid", boom)
     m = _run(_scene(export={"formats": ["dxf"]}), tmp_path / "o")
     assert [s["name"] for s in m["stages"]] == pipeline.plan(("dxf",))
     assert sorted(m["files"]) == ["disk_cam.dxf", "inner_gear.dxf", "roller.dxf", "teeth_frame.dxf"]

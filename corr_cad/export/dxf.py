@@ -18,7 +18,7 @@ import numpy as np
 from .. import __version__
 from ..design import SLOT_END_CLEARANCE, GearDesign
 from ..errors import ExportError
-from ..kinematics import unit_radial, unit_tangential
+from ..parts import frame_slot_outline
 from ..sampling import ProfileApproximation, bulge_arc_points
 
 __all__ = [
@@ -30,7 +30,6 @@ __all__ = [
     "write_all",
     "read_closed_contour",
     "contour_area",
-    "frame_slot_outline",
 ]
 
 PART_FILES = {
@@ -178,25 +177,6 @@ def write_roller(design: GearDesign, path: Path) -> Path:
         (0.0, 0.0), design.roller_radius, dxfattribs={"layer": _layer(doc, "ROLLER")}
     )
     return _save(doc, path)
-
-
-def frame_slot_outline(design: GearDesign, slot_angle_rad: float) -> tuple[np.ndarray, np.ndarray]:
-    """Closed obround slot of width 2r at polar angle ``slot_angle_rad``.
-
-    Returns 4 vertices (4, 2) and their bulges (4,): two radial flanks and two
-    semicircular ends whose centres sit ``SLOT_END_CLEARANCE`` beyond the
-    roller centre's extreme radii ``L - e`` and ``L + e``.
-    """
-    r = design.roller_radius
-    rho_in = design.link_length - design.eccentricity - SLOT_END_CLEARANCE
-    rho_out = design.link_length + design.eccentricity + SLOT_END_CLEARANCE
-    u = unit_radial(slot_angle_rad)
-    v = unit_tangential(slot_angle_rad)
-    verts = np.array(
-        [rho_in * u - r * v, rho_out * u - r * v, rho_out * u + r * v, rho_in * u + r * v]
-    )
-    bulges = np.array([0.0, -1.0, 0.0, -1.0])
-    return verts, bulges
 
 
 def write_teeth_frame(design: GearDesign, path: Path) -> Path:

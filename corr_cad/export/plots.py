@@ -14,7 +14,7 @@ from ..design import GearDesign  # noqa: E402
 from ..kinematics import centre_distance, unit_radial  # noqa: E402
 from ..profile import ProfileCurve  # noqa: E402
 
-__all__ = ["preview_png", "forces_png", "load_distribution_png"]
+__all__ = ["preview_png", "forces_png", "load_distribution_png", "interference_png"]
 
 
 def _save(fig, path: Path) -> Path:
@@ -112,4 +112,27 @@ def load_distribution_png(
     theta = np.arange(design.roller_count) * design.slot_pitch_rad
     ax.bar(theta, F_n, width=0.6 * design.slot_pitch_rad, color="C1", alpha=0.8)
     ax.set_title(f"gear force $F_n$ per roller [N], crank at {crank_angle_deg:g} deg")
+    return _save(fig, path)
+
+
+def interference_png(angles_deg, rows, parts, allowance, path: Path) -> Path:
+    """Worst intersection volume and largest gap per crank angle, with the allowances."""
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for i, p in enumerate(parts):
+        vol = [max(r[f"{p}_volume"] for r in rows if r["crank_angle_deg"] == a) for a in angles_deg]
+        gap = [max(r[f"{p}_gap"] for r in rows if r["crank_angle_deg"] == a) for a in angles_deg]
+        ax1.plot(angles_deg, vol, "o-", ms=3, color=f"C{i}", label=f"roller vs {p}")
+        ax1.axhline(allowance[p]["volume_mm3"], color=f"C{i}", ls=":", lw=0.8)
+        ax2.plot(angles_deg, gap, "o-", ms=3, color=f"C{i}", label=f"roller vs {p}")
+    ax2.axhline(
+        allowance["ring"]["gap_mm"], color="k", ls=":", lw=0.8, label="tessellation allowance"
+    )
+    ax1.set_ylabel("worst intersection volume [mm$^3$]")
+    ax1.set_yscale("symlog", linthresh=1e-6)
+    ax1.set_ylim(bottom=0.0)
+    ax2.set_ylabel("largest min. gap [mm]")
+    ax2.set_xlabel("crank angle relative to the frame [deg]")
+    ax1.legend(fontsize=8)
+    ax2.legend(fontsize=8)
+    ax1.set_title("interference check (dotted: what tessellation alone can produce)")
     return _save(fig, path)

@@ -1,0 +1,143 @@
+"""Solids and meshes: watertight parts, exact volumes, round trips, interference."""
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from corr_cad import GearDesign, working_profile
+from corr_cad.export import mesh
+from corr_cad.outputs import StagingDir
+from corr_cad.parts import part_outlines
+from corr_cad.pipeline import interference_allowance, run_scene
+from corr_cad.scene import parse_scene
+
+TOL = 1e-3
+
+
+@pytest.fixture(scope="module")
+def built():
+    design = GearDesign()
+    outlines = part_outlines(design, working_profile(design), TOL)
+    solids = {k: mesh.solid(v) for k, v in outlines.items()}
+    return design, outlines, solids
+
+
+@pytest.mark.parametrize("part", ["ring", "cam", "roller", "frame"])
+def test_parts_are_closed_solids_with_exact_volume(built, part):
+    design, outlines, solids = built
+    tm = mesh.to_trimesh(solids[part])
+    facts = mesh.check_mesh(tm, part)
+    assert tm.is_watertight and tm.is_winding_consistent and tm.is_volume
+    assert facts["volume_mm3"] > 0
+    # Every boundary point within TOL of the exact curve: |dV| <= TOL x length x height.
+    o = outlines[part]
+    assert abs(tm.volume - o.exact_volume) <= TOL * o.boundary_length * o.thickness
+    # Components: one connected solid per part.
+    assert len(tm.split(only_watertight=False)) == 1
+
+
+def test_exact_volumes_independently(built):
+    design, outlines, _ = built
+    import math
+
+    assert outlines["roller"].exact_volume == pytest.approx(
+        math.pi * 8**2 * (12 + 2 * design.frame_thickness)
+    )
+    ring_area = math.pi * design.ring_outer_radius**2 - working_profile(design).area()
+    assert outlines["ring"].exact_volume == pytest.approx(ring_area * design.face_width)
+
+
+@pytest.mark.parametrize("fmt", ["stl", "3mf", "glb", "ply"])
+def test_round_trip_through_trimesh(built, tmp_path, fmt):
+    _, _, solids = built
+    tm = mesh.to_trimesh(solids["ring"])
+    path = mesh.write_mesh(tm, tmp_path / f"ring.{fmt}", fmt)
+    back = trimesh.load(path, force="mesh")
+    back.merge_vertices()
+    assert back.is_watertight
+    assert back.volume == pytest.approx(tm.volume, rel=1e-6)
+    np.testing.assert_allclose(back.bounds, tm.bounds, atol=1e-4)
+
+
+def test_assembly_round_trip_keeps_named_parts(built, tmp_path):
+    design, _, solids = built
+    asm = mesh.assembly(design, solids, 0.0)
+    parts = {k: mesh.to_trimesh(v) for k, v in asm.all_solids().items()}
+    assert len(parts) == 5 + 2 * design.roller_count
+    for fmt in ("glb", "3mf"):
+        path = mesh.write_mesh(parts, tmp_path / f"a.{fmt}", fmt)
+        scene = trimesh.load(path)
+        assert len(scene.geometry) == len(parts)
+        total = sum(g.volume for g in scene.dump())
+        assert total == pytest.approx(sum(p.volume for p in parts.values()), rel=1e-6)
+
+
+def test_assembly_places_rollers_on_cam_and_gear(built):
+    # Every roller touches cam A and ring A: gaps within the tessellation allowance.
+    design, _, solids = built
+    asm = mesh.assembly(design, solids, np.radians(33.0))
+    allow = interference_allowance(design, TOL)
+    for i in (0, 5, 11):
+        r = asm.rollers_a[i]
+        assert r.min_gap(asm.parts["cam_a"], 0.5) <= allow["cam"]["gap_mm"]
+        assert r.min_gap(asm.parts["ring_a"], 0.5) <= allow["ring"]["gap_mm"]
+        # Row B rollers are 180 deg out of phase: on their own cam and ring.
+        rb = asm.rollers_b[i]
+        assert rb.min_gap(asm.parts["cam_b"], 0.5) <= allow["cam"]["gap_mm"]
+        assert rb.min_gap(asm.parts["ring_b"], 0.5) <= allow["ring"]["gap_mm"]
+
+
+def _interference(tmp_path, **errors):
+    data = {
+        "export": {"formats": ["interference"], "interference_positions": 4},
+        "errors": errors,
+    }
+    out = tmp_path / "o"
+    with StagingDir(out) as stage:
+        run_scene(parse_scene(data, "i"), stage)
+    return json.loads((out / "manifest.json").read_text())["interference"], out
+
+
+def test_nominal_assembly_has_no_interference_over_a_cycle(tmp_path):
+    summary, out = _interference(tmp_path)
+    assert summary["ok"] and summary["violations"] == 0
+    lines = (out / "interference.csv").read_text().splitlines()
+    assert len(lines) == 1 + 4 * 2 * 26
+    for part, v in summary["max_volume_mm3"].items():
+        assert v <= summary["allowance"][part]["volume_mm3"]
+
+
+def test_oversized_roller_shows_interference_where_expected(tmp_path):
+    per = [0.0] * 26
+    per[2] = 0.05  # roller 3 is 0.05 mm oversize
+    summary, out = _interference(tmp_path, roller_radius_errors=per)
+    assert not summary["ok"]
+    rows = [line.split(",") for line in (out / "interference.csv").read_text().splitlines()[1:]]
+    bad = {
+        (r[1], int(r[2])) for r in rows if float(r[3]) > summary["allowance"]["ring"]["volume_mm3"]
+    }
+    assert bad == {("a", 3), ("b", 3)}  # in both rows, and only roller 3
+    cam_bad = {
+        (r[1], int(r[2])) for r in rows if float(r[5]) > summary["allowance"]["cam"]["volume_mm3"]
+    }
+    assert cam_bad == {("a", 3), ("b", 3)}
+    # The oversize roller also jams its frame slot (width 2r).
+    assert (
+        max(float(r[7]) for r in rows if int(r[2]) == 3)
+        > summary["allowance"]["frame"]["volume_mm3"]
+    )
+    # At every crank position.
+    assert {float(r[0]) for r in rows if int(r[2]) == 3 and float(r[3]) > 0.01} == {
+        0.0,
+        90.0,
+        180.0,
+        270.0,
+    }
+
+
+def test_undersized_rollers_open_gaps(tmp_path):
+    summary, _ = _interference(tmp_path, roller_radius_error=-0.02)
+    assert not summary["ok"]
+    assert summary["max_gap_mm"]["ring"] >= 0.02
