@@ -56,7 +56,8 @@ def reference_position(
     o1 = e * kin.unit_radial(phi_abs)
     o1_velocity = e * kin.unit_tangential(phi_abs)  # d O1 / d phi
     e_act = e + errors.eccentricity_error
-    o1_act = e_act * kin.unit_radial(phi_abs)
+    o1_act = e_act * kin.unit_radial(phi_abs + errors.cam_phase_error)
+    slot_err = errors.slot_errors(R)
 
     rollers = []
     for i in range(R):
@@ -84,8 +85,13 @@ def reference_position(
         R_gear = -rho_w  # as seen from the roller: concave (negative) when rho_w > 0
         dr = dr_all[i]
         r_i = r + dr
-        g_j = errors.cam_radius_error + dr + (L - float(np.linalg.norm(h - o1_act)))
+        # Where the (turned) slot line meets the gear's roller-centre locus.
+        t_true = theta + slot_err[i]
+        h_true = float(kin.centre_distance(z * t_true, e, L)) * kin.unit_radial(t_true)
+        g_j = errors.cam_radius_error + dr + (L - float(np.linalg.norm(h_true - o1_act)))
         g_n = dr
+        if errors.profile_deviation is not None:
+            g_n += float(errors.profile_deviation(np.array([theta]))[0])
         slot_clear = max(-dr, 0.0)
         advance = float(np.dot(c, o1_velocity))
         rollers.append((h, c, n, ut, fn, ft, R_gear, r_i, g_j, g_n, slot_clear, advance))

@@ -161,16 +161,19 @@ def roller_geometry(
 
     dr = errors.roller_errors(R)[None, :] + 0.0 * psi
     e_act = e + errors.eccentricity_error
-    g_j = (
-        errors.cam_radius_error
-        + dr
-        + (
-            L - np.sqrt(s * s + e_act * e_act - 2.0 * s * e_act * cp)
-            if errors.eccentricity_error
-            else 0.0
-        )
-    )
+    delta = errors.slot_errors(R)[None, :]
+    g_j = errors.cam_radius_error + dr
+    if errors.eccentricity_error or errors.cam_phase_error or np.any(delta):
+        # The roller sits where its (possibly turned) slot meets the gear's
+        # roller-centre locus; the (possibly moved) cam centre then overlaps it.
+        s_slot = kin.centre_distance(psi + z * delta, e, L) if np.any(delta) else s
+        ang = psi - delta + errors.cam_phase_error
+        g_j = g_j + L - np.sqrt(s_slot**2 + e_act**2 - 2.0 * s_slot * e_act * np.cos(ang))
     g_n = dr
+    if errors.profile_deviation is not None:
+        # Polar angle of roller i on the fixed gear: frame angle phi/z + slot angle.
+        t_abs = phi[:, None] / z + theta[None, :]
+        g_n = g_n + np.asarray(errors.profile_deviation(t_abs), dtype=float)
     clearance_slot = np.maximum(-dr, 0.0)
     gap = g_j + rho_n * g_n - np.abs(rho_s) * clearance_slot
 
@@ -225,6 +228,25 @@ class ForceResult:
     def loaded_count(self) -> np.ndarray:
         """Rollers carrying load at each position, (P,)."""
         return np.count_nonzero(self.F_j > 0, axis=1)
+
+    @property
+    def lost_motion(self) -> np.ndarray:
+        """Output lost motion at each position, rad (P,).
+
+        With the crank held, the frame turns freely until a roller closes its
+        clearance: the cam may turn from ``max(-g/a)`` over rollers with
+        ``a < 0`` to ``min(-g/a)`` over rollers with ``a > 0`` without load,
+        and the output turns ``1/(z + 1)`` of that. Zero where rollers are in
+        contact both ways (no clearance).
+        """
+        g = self.geometry
+        a = np.where(g.loadable, g.advance, 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = -g.gap / a
+        fwd = np.min(np.where(a > 0, t, np.inf), axis=1)
+        rev = np.max(np.where(a < 0, t, -np.inf), axis=1)
+        play = np.where(np.isfinite(fwd) & np.isfinite(rev), np.maximum(fwd - rev, 0.0), 0.0)
+        return play / g.psi.shape[1]
 
     @property
     def valid(self) -> np.ndarray:

@@ -8,7 +8,7 @@ import pytest
 
 from corr_cad import SolverError, admissible_roller_radius
 from corr_cad import kinematics as kin
-from corr_cad.deviations import ManufacturingErrors
+from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.reference import reference_position
 from corr_cad.solver import VARIANTS, solve_forces
 
@@ -113,6 +113,9 @@ ERRORS = [
     ManufacturingErrors(cam_radius_error=0.01),
     ManufacturingErrors(roller_radius_error=-0.01),
     ManufacturingErrors(roller_radius_errors=tuple(np.linspace(-0.008, 0.008, 26))),
+    ManufacturingErrors(slot_angle_errors=tuple(np.radians(np.linspace(-0.01, 0.01, 26)))),
+    ManufacturingErrors(cam_phase_error=np.radians(0.05), eccentricity_error=0.005),
+    ManufacturingErrors(profile_deviation=harmonic_deviation([(3, 0.004, 20.0), (25, 0.002, 0.0)])),
 ]
 
 
@@ -254,3 +257,17 @@ def test_bad_inputs(prototype):
         "rj_for_link_length",
         "working_half_only",
     }
+
+
+def test_lost_motion_is_the_zero_torque_band(prototype):
+    # Tiny forward and reverse torques leave the cam at the two ends of the
+    # band in which no roller is loaded; the output turns 1/(z+1) of it.
+    err = ManufacturingErrors(roller_radius_error=-0.01)
+    angles = np.radians([0.0, 4.0, 9.0])
+    fwd = solve_forces(prototype, 1e-9, angles, errors=err)
+    rev = solve_forces(prototype, -1e-9, angles, errors=err)
+    band = (fwd.cam_rotation - rev.cam_rotation) / 26
+    np.testing.assert_allclose(fwd.lost_motion, band, rtol=1e-6)
+    assert np.all(fwd.lost_motion > 0)
+    tight = solve_forces(prototype, M0, angles, errors=ManufacturingErrors(cam_radius_error=0.01))
+    assert np.all(tight.lost_motion == 0)
