@@ -7,6 +7,7 @@ no traceback, nothing written).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
@@ -32,6 +33,18 @@ def _parser() -> argparse.ArgumentParser:
         "--out", type=Path, default=None, help="output folder (default outputs/<scene name>)"
     )
     run.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    run.add_argument(
+        "--executor",
+        choices=("process", "serial", "dask"),
+        default="process",
+        help="where Monte Carlo and allocation samples run (default: a process pool)",
+    )
+    run.add_argument(
+        "--scheduler", default=None, help="Dask scheduler address (with --executor dask)"
+    )
+    run.add_argument(
+        "--workers", type=int, default=None, help="process pool size (default: all cores)"
+    )
     new = sub.add_parser("new", help="write a commented scene template")
     new.add_argument("scene", type=Path, help="file to create (refuses to overwrite)")
     return p
@@ -46,8 +59,8 @@ def _run(args: argparse.Namespace) -> int:
     out = args.out if args.out is not None else Path("outputs") / scene.name
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
-    with StagingDir(out) as stage:
-        manifest = run_scene(scene, stage, progress=say)
+    with _executor(args, scene) as executor, StagingDir(out) as stage:
+        manifest = run_scene(scene, stage, progress=say, executor=executor)
     if not args.quiet:
         acc = manifest.get("accuracy", {}).get("working_profile")
         if acc:
@@ -67,7 +80,41 @@ def _run(args: argparse.Namespace) -> int:
             state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
             print(f"interference over {i['positions']} crank positions: {state}")
         print(f"wrote {len(manifest['files']) + 1} files to {out}")
+    failed = [k for k, r in manifest.get("checks", {}).items() if not r["passed"]]
+    if failed:
+        print(f"corr-cad: check failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
     return 0
+
+
+@contextlib.contextmanager
+def _executor(args: argparse.Namespace, scene):
+    """The executor for sample work; only started when the scene needs one."""
+    from .errors import SceneError
+
+    needs = {"montecarlo", "allocation"} & set(scene.formats)
+    if args.executor == "dask":
+        if not args.scheduler:
+            raise SceneError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")
+        try:
+            from dask.distributed import Client
+        except ImportError as exc:
+            raise SceneError(
+                "--executor dask needs the 'dask' extra: pip install -e '.[dask]'"
+            ) from exc
+        client = Client(args.scheduler)
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    if args.executor == "serial" or not needs:
+        yield None
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        yield pool
 
 
 def _new(args: argparse.Namespace) -> int:

@@ -32,12 +32,13 @@ overlap, so counting it at several contacts double-counts it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ManufacturingErrors", "harmonic_deviation"]
+__all__ = ["ManufacturingErrors", "HarmonicDeviation", "harmonic_deviation"]
 
 
 @dataclass(frozen=True)
@@ -107,15 +108,22 @@ class ManufacturingErrors:
         return out
 
 
-def harmonic_deviation(harmonics) -> Callable[[np.ndarray], np.ndarray]:
-    """``dev(t) = sum a_k cos(k t - phase_k)`` from rows ``(k, a_k mm, phase_k deg)``."""
-    rows = [(float(k), float(a), np.radians(float(p))) for k, a, p in harmonics]
+@dataclass(frozen=True)
+class HarmonicDeviation:
+    """``dev(t) = sum a_k cos(k t - phase_k)``: a gear profile deviation, mm (picklable)."""
 
-    def dev(t: np.ndarray) -> np.ndarray:
+    harmonics: tuple[tuple[float, float, float], ...]  # (k, a_k mm, phase_k rad)
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         out = np.zeros_like(t)
-        for k, a, p in rows:
+        for k, a, p in self.harmonics:
             out = out + a * np.cos(k * t - p)
         return out
 
-    return dev
+
+def harmonic_deviation(harmonics) -> HarmonicDeviation:
+    """From rows ``(k, amplitude mm, phase deg)``."""
+    return HarmonicDeviation(
+        tuple((float(k), float(a), math.radians(float(p))) for k, a, p in harmonics)
+    )

@@ -38,6 +38,7 @@ class RunContext:
     files: list[str] = field(default_factory=list)
     manifest: dict = field(default_factory=dict)
     progress: Callable[[str], None] = lambda msg: None
+    executor: object = None
 
 
 @dataclass(frozen=True)
@@ -382,6 +383,111 @@ def interference_allowance(design, chord_tol: float) -> dict:
     }
 
 
+def _checks(ctx: RunContext) -> None:
+    from .tolerance import ARCMIN_PER_RAD, evaluate_checks
+
+    res = ctx.results["forces"]
+    values = {
+        "peak_gear_force": float(res.F_n.max()),
+        "peak_pressure": float(np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear).max()),
+        "min_loaded_rollers": float(res.loaded_count.min()),
+        "lost_motion_arcmin": float(res.lost_motion.max() * ARCMIN_PER_RAD),
+    }
+    report = evaluate_checks(values, ctx.scene.checks)
+    ctx.manifest["checks"] = report
+    for name, r in report.items():
+        state = "pass" if r["passed"] else "FAIL"
+        nums = f"value {r['value']:.4g}, limit {r['limit']:.4g}, margin {r['margin']:.4g}"
+        ctx.progress(f"      check {name}: {state} ({nums})")
+
+
+def _montecarlo(ctx: RunContext) -> None:
+    from .export import plots
+    from .outputs import write_csv, write_json
+    from .tolerance import monte_carlo
+
+    s = ctx.scene
+    mc_cfg = s.montecarlo
+    n = mc_cfg["samples"]
+    res = monte_carlo(
+        s.design,
+        s.load.input_torque,
+        s.tolerances,
+        n,
+        mc_cfg["seed"],
+        mc_cfg["positions"],
+        load_share=s.solver.load_share,
+        base_errors=s.errors,
+        executor=ctx.executor,
+        progress=lambda done, total: ctx.progress(f"      montecarlo: {done}/{total} samples"),
+    )
+    if not res.success:
+        raise SolverError("Monte Carlo: the force solver did not converge for some samples")
+    names = list(res.metrics)
+    kinds = list(res.magnitudes)
+    header = ["sample"] + [f"{k}_magnitude" for k in kinds] + names
+    rows = (
+        [str(i)]
+        + [f"{res.magnitudes[k][i]:.9g}" for k in kinds]
+        + [f"{res.metrics[m][i]:.9g}" for m in names]
+        for i in range(n)
+    )
+    write_csv(ctx.out / "montecarlo.csv", header, rows)
+    summary = res.summary(s.checks)
+    summary.update({"seed": mc_cfg["seed"], "positions": mc_cfg["positions"]})
+    summary["tolerances"] = {k: d.__dict__ for k, d in s.tolerances.items()}
+    write_json(ctx.out / "montecarlo_summary.json", summary)
+    plots.montecarlo_png(res.metrics, s.checks, ctx.out / "montecarlo.png")
+    ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
+    ctx.manifest["montecarlo"] = {
+        k: summary[k] for k in ("samples", "failure_probability", "percentiles")
+    }
+
+
+def _allocation(ctx: RunContext) -> None:
+    from .outputs import write_csv, write_json
+    from .tolerance import allocate
+
+    s = ctx.scene
+    cfg = s.montecarlo
+    kw = {
+        "percentile": cfg["percentile"],
+        "samples": cfg["allocation_samples"],
+        "seed": cfg["seed"],
+        "positions": min(cfg["positions"], 72),
+        "load_share": s.solver.load_share,
+        "executor": ctx.executor,
+    }
+    d, m0 = s.design, s.load.input_torque
+    rows = []
+    for kind in s.tolerances:
+        ctx.progress(f"      allocation: searching {kind}")
+        # Jointly: the other tolerances as given; alone: the others perfect.
+        joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
+        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, **kw)["tolerance"]
+        rows.append(joint)
+
+    def fmt(x):
+        return "" if x is None else f"{x:.6g}"
+
+    header = ["tolerance", "largest_symmetric_tolerance", "largest_if_others_perfect"]
+    header += ["unit", "fails_at", "evaluations"]
+    table = (
+        [r["kind"], fmt(r["tolerance"]), fmt(r["tolerance_alone"]), r["unit"]]
+        + [fmt(r["failing_at"]), str(r["evaluations"])]
+        for r in rows
+    )
+    write_csv(ctx.out / "allocation.csv", header, table)
+    write_json(ctx.out / "allocation.json", {"percentile": cfg["percentile"], "rows": rows})
+    ctx.files.extend(["allocation.csv", "allocation.json"])
+    ctx.manifest["allocation"] = rows
+    for r in rows:
+        ctx.progress(
+            f"      {r['kind']:14s} +- {r['tolerance']:.4g} {r['unit']} with the others as given, "
+            f"+- {r['tolerance_alone']:.4g} {r['unit']} if the others were perfect"
+        )
+
+
 STAGES: dict[str, Stage] = {
     st.name: st
     for st in (
@@ -398,6 +504,9 @@ STAGES: dict[str, Stage] = {
         Stage("mesh_files", ("solids",), _mesh_files, "part and assembly meshes"),
         Stage("step_files", ("profiles",), _step_files, "STEP AP214 B-rep solids, read back"),
         Stage("interference", ("solids",), _interference, "interference sweep over the cycle"),
+        Stage("checks", ("forces",), _checks, "design checks against [checks] limits"),
+        Stage("montecarlo", ("undercut",), _montecarlo, "Monte Carlo over [tolerances]"),
+        Stage("allocation", ("undercut",), _allocation, "tolerance allocation against [checks]"),
     )
 }
 
@@ -409,11 +518,13 @@ FORMAT_TARGETS = {
     **{f: "mesh_files" for f in ("stl", "3mf", "glb", "ply")},
     "step": "step_files",
     "interference": "interference",
+    "montecarlo": "montecarlo",
+    "allocation": "allocation",
 }
 
 
-def plan(formats: tuple[str, ...]) -> list[str]:
-    """Stages needed for ``formats``, in dependency order (each once)."""
+def plan(formats: tuple[str, ...], checks: bool = False) -> list[str]:
+    """Stages needed for ``formats`` (and the checks), in dependency order, each once."""
     order: list[str] = []
 
     def visit(name: str) -> None:
@@ -425,6 +536,8 @@ def plan(formats: tuple[str, ...]) -> list[str]:
 
     for f in formats:
         visit(FORMAT_TARGETS[f])
+    if checks:
+        visit("checks")
     return order
 
 
@@ -451,15 +564,19 @@ def _clean(obj):
     return obj
 
 
-def run_scene(scene: Scene, out: Path, progress: Callable[[str], None] | None = None) -> dict:
+def run_scene(
+    scene: Scene, out: Path, progress: Callable[[str], None] | None = None, executor=None
+) -> dict:
     """Run the stages ``scene`` needs, writing into ``out`` (a staging folder).
 
     Returns the manifest (also written as ``manifest.json``).
     """
     from .outputs import sha256_of, write_json
 
-    ctx = RunContext(scene=scene, out=Path(out), progress=progress or (lambda m: None))
-    stages = plan(scene.formats)
+    ctx = RunContext(
+        scene=scene, out=Path(out), progress=progress or (lambda m: None), executor=executor
+    )
+    stages = plan(scene.formats, checks=bool(scene.checks.active()))
     timings = []
     for i, name in enumerate(stages, 1):
         ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")

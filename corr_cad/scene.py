@@ -16,9 +16,11 @@ from typing import Any
 
 from .design import GearDesign, Material
 from .deviations import ManufacturingErrors as ErrorSpec
+from .deviations import harmonic_deviation
 from .errors import CorrCadError, SceneError
 from .sampling import REPRESENTATIONS
 from .solver import VARIANTS
+from .tolerance import TOLERANCE_KINDS, Checks, Distribution
 
 __all__ = [
     "SCHEMA",
@@ -34,7 +36,19 @@ __all__ = [
 ]
 
 #: Output formats a scene may list in ``[export] formats``.
-FORMATS = ("dxf", "png", "forces", "stl", "3mf", "glb", "ply", "step", "interference")
+FORMATS = (
+    "dxf",
+    "png",
+    "forces",
+    "stl",
+    "3mf",
+    "glb",
+    "ply",
+    "step",
+    "interference",
+    "montecarlo",
+    "allocation",
+)
 
 
 @dataclass(frozen=True)
@@ -140,6 +154,54 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "roller_radius_errors": Key(
             "list[float]", None, "per-roller radius errors, z + 1 values, mm", example=[0.0]
         ),
+        "slot_angle_errors_deg": Key(
+            "list[float]",
+            None,
+            "per-slot angular position errors, z + 1 values, deg",
+            example=[0.0],
+        ),
+        "cam_phase_error_deg": Key("float", 0.0, "cam phase error against the other cam, deg"),
+        "profile_deviation_harmonics": Key(
+            "list[list[float]]",
+            None,
+            "gear profile deviation: rows [order, amplitude mm, phase deg] (+ = material added)",
+            example=[[3.0, 0.002, 0.0]],
+        ),
+    },
+    "checks": {
+        "max_contact_pressure": Key(
+            "float", None, "allowable Hertz pressure, MPa", low=0, example=1500.0
+        ),
+        "max_gear_force": Key(
+            "float", None, "allowable peak gear force F_n, N", low=0, example=5000.0
+        ),
+        "min_loaded_rollers": Key(
+            "int", None, "fewest rollers that must carry load", low=-1, example=4
+        ),
+        "max_lost_motion_arcmin": Key(
+            "float", None, "allowable output lost motion, arcmin", example=1.0
+        ),
+    },
+    "tolerances": {
+        kind: Key(
+            "distribution",
+            None,
+            f"{kind.replace('_', ' ')} tolerance, {unit}: "
+            "{ normal = sigma } or { uniform = half width }",
+            example={"normal": 0.001 if unit == "mm" else 0.01},
+        )
+        for kind, (_, unit) in TOLERANCE_KINDS.items()
+    },
+    "montecarlo": {
+        "samples": Key("int", 1000, "Monte Carlo samples", low=0, high=10_000_000),
+        "seed": Key("int", 1, "random seed (runs are reproducible)", low=-1),
+        "positions": Key(
+            "int", 360, "crank positions per sample (full cycle)", low=0, high=100_000
+        ),
+        "percentile": Key(
+            "float", 95.0, "percentile the allocation keeps under the limits", low=0, high=100
+        ),
+        "allocation_samples": Key("int", 200, "samples per step of the allocation search", low=0),
     },
 }
 
@@ -174,6 +236,9 @@ class Scene:
     load: LoadSpec | None = None
     solver: SolverSpec = field(default_factory=SolverSpec)
     errors: ErrorSpec = field(default_factory=ErrorSpec)
+    checks: Checks = field(default_factory=Checks)
+    tolerances: dict = field(default_factory=dict)
+    montecarlo: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
 
 
@@ -206,6 +271,26 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         if spec.choices and value not in spec.choices:
             raise SceneError(f"{where} = {value!r}: must be one of {', '.join(spec.choices)}")
         return value
+    if spec.kind == "distribution":
+        if not (isinstance(value, dict) and len(value) == 1):
+            raise SceneError(
+                f"{where} = {value!r}: must be {{ normal = sigma }} or {{ uniform = half width }}"
+            )
+        ((dist, scale),) = value.items()
+        if dist not in ("normal", "uniform"):
+            raise SceneError(f"{where}: distribution {dist!r} must be one of normal, uniform")
+        v = _coerce(section, key, Key("float", None, spec.help), scale)
+        if v < 0:
+            raise SceneError(f"{where} = {v:g}: allowed range is [0, inf)")
+        return Distribution(dist, v)
+    if spec.kind == "list[list[float]]":
+        if not isinstance(value, list) or not all(
+            isinstance(r, list) and len(r) == 3 for r in value
+        ):
+            raise SceneError(
+                f"{where} = {value!r}: must be a list of [order, amplitude, phase] rows"
+            )
+        return [_coerce(section, key, Key("list[float]", None, spec.help), r) for r in value]
     if spec.kind in ("list[str]", "list[float]"):
         if not isinstance(value, list):
             raise SceneError(f"{where} = {value!r}: must be a list")
@@ -305,12 +390,36 @@ def parse_scene(data: dict, name: str = "scene") -> Scene:
                 f"[errors] {key} = {er[key]:g}: allowed range is (-{limit:g}, {limit:g}) mm "
                 "(half the roller radius; the small-displacement model needs errors far smaller)"
             )
+    slots = er["slot_angle_errors_deg"]
+    if slots is not None and len(slots) != design.roller_count:
+        raise SceneError(
+            f"[errors] slot_angle_errors_deg has {len(slots)} values; the design has "
+            f"{design.roller_count} slots (tooth_count + 1)"
+        )
+    harmonics = er["profile_deviation_harmonics"]
     errors = ErrorSpec(
         er["cam_radius_error"],
         er["eccentricity_error"],
         er["roller_radius_error"],
         tuple(per) if per is not None else None,
+        tuple(math.radians(x) for x in slots) if slots is not None else None,
+        math.radians(er["cam_phase_error_deg"]),
+        harmonic_deviation(harmonics) if harmonics else None,
     )
+    checks = Checks(**{k: v for k, v in values["checks"].items()})
+    tolerances = {k: v for k, v in values["tolerances"].items() if v is not None}
+    needs_load = {"montecarlo", "allocation"} & set(formats) or checks.active()
+    if needs_load and load is None:
+        raise SceneError(
+            "[checks], montecarlo and allocation need a torque: set [load] input_torque"
+        )
+    if {"montecarlo", "allocation"} & set(formats) and not tolerances:
+        raise SceneError(
+            "[export] formats asks for montecarlo/allocation but [tolerances] is empty; "
+            f"give one of {', '.join(TOLERANCE_KINDS)}"
+        )
+    if "allocation" in formats and not checks.active():
+        raise SceneError("allocation needs at least one limit in [checks]")
     return Scene(
         name=name,
         design=design,
@@ -325,7 +434,17 @@ def parse_scene(data: dict, name: str = "scene") -> Scene:
         load=load,
         solver=solver,
         errors=errors,
-        source={s: {k: v for k, v in vals.items() if v is not None} for s, vals in values.items()},
+        checks=checks,
+        tolerances=tolerances,
+        montecarlo=values["montecarlo"],
+        source={
+            s: {
+                k: (v.__dict__ if isinstance(v, Distribution) else v)
+                for k, v in vals.items()
+                if v is not None
+            }
+            for s, vals in values.items()
+        },
     )
 
 
@@ -346,6 +465,8 @@ def load_scene(path: str | Path) -> Scene:
 
 
 def _toml_value(v: Any) -> str:
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):

@@ -63,6 +63,7 @@ __all__ = [
     "roller_geometry",
     "solve_forces",
     "cycle_angles",
+    "solve_forces_batch",
 ]
 
 #: Printed forms of the paper that can be switched on to reproduce it:
@@ -665,6 +666,15 @@ def solve_forces(
                 for k, v in geo.__dict__.items()
             }
         )
+    return _result(
+        design, geo, Fj, tau, rel, iterations, angles, target, len(solve_angles), full_cycle
+    )
+
+
+def _result(
+    design, geo, Fj, tau, rel, iterations, angles, target, solved, full_cycle
+) -> ForceResult:
+    """Forces, pressures and validity from the solved cam forces."""
     Fn = geo.rho_n * Fj
     Fs = geo.rho_s * Fj
     length = design.roller_length
@@ -699,7 +709,48 @@ def solve_forces(
         valid_gear=contact.is_valid(un, k1, geo.k_gear),
         cam_rotation=tau,
         cam_moment=target,
-        positions_solved=int(len(solve_angles)),
+        positions_solved=int(solved),
         geometry=geo,
         full_cycle=full_cycle,
+    )
+
+
+def solve_forces_batch(
+    design: GearDesign,
+    input_torque: float,
+    crank_angles: np.ndarray,
+    errors_list: list[ManufacturingErrors],
+    *,
+    load_share: float = 0.55,
+) -> ForceResult:
+    """Solve many error samples at the same crank angles in one vectorised call.
+
+    Returns one :class:`ForceResult` whose rows are sample-major: rows
+    ``k P .. (k+1) P - 1`` belong to ``errors_list[k]`` (``P`` angles).
+    """
+    angles = np.asarray(crank_angles, dtype=float).reshape(-1)
+    geos = [roller_geometry(design, angles, err) for err in errors_list]
+    P = len(angles)
+    fields = {}
+    for k in geos[0].__dict__:
+        vals = [getattr(g, k) for g in geos]
+        if isinstance(vals[0], np.ndarray) and vals[0].ndim == 2:
+            fields[k] = np.concatenate(vals, axis=0)
+        else:  # per-sample scalar (the cam curvature): one value per row
+            fields[k] = np.repeat(np.asarray(vals, dtype=float), P)[:, None]
+    geo = RollerGeometry(**fields)
+    comp = _Compliance(geo, design, "nonlinear")
+    target = load_share * float(input_torque)
+    tau, Fj, iterations, _, rel = _solve_positions(geo, comp, target)
+    return _result(
+        design,
+        geo,
+        Fj,
+        tau,
+        rel,
+        iterations,
+        np.tile(angles, len(errors_list)),
+        target,
+        len(tau),
+        False,
     )

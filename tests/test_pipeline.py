@@ -32,8 +32,10 @@ def test_plan_is_minimal_and_ordered():
     assert pipeline.plan(("step",)) == ["undercut", "profiles", "step_files"]
     from corr_cad.scene import FORMATS
 
-    full = pipeline.plan(FORMATS)
+    full = pipeline.plan(FORMATS, checks=True)
     assert len(full) == len(set(full)) == len(pipeline.STAGES)
+    assert pipeline.plan(("forces",), checks=True) == ["undercut", "forces", "force_files", "checks"]
+    assert pipeline.plan(("dxf",), checks=False)[-1] == "dxf_files"
     for name in full:
         for dep in pipeline.STAGES[name].requires:
             assert full.index(dep) < full.index(name)

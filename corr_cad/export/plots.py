@@ -14,7 +14,13 @@ from ..design import GearDesign  # noqa: E402
 from ..kinematics import centre_distance, unit_radial  # noqa: E402
 from ..profile import ProfileCurve  # noqa: E402
 
-__all__ = ["preview_png", "forces_png", "load_distribution_png", "interference_png"]
+__all__ = [
+    "preview_png",
+    "forces_png",
+    "load_distribution_png",
+    "interference_png",
+    "montecarlo_png",
+]
 
 
 def _save(fig, path: Path) -> Path:
@@ -135,4 +141,34 @@ def interference_png(angles_deg, rows, parts, allowance, path: Path) -> Path:
     ax1.legend(fontsize=8)
     ax2.legend(fontsize=8)
     ax1.set_title("interference check (dotted: what tessellation alone can produce)")
+    return _save(fig, path)
+
+
+_LIMIT_OF = {
+    "peak_pressure": "max_contact_pressure",
+    "peak_gear_force": "max_gear_force",
+    "min_loaded_rollers": "min_loaded_rollers",
+    "lost_motion_arcmin": "max_lost_motion_arcmin",
+}
+_LABEL = {
+    "peak_pressure": "peak contact pressure [MPa]",
+    "peak_gear_force": "peak gear force $F_n$ [N]",
+    "min_loaded_rollers": "fewest loaded rollers",
+    "lost_motion_arcmin": "output lost motion [arcmin]",
+}
+
+
+def montecarlo_png(metrics: dict, checks, path: Path) -> Path:
+    """Histograms of the per-sample metrics with the check limits."""
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    for ax, (name, values) in zip(axes.ravel(), metrics.items(), strict=False):
+        ax.hist(values, bins=40, color="C0", alpha=0.8)
+        limit = getattr(checks, _LIMIT_OF[name])
+        if limit is not None:
+            ax.axvline(limit, color="C3", lw=1.5, label="limit")
+            ax.legend(fontsize=8)
+        ax.set_xlabel(_LABEL[name])
+        ax.set_ylabel("samples")
+    fig.suptitle(f"Monte Carlo, {len(next(iter(metrics.values())))} samples")
+    fig.tight_layout()
     return _save(fig, path)

@@ -1,0 +1,347 @@
+"""Tolerance checks, Monte Carlo over tolerances, and tolerance allocation.
+
+Pure numpy: no files. A tolerance is a distribution of one error kind; each
+Monte Carlo sample draws every kind, perturbs the design's geometry and is
+solved by the force solver (many samples per vectorised call). Work goes
+through any ``concurrent.futures``-style executor (``submit`` returning
+futures): a process pool by default, or a Dask ``Client``. Samples are drawn
+up front from one seeded generator and split into fixed chunks, so results
+are identical whichever executor runs them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .design import GearDesign
+from .deviations import ManufacturingErrors
+from .errors import SceneError
+from .solver import cycle_angles, solve_forces_batch
+
+__all__ = [
+    "TOLERANCE_KINDS",
+    "Distribution",
+    "Checks",
+    "sample_metrics",
+    "evaluate_checks",
+    "draw_samples",
+    "monte_carlo",
+    "allocate",
+    "SerialExecutor",
+]
+
+#: Error kinds a tolerance can be given for: (per roller?, unit).
+TOLERANCE_KINDS = {
+    "cam_radius": (False, "mm"),
+    "eccentricity": (False, "mm"),
+    "cam_phase": (False, "deg"),
+    "roller_radius": (True, "mm"),
+    "slot_angle": (True, "deg"),
+}
+
+ARCMIN_PER_RAD = 180.0 * 60.0 / math.pi
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """``normal`` (scale = sigma) or ``uniform`` (scale = half width), centred on 0."""
+
+    kind: str
+    scale: float
+
+    def draw(self, unit: np.ndarray) -> np.ndarray:
+        """Map standard draws (normal N(0,1) or uniform U(-1,1) as ``unit``) to this one."""
+        return self.scale * unit
+
+
+@dataclass(frozen=True)
+class Checks:
+    """Limits a design must meet; ``None`` means not checked."""
+
+    max_contact_pressure: float | None = None  # MPa
+    max_gear_force: float | None = None  # N
+    min_loaded_rollers: int | None = None
+    max_lost_motion_arcmin: float | None = None
+
+    def active(self) -> dict[str, float]:
+        return {k: v for k, v in self.__dict__.items() if v is not None}
+
+
+#: check -> (metric, sense): "max" limits bound the metric from above.
+CHECK_METRICS = {
+    "max_contact_pressure": ("peak_pressure", "max"),
+    "max_gear_force": ("peak_gear_force", "max"),
+    "min_loaded_rollers": ("min_loaded_rollers", "min"),
+    "max_lost_motion_arcmin": ("lost_motion_arcmin", "max"),
+}
+
+
+def sample_metrics(res, n_samples: int) -> dict[str, np.ndarray]:
+    """Per-sample metrics from a (sample-major) :class:`ForceResult`, each (n,)."""
+    P = res.F_j.shape[0] // n_samples
+    R = res.F_j.shape[1]
+
+    def per(x):
+        return x.reshape(n_samples, P, -1) if x.ndim == 2 else x.reshape(n_samples, P)
+
+    p = np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear)
+    loaded = per(res.F_j > 0).sum(axis=2)
+    return {
+        "peak_gear_force": per(res.F_n).reshape(n_samples, P * R).max(axis=1),
+        "peak_pressure": per(p).reshape(n_samples, P * R).max(axis=1),
+        "min_loaded_rollers": loaded.min(axis=1).astype(float),
+        "lost_motion_arcmin": per(res.lost_motion).max(axis=1) * ARCMIN_PER_RAD,
+    }
+
+
+def evaluate_checks(values: dict[str, float], checks: Checks) -> dict[str, dict]:
+    """Pass/fail and margin of every active check against metric ``values``."""
+    out = {}
+    for name, limit in checks.active().items():
+        metric, sense = CHECK_METRICS[name]
+        v = float(values[metric])
+        margin = (limit - v) if sense == "max" else (v - limit)
+        out[name] = {"limit": limit, "value": v, "margin": margin, "passed": bool(margin >= 0)}
+    return out
+
+
+def draw_samples(
+    tolerances: dict[str, Distribution], n: int, seed: int, roller_count: int
+) -> dict[str, np.ndarray]:
+    """Standard draws per kind (normal or uniform(-1, 1)), (n,) or (n, z+1); seeded."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for kind in TOLERANCE_KINDS:  # fixed order: same draws whatever the dict order
+        per_roller, _ = TOLERANCE_KINDS[kind]
+        shape = (n, roller_count) if per_roller else (n,)
+        normal = rng.standard_normal(shape)
+        uniform = rng.uniform(-1.0, 1.0, shape)
+        if kind in tolerances:
+            out[kind] = normal if tolerances[kind].kind == "normal" else uniform
+    return out
+
+
+def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> ManufacturingErrors:
+    v = {kind: tolerances[kind].draw(units[kind][k]) for kind in units}
+    kw = {}
+    if "cam_radius" in v:
+        kw["cam_radius_error"] = base.cam_radius_error + float(v["cam_radius"])
+    if "eccentricity" in v:
+        kw["eccentricity_error"] = base.eccentricity_error + float(v["eccentricity"])
+    if "cam_phase" in v:
+        kw["cam_phase_error"] = base.cam_phase_error + math.radians(float(v["cam_phase"]))
+    if "roller_radius" in v:
+        per = np.asarray(base.roller_radius_errors or np.zeros(len(v["roller_radius"])))
+        kw["roller_radius_errors"] = tuple((per + v["roller_radius"]).tolist())
+    if "slot_angle" in v:
+        per = np.asarray(base.slot_angle_errors or np.zeros(len(v["slot_angle"])))
+        kw["slot_angle_errors"] = tuple((per + np.radians(v["slot_angle"])).tolist())
+    return replace(base, **kw)
+
+
+def _chunk_task(design, input_torque, angles, load_share, base, tolerances, units, lo, hi):
+    """Solve samples ``lo..hi-1`` (runs in a worker)."""
+    errs = [_errors_for(base, tolerances, units, k) for k in range(lo, hi)]
+    res = solve_forces_batch(design, input_torque, angles, errs, load_share=load_share)
+    return sample_metrics(res, hi - lo), res.success
+
+
+class SerialExecutor:
+    """Runs tasks in this process; the ``submit`` interface of ``concurrent.futures``."""
+
+    class _Done:
+        def __init__(self, value):
+            self._value = value
+
+        def result(self):
+            return self._value
+
+    def submit(self, fn, *args):
+        return self._Done(fn(*args))
+
+
+def _magnitudes(units, tolerances) -> dict[str, np.ndarray]:
+    out = {}
+    for kind, u in units.items():
+        x = tolerances[kind].draw(u)
+        out[kind] = np.sqrt(np.mean(x * x, axis=1)) if x.ndim == 2 else np.abs(x)
+    return out
+
+
+def _spearman(a: np.ndarray, b: np.ndarray) -> float:
+    ra = np.argsort(np.argsort(a)).astype(float)
+    rb = np.argsort(np.argsort(b)).astype(float)
+    if ra.std() == 0 or rb.std() == 0:
+        return 0.0
+    return float(np.corrcoef(ra, rb)[0, 1])
+
+
+@dataclass
+class MonteCarloResult:
+    """Per-sample metrics (n,) and the drawn errors' magnitudes (n,) per kind."""
+
+    metrics: dict[str, np.ndarray]
+    magnitudes: dict[str, np.ndarray]
+    success: bool
+
+    def summary(self, checks: Checks, percentiles=(5, 50, 95, 99)) -> dict:
+        out = {
+            "samples": int(len(next(iter(self.metrics.values())))),
+            "solver_success": self.success,
+        }
+        out["percentiles"] = {
+            m: {f"p{q}": float(np.percentile(v, q)) for q in percentiles}
+            for m, v in self.metrics.items()
+        }
+        fail = {}
+        for name, limit in checks.active().items():
+            metric, sense = CHECK_METRICS[name]
+            v = self.metrics[metric]
+            bad = v > limit if sense == "max" else v < limit
+            fail[name] = float(np.mean(bad))
+        out["failure_probability"] = fail
+        sens = []
+        for kind, mag in self.magnitudes.items():
+            rho = {m: _spearman(mag, v) for m, v in self.metrics.items()}
+            sens.append(
+                {"tolerance": kind, "spearman": rho, "score": max(abs(r) for r in rho.values())}
+            )
+        out["sensitivity"] = sorted(sens, key=lambda d: -d["score"])
+        return out
+
+
+def monte_carlo(
+    design: GearDesign,
+    input_torque: float,
+    tolerances: dict[str, Distribution],
+    samples: int,
+    seed: int,
+    positions: int,
+    *,
+    load_share: float = 0.55,
+    base_errors: ManufacturingErrors | None = None,
+    executor=None,
+    chunk: int = 50,
+    progress: Callable[[int, int], None] | None = None,
+) -> MonteCarloResult:
+    """Seeded Monte Carlo over ``tolerances``; see the module docstring."""
+    unknown = [k for k in tolerances if k not in TOLERANCE_KINDS]
+    if unknown:
+        raise SceneError(
+            f"tolerance {unknown[0]!r} is unknown; valid kinds: {', '.join(TOLERANCE_KINDS)}"
+        )
+    base = base_errors or ManufacturingErrors()
+    angles = cycle_angles(positions)
+    units = draw_samples(tolerances, samples, seed, design.roller_count)
+    executor = executor or SerialExecutor()
+    bounds = [(lo, min(lo + chunk, samples)) for lo in range(0, samples, chunk)]
+    futures = [
+        executor.submit(
+            _chunk_task, design, input_torque, angles, load_share, base, tolerances, units, lo, hi
+        )
+        for lo, hi in bounds
+    ]
+    parts, ok = [], True
+    for i, f in enumerate(futures):
+        metrics, success = f.result()
+        parts.append(metrics)
+        ok &= bool(success)
+        if progress:
+            progress(bounds[i][1], samples)
+    metrics = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return MonteCarloResult(metrics, _magnitudes(units, tolerances), ok)
+
+
+def allocate(
+    design: GearDesign,
+    input_torque: float,
+    tolerances: dict[str, Distribution],
+    checks: Checks,
+    kind: str,
+    *,
+    percentile: float = 95.0,
+    samples: int = 200,
+    seed: int = 1,
+    positions: int = 72,
+    load_share: float = 0.55,
+    executor=None,
+    rel_precision: float = 0.02,
+) -> dict:
+    """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
+
+    The other kinds keep their given distributions. The same standard draws
+    are reused for every ``T`` (common random numbers), so the metrics move
+    monotonically with ``T`` and a bracketing search applies: double ``T``
+    until a check fails, then bisect (geometrically) to ``rel_precision``.
+    Returns ``{"kind", "tolerance", "unit", "failing_at", "evaluations"}``;
+    ``tolerance`` is 0 when even a perfect part fails.
+    """
+    if not checks.active():
+        raise SceneError("tolerance allocation needs at least one limit in [checks]")
+    evals = 0
+
+    if kind not in TOLERANCE_KINDS:
+        raise SceneError(
+            f"tolerance {kind!r} is unknown; valid kinds: {', '.join(TOLERANCE_KINDS)}"
+        )
+
+    def passes(T: float) -> bool:
+        nonlocal evals
+        evals += 1
+        tol = dict(tolerances)
+        tol[kind] = Distribution("uniform", T)
+        mc = monte_carlo(
+            design,
+            input_torque,
+            tol,
+            samples,
+            seed,
+            positions,
+            load_share=load_share,
+            executor=executor,
+        )
+        for name in checks.active():
+            metric, sense = CHECK_METRICS[name]
+            q = percentile if sense == "max" else 100.0 - percentile
+            value = float(np.percentile(mc.metrics[metric], q))
+            if not evaluate_checks({metric: value}, replace_checks(checks, name))[name]["passed"]:
+                return False
+        return True
+
+    unit = TOLERANCE_KINDS[kind][1]
+    if not passes(0.0):
+        return {
+            "kind": kind,
+            "tolerance": 0.0,
+            "unit": unit,
+            "failing_at": 0.0,
+            "evaluations": evals,
+        }
+    lo, hi = 0.0, (1e-3 if unit == "mm" else 1e-2)
+    cap = 0.5 * design.roller_radius if unit == "mm" else 5.0
+    while passes(hi):
+        lo, hi = hi, 2.0 * hi
+        if hi > cap:
+            return {
+                "kind": kind,
+                "tolerance": lo,
+                "unit": unit,
+                "failing_at": None,
+                "evaluations": evals,
+            }
+    while hi - lo > rel_precision * hi:
+        mid = math.sqrt(lo * hi) if lo > 0 else 0.5 * hi
+        if passes(mid):
+            lo = mid
+        else:
+            hi = mid
+    return {"kind": kind, "tolerance": lo, "unit": unit, "failing_at": hi, "evaluations": evals}
+
+
+def replace_checks(checks: Checks, keep: str) -> Checks:
+    """Only the check ``keep`` active."""
+    return Checks(**{k: (v if k == keep else None) for k, v in checks.__dict__.items()})

@@ -1,0 +1,186 @@
+"""Tolerance checks, Monte Carlo and allocation."""
+
+import subprocess
+import sys
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+from corr_cad import GearDesign, SceneError
+from corr_cad.scene import parse_scene
+from corr_cad.tolerance import (
+    CHECK_METRICS,
+    Checks,
+    Distribution,
+    SerialExecutor,
+    allocate,
+    evaluate_checks,
+    monte_carlo,
+)
+
+M0 = 1.1e5
+TOL = {"roller_radius": Distribution("normal", 0.001), "cam_radius": Distribution("uniform", 0.002)}
+
+
+def test_checks_margin_and_sense():
+    r = evaluate_checks(
+        {"peak_pressure": 1200.0, "min_loaded_rollers": 5.0},
+        Checks(max_contact_pressure=1000.0, min_loaded_rollers=3),
+    )
+    assert r["max_contact_pressure"] == {
+        "limit": 1000.0,
+        "value": 1200.0,
+        "margin": -200.0,
+        "passed": False,
+    }
+    assert r["min_loaded_rollers"]["margin"] == 2.0 and r["min_loaded_rollers"]["passed"]
+
+
+def test_failing_check_exits_1_and_names_the_limit(tmp_path):
+    scene = tmp_path / "c.toml"
+    scene.write_text(
+        '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
+        "[solver]\npositions = 104\n"
+        "[checks]\nmax_contact_pressure = 1000.0\nmin_loaded_rollers = 3\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 1
+    assert "check failed: max_contact_pressure" in r.stderr
+    assert (
+        "check max_contact_pressure: FAIL" in r.stdout
+        and "check min_loaded_rollers: pass" in r.stdout
+    )
+    import json
+
+    m = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert m["checks"]["max_contact_pressure"]["passed"] is False
+    assert m["checks"]["max_contact_pressure"]["margin"] == pytest.approx(1000.0 - 1236.5, abs=1)
+
+
+def _mc(executor, n=24, seed=3):
+    return monte_carlo(GearDesign(), M0, TOL, n, seed, 36, executor=executor, chunk=8)
+
+
+def test_monte_carlo_is_reproducible_across_executors():
+    a = _mc(SerialExecutor())
+    b = _mc(SerialExecutor())
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        c = _mc(pool)
+    for k in a.metrics:
+        assert np.array_equal(a.metrics[k], b.metrics[k])
+        assert np.array_equal(a.metrics[k], c.metrics[k])  # bit for bit
+    d = _mc(SerialExecutor(), seed=4)
+    assert not np.array_equal(a.metrics["peak_gear_force"], d.metrics["peak_gear_force"])
+
+
+def test_monte_carlo_on_a_local_dask_cluster():
+    distributed = pytest.importorskip("dask.distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            host="127.0.0.1",
+            dashboard_address=None,
+            processes=True,
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        d = _mc(client)
+    a = _mc(SerialExecutor())
+    for k in a.metrics:
+        assert np.array_equal(a.metrics[k], d.metrics[k])
+
+
+def test_monte_carlo_metrics_match_a_direct_solve():
+    from corr_cad.deviations import ManufacturingErrors
+    from corr_cad.solver import cycle_angles, solve_forces
+    from corr_cad.tolerance import draw_samples
+
+    mc = _mc(SerialExecutor(), n=8)
+    units = draw_samples(TOL, 8, 3, 26)
+    k = 5
+    err = ManufacturingErrors(
+        cam_radius_error=float(0.002 * units["cam_radius"][k]),
+        roller_radius_errors=tuple(0.001 * units["roller_radius"][k]),
+    )
+    res = solve_forces(GearDesign(), M0, cycle_angles(36), errors=err)
+    assert mc.metrics["peak_gear_force"][k] == pytest.approx(res.F_n.max(), rel=1e-12)
+    assert mc.metrics["min_loaded_rollers"][k] == res.loaded_count.min()
+
+
+def test_summary_has_percentiles_failures_and_ranking():
+    mc = _mc(SerialExecutor(), n=40)
+    s = mc.summary(Checks(max_contact_pressure=2000.0))
+    assert set(s["percentiles"]) == {m for m, _ in CHECK_METRICS.values()}
+    p = s["percentiles"]["peak_pressure"]
+    assert p["p5"] <= p["p50"] <= p["p95"] <= p["p99"]
+    expected = np.mean(mc.metrics["peak_pressure"] > 2000.0)
+    assert s["failure_probability"]["max_contact_pressure"] == expected
+    assert [r["tolerance"] for r in s["sensitivity"]] and s["sensitivity"][0]["score"] >= s[
+        "sensitivity"
+    ][-1]["score"]
+
+
+def test_allocation_found_tolerance_passes_and_ten_percent_more_fails():
+    design = GearDesign()
+    checks = Checks(max_gear_force=5000.0)
+    kw = {"percentile": 90.0, "samples": 30, "seed": 2, "positions": 36}
+    r = allocate(design, M0, {}, checks, "roller_radius", **kw)
+    T = r["tolerance"]
+    assert T > 0 and r["failing_at"] <= 1.1 * T
+
+    def p90(t):
+        mc = monte_carlo(design, M0, {"roller_radius": Distribution("uniform", t)}, 30, 2, 36)
+        return np.percentile(mc.metrics["peak_gear_force"], 90.0)
+
+    assert p90(T) <= 5000.0
+    assert p90(1.1 * T) > 5000.0
+
+
+@pytest.mark.parametrize(
+    "data,pattern",
+    [
+        (
+            {"tolerances": {"roller_radius": {"gauss": 0.001}}},
+            "distribution 'gauss' must be one of normal, uniform",
+        ),
+        ({"tolerances": {"roller_radius": 0.001}}, r"must be \{ normal = sigma \}"),
+        (
+            {"tolerances": {"gear_pitch": {"normal": 0.001}}},
+            "unknown key 'gear_pitch' in \\[tolerances\\]",
+        ),
+        ({"tolerances": {"cam_radius": {"normal": -1.0}}}, "allowed range is \\[0, inf\\)"),
+        (
+            {"export": {"formats": ["montecarlo"]}, "load": {"input_torque": 1.0}},
+            "\\[tolerances\\] is empty",
+        ),
+        (
+            {
+                "export": {"formats": ["montecarlo"]},
+                "tolerances": {"cam_radius": {"normal": 0.001}},
+            },
+            "need a torque",
+        ),
+        (
+            {
+                "export": {"formats": ["allocation"]},
+                "load": {"input_torque": 1.0},
+                "tolerances": {"cam_radius": {"normal": 0.001}},
+            },
+            "allocation needs at least one limit",
+        ),
+        ({"errors": {"slot_angle_errors_deg": [0.0]}}, "has 1 values; the design has 26 slots"),
+        (
+            {"errors": {"profile_deviation_harmonics": [[3.0, 0.001]]}},
+            "list of \\[order, amplitude, phase\\] rows",
+        ),
+    ],
+)
+def test_bad_tolerance_scenes(data, pattern):
+    with pytest.raises(SceneError, match=pattern):
+        parse_scene(data)
