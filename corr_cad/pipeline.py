@@ -96,6 +96,47 @@ def _preview_png(ctx: RunContext) -> None:
     ctx.files.append(p.name)
 
 
+def _measured(ctx: RunContext) -> None:
+    from dataclasses import replace
+
+    from .export.measured_io import read_measured_points, write_deviation_dxf
+    from .measured import register, signed_deviation, validate_points
+
+    s = ctx.scene
+    w = ctx.results["working"]
+    src = str(s.measured_profile)
+    pts = validate_points(read_measured_points(s.measured_profile), w, src)
+    reg = register(w, pts)
+    ctx.results["errors"] = replace(s.errors, profile_deviation=reg.deviation)
+    ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
+    ctx.progress(
+        f"      registered: rotation {reg.rotation_deg:.4g} deg, centre "
+        f"({reg.centre_mm[0]:.4g}, {reg.centre_mm[1]:.4g}) mm, rms {reg.rms_mm:.3g} mm"
+    )
+    if "dxf" in s.formats:
+        from .kinematics import rotate_by_polar_angle
+
+        rot = math.radians(reg.rotation_deg)
+        placed = rotate_by_polar_angle(pts - np.array(reg.centre_mm), -rot)
+        dev, t = signed_deviation(w, placed)
+        write_deviation_dxf(
+            s.design,
+            w,
+            placed,
+            dev,
+            t,
+            s.measured_exaggeration,
+            ctx.out / "measured_profile.dxf",
+            s.tolerance,
+        )
+        ctx.files.append("measured_profile.dxf")
+
+
+def _errors(ctx: RunContext):
+    """The scene's errors, with a registered measured profile if there is one."""
+    return ctx.results.get("errors", ctx.scene.errors)
+
+
 def _forces(ctx: RunContext) -> None:
     s = ctx.scene
     info = ctx.results["undercut"]
@@ -113,7 +154,7 @@ def _forces(ctx: RunContext) -> None:
         angles,
         positions=s.solver.positions,
         load_share=s.solver.load_share,
-        errors=s.errors,
+        errors=_errors(ctx),
         variants=s.solver.variants,
         psi_contact_limit=limit,
     )
@@ -417,7 +458,7 @@ def _montecarlo(ctx: RunContext) -> None:
         mc_cfg["seed"],
         mc_cfg["positions"],
         load_share=s.solver.load_share,
-        base_errors=s.errors,
+        base_errors=_errors(ctx),
         executor=ctx.executor,
         progress=lambda done, total: ctx.progress(f"      montecarlo: {done}/{total} samples"),
     )
@@ -457,6 +498,7 @@ def _allocation(ctx: RunContext) -> None:
         "positions": min(cfg["positions"], 72),
         "load_share": s.solver.load_share,
         "executor": ctx.executor,
+        "base_errors": _errors(ctx),
     }
     d, m0 = s.design, s.load.input_torque
     rows = []
@@ -498,6 +540,7 @@ STAGES: dict[str, Stage] = {
         ),
         Stage("dxf_files", ("dxf_geometry",), _dxf_files, "the four part DXF files"),
         Stage("preview_png", ("profiles",), _preview_png, "preview.png"),
+        Stage("measured_profile", ("profiles",), _measured, "measured profile, registered"),
         Stage("forces", ("undercut",), _forces, "mesh-force solver"),
         Stage("force_files", ("forces",), _force_files, "forces.csv, summary JSON and plots"),
         Stage("solids", ("profiles",), _solids, "watertight solids (manifold3d), volumes checked"),
@@ -523,8 +566,12 @@ FORMAT_TARGETS = {
 }
 
 
-def plan(formats: tuple[str, ...], checks: bool = False) -> list[str]:
-    """Stages needed for ``formats`` (and the checks), in dependency order, each once."""
+def plan(formats: tuple[str, ...], checks: bool = False, measured: bool = False) -> list[str]:
+    """Stages needed for ``formats`` (and the checks), in dependency order, each once.
+
+    With a measured profile it is registered first: the forces, Monte Carlo
+    and checks then see it as a gear-profile deviation.
+    """
     order: list[str] = []
 
     def visit(name: str) -> None:
@@ -534,6 +581,8 @@ def plan(formats: tuple[str, ...], checks: bool = False) -> list[str]:
             visit(dep)
         order.append(name)
 
+    if measured:
+        visit("measured_profile")
     for f in formats:
         visit(FORMAT_TARGETS[f])
     if checks:
@@ -576,7 +625,11 @@ def run_scene(
     ctx = RunContext(
         scene=scene, out=Path(out), progress=progress or (lambda m: None), executor=executor
     )
-    stages = plan(scene.formats, checks=bool(scene.checks.active()))
+    stages = plan(
+        scene.formats,
+        checks=bool(scene.checks.active()),
+        measured=scene.measured_profile is not None,
+    )
     timings = []
     for i, name in enumerate(stages, 1):
         ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")

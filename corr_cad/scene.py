@@ -161,6 +161,15 @@ SCHEMA: dict[str, dict[str, Key]] = {
             example=[0.0],
         ),
         "cam_phase_error_deg": Key("float", 0.0, "cam phase error against the other cam, deg"),
+        "measured_profile": Key(
+            "str",
+            None,
+            "measured gear profile: CSV x,y (mm) or DXF, path relative to the scene",
+            example="measured.csv",
+        ),
+        "measured_exaggeration": Key(
+            "float", 200.0, "deviation scale of the picture in measured_profile.dxf", low=0
+        ),
         "profile_deviation_harmonics": Key(
             "list[list[float]]",
             None,
@@ -237,6 +246,8 @@ class Scene:
     solver: SolverSpec = field(default_factory=SolverSpec)
     errors: ErrorSpec = field(default_factory=ErrorSpec)
     checks: Checks = field(default_factory=Checks)
+    measured_profile: Path | None = None
+    measured_exaggeration: float = 200.0
     tolerances: dict = field(default_factory=dict)
     montecarlo: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
@@ -309,7 +320,7 @@ def _bounds(where: str, v: float, spec: Key) -> None:
         raise SceneError(f"{where} = {v:g}: allowed range is {rng}")
 
 
-def parse_scene(data: dict, name: str = "scene") -> Scene:
+def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -> Scene:
     """Validate a scene given as a dictionary (as read from TOML)."""
     if not isinstance(data, dict):
         raise SceneError("a scene must be a table of sections")
@@ -435,6 +446,12 @@ def parse_scene(data: dict, name: str = "scene") -> Scene:
         solver=solver,
         errors=errors,
         checks=checks,
+        measured_profile=(
+            (Path(base_dir or ".") / er["measured_profile"])
+            if er["measured_profile"] is not None
+            else None
+        ),
+        measured_exaggeration=er["measured_exaggeration"],
         tolerances=tolerances,
         montecarlo=values["montecarlo"],
         source={
@@ -461,7 +478,7 @@ def load_scene(path: str | Path) -> Scene:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path.name}: not valid TOML ({exc})") from exc
-    return parse_scene(data, name=path.stem)
+    return parse_scene(data, name=path.stem, base_dir=path.parent)
 
 
 def _toml_value(v: Any) -> str:

@@ -270,6 +270,7 @@ def allocate(
     load_share: float = 0.55,
     executor=None,
     rel_precision: float = 0.02,
+    base_errors: ManufacturingErrors | None = None,
 ) -> dict:
     """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
 

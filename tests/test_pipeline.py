@@ -34,7 +34,12 @@ def test_plan_is_minimal_and_ordered():
 
     full = pipeline.plan(FORMATS, checks=True)
     assert len(full) == len(set(full)) == len(pipeline.STAGES)
-    assert pipeline.plan(("forces",), checks=True) == ["undercut", "forces", "force_files", "checks"]
+    assert pipeline.plan(("forces",), checks=True) == [
+        "undercut",
+        "forces",
+        "force_files",
+        "checks",
+    ]
     assert pipeline.plan(("dxf",), checks=False)[-1] == "dxf_files"
     for name in full:
         for dep in pipeline.STAGES[name].requires:
