@@ -530,6 +530,50 @@ def _allocation(ctx: RunContext) -> None:
         )
 
 
+def _sweeps(ctx: RunContext) -> None:
+    from .export import plots
+    from .outputs import write_csv, write_json
+    from .sweeps import METRICS, comparison_rows, run_sweeps
+
+    s = ctx.scene
+    results = run_sweeps(
+        s.design,
+        s.load.input_torque,
+        s.sweeps["points"],
+        s.sweeps["positions"],
+        s.solver.load_share,
+        executor=ctx.executor,
+    )
+    header = ["value", "status", *METRICS, "loaded_rollers_min", "loaded_rollers_max"]
+    for name, pts in results.items():
+        write_csv(
+            ctx.out / f"sweep_{name}.csv",
+            header,
+            (
+                [f"{p['value']:.6g}", p["status"]]
+                + [f"{p.get(k, ''):.6g}" if k in p else "" for k in header[2:]]
+                for p in pts
+            ),
+        )
+        plots.sweep_png(name, pts, ctx.out / f"sweep_{name}.png")
+        ctx.files.extend([f"sweep_{name}.csv", f"sweep_{name}.png"])
+        ctx.progress(
+            f"      sweep {name}: {sum(p['status'] == 'ok' for p in pts)}/{len(pts)} points solved"
+        )
+    rows = comparison_rows(results)
+    cols = list(rows[0]) if rows else []
+    write_csv(ctx.out / "sweeps_vs_paper.csv", cols, ([_cell(r[c]) for c in cols] for r in rows))
+    write_json(ctx.out / "sweeps.json", {"points": results, "vs_paper": rows})
+    ctx.files.extend(["sweeps_vs_paper.csv", "sweeps.json"])
+    ctx.manifest["sweeps"] = {n: [p["status"] for p in pts] for n, pts in results.items()}
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
 STAGES: dict[str, Stage] = {
     st.name: st
     for st in (
@@ -550,6 +594,7 @@ STAGES: dict[str, Stage] = {
         Stage("checks", ("forces",), _checks, "design checks against [checks] limits"),
         Stage("montecarlo", ("undercut",), _montecarlo, "Monte Carlo over [tolerances]"),
         Stage("allocation", ("undercut",), _allocation, "tolerance allocation against [checks]"),
+        Stage("sweeps", (), _sweeps, "the paper's parametric sweeps"),
     )
 }
 
@@ -563,6 +608,7 @@ FORMAT_TARGETS = {
     "interference": "interference",
     "montecarlo": "montecarlo",
     "allocation": "allocation",
+    "sweeps": "sweeps",
 }
 
 

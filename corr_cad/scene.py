@@ -48,6 +48,7 @@ FORMATS = (
     "interference",
     "montecarlo",
     "allocation",
+    "sweeps",
 )
 
 
@@ -212,6 +213,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
         ),
         "allocation_samples": Key("int", 200, "samples per step of the allocation search", low=0),
     },
+    "sweeps": {
+        "points": Key("int", 7, "points per sweep over the paper's ranges", low=1, high=1000),
+        "positions": Key("int", 720, "crank positions per sweep point", low=0, high=1_000_000),
+    },
 }
 
 
@@ -250,6 +255,7 @@ class Scene:
     measured_exaggeration: float = 200.0
     tolerances: dict = field(default_factory=dict)
     montecarlo: dict = field(default_factory=dict)
+    sweeps: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
 
 
@@ -419,7 +425,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     )
     checks = Checks(**{k: v for k, v in values["checks"].items()})
     tolerances = {k: v for k, v in values["tolerances"].items() if v is not None}
-    needs_load = {"montecarlo", "allocation"} & set(formats) or checks.active()
+    needs_load = {"montecarlo", "allocation", "sweeps"} & set(formats) or checks.active()
     if needs_load and load is None:
         raise SceneError(
             "[checks], montecarlo and allocation need a torque: set [load] input_torque"
@@ -454,6 +460,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         measured_exaggeration=er["measured_exaggeration"],
         tolerances=tolerances,
         montecarlo=values["montecarlo"],
+        sweeps=values["sweeps"],
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)

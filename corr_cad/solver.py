@@ -294,10 +294,16 @@ class _Contact:
         self.k1 = k1
         self.k2 = k2
         self.flat = np.all(np.asarray(k2) == 0.0)
-        kmax2 = np.maximum(k1 * k1, np.asarray(k2) ** 2)
-        self.uk = contact.VALIDITY_KNEE / kmax2
-        self.dk = contact.approach(self.uk, k1, k2)
-        self.sk = contact.approach_slope(self.uk, k1, k2)
+        k2 = np.asarray(k2, dtype=float)
+        kmax2 = np.maximum(k1 * k1, k2 * k2)
+        uk = contact.VALIDITY_KNEE / kmax2
+        # Value and slope of the exact overlap at the knee (same formula as
+        # contact.approach, evaluated once here).
+        q1 = np.sqrt(1.0 - k1 * k1 * uk)
+        q2 = np.sqrt(1.0 - k2 * k2 * uk)
+        self.uk = uk
+        self.dk = k1 * uk / (1.0 + q1) + k2 * uk / (1.0 + q2)
+        self.sk = 0.5 * k1 / q1 + 0.5 * k2 / q2
 
     def take(self, sel):
         out = object.__new__(_Contact)

@@ -20,6 +20,7 @@ __all__ = [
     "load_distribution_png",
     "interference_png",
     "montecarlo_png",
+    "sweep_png",
 ]
 
 
@@ -170,5 +171,34 @@ def montecarlo_png(metrics: dict, checks, path: Path) -> Path:
         ax.set_xlabel(_LABEL[name])
         ax.set_ylabel("samples")
     fig.suptitle(f"Monte Carlo, {len(next(iter(metrics.values())))} samples")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def sweep_png(name: str, points: list[dict], path: Path) -> Path:
+    """Means and peaks of roller 1's forces against the swept value (Figs. 11-16 style)."""
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    ok = [p for p in points if p["status"] == "ok"]
+    x = [p["value"] for p in ok]
+    for key, label in (("F_j_mean", "$F_j$"), ("F_n_mean", "$F_n$"), ("F_s_mean", "$F_s$")):
+        ax1.plot(x, [p[key] for p in ok], "o-", label=f"mean {label}")
+    for key, label in (
+        ("F_j_peak", "peak $F_j$"),
+        ("F_n_peak", "peak $F_n$"),
+        ("F_s_peak_to_peak", "p-p $F_s$"),
+    ):
+        ax2.plot(x, [p[key] for p in ok], "o-", label=label)
+    skipped = [p["value"] for p in points if p["status"] != "ok"]
+    for ax in (ax1, ax2):
+        for v in skipped:
+            ax.axvline(v, color="0.7", ls=":", lw=1)
+        ax.set_xlabel(name.replace("_", " ") + " [mm]")
+        ax.set_ylabel("force on roller 1 [N]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    title = name.replace("_", " ")
+    if skipped:
+        title += f" (dotted: {len(skipped)} points not computed - undercut or invalid)"
+    fig.suptitle(title)
     fig.tight_layout()
     return _save(fig, path)
