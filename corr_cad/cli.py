@@ -92,7 +92,7 @@ def _executor(args: argparse.Namespace, scene):
     """The executor for sample work; only started when the scene needs one."""
     from .errors import SceneError
 
-    needs = {"montecarlo", "allocation"} & set(scene.formats)
+    needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
     if args.executor == "dask":
         if not args.scheduler:
             raise SceneError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")

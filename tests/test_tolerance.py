@@ -184,3 +184,37 @@ def test_allocation_found_tolerance_passes_and_ten_percent_more_fails():
 def test_bad_tolerance_scenes(data, pattern):
     with pytest.raises(SceneError, match=pattern):
         parse_scene(data)
+
+
+def test_cli_runs_monte_carlo_on_a_dask_scheduler(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    scene = tmp_path / "mc.toml"
+    scene.write_text(
+        '[export]\nformats = ["montecarlo"]\n[load]\ninput_torque = 1.1e5\n'
+        "[tolerances]\nroller_radius = { normal = 0.001 }\n"
+        "[montecarlo]\nsamples = 20\nseed = 5\npositions = 36\n"
+    )
+    outs = {}
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        for ex in ("dask", "serial", "process"):
+            args = ["--executor", ex] + (
+                ["--scheduler", cluster.scheduler_address] if ex == "dask" else []
+            )
+            out = tmp_path / ex
+            r = subprocess.run(
+                [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out), *args],
+                capture_output=True,
+                text=True,
+            )
+            assert r.returncode == 0, r.stderr
+            outs[ex] = (out / "montecarlo.csv").read_bytes()
+    assert outs["dask"] == outs["serial"] == outs["process"]
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--executor", "dask"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert r.returncode == 2 and "--scheduler" in r.stderr
