@@ -45,6 +45,17 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--workers", type=int, default=None, help="process pool size (default: all cores)"
     )
+    bench = sub.add_parser("bench", help="measure what accuracy costs in time (tables, CSV, PNG)")
+    bench.add_argument(
+        "--out", type=Path, default=Path("outputs") / "bench", help="default outputs/bench"
+    )
+    bench.add_argument(
+        "--study",
+        action="append",
+        choices=("profile", "solids", "solver", "speed", "montecarlo", "throughput"),
+        help="run only this study (repeatable); default all",
+    )
+    bench.add_argument("--quick", action="store_true", help="fewer settings and repeats")
     new = sub.add_parser("new", help="write a commented scene template")
     new.add_argument("scene", type=Path, help="file to create (refuses to overwrite)")
     return p
@@ -137,6 +148,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             return _run(args)
+        if args.command == "bench":
+            from .bench import STUDIES, run
+
+            run(args.out, args.study or list(STUDIES), quick=args.quick)
+            print(f"wrote the benchmark tables and plots to {args.out}")
+            return 0
         return _new(args)
     except CorrCadError as exc:
         print(f"corr-cad: error: {exc}", file=sys.stderr)

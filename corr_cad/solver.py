@@ -451,7 +451,7 @@ def _linear_tau(a_c, a_m, h0, k0, target):
     return tau
 
 
-def _newton(a_c, a_m, h0, comp: _Compliance, target, tau, max_iter=30):
+def _newton(a_c, a_m, h0, comp: _Compliance, target, tau, max_iter=30, rtol=_RTOL):
     """Joint Newton on (tau, F) per position, from the linear-contact solution.
 
     Works only on the positions not yet converged. Returns
@@ -478,8 +478,8 @@ def _newton(a_c, a_m, h0, comp: _Compliance, target, tau, max_iter=30):
         den = np.sum(am * ac * inv, axis=1)
         scale_m = np.sum(np.abs(am * f), axis=1)
         scale_h = np.max(np.where(active, h, 0.0), axis=1)
-        done = (np.abs(r_m) <= _RTOL * (abs(target) + scale_m) + 1e-300) & np.all(
-            np.abs(r) <= 1e-13 * scale_h[:, None] + 1e-300, axis=1
+        done = (np.abs(r_m) <= rtol * (abs(target) + scale_m) + 1e-300) & np.all(
+            np.abs(r) <= rtol * scale_h[:, None] + 1e-300, axis=1
         )
         with np.errstate(divide="ignore", invalid="ignore"):
             dtau = np.where(den > 0, (np.sum(am * r * inv, axis=1) - r_m) / den, 0.0)
@@ -493,7 +493,7 @@ def _newton(a_c, a_m, h0, comp: _Compliance, target, tau, max_iter=30):
     return tau, F, it, converged
 
 
-def _nested(geo_a_c, a_m, h0, comp: _Compliance, target, max_iter: int = 200):
+def _nested(geo_a_c, a_m, h0, comp: _Compliance, target, max_iter: int = 200, rtol=_RTOL):
     """Robust path: safeguarded Newton-bisection on ``tau``, exact inner inversion."""
     a_c = geo_a_c
     P = a_c.shape[0]
@@ -541,7 +541,7 @@ def _nested(geo_a_c, a_m, h0, comp: _Compliance, target, max_iter: int = 200):
     it = 0
     for it in range(1, max_iter + 1):
         res = mom - target
-        tol = _RTOL * (abs(target) + scale) + 1e-300
+        tol = rtol * (abs(target) + scale) + 1e-300
         done = np.abs(res) <= tol
         if np.all(done):
             break
@@ -558,7 +558,7 @@ def _nested(geo_a_c, a_m, h0, comp: _Compliance, target, max_iter: int = 200):
     return tau, F, it
 
 
-def _solve_positions(geo: RollerGeometry, comp: _Compliance, target: float):
+def _solve_positions(geo: RollerGeometry, comp: _Compliance, target: float, rtol: float = _RTOL):
     """``tau`` and ``F_j`` per position so that ``sum a_m F_j = target``.
 
     Fast path: exact linear-contact solution, then joint Newton. Positions it
@@ -568,11 +568,11 @@ def _solve_positions(geo: RollerGeometry, comp: _Compliance, target: float):
     a_m = np.where(geo.loadable, geo.arm, 0.0)
     h0 = np.where(geo.loadable, geo.gap, -1e300)
     tau = _linear_tau(a_c, a_m, h0, comp.slope0, target)
-    tau, F, iterations, ok = _newton(a_c, a_m, h0, comp, target, tau)
+    tau, F, iterations, ok = _newton(a_c, a_m, h0, comp, target, tau, rtol=rtol)
     if not np.all(ok):
         bad = np.flatnonzero(~ok)
         sub = comp.take(bad)
-        t2, F2, it2 = _nested(a_c[bad], a_m[bad], h0[bad], sub, target)
+        t2, F2, it2 = _nested(a_c[bad], a_m[bad], h0[bad], sub, target, rtol=rtol)
         tau[bad] = t2
         F[bad] = F2
         iterations += it2
@@ -594,6 +594,7 @@ def solve_forces(
     variants: tuple[str, ...] = (),
     contact_model: str = "nonlinear",
     psi_contact_limit: float = math.pi,
+    rtol: float = _RTOL,
 ) -> ForceResult:
     """Mesh forces on every roller at each crank angle.
 
@@ -612,6 +613,9 @@ def solve_forces(
     psi_contact_limit : float, rad
         Rollers with ``|psi|`` beyond it (wrapped, 0 at the tooth space) find
         no gear flank and carry nothing: the trimmed tips of an allowed undercut.
+    rtol : float
+        Relative tolerance of the moment balance and the contact equations.
+        ``success`` requires the moment residual below ``max(rtol, 1e-9)``.
     """
     if contact_model not in CONTACT_MODELS:
         raise SolverError(
@@ -650,7 +654,7 @@ def solve_forces(
         geo = RollerGeometry(**{**geo.__dict__, "loadable": geo.loadable & (sign * geo.arm > 0)})
     comp = _Compliance(geo, design, contact_model)
     target = load_share * float(input_torque)
-    tau, Fj, iterations, res, rel = _solve_positions(geo, comp, target)
+    tau, Fj, iterations, res, rel = _solve_positions(geo, comp, target, rtol)
 
     if periodic:
         idx = inverse.reshape(-1)
@@ -678,7 +682,7 @@ def solve_forces(
 
 
 def _result(
-    design, geo, Fj, tau, rel, iterations, angles, target, solved, full_cycle
+    design, geo, Fj, tau, rel, iterations, angles, target, solved, full_cycle, rtol=_RTOL
 ) -> ForceResult:
     """Forces, pressures and validity from the solved cam forces."""
     Fn = geo.rho_n * Fj
@@ -690,12 +694,13 @@ def _result(
     cn = contact.half_width_sq_per_force(k1, geo.k_gear, length, modulus)
     cs = contact.half_width_sq_per_force(k1, 0.0, length, modulus)
     uj, un, us = cj * Fj, cn * Fn, cs * np.abs(Fs)
-    success = bool(np.all(rel <= 1e-9))
+    limit = max(rtol, 1e-9)
+    success = bool(np.all(rel <= limit))
     worst = float(rel.max()) if rel.size else 0.0
     msg = (
         "converged"
         if success
-        else f"moment balance not reached to 1e-9 (worst relative residual {worst:.3g})"
+        else f"moment balance not reached to {limit:g} (worst relative residual {worst:.3g})"
     )
     return ForceResult(
         success=success,

@@ -1,0 +1,370 @@
+"""What accuracy costs in time: the benchmarks behind ``corr-cad bench``.
+
+Each study prints a table (median of repeated runs, the machine's core
+count stated), writes a CSV and a PNG under the output folder, and returns
+its rows. Nothing here asserts a time: the numbers are for reading.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .design import GearDesign
+from .deviations import ManufacturingErrors
+from .profile import theoretical_profile, working_profile
+from .sampling import approximate
+from .solver import cycle_angles, roller_geometry, solve_forces
+
+__all__ = ["STUDIES", "run"]
+
+M0 = 1.1e5
+
+
+def _median_time(fn: Callable[[], object], repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def _machine() -> str:
+    return f"{os.cpu_count()} cores"
+
+
+def _write_csv(out: Path, name: str, header: Sequence[str], rows) -> Path:
+    from .outputs import write_csv
+
+    return write_csv(out / name, header, ([_cell(x) for x in r] for r in rows))
+
+
+def _cell(x) -> str:
+    return f"{x:.6g}" if isinstance(x, float) else str(x)
+
+
+def _figure(out: Path, name: str, draw: Callable) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    draw(ax)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=120)
+    plt.close(fig)
+    return out / name
+
+
+def _table(title: str, header: Sequence[str], rows) -> None:
+    print(f"\n{title} ({_machine()})")
+    print("  ".join(f"{h:>14s}" for h in header))
+    for r in rows:
+        print("  ".join(f"{_cell(x):>14s}" for x in r))
+
+
+def profile_export(out: Path, quick: bool = False) -> list:
+    """Tolerance vs measured deviation, vertices, DXF size and time per representation."""
+    from .export import dxf
+
+    design = GearDesign()
+    w, t = working_profile(design), theoretical_profile(design)
+    tols = (1e-2, 1e-3, 1e-4) if quick else (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
+    path = Path(tempfile.mkdtemp()) / "g.dxf"
+    rows = []
+    for rep in ("polyline", "arcs", "spline"):
+        for tol in tols:
+            keep = {}
+
+            def run_once(rep=rep, tol=tol, keep=keep):
+                keep["a"] = approximate(w, rep, tol)
+                dxf.write_inner_gear(design, keep["a"], approximate(t, rep, tol), path)
+
+            dt = _median_time(run_once, 1 if quick else 3)
+            a = keep["a"]
+            rows.append(
+                [rep, tol, a.max_deviation, a.entity_vertex_count, path.stat().st_size / 1024, dt]
+            )
+    header = ["representation", "tolerance_mm", "max_deviation_mm", "vertices", "dxf_kB", "time_s"]
+    _table("profile export", header, rows)
+    _write_csv(out, "profile_export.csv", header, rows)
+
+    def draw(ax):
+        for rep in ("polyline", "arcs", "spline"):
+            sel = [r for r in rows if r[0] == rep]
+            ax.loglog([r[5] for r in sel], [r[2] for r in sel], "o-", label=rep)
+        ax.set_xlabel("time to approximate, measure and write [s]")
+        ax.set_ylabel("measured max deviation [mm]")
+        ax.legend()
+        ax.set_title(f"DXF profile: accuracy vs time ({_machine()})")
+
+    _figure(out, "profile_export.png", draw)
+    return rows
+
+
+def solids(out: Path, quick: bool = False) -> list:
+    """Chord tolerance vs triangles, STL size, volume error and build time (gear ring)."""
+    from .export import mesh
+    from .parts import part_outlines
+
+    design = GearDesign()
+    w = working_profile(design)
+    path = Path(tempfile.mkdtemp()) / "ring.stl"
+    rows = []
+    for tol in (1e-1, 1e-2, 1e-3) if quick else (1e-1, 1e-2, 1e-3, 1e-4):
+        keep = {}
+
+        def build(tol=tol, keep=keep):
+            o = part_outlines(design, w, tol)["ring"]
+            tm = mesh.to_trimesh(mesh.solid(o))
+            mesh.write_mesh(tm, path, "stl")
+            keep["o"], keep["tm"] = o, tm
+
+        dt = _median_time(build, 1 if quick else 3)
+        err = float(keep["tm"].volume - keep["o"].exact_volume)
+        rows.append(
+            [
+                tol,
+                len(keep["tm"].faces),
+                path.stat().st_size / 1024,
+                err,
+                err / keep["o"].exact_volume,
+                dt,
+            ]
+        )
+    header = [
+        "chord_tolerance_mm",
+        "triangles",
+        "stl_kB",
+        "volume_error_mm3",
+        "relative_error",
+        "time_s",
+    ]
+    _table("solids (gear ring)", header, rows)
+    _write_csv(out, "mesh_tolerance.csv", header, rows)
+
+    def draw(ax):
+        ax.loglog([r[5] for r in rows], [abs(r[3]) for r in rows], "o-")
+        ax.set_xlabel("build + write time [s]")
+        ax.set_ylabel("|volume error| [mm$^3$]")
+        ax.set_title(f"gear ring solid: accuracy vs time ({_machine()})")
+
+    _figure(out, "mesh_tolerance.png", draw)
+    return rows
+
+
+def _rigid_forces(design: GearDesign, angles: np.ndarray, share: float = 0.55) -> np.ndarray:
+    """No compliance: force ratios from geometry, load shared in proportion to the arm."""
+    g = roller_geometry(design, angles)
+    a = np.maximum(g.arm, 0.0)
+    return share * M0 * a / np.sum(a * a, axis=1, keepdims=True)
+
+
+def fidelity(out: Path, quick: bool = False) -> list:
+    """Solver fidelity ladder, positions per cycle, and solver tolerance, against time."""
+    design = GearDesign()
+    n = 3640
+    err = ManufacturingErrors(eccentricity_error=0.005)
+    finest = solve_forces(design, M0, positions=n, errors=err)
+
+    def metrics(Fj):
+        fj = Fj[:, 0]
+        return float(fj[fj > 0].mean()), float(fj.max())
+
+    ref_mean, ref_peak = metrics(finest.F_j)
+    nominal = solve_forces(design, M0, positions=n)
+    rungs = [
+        ("rigid (no compliance)", lambda: _rigid_forces(design, cycle_angles(n))),
+        (
+            "linear contact",
+            lambda: solve_forces(design, M0, positions=n, contact_model="linear").F_j,
+        ),
+        ("nonlinear contact", lambda: solve_forces(design, M0, positions=n).F_j),
+        ("nonlinear + errors", lambda: solve_forces(design, M0, positions=n, errors=err).F_j),
+    ]
+    rows = []
+    for name, fn in rungs:
+        dt = _median_time(fn, 1 if quick else 5)
+        mean, peak = metrics(fn())
+        rows.append(["ladder", name, n, abs(mean / ref_mean - 1), abs(peak / ref_peak - 1), dt])
+    # Against the nominal nonlinear model too (what errors are worth).
+    nom_mean, nom_peak = metrics(nominal.F_j)
+    for name, fn in rungs[:3]:
+        mean, peak = metrics(fn())
+        rows.append(
+            ["vs nominal", name, n, abs(mean / nom_mean - 1), abs(peak / nom_peak - 1), 0.0]
+        )
+    # Positions per cycle: error of mean and peak against 72,800 positions.
+    fine = solve_forces(design, M0, positions=72800)
+    f_mean, f_peak = metrics(fine.F_j)
+    for N in (36, 360, 3600) if quick else (36, 360, 3600, 36000):
+        dt = _median_time(lambda N=N: solve_forces(design, M0, positions=N), 1 if quick else 3)
+        mean, peak = metrics(solve_forces(design, M0, positions=N).F_j)
+        rows.append(
+            ["positions", f"{N} per cycle", N, abs(mean / f_mean - 1), abs(peak / f_peak - 1), dt]
+        )
+    # Solver tolerance.
+    exact = solve_forces(design, M0, positions=3600, errors=err, rtol=1e-14)
+    for rt in (1e-2, 1e-4, 1e-6, 1e-9, 1e-13):
+        dt = _median_time(
+            lambda rt=rt: solve_forces(design, M0, positions=3600, errors=err, rtol=rt), 3
+        )
+        r = solve_forces(design, M0, positions=3600, errors=err, rtol=rt)
+        e = float(np.abs(r.F_j - exact.F_j).max() / exact.F_j.max())
+        rows.append(["solver rtol", f"{rt:g}", 3600, e, e, dt])
+    header = ["study", "setting", "positions", "mean_rel_error", "peak_rel_error", "time_s"]
+    _table("solver fidelity", header, rows)
+    _write_csv(out, "solver_fidelity.csv", header, rows)
+
+    def draw(ax):
+        for study, mark in (("ladder", "o"), ("positions", "s"), ("solver rtol", "^")):
+            sel = [r for r in rows if r[0] == study]
+            ax.loglog(
+                [max(r[5], 1e-5) for r in sel],
+                [max(r[4], 1e-16) for r in sel],
+                mark + "-",
+                label=study,
+            )
+            for r in sel:
+                ax.annotate(r[1], (max(r[5], 1e-5), max(r[4], 1e-16)), fontsize=7)
+        ax.set_xlabel("time [s] (median)")
+        ax.set_ylabel("relative error of roller 1's peak F_j")
+        ax.legend(fontsize=8)
+        ax.set_title(f"force solver: accuracy vs time ({_machine()})")
+
+    _figure(out, "solver_fidelity.png", draw)
+    return rows
+
+
+def montecarlo(out: Path, quick: bool = False) -> list:
+    """Samples vs time and the confidence-interval width of the p95 peak gear force."""
+    from .tolerance import Distribution, SerialExecutor
+    from .tolerance import monte_carlo as mc
+
+    tol = {
+        "roller_radius": Distribution("normal", 0.001),
+        "cam_radius": Distribution("uniform", 0.002),
+        "eccentricity": Distribution("uniform", 0.002),
+    }
+    design = GearDesign()
+    rows = []
+    rng = np.random.default_rng(0)
+    for n in (50, 200) if quick else (100, 300, 1000, 3000):
+        t0 = time.perf_counter()
+        res = mc(design, M0, tol, n, 1, 180, executor=SerialExecutor())
+        dt = time.perf_counter() - t0
+        peak = res.metrics["peak_gear_force"]
+        boots = [np.percentile(rng.choice(peak, n), 95) for _ in range(200)]
+        lo, hi = np.percentile(boots, [2.5, 97.5])
+        rows.append([n, float(np.percentile(peak, 95)), float(hi - lo), dt])
+    header = ["samples", "p95_peak_F_n", "ci95_width_N", "time_s"]
+    _table("Monte Carlo (serial, 180 positions)", header, rows)
+    _write_csv(out, "montecarlo_ci.csv", header, rows)
+
+    def draw(ax):
+        ax.loglog([r[3] for r in rows], [r[2] for r in rows], "o-")
+        for r in rows:
+            ax.annotate(f"{r[0]} samples", (r[3], r[2]), fontsize=8)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("95% CI width of p95 peak $F_n$ [N]")
+        ax.set_title(f"Monte Carlo: confidence vs time ({_machine()})")
+
+    _figure(out, "montecarlo_ci.png", draw)
+    return rows
+
+
+def solver_speed(out: Path, quick: bool = False) -> list:
+    """Vectorised full cycle against a straightforward per-position scipy root-find."""
+    from .reference import reference_position
+
+    design = GearDesign()
+    cases = [
+        ("nominal, 3600 positions", 3600, ManufacturingErrors()),
+        ("nominal, 3640 positions (multiple of z+1)", 3640, ManufacturingErrors()),
+        ("eccentricity error 0.02 mm, 3600", 3600, ManufacturingErrors(eccentricity_error=0.02)),
+        (
+            "per-roller errors (no periodicity), 3600",
+            3600,
+            ManufacturingErrors(roller_radius_errors=tuple(np.linspace(-0.005, 0.005, 26))),
+        ),
+    ]
+    sample = np.radians(np.linspace(0, 360, 4 if quick else 12, endpoint=False))
+    t_ref = _median_time(
+        lambda: [reference_position(design, M0, a) for a in sample], 1 if quick else 3
+    )
+    per_position = t_ref / len(sample)
+    rows = []
+    for name, n, err in cases:
+        solve_forces(design, M0, positions=n, errors=err)  # warm-up
+        t = _median_time(lambda n=n, err=err: solve_forces(design, M0, positions=n, errors=err), 7)
+        solved = solve_forces(design, M0, positions=n, errors=err).positions_solved
+        rows.append([name, solved, 1e3 * t, per_position * n, per_position * n / t])
+    header = ["case", "positions_solved", "time_ms", "scipy_estimate_s", "speedup"]
+    _table(f"solver speed (scipy per position: {1e3 * per_position:.0f} ms)", header, rows)
+    _write_csv(out, "solver_speed.csv", header, rows)
+
+    def draw(ax):
+        ax.barh([r[0] for r in rows], [r[2] for r in rows], color="C0")
+        ax.set_xlabel("time for one full cycle [ms] (median of 7)")
+        ax.set_title(
+            f"vectorised solver ({_machine()}); scipy ~{per_position * 3600:.0f} s a cycle"
+        )
+
+    _figure(out, "solver_speed.png", draw)
+    return rows
+
+
+def throughput(out: Path, quick: bool = False) -> list:
+    """Monte Carlo samples per second, in this process and on a process pool."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from .tolerance import Distribution, SerialExecutor
+    from .tolerance import monte_carlo as mc
+
+    tol = {
+        "roller_radius": Distribution("normal", 0.001),
+        "cam_radius": Distribution("uniform", 0.002),
+        "eccentricity": Distribution("uniform", 0.002),
+        "slot_angle": Distribution("normal", 0.005),
+    }
+    design = GearDesign()
+    rows = []
+    n_pool = 1000 if quick else 10000
+    for label, n in (("serial", min(n_pool, 1000)), (f"process pool ({os.cpu_count()})", n_pool)):
+        ex = SerialExecutor() if label == "serial" else ProcessPoolExecutor(os.cpu_count())
+        t0 = time.perf_counter()
+        mc(design, M0, tol, n, 1, 360, executor=ex, chunk=50)
+        dt = time.perf_counter() - t0
+        if hasattr(ex, "shutdown"):
+            ex.shutdown()
+        rows.append([label, n, dt, n / dt])
+    header = ["executor", "samples", "time_s", "samples_per_s"]
+    _table("Monte Carlo throughput (360 positions, 4 tolerances)", header, rows)
+    _write_csv(out, "montecarlo_throughput.csv", header, rows)
+    return rows
+
+
+STUDIES = {
+    "profile": profile_export,
+    "solids": solids,
+    "solver": fidelity,
+    "speed": solver_speed,
+    "montecarlo": montecarlo,
+    "throughput": throughput,
+}
+
+
+def run(out: Path, studies: Sequence[str] = tuple(STUDIES), quick: bool = False) -> dict:
+    """Run the chosen studies, writing into ``out``; returns their rows."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    return {name: STUDIES[name](out, quick) for name in studies}
