@@ -245,16 +245,26 @@ def fidelity(out: Path, quick: bool = False) -> list:
     return rows
 
 
-def montecarlo(out: Path, quick: bool = False) -> list:
-    """Samples vs time and the confidence-interval width of the p95 peak gear force."""
-    from .tolerance import Distribution, SerialExecutor
-    from .tolerance import monte_carlo as mc
+def _tolerances(slots: bool) -> dict:
+    """The benchmarks' tolerances: roller sigma 1 um, cam radius and eccentricity +-2 um."""
+    from .tolerance import Distribution
 
     tol = {
         "roller_radius": Distribution("normal", 0.001),
         "cam_radius": Distribution("uniform", 0.002),
         "eccentricity": Distribution("uniform", 0.002),
     }
+    if slots:
+        tol["slot_angle"] = Distribution("normal", 0.005)
+    return tol
+
+
+def montecarlo(out: Path, quick: bool = False) -> list:
+    """Samples vs time and the confidence-interval width of the p95 peak gear force."""
+    from .tolerance import SerialExecutor
+    from .tolerance import monte_carlo as mc
+
+    tol = _tolerances(slots=False)
     design = GearDesign()
     rows = []
     rng = np.random.default_rng(0)
@@ -327,15 +337,10 @@ def throughput(out: Path, quick: bool = False) -> list:
     """Monte Carlo samples per second, in this process and on a process pool."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from .tolerance import Distribution, SerialExecutor
+    from .tolerance import SerialExecutor
     from .tolerance import monte_carlo as mc
 
-    tol = {
-        "roller_radius": Distribution("normal", 0.001),
-        "cam_radius": Distribution("uniform", 0.002),
-        "eccentricity": Distribution("uniform", 0.002),
-        "slot_angle": Distribution("normal", 0.005),
-    }
+    tol = _tolerances(slots=True)
     design = GearDesign()
     rows = []
     n_pool = 1000 if quick else 10000
