@@ -285,8 +285,9 @@ def _mesh_files(ctx: RunContext) -> None:
 
 
 def _angle_tag(angle_deg: float) -> str:
-    text = f"{angle_deg:08.3f}".rstrip("0").rstrip(".").replace("-", "m").replace(".", "p")
-    return f"{text}deg"
+    """File-name tag of a crank angle: 0 -> 000deg, 7.5 -> 007p5deg, -10 -> m010deg."""
+    text = f"{abs(angle_deg):07.3f}".rstrip("0").rstrip(".").replace(".", "p")
+    return ("m" if angle_deg < 0 else "") + f"{text}deg"
 
 
 def _step_files(ctx: RunContext) -> None:

@@ -160,23 +160,10 @@ def roller_geometry(
     k_locus = kin.locus_curvature(psi, z, e, L)
     k_gear = -k_locus / (1.0 + r * k_locus)
 
-    dr = errors.roller_errors(R)[None, :] + 0.0 * psi
-    e_act = e + errors.eccentricity_error
-    delta = errors.slot_errors(R)[None, :]
-    g_j = errors.cam_radius_error + dr
-    if errors.eccentricity_error or errors.cam_phase_error or np.any(delta):
-        # The roller sits where its (possibly turned) slot meets the gear's
-        # roller-centre locus; the (possibly moved) cam centre then overlaps it.
-        s_slot = kin.centre_distance(psi + z * delta, e, L) if np.any(delta) else s
-        ang = psi - delta + errors.cam_phase_error
-        g_j = g_j + L - np.sqrt(s_slot**2 + e_act**2 - 2.0 * s_slot * e_act * np.cos(ang))
-    g_n = dr
-    if errors.profile_deviation is not None:
-        # Polar angle of roller i on the fixed gear: frame angle phi/z + slot angle.
-        t_abs = phi[:, None] / z + theta[None, :]
-        g_n = g_n + np.asarray(errors.profile_deviation(t_abs), dtype=float)
-    clearance_slot = np.maximum(-dr, 0.0)
-    gap = g_j + rho_n * g_n - np.abs(rho_s) * clearance_slot
+    if errors.any:
+        gap, dr = _error_gaps(design, errors, phi, theta, psi, s, rho_n, rho_s)
+    else:
+        gap, dr = np.zeros_like(psi), np.zeros_like(psi)
 
     loadable = np.ones_like(psi, dtype=bool)
     if psi_contact_limit < math.pi:
@@ -194,6 +181,34 @@ def roller_geometry(
         k_gear=k_gear,
         loadable=loadable,
     )
+
+
+def _error_gaps(design, errors, phi, theta, psi, s, rho_n, rho_s):
+    """Initial interference per roller from the errors (see ``corr_cad.deviations``).
+
+    Returns the effective gap ``g_j + rho_n g_n - |rho_s| c_s`` and each
+    roller's radius error, (P, R). Only called when the scene has errors.
+    """
+    z, e = design.tooth_count, design.eccentricity
+    L = design.link_length
+    R = design.roller_count
+    dr = errors.roller_errors(R)[None, :] + 0.0 * psi
+    e_act = e + errors.eccentricity_error
+    delta = errors.slot_errors(R)[None, :]
+    g_j = errors.cam_radius_error + dr
+    if errors.eccentricity_error or errors.cam_phase_error or np.any(delta):
+        # The roller sits where its (possibly turned) slot meets the gear's
+        # roller-centre locus; the (possibly moved) cam centre then overlaps it.
+        s_slot = kin.centre_distance(psi + z * delta, e, L) if np.any(delta) else s
+        ang = psi - delta + errors.cam_phase_error
+        g_j = g_j + L - np.sqrt(s_slot**2 + e_act**2 - 2.0 * s_slot * e_act * np.cos(ang))
+    g_n = dr
+    if errors.profile_deviation is not None:
+        # Polar angle of roller i on the fixed gear: frame angle phi/z + slot angle.
+        t_abs = phi[:, None] / z + theta[None, :]
+        g_n = g_n + np.asarray(errors.profile_deviation(t_abs), dtype=float)
+    clearance_slot = np.maximum(-dr, 0.0)
+    return g_j + rho_n * g_n - np.abs(rho_s) * clearance_slot, dr
 
 
 @dataclass
@@ -229,6 +244,15 @@ class ForceResult:
     def loaded_count(self) -> np.ndarray:
         """Rollers carrying load at each position, (P,)."""
         return np.count_nonzero(self.F_j > 0, axis=1)
+
+    @property
+    def small_rotation(self) -> np.ndarray:
+        """True where the cam's rotation stays small (< 0.01 rad) as the model assumes.
+
+        A large value means gaps (clearances) that the cam can only close by
+        turning far: the static small-displacement picture no longer holds.
+        """
+        return np.abs(self.cam_rotation) < 0.01
 
     @property
     def lost_motion(self) -> np.ndarray:
@@ -278,6 +302,7 @@ class ForceResult:
             "p_max": float(p_all.max()),
             "loaded_rollers_min": int(self.loaded_count.min()),
             "loaded_rollers_max": int(self.loaded_count.max()),
+            "positions_beyond_small_rotation": int(np.count_nonzero(~self.small_rotation)),
         }
 
 
