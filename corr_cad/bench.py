@@ -370,6 +370,22 @@ STUDIES = {
 
 def run(out: Path, studies: Sequence[str] = tuple(STUDIES), quick: bool = False) -> dict:
     """Run the chosen studies, writing into ``out``; returns their rows."""
+    import platform
+
+    from . import __version__
+    from .outputs import write_json
+
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    write_json(
+        out / "machine.json",
+        {
+            "cores": os.cpu_count(),
+            "machine": platform.machine(),
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "corr_cad": __version__,
+            "quick": quick,
+        },
+    )
     return {name: STUDIES[name](out, quick) for name in studies}
