@@ -17,9 +17,9 @@ from corr_cad.solver import solve_forces
 def test_nearly_conformal_tooth_space():
     d = GearDesign(tooth_count=40, cam_radius=60.0, roller_radius=2.0, eccentricity=1.5)
     res = solve_forces(d, 1e5, positions=410)
-    k_gear = res.geometry.k_gear
-    ratio = (1 / res.geometry.k_roller + 0 * k_gear) * np.abs(k_gear)
-    assert ratio.max() > 0.5  # concave gear radius within 2x the roller radius
+    k_gear = res.geometry.k_gear  # negative: concave, as seen from the roller
+    ratio = -k_gear / res.geometry.k_roller  # roller radius / concave gear radius
+    assert ratio.max() > 0.5  # the gear's concave radius within 2x the roller radius
     assert res.success and np.all(np.isfinite(res.p_gear)) and np.all(np.isfinite(res.F_n))
     big = solve_forces(d, 1e9, positions=410)
     assert big.success and np.all(np.isfinite(big.F_n))
