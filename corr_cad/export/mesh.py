@@ -31,7 +31,6 @@ __all__ = [
     "interference_at",
     "frame_stack",
     "frame_pieces",
-    "ASSEMBLY_PARTS",
 ]
 
 #: File formats trimesh writes for us (binary STL).
@@ -77,9 +76,6 @@ def _placed(man: m3d.Manifold, angle_rad: float, offset_xy=(0.0, 0.0), z0: float
     return man.rotate((0.0, 0.0, -math.degrees(angle_rad))).translate(
         (float(offset_xy[0]), float(offset_xy[1]), float(z0))
     )
-
-
-ASSEMBLY_PARTS = ("ring_a", "ring_b", "cam_a", "cam_b", "frame", "rollers_a", "rollers_b")
 
 
 @dataclass
