@@ -30,8 +30,10 @@ import numpy as np
 __all__ = [
     "VALIDITY_KNEE",
     "half_width_sq_per_force",
+    "knee",
     "approach",
     "approach_slope",
+    "approach_and_slope",
     "linear_compliance",
     "max_pressure",
     "is_valid",
@@ -48,34 +50,44 @@ def half_width_sq_per_force(k1, k2, length: float, modulus: float):
     return 4.0 / (np.pi * length * modulus * ksum)
 
 
-def _overlap(u, k):
-    # k u / (1 + sqrt(1 - k^2 u)): R - sqrt(R^2 - b^2) with u = b^2, stable.
-    return k * u / (1.0 + np.sqrt(np.maximum(1.0 - k * k * u, 0.0)))
+def knee(k1, k2):
+    """Where the tangent continuation starts: ``(u_k, delta(u_k), delta'(u_k))``."""
+    k1 = np.asarray(k1, dtype=float)
+    k2 = np.asarray(k2, dtype=float)
+    uk = VALIDITY_KNEE / np.maximum(np.maximum(k1 * k1, k2 * k2), 1e-300)
+    q1 = np.sqrt(1.0 - k1 * k1 * uk)
+    q2 = np.sqrt(1.0 - k2 * k2 * uk)
+    return uk, k1 * uk / (1.0 + q1) + k2 * uk / (1.0 + q2), 0.5 * k1 / q1 + 0.5 * k2 / q2
 
 
-def _overlap_slope(u, k):
-    return 0.5 * k / np.sqrt(np.maximum(1.0 - k * k * u, 1e-300))
+def approach_and_slope(u, k1, k2, knee_values=None):
+    """``(delta(u), d delta / d u)`` together, sharing the square roots.
 
-
-def _knee(k1, k2):
-    kmax2 = np.maximum(np.asarray(k1) ** 2, np.asarray(k2) ** 2)
-    return VALIDITY_KNEE / np.maximum(kmax2, 1e-300)
+    ``knee_values`` from :func:`knee` may be passed when the same contacts
+    are evaluated many times (the solver's Newton loop).
+    """
+    u = np.asarray(u, dtype=float)
+    uk, dk, sk = knee_values if knee_values is not None else knee(k1, k2)
+    ue = np.minimum(u, uk)
+    q1 = np.sqrt(1.0 - k1 * k1 * ue)
+    val = k1 * ue / (1.0 + q1)
+    slope = 0.5 * k1 / q1
+    if not (np.ndim(k2) == 0 and k2 == 0.0):  # a flat body adds nothing
+        q2 = np.sqrt(1.0 - k2 * k2 * ue)
+        val = val + k2 * ue / (1.0 + q2)
+        slope = slope + 0.5 * k2 / q2
+    beyond = u > uk
+    return np.where(beyond, dk + sk * (u - uk), val), np.where(beyond, sk, slope)
 
 
 def approach(u, k1, k2):
     """Approach ``delta(u)`` for ``u = b^2`` (mm^2), signed curvatures ``k1, k2``, mm."""
-    u = np.asarray(u, dtype=float)
-    uk = _knee(k1, k2)
-    ue = np.minimum(u, uk)
-    exact = _overlap(ue, k1) + _overlap(ue, k2)
-    slope = _overlap_slope(uk, k1) + _overlap_slope(uk, k2)
-    return np.where(u <= uk, exact, exact + slope * (u - uk))
+    return approach_and_slope(u, k1, k2)[0]
 
 
 def approach_slope(u, k1, k2):
     """d delta / d u, continuous and non-decreasing."""
-    u = np.minimum(np.asarray(u, dtype=float), _knee(k1, k2))
-    return _overlap_slope(u, k1) + _overlap_slope(u, k2)
+    return approach_and_slope(u, k1, k2)[1]
 
 
 def linear_compliance(length: float, modulus: float) -> float:

@@ -309,8 +309,8 @@ class ForceResult:
 class _Contact:
     """One contact of every roller, with weight ``w`` (force = w F_j).
 
-    Precomputes the knee of the validity continuation so that value and
-    slope cost one square root.
+    The knee of the validity continuation is computed once; Newton then
+    calls :func:`contact.approach_and_slope` with it.
     """
 
     def __init__(self, w, c, k1, k2):
@@ -318,39 +318,17 @@ class _Contact:
         self.cw = c * w  # b^2 per unit F_j
         self.k1 = k1
         self.k2 = k2
-        self.flat = np.all(np.asarray(k2) == 0.0)
-        k2 = np.asarray(k2, dtype=float)
-        kmax2 = np.maximum(k1 * k1, k2 * k2)
-        uk = contact.VALIDITY_KNEE / kmax2
-        # Value and slope of the exact overlap at the knee (same formula as
-        # contact.approach, evaluated once here).
-        q1 = np.sqrt(1.0 - k1 * k1 * uk)
-        q2 = np.sqrt(1.0 - k2 * k2 * uk)
-        self.uk = uk
-        self.dk = k1 * uk / (1.0 + q1) + k2 * uk / (1.0 + q2)
-        self.sk = 0.5 * k1 / q1 + 0.5 * k2 / q2
+        self.knee = contact.knee(k1, k2)
 
     def take(self, sel):
         out = object.__new__(_Contact)
-        for name in ("w", "cw", "k1", "uk", "dk", "sk"):
-            setattr(out, name, getattr(self, name)[sel])
-        out.flat = self.flat
+        out.w, out.cw, out.k1 = self.w[sel], self.cw[sel], self.k1[sel]
         out.k2 = self.k2 if np.ndim(self.k2) == 0 else self.k2[sel]
+        out.knee = tuple(k if np.ndim(k) == 0 else k[sel] for k in self.knee)
         return out
 
     def value_and_slope(self, F):
-        u = self.cw * F
-        ue = np.minimum(u, self.uk)
-        q1 = np.sqrt(1.0 - self.k1 * self.k1 * ue)
-        val = self.k1 * ue / (1.0 + q1)
-        slope = 0.5 * self.k1 / q1
-        if not self.flat:
-            q2 = np.sqrt(1.0 - self.k2 * self.k2 * ue)
-            val = val + self.k2 * ue / (1.0 + q2)
-            slope = slope + 0.5 * self.k2 / q2
-        beyond = u > self.uk
-        val = np.where(beyond, self.dk + self.sk * (u - self.uk), val)
-        slope = np.where(beyond, self.sk, slope)
+        val, slope = contact.approach_and_slope(self.cw * F, self.k1, self.k2, self.knee)
         return self.w * val, self.w * self.cw * slope
 
 
@@ -602,7 +580,11 @@ def _solve_positions(geo: RollerGeometry, comp: _Compliance, target: float, rtol
         F[bad] = F2
         iterations += it2
     mom = np.sum(a_m * F, axis=1)
-    scale = np.sum(np.abs(a_m * F), axis=1)
+    # Scale of the residual: the forces, and the forces the gross terms of
+    # h = tau a + gap would give before they cancel (a gap closed by a large
+    # cam rotation leaves only round-off of those terms).
+    gross = np.where(geo.loadable, np.abs(tau[:, None] * a_c) + np.abs(geo.gap), 0.0)
+    scale = np.sum(np.abs(a_m) * (np.abs(F) + gross / comp.slope0), axis=1)
     res = mom - target
     rel = np.abs(res) / (abs(target) + scale + 1e-300)
     return tau, F, iterations, res, rel
