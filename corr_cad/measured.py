@@ -12,7 +12,7 @@ removed (clearance). Pure numpy/scipy; reading files lives in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize
@@ -48,6 +48,11 @@ class Registration:
     max_abs_mm: float
     points: int
     deviation: SampledDeviation
+    #: The measured points moved onto the nominal (n, 2), their normal
+    #: deviation (n,) and the curve parameter of their nearest point (n,).
+    placed: np.ndarray = field(repr=False, compare=False, default=None)
+    point_deviation: np.ndarray = field(repr=False, compare=False, default=None)
+    point_t: np.ndarray = field(repr=False, compare=False, default=None)
 
     def as_dict(self) -> dict:
         return {
@@ -129,7 +134,8 @@ def register(curve: ProfileCurve, points: np.ndarray) -> Registration:
         resid, [a0, 0.0, 0.0], x_scale=[1e-3, 1e-2, 1e-2], xtol=1e-12, ftol=1e-12
     )
     rot, cx, cy = fit.x
-    dev, t = signed_deviation(curve, _transform(points, rot, cx, cy))
+    placed = _transform(points, rot, cx, cy)
+    dev, t = signed_deviation(curve, placed)
     order = np.argsort(np.mod(t, 2 * np.pi))
     tt = np.mod(t, 2 * np.pi)[order]
     dd = dev[order]
@@ -141,4 +147,7 @@ def register(curve: ProfileCurve, points: np.ndarray) -> Registration:
         float(np.max(np.abs(dev))),
         int(len(points)),
         SampledDeviation(tuple(tt[keep].tolist()), tuple(dd[keep].tolist())),
+        placed,
+        dev,
+        t,
     )

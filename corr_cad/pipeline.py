@@ -100,7 +100,7 @@ def _measured(ctx: RunContext) -> None:
     from dataclasses import replace
 
     from .export.measured_io import read_measured_points, write_deviation_dxf
-    from .measured import register, signed_deviation, validate_points
+    from .measured import register, validate_points
 
     s = ctx.scene
     w = ctx.results["working"]
@@ -114,17 +114,12 @@ def _measured(ctx: RunContext) -> None:
         f"({reg.centre_mm[0]:.4g}, {reg.centre_mm[1]:.4g}) mm, rms {reg.rms_mm:.3g} mm"
     )
     if "dxf" in s.formats:
-        from .kinematics import rotate_by_polar_angle
-
-        rot = math.radians(reg.rotation_deg)
-        placed = rotate_by_polar_angle(pts - np.array(reg.centre_mm), -rot)
-        dev, t = signed_deviation(w, placed)
         write_deviation_dxf(
             s.design,
             w,
-            placed,
-            dev,
-            t,
+            reg.placed,
+            reg.point_deviation,
+            reg.point_t,
             s.measured_exaggeration,
             ctx.out / "measured_profile.dxf",
             s.tolerance,

@@ -434,7 +434,7 @@ def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> P
         all_verts,
         np.tile(bulges, z),
         None,
-        max(dev, float(rot_err) + dev),
+        dev + float(rot_err),  # rotated copies: their own float error on top
         float(tolerance),
         n_span,
     )
