@@ -1,14 +1,17 @@
 """Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``.
 
-Exit codes: 0 success, 2 bad input or a refused design (one line on stderr,
-no traceback, nothing written).
+Exit codes: 0 success; 1 a ``[checks]`` limit failed; 2 bad input, a refused
+design, an unusable output folder or a full disk (one line on stderr, no
+traceback, previous outputs left as they were); 130 SIGINT, 143 SIGTERM.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import sys
+import threading
 from pathlib import Path
 
 from . import __version__
@@ -61,16 +64,30 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _run(args: argparse.Namespace) -> int:
-    from .outputs import StagingDir
+def _check_workers(args: argparse.Namespace) -> None:
+    from .errors import SceneError
+
+    cores = os.cpu_count() or 1
+    if args.workers is not None and not 1 <= args.workers <= cores:
+        raise SceneError(
+            f"--workers {args.workers}: allowed range is 1..{cores} (the number of cores)"
+        )
+
+
+def _run(args: argparse.Namespace, state: dict) -> int:
+    from .outputs import StagingDir, check_out_dir, safe_folder_name
     from .pipeline import run_scene
     from .scene import load_scene
 
+    _check_workers(args)
     scene = load_scene(args.scene)
-    out = args.out if args.out is not None else Path("outputs") / scene.name
+    out = args.out if args.out is not None else Path("outputs") / safe_folder_name(scene.name)
+    check_out_dir(out)  # refuse before anything is created or started
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
-    with _executor(args, scene) as executor, StagingDir(out) as stage:
+    staging = StagingDir(out)
+    state["staging"] = staging
+    with _executor(args, scene) as executor, staging as stage:
         manifest = run_scene(scene, stage, progress=say, executor=executor)
     if not args.quiet:
         acc = manifest.get("accuracy", {}).get("working_profile")
@@ -88,8 +105,8 @@ def _run(args: argparse.Namespace) -> int:
             )
         i = manifest.get("interference")
         if i:
-            state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
-            print(f"interference over {i['positions']} crank positions: {state}")
+            state_ = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
+            print(f"interference over {i['positions']} crank positions: {state_}")
         print(f"wrote {len(manifest['files']) + 1} files to {out}")
     failed = [k for k, r in manifest.get("checks", {}).items() if not r["passed"]]
     if failed:
@@ -98,22 +115,69 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Seconds to wait for a Dask scheduler before giving up.
+SCHEDULER_TIMEOUT_S = 5.0
+
+
+def _worker_init(parent_pid: int) -> None:
+    """Process-pool worker start: die with the main process, leave Ctrl-C to it.
+
+    On Linux the kernel sends SIGKILL when the parent dies (PR_SET_PDEATHSIG);
+    a daemon thread polling ``os.getppid()`` covers other platforms and the
+    instant before the ``prctl`` call.
+    """
+    import signal
+    import threading
+    import time
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent_pid:
+                os._exit(1)
+            time.sleep(0.2)
+
+    threading.Thread(target=watch, name="corr-cad-parent-watch", daemon=True).start()
+
+
 @contextlib.contextmanager
 def _executor(args: argparse.Namespace, scene):
-    """The executor for sample work; only started when the scene needs one."""
+    """The executor for sample work; only started (or contacted) when the scene needs one."""
     from .errors import SceneError
 
     needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
     if args.executor == "dask":
         if not args.scheduler:
             raise SceneError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")
+        if not needs:
+            yield None
+            return
         try:
             from dask.distributed import Client
         except ImportError as exc:
             raise SceneError(
                 "--executor dask needs the 'dask' extra: pip install -e '.[dask]'"
             ) from exc
-        client = Client(args.scheduler)
+        try:
+            client = Client(args.scheduler, timeout=SCHEDULER_TIMEOUT_S)
+        except Exception as exc:
+            raise SceneError(
+                f"--scheduler {args.scheduler!r}: no Dask scheduler answered within "
+                f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}); give a running one's "
+                "address, e.g. tcp://host:8786"
+            ) from exc
         try:
             yield client
         finally:
@@ -124,8 +188,20 @@ def _executor(args: argparse.Namespace, scene):
         return
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+    pool = ProcessPoolExecutor(
+        max_workers=args.workers, initializer=_worker_init, initargs=(os.getpid(),)
+    )
+    try:
         yield pool
+    except BaseException:
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for p in procs:
+            p.kill()
+        for p in procs:
+            p.join(5)
+        raise
+    pool.shutdown(wait=True)
 
 
 def _new(args: argparse.Namespace) -> int:
@@ -143,11 +219,24 @@ def _new(args: argparse.Namespace) -> int:
     return 0
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C (exit 143 instead of 130)."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
+    import signal
+
     args = _parser().parse_args(argv)
+    state: dict = {}
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         if args.command == "run":
-            return _run(args)
+            return _run(args, state)
         if args.command == "bench":
             from .bench import STUDIES, run
 
@@ -158,9 +247,23 @@ def main(argv: list[str] | None = None) -> int:
     except CorrCadError as exc:
         print(f"corr-cad: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("corr-cad: interrupted; previous outputs left as they were", file=sys.stderr)
-        return 130
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(
+            f"corr-cad: error: {where}{exc.strerror or exc}; previous outputs left as they were",
+            file=sys.stderr,
+        )
+        return 2
+    except KeyboardInterrupt as exc:
+        name, code = ("SIGTERM", 143) if isinstance(exc, _Terminated) else ("SIGINT", 130)
+        staging = state.get("staging")
+        left = (
+            "the new outputs were already in place"
+            if staging is not None and staging.committed
+            else "previous outputs left as they were"
+        )
+        print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
+        return code
 
 
 if __name__ == "__main__":  # pragma: no cover

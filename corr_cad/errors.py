@@ -15,6 +15,7 @@ __all__ = [
     "SolverError",
     "SceneError",
     "ExportError",
+    "OutputError",
 ]
 
 
@@ -44,3 +45,7 @@ class SceneError(CorrCadError, ValueError):
 
 class ExportError(CorrCadError, RuntimeError):
     """An exporter could not write or verify a file."""
+
+
+class OutputError(CorrCadError, OSError):
+    """The output folder cannot be used, or a file in it is not corr-cad's to replace."""

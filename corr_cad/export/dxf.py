@@ -116,6 +116,23 @@ def _add_bulge_polyline(msp, vertices: np.ndarray, bulges: np.ndarray, attribs: 
     pl.lwpoints.values = packed
 
 
+def _pin_class_order(doc: ezdxf.document.Drawing) -> None:
+    """Register the CLASSES entries in a fixed order before ezdxf does.
+
+    ezdxf adds the classes of the entity types in use by iterating a ``set``
+    of type names (``ClassesSection.add_required_classes``), so the order of
+    e.g. ``ACDBPLACEHOLDER`` and ``LAYOUT`` followed ``PYTHONHASHSEED``.
+    Registering the required ones first and then the types in use sorted by
+    name makes ezdxf's own pass a no-op (it keeps existing entries).
+    """
+    from ezdxf.sections.classes import REQ_R2004, REQUIRED_CLASSES
+
+    for name in REQUIRED_CLASSES.get(doc.dxfversion, REQ_R2004):
+        doc.classes.add_class(name)
+    for name in sorted(doc.entitydb.dxf_types_in_use()):
+        doc.classes.add_class(name)
+
+
 def _save(doc: ezdxf.document.Drawing, path: Path) -> Path:
     """Save via a temporary file; fixed timestamps and GUIDs make the bytes reproducible.
 
@@ -125,6 +142,7 @@ def _save(doc: ezdxf.document.Drawing, path: Path) -> Path:
     """
     path = Path(path)
     tmp = path.with_name(path.name + ".part")
+    _pin_class_order(doc)
     with _fixed_metadata():
         doc.saveas(tmp)
     tmp.replace(path)

@@ -8,7 +8,13 @@ the manifest.
 
 from __future__ import annotations
 
+import hashlib
+import io
+import itertools
 import math
+import re
+import uuid
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -209,6 +215,39 @@ def interference_at(asm: Assembly, search_length: float) -> list[dict]:
     return rows
 
 
+_UUID_ATTR = re.compile(rb'UUID="([0-9a-fA-F-]{36})"')
+
+
+def stable_3mf(data: bytes) -> bytes:
+    """The 3MF archive with trimesh's random ``p:UUID`` values derived from its content.
+
+    Each UUID becomes a version-4 UUID built from the sha256 of the model XML
+    (with the UUIDs blanked) and the UUID's position in it: the same geometry
+    and names give the same bytes in every process. Member order, dates
+    (trimesh's fixed 1980-01-01), compression and attributes are kept.
+    """
+    src = zipfile.ZipFile(io.BytesIO(data))
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as dst:
+        for info in src.infolist():
+            body = src.read(info)
+            if info.filename.endswith(".model"):
+                base = hashlib.sha256(_UUID_ATTR.sub(b'UUID=""', body)).digest()
+                count = itertools.count()
+
+                def derived(_m, base=base, count=count) -> bytes:
+                    h = hashlib.sha256(base + str(next(count)).encode()).digest()
+                    return b'UUID="%s"' % str(uuid.UUID(bytes=h[:16], version=4)).encode()
+
+                body = _UUID_ATTR.sub(derived, body)
+            zi = zipfile.ZipInfo(info.filename, date_time=info.date_time)
+            zi.compress_type = info.compress_type
+            zi.external_attr = info.external_attr
+            zi.create_system = info.create_system
+            dst.writestr(zi, body, compresslevel=5)
+    return buf.getvalue()
+
+
 def write_mesh(meshes: dict[str, trimesh.Trimesh] | trimesh.Trimesh, path: Path, fmt: str) -> Path:
     """Write one part or an assembly (a scene of named parts) via a temporary file."""
     if fmt not in MESH_FORMATS:
@@ -225,6 +264,8 @@ def write_mesh(meshes: dict[str, trimesh.Trimesh] | trimesh.Trimesh, path: Path,
     else:
         obj = meshes
     data = obj.export(file_type=fmt)
+    if fmt == "3mf":
+        data = stable_3mf(data)
     tmp = path.with_name(path.name + ".part")
     tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
     tmp.replace(path)

@@ -13,6 +13,8 @@ takes the volume of that mesh: Open CASCADE's exact volume integration
 from __future__ import annotations
 
 import math
+import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -167,6 +169,41 @@ def part_shapes(design: GearDesign, working_spline: ProfileApproximation) -> dic
     return {"ring": ring, "cam": cam, "roller": roller, "frame": frame}
 
 
+#: The FILE_NAME time stamp when SOURCE_DATE_EPOCH is not set (as ezdxf's DXF stamp).
+DEFAULT_STAMP = "2000-01-01T00:00:00"
+_FILE_NAME = re.compile(r"(FILE_NAME\('(?:[^']|'')*',')(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d)(')")
+
+
+def step_timestamp() -> str:
+    """The time stamp written into STEP headers: ``SOURCE_DATE_EPOCH`` (UTC) if set and valid.
+
+    Reproducible-builds convention; otherwise a fixed 2000-01-01T00:00:00, so
+    the same scene gives the same bytes (the real time of a run is in the
+    file's modification time).
+    """
+    import datetime
+
+    raw = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if raw.isdigit():
+        try:
+            t = datetime.datetime.fromtimestamp(int(raw), tz=datetime.UTC)
+            return t.strftime("%Y-%m-%dT%H:%M:%S")
+        except (OverflowError, OSError, ValueError):
+            pass
+    return DEFAULT_STAMP
+
+
+def _pin_timestamp(path: Path) -> None:
+    """Replace Open CASCADE's wall-clock FILE_NAME time stamp by :func:`step_timestamp`."""
+    data = Path(path).read_bytes()
+    head, sep, rest = data.partition(b"ENDSEC;")
+    text = head.decode("latin-1")
+    new, n = _FILE_NAME.subn(lambda m: m.group(1) + step_timestamp() + m.group(3), text, count=1)
+    if n != 1:
+        raise ExportError(f"STEP: no FILE_NAME time stamp found in {path}")
+    Path(path).write_bytes(new.encode("latin-1") + sep + rest)
+
+
 def write_step(shape, path: Path, name: str) -> Path:
     """Write one shape as STEP AP214 via a temporary file."""
     require_ocp()
@@ -185,6 +222,7 @@ def write_step(shape, path: Path, name: str) -> Path:
     tmp = path.with_name(path.name + ".part.step")
     if writer.Write(str(tmp)) != IFSelect_RetDone:
         raise ExportError(f"STEP: could not write {path}")
+    _pin_timestamp(tmp)
     tmp.replace(path)
     return path
 
