@@ -24,7 +24,9 @@ A run that finds ``"complete": false`` (a SIGKILL or power loss between
 2 and 5) finishes the moves from the staging folder it names, or, if that
 cannot be done, removes that set's files (those still matching their sha256)
 and its manifest; then it removes staging leftovers. All of this happens
-under an exclusive ``flock`` on ``<out>/.corr-cad.lock``.
+under an exclusive ``flock`` on ``<out>/.corr-cad.lock``, a file that exists
+only while a run holds it. A run that fails before its commit removes the
+folders it created (a refused run leaves nothing).
 """
 
 from __future__ import annotations
@@ -335,30 +337,55 @@ def _held_signals():
                 os.kill(os.getpid(), got[0])
 
 
-def _lock(folder: Path, wait_s: float) -> int:
+def _lock(folder: Path, wait_s: float) -> tuple[int, Path]:
+    """Hold an exclusive flock on ``<folder>/.corr-cad.lock`` (waits up to ``wait_s``).
+
+    The file is removed when the run ends; a waiting run that then holds a
+    lock on the removed file sees another inode at the path and starts over.
+    """
     path = folder / LOCK_NAME
-    if os.path.lexists(path) and not _regular(path):
-        raise OutputError(f"{path}: is a symlink or not a regular file; corr-cad leaves it alone")
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)
-    except OSError as exc:
-        raise OutputError(f"{path}: cannot open the lock file ({exc.strerror})") from exc
     deadline = time.monotonic() + wait_s
     while True:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return fd
-        except OSError as exc:
-            if exc.errno not in (errno.EAGAIN, errno.EACCES):
-                os.close(fd)
-                raise
-        if time.monotonic() >= deadline:
-            os.close(fd)
+        if os.path.lexists(path) and not _regular(path):
             raise OutputError(
-                f"--out {str(folder)!r}: another corr-cad run is writing into this folder "
-                f"(waited {wait_s:g} s); try again when it has finished"
+                f"{path}: is a symlink or not a regular file; corr-cad leaves it alone"
             )
-        time.sleep(0.05)
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)
+        except OSError as exc:
+            raise OutputError(f"{path}: cannot open the lock file ({exc.strerror})") from exc
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except OSError as exc:
+                if exc.errno not in (errno.EAGAIN, errno.EACCES):
+                    os.close(fd)
+                    raise
+            if time.monotonic() >= deadline:
+                os.close(fd)
+                raise OutputError(
+                    f"--out {str(folder)!r}: another corr-cad run is writing into this folder "
+                    f"(waited {wait_s:g} s); try again when it has finished"
+                )
+            time.sleep(0.05)
+        try:
+            same = os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            return fd, path
+        os.close(fd)  # the holder removed it as we waited: lock the new one
+
+
+def _unlock(fd: int, path: Path) -> None:
+    try:
+        if os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino:
+            os.unlink(path)
+    except FileNotFoundError:
+        pass
+    finally:
+        os.close(fd)  # closing the descriptor releases the flock
 
 
 def _stderr(msg: str) -> None:
@@ -388,11 +415,19 @@ class StagingDir:
         self.say = say or _stderr
         self.committed = False
         self._fd: int | None = None
+        self._lock_path: Path | None = None
+        self._created: list[Path] = []
 
     def __enter__(self) -> Path:
         self.target = check_out_dir(self.given)
+        created = []
+        p = self.target
+        while not os.path.lexists(p):
+            created.append(p)
+            p = p.parent
+        self._created = created  # deepest first: removed again if the run fails
         self.target.mkdir(parents=True, exist_ok=True)
-        self._fd = _lock(self.target, self.lock_wait_s)
+        self._fd, self._lock_path = _lock(self.target, self.lock_wait_s)
         try:
             recover(self.target, self.say)
             read_manifest(self.target)  # a foreign manifest.json refuses before the work
@@ -407,8 +442,14 @@ class StagingDir:
 
     def _unlock(self) -> None:
         if self._fd is not None:
-            os.close(self._fd)  # closing the descriptor releases the flock
+            _unlock(self._fd, self._lock_path)
             self._fd = None
+        if not self.committed:
+            for p in self._created:  # a failed run leaves no folder behind
+                try:
+                    p.rmdir()
+                except OSError:
+                    break
 
     def __exit__(self, exc_type, exc, tb) -> None:
         assert self.path is not None and self.target is not None

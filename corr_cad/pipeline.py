@@ -662,7 +662,7 @@ def run_scene(
 
     Returns the manifest (also written as ``manifest.json``).
     """
-    from .outputs import sha256_of, write_json
+    from .outputs import GENERATOR, sha256_of, write_json
 
     ctx = RunContext(
         scene=scene, out=Path(out), progress=progress or (lambda m: None), executor=executor
@@ -683,6 +683,8 @@ def run_scene(
         for name in sorted(ctx.files)
     }
     manifest = {
+        "generator": GENERATOR,
+        "complete": True,  # the commit (outputs.StagingDir) writes false while moving files
         "scene": scene.name,
         "inputs": scene.source,
         "design": scene.design.as_dict(),

@@ -148,5 +148,6 @@ def test_staging_replaces_previous(tmp_path):
         Path(s, "one").write_text("1")
     with StagingDir(out) as s:
         Path(s, "two").write_text("2")
-    assert sorted(p.name for p in out.iterdir()) == ["two"]
+    assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "two"]
+    assert set(json.loads((out / "manifest.json").read_text())["files"]) == {"two"}
     shutil.rmtree(out)
