@@ -68,8 +68,24 @@ MANIFEST_NAME = "manifest.json"
 LOCK_NAME = ".corr-cad.lock"
 STAGING_PREFIX = ".corr-cad-staging-"
 GENERATOR = "corr-cad"
-#: How long a run waits for another run into the same folder before refusing.
+#: How long a run waits for another run into the same folder before refusing
+#: (environment variable ``CORR_CAD_LOCK_WAIT_S`` overrides it, 0..3600 s).
 LOCK_WAIT_S = 10.0
+
+
+def _lock_wait_s() -> float:
+    raw = os.environ.get("CORR_CAD_LOCK_WAIT_S")
+    try:
+        value = float(raw) if raw is not None else LOCK_WAIT_S
+    except ValueError:
+        raise OutputError(
+            f"CORR_CAD_LOCK_WAIT_S = {raw!r}: must be a number of seconds in 0..3600"
+        ) from None
+    if not 0 <= value <= 3600:
+        raise OutputError(f"CORR_CAD_LOCK_WAIT_S = {raw!r}: allowed range is 0..3600 s")
+    return value
+
+
 _JOURNAL_TMP = ".manifest.journal.json"
 
 
@@ -405,7 +421,7 @@ class StagingDir:
     def __init__(
         self,
         target: Path,
-        lock_wait_s: float = LOCK_WAIT_S,
+        lock_wait_s: float | None = None,
         say: Callable[[str], None] | None = None,
     ):
         self.given = Path(target)
@@ -419,6 +435,7 @@ class StagingDir:
         self._created: list[Path] = []
 
     def __enter__(self) -> Path:
+        wait = self.lock_wait_s if self.lock_wait_s is not None else _lock_wait_s()
         self.target = check_out_dir(self.given)
         created = []
         p = self.target
@@ -426,9 +443,9 @@ class StagingDir:
             created.append(p)
             p = p.parent
         self._created = created  # deepest first: removed again if the run fails
-        self.target.mkdir(parents=True, exist_ok=True)
-        self._fd, self._lock_path = _lock(self.target, self.lock_wait_s)
         try:
+            self.target.mkdir(parents=True, exist_ok=True)
+            self._fd, self._lock_path = _lock(self.target, wait)
             recover(self.target, self.say)
             read_manifest(self.target)  # a foreign manifest.json refuses before the work
             self.path = Path(
