@@ -288,17 +288,23 @@ def _roll_forward(folder: Path, journal: dict, say: Callable[[str], None]) -> No
         else:
             missing.append(name)
     if missing:
+        # Cannot finish: remove every file of either set that is still corr-cad's
+        # (new sha256, the sha256 it replaced, or a stale file of the previous run).
+        stale = commit.get("remove", {}) if isinstance(commit.get("remove"), dict) else {}
         removed = 0
-        for name, meta in files.items():
-            sha = meta.get("sha256") if isinstance(meta, dict) else None
-            if _valid_name(name) and _matches(folder / name, sha):
-                (folder / name).unlink()
+        for name in set(files) | set(stale):
+            p = folder / name
+            meta = files.get(name)
+            shas = {meta.get("sha256") if isinstance(meta, dict) else None}
+            shas |= {replaces.get(name), stale.get(name)}
+            if _valid_name(name) and _regular(p) and sha256_of(p) in shas - {None}:
+                p.unlink()
                 removed += 1
         (folder / MANIFEST_NAME).unlink()
         say(
             f"corr-cad: warning: {folder}: an interrupted run's output set could not be "
-            f"completed ({len(missing)} files missing, e.g. {missing[0]}); removed its "
-            f"{removed} files and its manifest"
+            f"completed ({len(missing)} files missing, e.g. {missing[0]}); removed the "
+            f"{removed} files it and the run before had written, and the manifest"
         )
         return
     stale = commit.get("remove", {}) if isinstance(commit.get("remove"), dict) else {}
