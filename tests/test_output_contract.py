@@ -326,7 +326,7 @@ def reference_runs(tmp_path_factory):
             "--quiet",
             "--workers",
             "2",
-            env={"PYTHONHASHSEED": "1"},
+            env={"PYTHONHASHSEED": "7"},  # 0 and 7 give ezdxf opposite set orders
         ),
     }
     for p in procs.values():
