@@ -11,21 +11,50 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bounds import out_of_range, range_text, show
 from .errors import DesignError
 
-__all__ = ["Material", "GearDesign", "SLOT_END_CLEARANCE"]
+__all__ = ["Material", "GearDesign", "SLOT_END_CLEARANCE", "MIN_WEB", "BOUNDS", "PLAUSIBLE_FACTOR"]
 
 #: Radial clearance (mm) between the roller's extreme positions and the ends of
 #: the frame slots.
 SLOT_END_CLEARANCE = 1.0
 
+#: Thinnest material (mm) the frame keeps between two slots and between a slot
+#: end and the plate edge, the gear ring beyond its tooth spaces and the cam
+#: around its bore.
+MIN_WEB = 1.0
+
+#: Static ranges ``(low, high)`` of every design and material number: low
+#: open, high closed, ``(low, high]``. Scene files show and check the same.
+#: The ends are plausibility limits (a 10 m cam, a 1e7 MPa modulus); the
+#: design adds the ranges that depend on other keys (``e < Rj``, webs ...).
+BOUNDS: dict[str, tuple[float, float]] = {
+    "tooth_count": (2, 1000),
+    "cam_radius": (0.0, 1.0e4),
+    "roller_radius": (0.0, 1.0e3),
+    "roller_length": (0.0, 1.0e4),
+    "eccentricity": (0.0, 1.0e3),
+    "ring_outer_radius": (0.0, 1.0e5),
+    "face_width": (0.0, 1.0e4),
+    "cam_bore_radius": (0.0, 1.0e4),
+    "frame_inner_radius": (0.0, 1.0e5),
+    "frame_outer_radius": (0.0, 1.0e5),
+    "frame_thickness": (0.0, 1.0e4),
+    "young_modulus": (0.0, 1.0e7),
+}
+
+#: An outer radius (ring, frame) may be at most this many times the radius it
+#: must clear; beyond that it is a unit slip, not a design (1e9 mm is refused).
+PLAUSIBLE_FACTOR = 10.0
+
 
 def _number(name: str, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise DesignError(f"{name} = {value!r}: must be a number")
+        raise DesignError(f"{name} = {show(value)}: must be a number")
     v = float(value)
     if not math.isfinite(v):
-        raise DesignError(f"{name} = {value!r}: must be a finite number")
+        raise DesignError(f"{name} = {show(value)}: must be a finite number")
     return v
 
 
@@ -40,12 +69,12 @@ def _check_range(
     why: str = "",
 ) -> float:
     v = _number(name, value)
-    bad_low = v <= low if low_open else v < low
-    bad_high = v >= high if high_open else v > high
-    if bad_low or bad_high:
-        lo = "(" if low_open else "["
-        hi = ")" if high_open else "]"
-        rng = f"{lo}{low:g}, {high:g}{hi}"
+    if name in BOUNDS:  # the static range first, worded as the scene schema words it
+        lo_s, hi_s = BOUNDS[name]
+        if out_of_range(v, lo_s, hi_s):
+            raise DesignError(f"{name} = {v:g}: allowed range is {range_text(lo_s, hi_s)}")
+    if out_of_range(v, low, high, low_open=low_open, high_open=high_open):
+        rng = range_text(low, high, low_open=low_open, high_open=high_open)
         suffix = f" ({why})" if why else ""
         raise DesignError(f"{name} = {v:g}: allowed range is {rng}{suffix}")
     return v
@@ -135,11 +164,14 @@ class GearDesign:
                 z = int(z)
             else:
                 raise DesignError(
-                    f"tooth_count = {z!r}: must be an integer in [3, 1000] (z teeth, z + 1 rollers)"
+                    f"tooth_count = {show(z)}: must be an integer in "
+                    f"{range_text(*BOUNDS['tooth_count'])} (z teeth, z + 1 rollers)"
                 )
         z = int(z)
-        if not 3 <= z <= 1000:
-            raise DesignError(f"tooth_count = {z}: allowed range is [3, 1000]")
+        if out_of_range(z, *BOUNDS["tooth_count"]):
+            raise DesignError(
+                f"tooth_count = {z}: allowed range is {range_text(*BOUNDS['tooth_count'])}"
+            )
         object.__setattr__(self, "tooth_count", z)
         Rj = _check_range("cam_radius", self.cam_radius, 0.0)
         r = _check_range("roller_radius", self.roller_radius, 0.0)
@@ -183,8 +215,12 @@ class GearDesign:
                 _check_range(
                     "ring_outer_radius",
                     self.ring_outer_radius,
-                    tooth_space_radius,
-                    why="must exceed the tooth-space radius e + Rj + 2r",
+                    tooth_space_radius + MIN_WEB,
+                    PLAUSIBLE_FACTOR * tooth_space_radius,
+                    low_open=False,
+                    high_open=False,
+                    why=f"from the tooth-space radius e + Rj + 2r plus a {MIN_WEB:g} mm rim "
+                    f"to {PLAUSIBLE_FACTOR:g} times it",
                 ),
             )
         if self.face_width is None:
@@ -202,8 +238,10 @@ class GearDesign:
                     "cam_bore_radius",
                     self.cam_bore_radius,
                     0.0,
-                    Rj - e,
-                    why="the bore must lie inside the cam, bore + e < cam_radius",
+                    Rj - e - MIN_WEB,
+                    high_open=False,
+                    why=f"the bore must lie inside the cam with a {MIN_WEB:g} mm web, "
+                    "bore + e + web <= cam_radius",
                 ),
             )
         if self.frame_thickness is None:
@@ -225,8 +263,9 @@ class GearDesign:
                     "frame_inner_radius",
                     self.frame_inner_radius,
                     0.0,
-                    slot_in,
-                    why="the frame plate must reach inside the slot ends",
+                    slot_in - MIN_WEB,
+                    high_open=False,
+                    why=f"the frame plate must reach {MIN_WEB:g} mm inside the slot ends",
                 ),
             )
         if self.frame_outer_radius is None:
@@ -238,10 +277,54 @@ class GearDesign:
                 _check_range(
                     "frame_outer_radius",
                     self.frame_outer_radius,
-                    slot_out,
-                    why="the frame plate must reach beyond the slot ends",
+                    slot_out + MIN_WEB,
+                    PLAUSIBLE_FACTOR * slot_out,
+                    low_open=False,
+                    why=f"the frame plate must reach {MIN_WEB:g} mm beyond the slot ends, "
+                    f"and at most {PLAUSIBLE_FACTOR:g} times their radius",
                 ),
             )
+        if self.frame_inner_radius >= self.frame_outer_radius:
+            raise DesignError(
+                f"frame_inner_radius = {self.frame_inner_radius:g}: must be below "
+                f"frame_outer_radius = {self.frame_outer_radius:g}"
+            )
+        self._check_frame_webs()
+        self._check_derived()
+
+    def _check_frame_webs(self) -> None:
+        """Adjacent slots must keep a web of at least ``MIN_WEB`` between them.
+
+        Slot ``i`` is the set of points within ``r`` of the radial segment from
+        ``rho_in`` to ``rho_out`` at angle ``i p`` (``p = 2 pi / (z + 1)``). Two
+        such segments are closest at their inner ends, ``2 rho_in sin(p/2)``
+        apart (for ``p < pi``), so the web is ``2 rho_in sin(p/2) - 2 r``. With
+        ``rho_in = Rj + r - e - c`` the largest roller radius keeping the web
+        ``w`` is ``(2 (Rj - e - c) sin(p/2) - w) / (2 - 2 sin(p/2))``.
+        """
+        r, e, Rj = self.roller_radius, self.eccentricity, self.cam_radius
+        half = math.sin(0.5 * self.slot_pitch_rad)
+        rho_in = self.link_length - e - SLOT_END_CLEARANCE
+        web = 2.0 * rho_in * half - 2.0 * r
+        if web < MIN_WEB:
+            r_max = (2.0 * (Rj - e - SLOT_END_CLEARANCE) * half - MIN_WEB) / (2.0 - 2.0 * half)
+            raise DesignError(
+                f"roller_radius = {r:g}: the frame slots overlap or leave a web of "
+                f"{web:.3g} mm (< {MIN_WEB:g} mm) between neighbours; allowed range is "
+                f"{range_text(0.0, max(r_max, 0.0))} for this tooth count, cam radius and "
+                "eccentricity"
+            )
+
+    def _check_derived(self) -> None:
+        """Every derived length must be a finite number (no overflow to inf or NaN)."""
+        derived = {
+            "link_length": self.link_length,
+            "min_roller_centre_distance": self.min_roller_centre_distance,
+            **{k: v for k, v in self.as_dict().items() if isinstance(v, float)},
+        }
+        for name, v in derived.items():
+            if not math.isfinite(v):
+                raise DesignError(f"{name} = {v}: the design overflows; reduce the lengths")
 
     # --- derived quantities -------------------------------------------------
     @property
