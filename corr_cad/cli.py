@@ -67,6 +67,12 @@ def _run(args: argparse.Namespace) -> int:
     from .scene import load_scene
 
     scene = load_scene(args.scene)
+    for warning in scene.warnings:  # printed with --quiet too: the user must know
+        print(f"corr-cad: warning: {warning}", file=sys.stderr)
+    if args.quiet:
+        from . import progress
+
+        progress.set_enabled(False)
     out = args.out if args.out is not None else Path("outputs") / scene.name
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
