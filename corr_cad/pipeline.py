@@ -100,13 +100,14 @@ def _measured(ctx: RunContext) -> None:
     from dataclasses import replace
 
     from .export.measured_io import read_measured_points, write_deviation_dxf
-    from .measured import register, validate_points
+    from .measured import check_fit, register, validate_points
 
     s = ctx.scene
     w = ctx.results["working"]
     src = str(s.measured_profile)
     pts = validate_points(read_measured_points(s.measured_profile), w, src)
     reg = register(w, pts)
+    check_fit(reg, s.design.eccentricity, src)
     ctx.results["errors"] = replace(s.errors, profile_deviation=reg.deviation)
     ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
     ctx.progress(
