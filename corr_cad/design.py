@@ -24,6 +24,8 @@ SLOT_END_CLEARANCE = 1.0
 #: end and the plate edge, the gear ring beyond its tooth spaces and the cam
 #: around its bore.
 MIN_WEB = 1.0
+#: Small rollers (r < 4 mm) need only a web of this fraction of r between slots.
+MIN_WEB_FRACTION = 0.25
 
 #: Static ranges ``(low, high)`` of every design and material number: low
 #: open, high closed, ``(low, high]``. Scene files show and check the same.
@@ -184,7 +186,9 @@ class GearDesign:
             why="the crankshaft axis must lie inside the cam, e < cam_radius",
         )
         if not isinstance(self.allow_undercut, bool):
-            raise DesignError(f"allow_undercut = {self.allow_undercut!r}: must be true or false")
+            raise DesignError(
+                f"allow_undercut = {show(self.allow_undercut)}: must be true or false"
+            )
         if not isinstance(self.material, Material):
             raise DesignError("material must be a corr_cad.Material")
         for name in ("cam_radius", "roller_radius", "roller_length", "eccentricity"):
@@ -293,24 +297,29 @@ class GearDesign:
         self._check_derived()
 
     def _check_frame_webs(self) -> None:
-        """Adjacent slots must keep a web of at least ``MIN_WEB`` between them.
+        """Adjacent slots keep a web of ``min(MIN_WEB, MIN_WEB_FRACTION r)`` between them.
 
         Slot ``i`` is the set of points within ``r`` of the radial segment from
         ``rho_in`` to ``rho_out`` at angle ``i p`` (``p = 2 pi / (z + 1)``). Two
         such segments are closest at their inner ends, ``2 rho_in sin(p/2)``
         apart (for ``p < pi``), so the web is ``2 rho_in sin(p/2) - 2 r``. With
         ``rho_in = Rj + r - e - c`` the largest roller radius keeping the web
-        ``w`` is ``(2 (Rj - e - c) sin(p/2) - w) / (2 - 2 sin(p/2))``.
+        ``w`` is ``(2 (Rj - e - c) sin(p/2) - w) / (2 - 2 sin(p/2))`` (``w = f r``:
+        ``2 (Rj - e - c) sin(p/2) / (2 - 2 sin(p/2) + f)``).
         """
         r, e, Rj = self.roller_radius, self.eccentricity, self.cam_radius
         half = math.sin(0.5 * self.slot_pitch_rad)
         rho_in = self.link_length - e - SLOT_END_CLEARANCE
         web = 2.0 * rho_in * half - 2.0 * r
-        if web < MIN_WEB:
-            r_max = (2.0 * (Rj - e - SLOT_END_CLEARANCE) * half - MIN_WEB) / (2.0 - 2.0 * half)
+        need = min(MIN_WEB, MIN_WEB_FRACTION * r)
+        if web < need:
+            a = 2.0 * (Rj - e - SLOT_END_CLEARANCE) * half
+            r_max = (a - MIN_WEB) / (2.0 - 2.0 * half)
+            if MIN_WEB_FRACTION * r_max < MIN_WEB:  # a small roller: the web scales with r
+                r_max = a / (2.0 - 2.0 * half + MIN_WEB_FRACTION)
             raise DesignError(
                 f"roller_radius = {r:g}: the frame slots overlap or leave a web of "
-                f"{web:.3g} mm (< {MIN_WEB:g} mm) between neighbours; allowed range is "
+                f"{web:.3g} mm (< {need:.3g} mm) between neighbours; allowed range is "
                 f"{range_text(0.0, max(r_max, 0.0))} for this tooth count, cam radius and "
                 "eccentricity"
             )

@@ -136,7 +136,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
             "slotted frame plate inner radius, mm",
             **_dk("frame_inner_radius"),
             example=122.5,
-            note="(0, Rj + r - e - 1 - r - 1]: 1 mm inside the slot ends",
+            note="(0, Rj - e - 2]: 1 mm inside the slot ends",
         ),
         "frame_outer_radius": Key(
             "float",
@@ -291,7 +291,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
             "gear profile deviation: rows [order, amplitude mm, phase deg] (+ = material added)",
             example=[[3.0, 0.002, 0.0]],
             max_len=100,
-            note="order an integer in [1, 10000], |amplitude| < r/2, |phase| <= 3600",
+            note="order an integer in [1, 10000], amplitude in (-r/2, r/2), phase in [-3600, 3600]",
         ),
     },
     "checks": {
@@ -334,7 +334,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=10_000_000,
             note="and within the memory budget (2 GB)",
         ),
-        "seed": Key("int", 1, "random seed (runs are reproducible)", low=-1, high=2**63 - 1),
+        "seed": Key("int", 1, "random seed (runs are reproducible)", low=-1, high=1e9),
         "positions": Key(
             "int",
             360,
@@ -497,21 +497,23 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         raise SceneError("a scene must be a table of sections")
     if not data:
         raise SceneError(
-            f"the scene {name!r} is empty; give at least one section ({', '.join(SCHEMA)}); "
+            f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
-        raise SceneError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(SCHEMA)}")
+        raise SceneError(
+            f"unknown section [{show(unknown[0])[1:-1]}]; valid sections: {', '.join(SCHEMA)}"
+        )
     values: dict[str, dict[str, Any]] = {}
     for section, keys in SCHEMA.items():
         given = data.get(section, {})
         if not isinstance(given, dict):
-            raise SceneError(f"[{section}] must be a table, got {given!r}")
+            raise SceneError(f"[{section}] must be a table, got {show(given)}")
         bad = [k for k in given if k not in keys]
         if bad:
             raise SceneError(
-                f"unknown key {bad[0]!r} in [{section}]; valid keys: {', '.join(keys)}"
+                f"unknown key {show(bad[0])} in [{section}]; valid keys: {', '.join(keys)}"
             )
         values[section] = {
             k: (_coerce(section, k, spec, given[k]) if k in given else spec.default)
@@ -814,6 +816,33 @@ def load_scene(path: str | Path) -> Scene:
             f"{show(path.name, 120)}: arrays or tables nested too deep; at most {MAX_NESTING}"
         ) from exc
     return parse_scene(data, name=path.stem, base_dir=path.parent)
+
+
+def bounds_table() -> str:
+    """The README's table of every scene key's allowed range (from :data:`SCHEMA`)."""
+    rows = ["| key | type | allowed | also, against the design |", "| --- | --- | --- | --- |"]
+    for section, keys in SCHEMA.items():
+        for k, spec in keys.items():
+            if spec.kind in ("int", "float"):
+                allowed = "finite" if spec.low is None and spec.high is None else key_range(spec)
+            elif spec.kind == "bool":
+                allowed = "true, false"
+            elif spec.kind == "str":
+                allowed = (
+                    ", ".join(spec.choices) if spec.choices else f"a path, <= {MAX_STR} characters"
+                )
+            elif spec.kind == "distribution":
+                allowed = "{ normal = sigma } or { uniform = half width }, scale >= 0"
+            elif spec.kind == "list[str]":
+                allowed = f"each of {', '.join(spec.choices or ())}, once"
+            else:
+                item = key_range(spec) if spec.low is not None else "finite numbers"
+                if spec.kind == "list[list[float]]":
+                    item = "rows [order, amplitude, phase]"
+                n = "z + 1" if spec.max_len is None and "per-" in spec.help else None
+                allowed = f"{item}; {n or f'1 to {spec.max_len or MAX_LIST}'} entries"
+            rows.append(f"| `[{section}] {k}` | {spec.kind} | {allowed} | {spec.note} |")
+    return "\n".join(rows) + "\n"
 
 
 def _toml_value(v: Any) -> str:
