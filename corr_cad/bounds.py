@@ -16,9 +16,12 @@ def range_text(
     low: float | None, high: float | None, *, low_open: bool = True, high_open: bool = False
 ) -> str:
     """``(low, high]`` with ``-inf``/``inf`` for a missing end."""
-    lo = "-inf" if low is None or low == -math.inf else f"{low:g}"
-    hi = "inf" if high is None or high == math.inf else f"{high:g}"
-    return f"{'(' if low_open else '['}{lo}, {hi}{')' if high_open else ']'}"
+    no_low = low is None or low == -math.inf
+    no_high = high is None or high == math.inf
+    lo = "-inf" if no_low else f"{low:g}"
+    hi = "inf" if no_high else f"{high:g}"
+    # An infinite end is never part of the range: always an open bracket.
+    return f"{'(' if low_open or no_low else '['}{lo}, {hi}{')' if high_open or no_high else ']'}"
 
 
 def out_of_range(

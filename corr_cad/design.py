@@ -312,11 +312,21 @@ class GearDesign:
         rho_in = self.link_length - e - SLOT_END_CLEARANCE
         web = 2.0 * rho_in * half - 2.0 * r
         need = min(MIN_WEB, MIN_WEB_FRACTION * r)
+
+        def web_at(radius: float) -> float:
+            return 2.0 * (Rj + radius - e - SLOT_END_CLEARANCE) * half - 2.0 * radius
+
+        def need_at(radius: float) -> float:
+            return min(MIN_WEB, MIN_WEB_FRACTION * radius)
+
         if web < need:
             a = 2.0 * (Rj - e - SLOT_END_CLEARANCE) * half
             r_max = (a - MIN_WEB) / (2.0 - 2.0 * half)
             if MIN_WEB_FRACTION * r_max < MIN_WEB:  # a small roller: the web scales with r
                 r_max = a / (2.0 - 2.0 * half + MIN_WEB_FRACTION)
+            r_max = float(f"{r_max:.6g}")  # shown as %g: never above the true limit
+            if web_at(r_max) < need_at(r_max):
+                r_max = math.nextafter(r_max, 0.0) - 10 ** (math.floor(math.log10(r_max)) - 5)
             raise DesignError(
                 f"roller_radius = {r:g}: the frame slots overlap or leave a web of "
                 f"{web:.3g} mm (< {need:.3g} mm) between neighbours; allowed range is "

@@ -482,7 +482,8 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
 
 def _bounds(where: str, v: float, spec: Key) -> None:
     if out_of_range(v, spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open):
-        raise SceneError(f"{where} = {v:g}: allowed range is {key_range(spec)}")
+        shown = v if isinstance(v, int) else f"{v:g}"
+        raise SceneError(f"{where} = {shown}: allowed range is {key_range(spec)}")
 
 
 def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
