@@ -81,6 +81,12 @@ def _run(args: argparse.Namespace, state: dict) -> int:
 
     _check_workers(args)
     scene = load_scene(args.scene)
+    for warning in scene.warnings:  # printed with --quiet too: the user must know
+        print(f"corr-cad: warning: {warning}", file=sys.stderr)
+    if args.quiet:
+        from . import progress
+
+        progress.set_enabled(False)
     out = args.out if args.out is not None else Path("outputs") / safe_folder_name(scene.name)
     check_out_dir(out)  # refuse before anything is created or started
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))

@@ -11,21 +11,52 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bounds import out_of_range, range_text, show
 from .errors import DesignError
 
-__all__ = ["Material", "GearDesign", "SLOT_END_CLEARANCE"]
+__all__ = ["Material", "GearDesign", "SLOT_END_CLEARANCE", "MIN_WEB", "BOUNDS", "PLAUSIBLE_FACTOR"]
 
 #: Radial clearance (mm) between the roller's extreme positions and the ends of
 #: the frame slots.
 SLOT_END_CLEARANCE = 1.0
 
+#: Thinnest material (mm) the frame keeps between two slots and between a slot
+#: end and the plate edge, the gear ring beyond its tooth spaces and the cam
+#: around its bore.
+MIN_WEB = 1.0
+#: Small rollers (r < 4 mm) need only a web of this fraction of r between slots.
+MIN_WEB_FRACTION = 0.25
+
+#: Static ranges ``(low, high)`` of every design and material number: low
+#: open, high closed, ``(low, high]``. Scene files show and check the same.
+#: The ends are plausibility limits (a 10 m cam, a 1e7 MPa modulus); the
+#: design adds the ranges that depend on other keys (``e < Rj``, webs ...).
+BOUNDS: dict[str, tuple[float, float]] = {
+    "tooth_count": (2, 1000),
+    "cam_radius": (0.0, 1.0e4),
+    "roller_radius": (0.0, 1.0e3),
+    "roller_length": (0.0, 1.0e4),
+    "eccentricity": (0.0, 1.0e3),
+    "ring_outer_radius": (0.0, 1.0e5),
+    "face_width": (0.0, 1.0e4),
+    "cam_bore_radius": (0.0, 1.0e4),
+    "frame_inner_radius": (0.0, 1.0e5),
+    "frame_outer_radius": (0.0, 1.0e5),
+    "frame_thickness": (0.0, 1.0e4),
+    "young_modulus": (0.0, 1.0e7),
+}
+
+#: An outer radius (ring, frame) may be at most this many times the radius it
+#: must clear; beyond that it is a unit slip, not a design (1e9 mm is refused).
+PLAUSIBLE_FACTOR = 10.0
+
 
 def _number(name: str, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise DesignError(f"{name} = {value!r}: must be a number")
+        raise DesignError(f"{name} = {show(value)}: must be a number")
     v = float(value)
     if not math.isfinite(v):
-        raise DesignError(f"{name} = {value!r}: must be a finite number")
+        raise DesignError(f"{name} = {show(value)}: must be a finite number")
     return v
 
 
@@ -40,12 +71,12 @@ def _check_range(
     why: str = "",
 ) -> float:
     v = _number(name, value)
-    bad_low = v <= low if low_open else v < low
-    bad_high = v >= high if high_open else v > high
-    if bad_low or bad_high:
-        lo = "(" if low_open else "["
-        hi = ")" if high_open else "]"
-        rng = f"{lo}{low:g}, {high:g}{hi}"
+    if name in BOUNDS:  # the static range first, worded as the scene schema words it
+        lo_s, hi_s = BOUNDS[name]
+        if out_of_range(v, lo_s, hi_s):
+            raise DesignError(f"{name} = {v:g}: allowed range is {range_text(lo_s, hi_s)}")
+    if out_of_range(v, low, high, low_open=low_open, high_open=high_open):
+        rng = range_text(low, high, low_open=low_open, high_open=high_open)
         suffix = f" ({why})" if why else ""
         raise DesignError(f"{name} = {v:g}: allowed range is {rng}{suffix}")
     return v
@@ -135,11 +166,14 @@ class GearDesign:
                 z = int(z)
             else:
                 raise DesignError(
-                    f"tooth_count = {z!r}: must be an integer in [3, 1000] (z teeth, z + 1 rollers)"
+                    f"tooth_count = {show(z)}: must be an integer in "
+                    f"{range_text(*BOUNDS['tooth_count'])} (z teeth, z + 1 rollers)"
                 )
         z = int(z)
-        if not 3 <= z <= 1000:
-            raise DesignError(f"tooth_count = {z}: allowed range is [3, 1000]")
+        if out_of_range(z, *BOUNDS["tooth_count"]):
+            raise DesignError(
+                f"tooth_count = {z}: allowed range is {range_text(*BOUNDS['tooth_count'])}"
+            )
         object.__setattr__(self, "tooth_count", z)
         Rj = _check_range("cam_radius", self.cam_radius, 0.0)
         r = _check_range("roller_radius", self.roller_radius, 0.0)
@@ -152,7 +186,9 @@ class GearDesign:
             why="the crankshaft axis must lie inside the cam, e < cam_radius",
         )
         if not isinstance(self.allow_undercut, bool):
-            raise DesignError(f"allow_undercut = {self.allow_undercut!r}: must be true or false")
+            raise DesignError(
+                f"allow_undercut = {show(self.allow_undercut)}: must be true or false"
+            )
         if not isinstance(self.material, Material):
             raise DesignError("material must be a corr_cad.Material")
         for name in ("cam_radius", "roller_radius", "roller_length", "eccentricity"):
@@ -183,8 +219,12 @@ class GearDesign:
                 _check_range(
                     "ring_outer_radius",
                     self.ring_outer_radius,
-                    tooth_space_radius,
-                    why="must exceed the tooth-space radius e + Rj + 2r",
+                    tooth_space_radius + MIN_WEB,
+                    PLAUSIBLE_FACTOR * tooth_space_radius,
+                    low_open=False,
+                    high_open=False,
+                    why=f"from the tooth-space radius e + Rj + 2r plus a {MIN_WEB:g} mm rim "
+                    f"to {PLAUSIBLE_FACTOR:g} times it",
                 ),
             )
         if self.face_width is None:
@@ -202,8 +242,10 @@ class GearDesign:
                     "cam_bore_radius",
                     self.cam_bore_radius,
                     0.0,
-                    Rj - e,
-                    why="the bore must lie inside the cam, bore + e < cam_radius",
+                    Rj - e - MIN_WEB,
+                    high_open=False,
+                    why=f"the bore must lie inside the cam with a {MIN_WEB:g} mm web, "
+                    "bore + e + web <= cam_radius",
                 ),
             )
         if self.frame_thickness is None:
@@ -225,8 +267,9 @@ class GearDesign:
                     "frame_inner_radius",
                     self.frame_inner_radius,
                     0.0,
-                    slot_in,
-                    why="the frame plate must reach inside the slot ends",
+                    slot_in - MIN_WEB,
+                    high_open=False,
+                    why=f"the frame plate must reach {MIN_WEB:g} mm inside the slot ends",
                 ),
             )
         if self.frame_outer_radius is None:
@@ -238,10 +281,69 @@ class GearDesign:
                 _check_range(
                     "frame_outer_radius",
                     self.frame_outer_radius,
-                    slot_out,
-                    why="the frame plate must reach beyond the slot ends",
+                    slot_out + MIN_WEB,
+                    PLAUSIBLE_FACTOR * slot_out,
+                    low_open=False,
+                    why=f"the frame plate must reach {MIN_WEB:g} mm beyond the slot ends, "
+                    f"and at most {PLAUSIBLE_FACTOR:g} times their radius",
                 ),
             )
+        if self.frame_inner_radius >= self.frame_outer_radius:
+            raise DesignError(
+                f"frame_inner_radius = {self.frame_inner_radius:g}: must be below "
+                f"frame_outer_radius = {self.frame_outer_radius:g}"
+            )
+        self._check_frame_webs()
+        self._check_derived()
+
+    def _check_frame_webs(self) -> None:
+        """Adjacent slots keep a web of ``min(MIN_WEB, MIN_WEB_FRACTION r)`` between them.
+
+        Slot ``i`` is the set of points within ``r`` of the radial segment from
+        ``rho_in`` to ``rho_out`` at angle ``i p`` (``p = 2 pi / (z + 1)``). Two
+        such segments are closest at their inner ends, ``2 rho_in sin(p/2)``
+        apart (for ``p < pi``), so the web is ``2 rho_in sin(p/2) - 2 r``. With
+        ``rho_in = Rj + r - e - c`` the largest roller radius keeping the web
+        ``w`` is ``(2 (Rj - e - c) sin(p/2) - w) / (2 - 2 sin(p/2))`` (``w = f r``:
+        ``2 (Rj - e - c) sin(p/2) / (2 - 2 sin(p/2) + f)``).
+        """
+        r, e, Rj = self.roller_radius, self.eccentricity, self.cam_radius
+        half = math.sin(0.5 * self.slot_pitch_rad)
+        rho_in = self.link_length - e - SLOT_END_CLEARANCE
+        web = 2.0 * rho_in * half - 2.0 * r
+        need = min(MIN_WEB, MIN_WEB_FRACTION * r)
+
+        def web_at(radius: float) -> float:
+            return 2.0 * (Rj + radius - e - SLOT_END_CLEARANCE) * half - 2.0 * radius
+
+        def need_at(radius: float) -> float:
+            return min(MIN_WEB, MIN_WEB_FRACTION * radius)
+
+        if web < need:
+            a = 2.0 * (Rj - e - SLOT_END_CLEARANCE) * half
+            r_max = (a - MIN_WEB) / (2.0 - 2.0 * half)
+            if MIN_WEB_FRACTION * r_max < MIN_WEB:  # a small roller: the web scales with r
+                r_max = a / (2.0 - 2.0 * half + MIN_WEB_FRACTION)
+            r_max = float(f"{r_max:.6g}")  # shown as %g: never above the true limit
+            if web_at(r_max) < need_at(r_max):
+                r_max = math.nextafter(r_max, 0.0) - 10 ** (math.floor(math.log10(r_max)) - 5)
+            raise DesignError(
+                f"roller_radius = {r:g}: the frame slots overlap or leave a web of "
+                f"{web:.3g} mm (< {need:.3g} mm) between neighbours; allowed range is "
+                f"{range_text(0.0, max(r_max, 0.0))} for this tooth count, cam radius and "
+                "eccentricity"
+            )
+
+    def _check_derived(self) -> None:
+        """Every derived length must be a finite number (no overflow to inf or NaN)."""
+        derived = {
+            "link_length": self.link_length,
+            "min_roller_centre_distance": self.min_roller_centre_distance,
+            **{k: v for k, v in self.as_dict().items() if isinstance(v, float)},
+        }
+        for name, v in derived.items():
+            if not math.isfinite(v):
+                raise DesignError(f"{name} = {v}: the design overflows; reduce the lengths")
 
     # --- derived quantities -------------------------------------------------
     @property

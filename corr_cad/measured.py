@@ -22,7 +22,24 @@ from .errors import ProfileError
 from .profile import ProfileCurve
 from .sampling import distance_to_curve
 
-__all__ = ["SampledDeviation", "Registration", "validate_points", "signed_deviation", "register"]
+__all__ = [
+    "SampledDeviation",
+    "Registration",
+    "validate_points",
+    "signed_deviation",
+    "register",
+    "check_fit",
+    "POINTS_PER_TOOTH",
+    "MAX_RMS_FRACTION",
+]
+
+#: Fewest measured points in every tooth pitch.
+POINTS_PER_TOOTH = 20
+#: A registered contour whose RMS normal deviation passes this fraction of the
+#: eccentricity ``e`` (the tooth depth is ``2 e``) is not this design's gear:
+#: a plain circle through the teeth deviates about ``e / sqrt(2)`` = 0.71 e,
+#: a real part microns.
+MAX_RMS_FRACTION = 0.25
 
 
 @dataclass(frozen=True)
@@ -70,10 +87,11 @@ def validate_points(points: np.ndarray, curve: ProfileCurve, source: str) -> np.
     if p.ndim != 2 or p.shape[1] != 2:
         raise ProfileError(f"{source}: expected x, y points, got an array of shape {p.shape}")
     z = curve.tooth_count
-    need = 20 * z
+    need = POINTS_PER_TOOTH * z
     if len(p) < need:
         raise ProfileError(
-            f"{source}: {len(p)} points are too few; need at least {need} (20 per tooth)"
+            f"{source}: {len(p)} points are too few; need at least {need} "
+            f"({POINTS_PER_TOOTH} per tooth)"
         )
     if not np.all(np.isfinite(p)):
         bad = int(np.count_nonzero(~np.isfinite(p).all(axis=1)))
@@ -96,6 +114,16 @@ def validate_points(points: np.ndarray, curve: ProfileCurve, source: str) -> np.
         raise ProfileError(
             f"{source}: the points leave a gap of {math.degrees(gaps.max()):.3g} deg; "
             "they must cover the whole profile (the contour is not closed)"
+        )
+    # Tooth by tooth: every pitch-wide sector about the axis needs its share.
+    sector = np.floor(np.mod(np.arctan2(p[:, 0], p[:, 1]), 2 * np.pi) / (2 * np.pi / z))
+    counts = np.bincount(np.minimum(sector.astype(int), z - 1), minlength=z)
+    worst = int(np.argmin(counts))
+    if counts[worst] < POINTS_PER_TOOTH:
+        raise ProfileError(
+            f"{source}: tooth {worst + 1} of {z} (polar angles "
+            f"{worst * 360 / z:.4g} to {(worst + 1) * 360 / z:.4g} deg from +y) has "
+            f"{counts[worst]} points; need at least {POINTS_PER_TOOTH} per tooth"
         )
     return p
 
@@ -151,3 +179,14 @@ def register(curve: ProfileCurve, points: np.ndarray) -> Registration:
         dev,
         t,
     )
+
+
+def check_fit(reg: Registration, eccentricity: float, source: str) -> None:
+    """Refuse a contour that registration cannot bring near this design's profile."""
+    limit = MAX_RMS_FRACTION * eccentricity
+    if not reg.rms_mm <= limit:
+        raise ProfileError(
+            f"{source}: after the best fit the RMS deviation is {reg.rms_mm:.3g} mm "
+            f"(max {reg.max_abs_mm:.3g} mm), more than {MAX_RMS_FRACTION:g} e = {limit:.3g} mm "
+            "(the tooth depth is 2 e); this is not this design's gear"
+        )

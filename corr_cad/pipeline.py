@@ -100,13 +100,14 @@ def _measured(ctx: RunContext) -> None:
     from dataclasses import replace
 
     from .export.measured_io import read_measured_points, write_deviation_dxf
-    from .measured import register, validate_points
+    from .measured import check_fit, register, validate_points
 
     s = ctx.scene
     w = ctx.results["working"]
     src = str(s.measured_profile)
     pts = validate_points(read_measured_points(s.measured_profile), w, src)
     reg = register(w, pts)
+    check_fit(reg, s.design.eccentricity, src)
     ctx.results["errors"] = replace(s.errors, profile_deviation=reg.deviation)
     ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
     ctx.progress(
@@ -348,14 +349,17 @@ def _interference(ctx: RunContext) -> None:
     n = s.interference_positions
     angles = np.arange(n) * 360.0 / n
     rows = []
+    from .progress import Progress
+
+    bar = Progress(n, "      interference", "positions")
     for k, ang in enumerate(angles):
         asm = mesh.assembly(
             d, solids, math.radians(ang), roller_solids=rollers, stack=stack, pieces=pieces
         )
         for rec in mesh.interference_at(asm, search_length=max(0.1, 50 * tol)):
             rows.append({"crank_angle_deg": float(ang), **rec})
-        if (k + 1) % max(1, n // 10) == 0 or k + 1 == n:
-            ctx.progress(f"      interference: {k + 1}/{n} positions")
+        bar.update(1)
+    bar.close()
     parts = ("ring", "cam", "frame")
     header = ["crank_angle_deg", "row", "roller"] + [
         f"{p}_{q}" for p in parts for q in ("volume", "gap")
@@ -441,11 +445,17 @@ def _checks(ctx: RunContext) -> None:
 def _montecarlo(ctx: RunContext) -> None:
     from .export import plots
     from .outputs import write_csv, write_json
+    from .progress import Progress
     from .tolerance import monte_carlo
 
     s = ctx.scene
     mc_cfg = s.montecarlo
     n = mc_cfg["samples"]
+    bar = Progress(n, "      montecarlo", "samples")
+
+    def tick(done: int, total: int) -> None:
+        bar.update(done - bar.done)
+
     res = monte_carlo(
         s.design,
         s.load.input_torque,
@@ -456,8 +466,9 @@ def _montecarlo(ctx: RunContext) -> None:
         load_share=s.solver.load_share,
         base_errors=_errors(ctx),
         executor=ctx.executor,
-        progress=lambda done, total: ctx.progress(f"      montecarlo: {done}/{total} samples"),
+        progress=tick,
     )
+    bar.close()
     if not res.success:
         raise SolverError("Monte Carlo: the force solver did not converge for some samples")
     names = list(res.metrics)
@@ -498,12 +509,17 @@ def _allocation(ctx: RunContext) -> None:
     }
     d, m0 = s.design, s.load.input_torque
     rows = []
+    from .progress import Progress
+
+    bar = Progress(2 * len(s.tolerances), "      allocation", "searches")
     for kind in s.tolerances:
-        ctx.progress(f"      allocation: searching {kind}")
         # Jointly: the other tolerances as given; alone: the others perfect.
         joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
+        bar.update(1)
         joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, **kw)["tolerance"]
+        bar.update(1)
         rows.append(joint)
+    bar.close()
 
     def fmt(x):
         return "" if x is None else f"{x:.6g}"

@@ -14,10 +14,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .bounds import out_of_range, range_text, show
+from .design import BOUNDS as DESIGN_BOUNDS
 from .design import GearDesign, Material
 from .deviations import ManufacturingErrors as ErrorSpec
 from .deviations import harmonic_deviation
 from .errors import CorrCadError, SceneError
+from .inputfiles import read_regular_file
 from .sampling import REPRESENTATIONS
 from .solver import VARIANTS
 from .tolerance import TOLERANCE_KINDS, Checks, Distribution
@@ -58,55 +61,105 @@ class Key:
     default: Any
     help: str
     choices: tuple[str, ...] | None = None
-    low: float | None = None  # exclusive lower bound for numbers
+    low: float | None = None  # exclusive lower bound for numbers (list items too)
     high: float | None = None  # inclusive upper bound
     example: Any = None
+    high_open: bool = False  # the upper bound itself is not allowed
+    low_open: bool = True  # the lower bound itself is not allowed
+    max_len: int | None = None  # most entries a list may hold
+    note: str = ""  # a range that depends on the design, shown in the README table
 
+
+#: Most entries of a list key whose length the design does not fix.
+MAX_LIST = 1000
+#: Largest |angle| in degrees anywhere in a scene (ten turns).
+MAX_ANGLE_DEG = 3600.0
+#: Largest scene file (bytes) and deepest nesting of arrays/tables read.
+MAX_SCENE_BYTES = 10 * 1024 * 1024
+MAX_NESTING = 32
+#: Longest string value (a measured profile path).
+MAX_STR = 4096
+
+
+def _dk(name: str) -> dict:
+    """Schema bounds of a design key, the same numbers ``GearDesign`` checks."""
+    lo, hi = DESIGN_BOUNDS[name]
+    return {"low": lo, "high": hi}
+
+
+#: Ranges of the tolerance scales that depend on the design (like the errors).
+_TOL_NOTE = {
+    "cam_radius": "[0, r/2)",
+    "eccentricity": "[0, r/2)",
+    "roller_radius": "[0, r/2)",
+    "slot_angle": "[0, 90/(z+1)) deg",
+    "cam_phase": "[0, 180] deg",
+}
 
 SCHEMA: dict[str, dict[str, Key]] = {
     "design": {
-        "tooth_count": Key("int", 25, "z, teeth of the fixed inner gear (z + 1 rollers)", low=2),
-        "cam_radius": Key("float", 135.0, "Rj, disk cam radius, mm", low=0),
-        "roller_radius": Key("float", 8.0, "r, roller radius, mm", low=0),
-        "roller_length": Key("float", 12.0, "roller contact length, mm", low=0),
-        "eccentricity": Key("float", 3.5, "e, cam eccentricity, mm", low=0),
+        "tooth_count": Key(
+            "int", 25, "z, teeth of the fixed inner gear (z + 1 rollers)", **_dk("tooth_count")
+        ),
+        "cam_radius": Key("float", 135.0, "Rj, disk cam radius, mm", **_dk("cam_radius")),
+        "roller_radius": Key("float", 8.0, "r, roller radius, mm", **_dk("roller_radius")),
+        "roller_length": Key("float", 12.0, "roller contact length, mm", **_dk("roller_length")),
+        "eccentricity": Key(
+            "float", 3.5, "e, cam eccentricity, mm", **_dk("eccentricity"), note="< cam_radius"
+        ),
         "ring_outer_radius": Key(
             "float",
             None,
             "gear ring outer radius, mm (default: rim of max(10, 3r))",
-            low=0,
+            **_dk("ring_outer_radius"),
+            note="[e + Rj + 2r + 1, 10 (e + Rj + 2r)]",
             example=180.0,
         ),
         "face_width": Key(
             "float",
             None,
             "gear ring / cam face width, mm (default: roller_length)",
-            low=0,
+            **_dk("face_width"),
             example=12.0,
         ),
         "cam_bore_radius": Key(
             "float",
             None,
             "cam eccentric bore radius, mm (default: min(0.35 Rj, (Rj - e)/2))",
-            low=0,
+            **_dk("cam_bore_radius"),
+            note="(0, Rj - e - 1]",
             example=47.2,
         ),
         "frame_inner_radius": Key(
-            "float", None, "slotted frame plate inner radius, mm", low=0, example=122.5
+            "float",
+            None,
+            "slotted frame plate inner radius, mm",
+            **_dk("frame_inner_radius"),
+            example=122.5,
+            note="(0, Rj - e - 2]: 1 mm inside the slot ends",
         ),
         "frame_outer_radius": Key(
-            "float", None, "slotted frame plate outer radius, mm", low=0, example=163.5
+            "float",
+            None,
+            "slotted frame plate outer radius, mm",
+            **_dk("frame_outer_radius"),
+            example=163.5,
+            note="1 mm beyond the slot ends to 10 times their radius",
         ),
         "frame_thickness": Key(
-            "float", None, "thickness of each slotted frame plate, mm", low=0, example=8.0
+            "float",
+            None,
+            "thickness of each slotted frame plate, mm",
+            **_dk("frame_thickness"),
+            example=8.0,
         ),
         "allow_undercut": Key(
             "bool", False, "accept an undercut design; the profile is then the swept boundary"
         ),
     },
     "material": {
-        "young_modulus": Key("float", 2.06e5, "E, MPa", low=0),
-        "poisson_ratio": Key("float", 0.3, "Poisson's ratio", low=-1, high=0.5),
+        "young_modulus": Key("float", 2.06e5, "E, MPa", **_dk("young_modulus")),
+        "poisson_ratio": Key("float", 0.3, "Poisson's ratio", low=-1, high=0.5, high_open=True),
     },
     "export": {
         "formats": Key("list[str]", ["dxf", "png"], "outputs to produce", choices=FORMATS),
@@ -119,49 +172,106 @@ SCHEMA: dict[str, dict[str, Key]] = {
             "max deviation of mesh and STEP geometry from the exact curves, mm "
             "(default: tolerance)",
             low=0,
+            high=10.0,
             example=0.001,
+            note="and the mesh at most 5e6 triangles per file",
         ),
         "assembly_angles_deg": Key(
-            "list[float]", [0.0], "crank angles of the assembly meshes, deg (relative to the frame)"
+            "list[float]",
+            [0.0],
+            "crank angles of the assembly meshes, deg (relative to the frame)",
+            low=-MAX_ANGLE_DEG,
+            low_open=False,
+            high=MAX_ANGLE_DEG,
+            max_len=360,
         ),
         "interference_positions": Key(
-            "int", 36, "crank positions of the interference sweep (full cycle)", low=0, high=100000
+            "int", 36, "crank positions of the interference sweep (full cycle)", low=0, high=3600
         ),
         "tolerance": Key(
-            "float", 0.001, "max deviation of exported geometry from the exact curve, mm", low=0
+            "float",
+            0.001,
+            "max deviation of exported geometry from the exact curve, mm",
+            low=0,
+            high=10.0,
+            note="and at most 1e6 DXF vertices per profile",
         ),
     },
     "load": {
-        "input_torque": Key("float", None, "M0, torque on the crankshaft, N*mm", example=1.0e6),
+        "input_torque": Key(
+            "float",
+            None,
+            "M0, torque on the crankshaft, N*mm",
+            low=-1e12,
+            high=1e12,
+            example=1.0e6,
+        ),
         "pinion_torque": Key(
-            "float", None, "input pinion torque, N*mm (with first_stage_ratio)", example=1.0e5
+            "float",
+            None,
+            "input pinion torque, N*mm (with first_stage_ratio)",
+            low=-1e12,
+            high=1e12,
+            example=1.0e5,
         ),
         "first_stage_ratio": Key(
-            "float", None, "first-stage ratio: M0 = pinion_torque * ratio", low=0, example=10.0
+            "float",
+            None,
+            "first-stage ratio: M0 = pinion_torque * ratio",
+            low=0,
+            high=1e4,
+            example=10.0,
         ),
     },
     "solver": {
-        "positions": Key("int", 3600, "crank positions per cycle", low=0, high=10_000_000),
+        "positions": Key(
+            "int",
+            3600,
+            "crank positions per cycle",
+            low=0,
+            high=10_000_000,
+            note="and within the memory budget (2 GB)",
+        ),
         "load_share": Key("float", 0.55, "share of M0 carried by one cam (Eq. 8)", low=0, high=1),
         "crank_angles_deg": Key(
-            "list[float]", None, "solve only at these crank angles, deg", example=[0.0, 5.0, 10.0]
+            "list[float]",
+            None,
+            "solve only at these crank angles, deg",
+            low=-MAX_ANGLE_DEG,
+            low_open=False,
+            high=MAX_ANGLE_DEG,
+            max_len=100_000,
+            example=[0.0, 5.0, 10.0],
         ),
         "variants": Key("list[str]", [], "printed-paper variants to switch on", choices=VARIANTS),
     },
     "errors": {
-        "cam_radius_error": Key("float", 0.0, "cam radius error dRj, mm (+ = oversize)"),
-        "eccentricity_error": Key("float", 0.0, "eccentricity (installation) error de, mm"),
-        "roller_radius_error": Key("float", 0.0, "roller radius error dr for every roller, mm"),
+        "cam_radius_error": Key(
+            "float", 0.0, "cam radius error dRj, mm (+ = oversize)", note="(-r/2, r/2)"
+        ),
+        "eccentricity_error": Key(
+            "float", 0.0, "eccentricity (installation) error de, mm", note="(-r/2, r/2)"
+        ),
+        "roller_radius_error": Key(
+            "float", 0.0, "roller radius error dr for every roller, mm", note="(-r/2, r/2)"
+        ),
         "roller_radius_errors": Key(
-            "list[float]", None, "per-roller radius errors, z + 1 values, mm", example=[0.0]
+            "list[float]",
+            None,
+            "per-roller radius errors, z + 1 values, mm",
+            example=[0.0],
+            note="each (-r/2, r/2)",
         ),
         "slot_angle_errors_deg": Key(
             "list[float]",
             None,
             "per-slot angular position errors, z + 1 values, deg",
             example=[0.0],
+            note="each within a quarter slot pitch, (-90/(z+1), 90/(z+1))",
         ),
-        "cam_phase_error_deg": Key("float", 0.0, "cam phase error against the other cam, deg"),
+        "cam_phase_error_deg": Key(
+            "float", 0.0, "cam phase error against the other cam, deg", low=-180.0, high=180.0
+        ),
         "measured_profile": Key(
             "str",
             None,
@@ -169,27 +279,39 @@ SCHEMA: dict[str, dict[str, Key]] = {
             example="measured.csv",
         ),
         "measured_exaggeration": Key(
-            "float", 200.0, "deviation scale of the picture in measured_profile.dxf", low=0
+            "float",
+            200.0,
+            "deviation scale of the picture in measured_profile.dxf",
+            low=0,
+            high=1e6,
         ),
         "profile_deviation_harmonics": Key(
             "list[list[float]]",
             None,
             "gear profile deviation: rows [order, amplitude mm, phase deg] (+ = material added)",
             example=[[3.0, 0.002, 0.0]],
+            max_len=100,
+            note="order an integer in [1, 10000], amplitude in (-r/2, r/2), phase in [-3600, 3600]",
         ),
     },
     "checks": {
         "max_contact_pressure": Key(
-            "float", None, "allowable Hertz pressure, MPa", low=0, example=1500.0
+            "float", None, "allowable Hertz pressure, MPa", low=0, high=1e6, example=1500.0
         ),
         "max_gear_force": Key(
-            "float", None, "allowable peak gear force F_n, N", low=0, example=5000.0
+            "float", None, "allowable peak gear force F_n, N", low=0, high=1e10, example=5000.0
         ),
         "min_loaded_rollers": Key(
-            "int", None, "fewest rollers that must carry load", low=-1, example=4
+            "int",
+            None,
+            "fewest rollers that must carry load",
+            low=-1,
+            high=1001,
+            example=4,
+            note="[0, z + 1]",
         ),
         "max_lost_motion_arcmin": Key(
-            "float", None, "allowable output lost motion, arcmin", example=1.0
+            "float", None, "allowable output lost motion, arcmin", low=0, high=21600, example=1.0
         ),
     },
     "tolerances": {
@@ -199,23 +321,38 @@ SCHEMA: dict[str, dict[str, Key]] = {
             f"{kind.replace('_', ' ')} tolerance, {unit}: "
             "{ normal = sigma } or { uniform = half width }",
             example={"normal": 0.001 if unit == "mm" else 0.01},
+            note=_TOL_NOTE[kind],
         )
         for kind, (_, unit) in TOLERANCE_KINDS.items()
     },
     "montecarlo": {
-        "samples": Key("int", 1000, "Monte Carlo samples", low=0, high=10_000_000),
-        "seed": Key("int", 1, "random seed (runs are reproducible)", low=-1),
+        "samples": Key(
+            "int",
+            1000,
+            "Monte Carlo samples",
+            low=0,
+            high=10_000_000,
+            note="and within the memory budget (2 GB)",
+        ),
+        "seed": Key("int", 1, "random seed (runs are reproducible)", low=-1, high=1e9),
         "positions": Key(
-            "int", 360, "crank positions per sample (full cycle)", low=0, high=100_000
+            "int",
+            360,
+            "crank positions per sample (full cycle)",
+            low=0,
+            high=100_000,
+            note="and within the memory budget (2 GB)",
         ),
         "percentile": Key(
             "float", 95.0, "percentile the allocation keeps under the limits", low=0, high=100
         ),
-        "allocation_samples": Key("int", 200, "samples per step of the allocation search", low=0),
+        "allocation_samples": Key(
+            "int", 200, "samples per step of the allocation search", low=0, high=100_000
+        ),
     },
     "sweeps": {
         "points": Key("int", 7, "points per sweep over the paper's ranges", low=1, high=1000),
-        "positions": Key("int", 720, "crank positions per sweep point", low=0, high=1_000_000),
+        "positions": Key("int", 720, "crank positions per sweep point", low=0, high=100_000),
     },
 }
 
@@ -257,91 +394,127 @@ class Scene:
     montecarlo: dict = field(default_factory=dict)
     sweeps: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
+    #: One line per section or key that has no effect in this scene.
+    warnings: tuple[str, ...] = ()
 
 
 def _where(section: str, key: str) -> str:
     return f"[{section}] {key}"
 
 
+def key_range(spec: Key) -> str:
+    """The allowed range of a numeric key, as every message and the README state it."""
+    return range_text(spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open)
+
+
 def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
     where = _where(section, key)
     if spec.kind == "bool":
         if not isinstance(value, bool):
-            raise SceneError(f"{where} = {value!r}: must be true or false")
+            raise SceneError(f"{where} = {show(value)}: must be true or false")
         return value
     if spec.kind == "int":
         if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(f"{where} = {value!r}: must be an integer")
+            raise SceneError(f"{where} = {show(value)}: must be an integer")
         _bounds(where, value, spec)
         return value
     if spec.kind == "float":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(f"{where} = {value!r}: must be a number")
-        v = float(value)
+            raise SceneError(f"{where} = {show(value)}: must be a number")
+        try:
+            v = float(value)
+        except OverflowError:  # a TOML integer beyond the float range
+            v = math.inf
         if not math.isfinite(v):
-            raise SceneError(f"{where} = {value!r}: must be a finite number")
+            raise SceneError(
+                f"{where} = {show(value)}: must be a finite number in {key_range(spec)}"
+            )
         _bounds(where, v, spec)
         return v
     if spec.kind == "str":
         if not isinstance(value, str):
-            raise SceneError(f"{where} = {value!r}: must be a string")
+            raise SceneError(f"{where} = {show(value)}: must be a string")
         if spec.choices and value not in spec.choices:
-            raise SceneError(f"{where} = {value!r}: must be one of {', '.join(spec.choices)}")
+            raise SceneError(f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}")
+        if len(value) > MAX_STR:
+            raise SceneError(f"{where}: {len(value)} characters; at most {MAX_STR}")
         return value
     if spec.kind == "distribution":
         if not (isinstance(value, dict) and len(value) == 1):
             raise SceneError(
-                f"{where} = {value!r}: must be {{ normal = sigma }} or {{ uniform = half width }}"
+                f"{where} = {show(value)}: must be {{ normal = sigma }} or "
+                "{ uniform = half width }"
             )
         ((dist, scale),) = value.items()
         if dist not in ("normal", "uniform"):
-            raise SceneError(f"{where}: distribution {dist!r} must be one of normal, uniform")
-        v = _coerce(section, key, Key("float", None, spec.help), scale)
-        if v < 0:
-            raise SceneError(f"{where} = {v:g}: allowed range is [0, inf)")
-        return Distribution(dist, v)
+            raise SceneError(f"{where}: distribution {show(dist)} must be one of normal, uniform")
+        inner = Key("float", None, spec.help, low=0.0, low_open=False)
+        return Distribution(dist, _coerce(section, key, inner, scale))
+    if spec.kind in ("list[list[float]]", "list[str]", "list[float]"):
+        if not isinstance(value, list):
+            raise SceneError(f"{where} = {show(value)}: must be a list")
+        limit = spec.max_len or MAX_LIST
+        if len(value) > limit:
+            raise SceneError(f"{where} has {len(value)} entries; at most {limit}")
     if spec.kind == "list[list[float]]":
-        if not isinstance(value, list) or not all(
-            isinstance(r, list) and len(r) == 3 for r in value
-        ):
+        if not all(isinstance(r, list) and len(r) == 3 for r in value):
             raise SceneError(
-                f"{where} = {value!r}: must be a list of [order, amplitude, phase] rows"
+                f"{where} = {show(value)}: must be a list of [order, amplitude, phase] rows"
             )
         return [_coerce(section, key, Key("list[float]", None, spec.help), r) for r in value]
     if spec.kind in ("list[str]", "list[float]"):
-        if not isinstance(value, list):
-            raise SceneError(f"{where} = {value!r}: must be a list")
-        inner = Key(spec.kind[5:-1], None, spec.help, spec.choices)
+        inner = Key(
+            spec.kind[5:-1],
+            None,
+            spec.help,
+            spec.choices,
+            low=spec.low,
+            high=spec.high,
+            low_open=spec.low_open,
+            high_open=spec.high_open,
+        )
         out = [_coerce(section, key, inner, v) for v in value]
         if spec.kind == "list[str]" and len(set(out)) != len(out):
-            raise SceneError(f"{where} = {value!r}: lists an entry twice")
+            raise SceneError(f"{where} = {show(value)}: lists an entry twice")
         return out
     raise AssertionError(spec.kind)
 
 
 def _bounds(where: str, v: float, spec: Key) -> None:
-    lo, hi = spec.low, spec.high
-    if (lo is not None and v <= lo) or (hi is not None and v > hi):
-        rng = f"({'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}]"
-        raise SceneError(f"{where} = {v:g}: allowed range is {rng}")
+    if out_of_range(v, spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open):
+        shown = v if isinstance(v, int) else f"{v:g}"
+        raise SceneError(f"{where} = {shown}: allowed range is {key_range(spec)}")
+
+
+def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
+    """A range that depends on the design, worded like the static ones."""
+    if out_of_range(v, low, high, **kw):
+        raise SceneError(f"{where} = {v:g}: allowed range is {range_text(low, high, **kw)}")
 
 
 def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -> Scene:
     """Validate a scene given as a dictionary (as read from TOML)."""
     if not isinstance(data, dict):
         raise SceneError("a scene must be a table of sections")
+    if not data:
+        raise SceneError(
+            f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
+            "'corr-cad new FILE' writes a template"
+        )
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
-        raise SceneError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(SCHEMA)}")
+        raise SceneError(
+            f"unknown section [{show(unknown[0])[1:-1]}]; valid sections: {', '.join(SCHEMA)}"
+        )
     values: dict[str, dict[str, Any]] = {}
     for section, keys in SCHEMA.items():
         given = data.get(section, {})
         if not isinstance(given, dict):
-            raise SceneError(f"[{section}] must be a table, got {given!r}")
+            raise SceneError(f"[{section}] must be a table, got {show(given)}")
         bad = [k for k in given if k not in keys]
         if bad:
             raise SceneError(
-                f"unknown key {bad[0]!r} in [{section}]; valid keys: {', '.join(keys)}"
+                f"unknown key {show(bad[0])} in [{section}]; valid keys: {', '.join(keys)}"
             )
         values[section] = {
             k: (_coerce(section, k, spec, given[k]) if k in given else spec.default)
@@ -353,7 +526,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         material = Material(m["young_modulus"], m["poisson_ratio"])
         design = GearDesign(material=material, **d)
     except CorrCadError as exc:
-        raise SceneError(f"[design] {exc}") from exc
+        key = str(exc).split(" ", 1)[0]
+        section = "material" if key in SCHEMA["material"] else "design"
+        raise SceneError(f"[{section}] {exc}") from exc
 
     ex = values["export"]
     formats = tuple(ex["formats"])
@@ -400,19 +575,28 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"[errors] roller_radius_errors has {len(per)} values; the design has "
             f"{design.roller_count} rollers (tooth_count + 1)"
         )
+    half_r = 0.5 * design.roller_radius
     for key in ("cam_radius_error", "eccentricity_error", "roller_radius_error"):
-        limit = 0.5 * design.roller_radius
-        if abs(er[key]) >= limit:
-            raise SceneError(
-                f"[errors] {key} = {er[key]:g}: allowed range is (-{limit:g}, {limit:g}) mm "
-                "(half the roller radius; the small-displacement model needs errors far smaller)"
-            )
+        # Half the roller radius: the small-displacement model needs errors far smaller.
+        _check(_where("errors", key), er[key], -half_r, half_r, high_open=True)
+    for v in per or ():
+        _check(_where("errors", "roller_radius_errors"), v, -half_r, half_r, high_open=True)
     slots = er["slot_angle_errors_deg"]
     if slots is not None and len(slots) != design.roller_count:
         raise SceneError(
             f"[errors] slot_angle_errors_deg has {len(slots)} values; the design has "
             f"{design.roller_count} slots (tooth_count + 1)"
         )
+    quarter_pitch = 90.0 / design.roller_count
+    for v in slots or ():
+        where = _where("errors", "slot_angle_errors_deg")
+        _check(where, v, -quarter_pitch, quarter_pitch, high_open=True)
+    for order, amplitude, phase in er["profile_deviation_harmonics"] or ():
+        where = _where("errors", "profile_deviation_harmonics")
+        if not (order == int(order) and 1 <= order <= 10000):
+            raise SceneError(f"{where}: order {order:g} must be an integer in [1, 10000]")
+        _check(f"{where} amplitude", amplitude, -half_r, half_r, high_open=True)
+        _check(f"{where} phase", phase, -MAX_ANGLE_DEG, MAX_ANGLE_DEG, low_open=False)
     harmonics = er["profile_deviation_harmonics"]
     errors = ErrorSpec(
         er["cam_radius_error"],
@@ -424,7 +608,25 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         harmonic_deviation(harmonics) if harmonics else None,
     )
     checks = Checks(**{k: v for k, v in values["checks"].items()})
+    if checks.min_loaded_rollers is not None:
+        _check(
+            "[checks] min_loaded_rollers",
+            checks.min_loaded_rollers,
+            0,
+            design.roller_count,
+            low_open=False,
+        )
     tolerances = {k: v for k, v in values["tolerances"].items() if v is not None}
+    tol_high = {
+        "cam_radius": (half_r, True),
+        "eccentricity": (half_r, True),
+        "roller_radius": (half_r, True),
+        "slot_angle": (quarter_pitch, True),
+        "cam_phase": (180.0, False),
+    }
+    for kind, dist in tolerances.items():
+        high, open_ = tol_high[kind]
+        _check(_where("tolerances", kind), dist.scale, 0.0, high, low_open=False, high_open=open_)
     needs_load = {"montecarlo", "allocation", "sweeps"} & set(formats) or checks.active()
     if needs_load and load is None:
         raise SceneError(
@@ -437,7 +639,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         )
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
-    return Scene(
+    _unique_angle_tags(ex["assembly_angles_deg"])
+    scene = Scene(
         name=name,
         design=design,
         formats=formats,
@@ -469,23 +672,178 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             }
             for s, vals in values.items()
         },
+        warnings=no_effect_warnings(data, formats, bool(checks.active())),
     )
+    from .resources import check_scene
+
+    check_scene(scene)
+    return scene
+
+
+def _unique_angle_tags(angles: list[float]) -> None:
+    """Two assembly angles must not write the same file name."""
+    from .pipeline import _angle_tag
+
+    seen: dict[str, float] = {}
+    for a in angles:
+        tag = _angle_tag(a)
+        if tag in seen:
+            raise SceneError(
+                f"[export] assembly_angles_deg: {seen[tag]:g} and {a:g} both write "
+                f"assembly_{tag}.*; angles must differ by at least 0.001 deg"
+            )
+        seen[tag] = a
+
+
+#: Which formats make each section, or key, have an effect. ``None`` for a
+#: section means "see the keys"; a key not listed follows its section.
+_SOLVER_FORMATS = {"forces", "montecarlo", "allocation", "sweeps"}
+_MESH = {"stl", "3mf", "glb", "ply"}
+
+
+def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tuple[str, ...]:
+    """One line for each given section or key that does nothing in this scene."""
+    f = set(formats)
+    forces = "forces" in f or checks  # the checks run the force solver
+    mc = bool({"montecarlo", "allocation"} & f)
+    solver = forces or bool(_SOLVER_FORMATS & f)
+    measured = "measured_profile" in data.get("errors", {})
+    out: list[str] = []
+
+    def warn(what: str, why: str) -> None:
+        out.append(f"{what} has no effect in this scene: {why}")
+
+    if "montecarlo" in data and not mc:
+        warn("[montecarlo]", 'formats lists neither "montecarlo" nor "allocation"')
+    elif mc:
+        mcd = data.get("montecarlo", {})
+        if "samples" in mcd and "montecarlo" not in f:
+            warn("[montecarlo] samples", 'formats does not list "montecarlo"')
+        for k in ("percentile", "allocation_samples"):
+            if k in mcd and "allocation" not in f:
+                warn(f"[montecarlo] {k}", 'formats does not list "allocation"')
+    if "tolerances" in data and not mc:
+        warn("[tolerances]", 'formats lists neither "montecarlo" nor "allocation"')
+    if "sweeps" in data and "sweeps" not in f:
+        warn("[sweeps]", 'formats does not list "sweeps"')
+    if "load" in data and not solver:
+        warn("[load]", "no format needs the mesh forces (forces, montecarlo, allocation, sweeps)")
+    if "material" in data and not solver:
+        warn("[material]", "only the force solver uses it and no format needs it")
+    sv = data.get("solver", {})
+    if "solver" in data and not solver:
+        warn("[solver]", "no format runs the force solver (forces, montecarlo, allocation, sweeps)")
+    elif not forces:
+        for k in ("positions", "crank_angles_deg", "variants"):
+            if k in sv:
+                warn(f"[solver] {k}", 'only "forces" and [checks] use it')
+    ex = data.get("export", {})
+    if "representation" in ex and "dxf" not in f:
+        warn("[export] representation", 'formats does not list "dxf"')
+    geometry = bool((_MESH | {"step", "interference"}) & f)
+    if "tolerance" in ex and "dxf" not in f and ("chord_tolerance" in ex or not geometry):
+        warn("[export] tolerance", 'formats lists no "dxf" (and no mesh/STEP takes it over)')
+    if "chord_tolerance" in ex and not geometry:
+        warn("[export] chord_tolerance", "formats lists no mesh, step or interference")
+    if "assembly_angles_deg" in ex and not _MESH & f:
+        warn("[export] assembly_angles_deg", "formats lists no mesh (stl, 3mf, glb, ply)")
+    if "interference_positions" in ex and "interference" not in f:
+        warn("[export] interference_positions", 'formats does not list "interference"')
+    er = data.get("errors", {})
+    if "measured_exaggeration" in er and not (measured and "dxf" in f):
+        warn("[errors] measured_exaggeration", 'it scales measured_profile.dxf (needs "dxf")')
+    physical = [k for k in er if k not in ("measured_profile", "measured_exaggeration")]
+    roller_only = "interference" in f
+    for k in physical:  # the sweeps vary the nominal design: they ignore [errors]
+        if not (
+            forces or mc or (roller_only and k in ("roller_radius_error", "roller_radius_errors"))
+        ):
+            warn(f"[errors] {k}", "only forces, checks, montecarlo, allocation use it")
+    return tuple(out)
+
+
+def _nesting_depth(text: str) -> int:
+    """Deepest nesting of ``[`` and ``{`` outside strings and comments (a cheap pre-check)."""
+    if text.count("[") + text.count("{") <= MAX_NESTING:
+        return 0
+    depth = deepest = 0
+    quote = ""
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if quote:
+            if c == "\\" and quote == '"':
+                i += 1
+            elif c == quote:
+                quote = ""
+        elif c in "\"'":
+            quote = c
+        elif c == "#":
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+            continue
+        elif c in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "]}":
+            depth = max(0, depth - 1)
+        i += 1
+    return deepest
 
 
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a TOML scene file."""
     path = Path(path)
+    raw = read_regular_file(path, "scene file", MAX_SCENE_BYTES)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError as exc:
-        raise SceneError(f"scene file {str(path)!r} does not exist") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"scene file {str(path)!r} cannot be read: {exc}") from exc
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"scene file {show(str(path), 120)} is not UTF-8 text ({exc})") from exc
+    if not text.strip():
+        raise SceneError(
+            f"scene file {show(str(path), 120)} is empty; 'corr-cad new FILE' writes a template"
+        )
+    depth = _nesting_depth(text)
+    if depth > MAX_NESTING:
+        raise SceneError(
+            f"{show(path.name, 120)}: arrays or tables nested {depth} deep; at most {MAX_NESTING}"
+        )
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path.name}: not valid TOML ({exc})") from exc
+        raise SceneError(f"{show(path.name, 120)}: not valid TOML ({exc})") from exc
+    except RecursionError as exc:
+        raise SceneError(
+            f"{show(path.name, 120)}: arrays or tables nested too deep; at most {MAX_NESTING}"
+        ) from exc
     return parse_scene(data, name=path.stem, base_dir=path.parent)
+
+
+def bounds_table() -> str:
+    """The README's table of every scene key's allowed range (from :data:`SCHEMA`)."""
+    rows = ["| key | type | allowed | also, against the design |", "| --- | --- | --- | --- |"]
+    for section, keys in SCHEMA.items():
+        for k, spec in keys.items():
+            if spec.kind in ("int", "float"):
+                allowed = "finite" if spec.low is None and spec.high is None else key_range(spec)
+            elif spec.kind == "bool":
+                allowed = "true, false"
+            elif spec.kind == "str":
+                allowed = (
+                    ", ".join(spec.choices) if spec.choices else f"a path, <= {MAX_STR} characters"
+                )
+            elif spec.kind == "distribution":
+                allowed = "{ normal = sigma } or { uniform = half width }, scale >= 0"
+            elif spec.kind == "list[str]":
+                allowed = f"each of {', '.join(spec.choices or ())}, once"
+            else:
+                item = key_range(spec) if spec.low is not None else "finite numbers"
+                if spec.kind == "list[list[float]]":
+                    item = "rows [order, amplitude, phase]"
+                n = "z + 1" if spec.max_len is None and "per-" in spec.help else None
+                allowed = f"{item}; {n or f'1 to {spec.max_len or MAX_LIST}'} entries"
+            rows.append(f"| `[{section}] {k}` | {spec.kind} | {allowed} | {spec.note} |")
+    return "\n".join(rows) + "\n"
 
 
 def _toml_value(v: Any) -> str:

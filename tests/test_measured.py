@@ -45,6 +45,7 @@ def _write_csv(path, pts):
 
 def _write_dxf(path, pts):
     doc = ezdxf.new("R2018")
+    doc.header["$INSUNITS"] = 4  # the points are mm (ezdxf.new says metres)
     doc.modelspace().add_lwpolyline(
         pts.tolist(), close=True, dxfattribs={"layer": "MEASURED_PROFILE"}
     )

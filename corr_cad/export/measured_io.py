@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 
 import numpy as np
@@ -13,45 +14,91 @@ from ..profile import ProfileCurve
 from ..sampling import approximate
 from . import dxf
 
-__all__ = ["read_measured_points", "write_deviation_dxf", "MEASURED_LAYERS"]
+__all__ = [
+    "read_measured_points",
+    "write_deviation_dxf",
+    "MEASURED_LAYERS",
+    "MAX_MEASURED_BYTES",
+    "INSUNITS_MM",
+]
 
 MEASURED_LAYERS = ("WORKING_PROFILE", "MEASURED_PROFILE", "DEVIATION_EXAGGERATED")
 
 
-def read_measured_points(path: Path) -> np.ndarray:
-    """Points (n, 2) from a CSV with columns ``x,y`` or from a DXF's closed contour.
+#: Largest measured-profile file read, bytes.
+MAX_MEASURED_BYTES = 200 * 1024 * 1024
 
-    For a DXF the contour is taken from layer ``MEASURED_PROFILE`` if present,
-    else ``WORKING_PROFILE``. A self-intersecting contour is refused.
+#: DXF ``$INSUNITS`` code -> millimetres per drawing unit (0 = unitless, read as mm).
+INSUNITS_MM = {
+    0: 1.0,
+    1: 25.4,  # inches
+    2: 304.8,  # feet
+    4: 1.0,  # millimetres
+    5: 10.0,  # centimetres
+    6: 1000.0,  # metres
+    8: 25.4e-6,  # microinches
+    9: 0.0254,  # mils
+    10: 914.4,  # yards
+    13: 1e-3,  # micrometres
+    14: 100.0,  # decimetres
+}
+
+
+def read_measured_points(path: Path) -> np.ndarray:
+    """Points (n, 2) in mm from a CSV with columns ``x,y`` or from a DXF's closed contour.
+
+    The CSV may start with a UTF-8 byte-order mark; header names are read
+    without surrounding blanks and case (``x, y``, ``X,Y``). For a DXF the
+    contour is taken from layer ``MEASURED_PROFILE`` if present, else
+    ``WORKING_PROFILE``, and scaled to mm by the header's ``$INSUNITS``. Only
+    a regular file of at most ``MAX_MEASURED_BYTES`` is read. A
+    self-intersecting contour is refused.
     """
+    from ..inputfiles import read_regular_file
+
     path = Path(path)
-    if not path.exists():
-        raise ProfileError(f"measured profile {str(path)!r} does not exist")
+    raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
     if path.suffix.lower() == ".dxf":
         import ezdxf
 
         try:
-            layers = {e.dxf.layer for e in ezdxf.readfile(str(path)).modelspace()}
+            doc = ezdxf.readfile(str(path))
+            layers = {e.dxf.layer for e in doc.modelspace()}
+            units = int(doc.header.get("$INSUNITS", 0))
         except Exception as exc:
             raise ProfileError(
                 f"{path}: not a readable DXF file ({exc or type(exc).__name__})"
             ) from exc
+        if units not in INSUNITS_MM:
+            raise ProfileError(
+                f"{path}: $INSUNITS = {units} is not a length unit corr_cad reads; "
+                f"one of {', '.join(str(k) for k in INSUNITS_MM)} (4 = mm)"
+            )
         layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
         try:
             pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
         except Exception as exc:
             raise ProfileError(str(exc)) from exc
+        pts = pts * INSUNITS_MM[units]
     else:
         try:
-            with open(path, newline="", encoding="utf-8") as f:
-                rows = list(csv.DictReader(f))
-        except (OSError, UnicodeDecodeError, csv.Error) as exc:
+            text = raw.decode("utf-8-sig")
+            reader = csv.reader(io.StringIO(text, newline=""))
+            header = [h.strip().lower() for h in next(reader, [])]
+            rows = list(reader)
+        except (UnicodeDecodeError, csv.Error) as exc:
             raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
-        if not rows or not {"x", "y"} <= set(rows[0]):
-            raise ProfileError(f"{path}: expected a CSV with columns x,y (mm)")
+        if "x" not in header or "y" not in header:
+            raise ProfileError(
+                f"{path}: expected a CSV with columns x,y (mm); the header is {header[:4]}"
+            )
+        ix, iy = header.index("x"), header.index("y")
         try:
-            pts = np.array([[float(r["x"]), float(r["y"])] for r in rows])
-        except (TypeError, ValueError) as exc:
+            pts = np.array(
+                [[float(r[ix]), float(r[iy])] for r in rows if any(c.strip() for c in r)],
+                dtype=float,
+            ).reshape(-1, 2)
+        except (TypeError, ValueError, IndexError) as exc:
             raise ProfileError(f"{path}: a value is not a number ({exc})") from exc
     if len(pts) >= 4 and np.all(np.isfinite(pts)):
         ring = shapely.LinearRing(pts)
