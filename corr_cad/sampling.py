@@ -65,7 +65,7 @@ _ARC_TARGET = 0.9  # arcs: greedy span length at this share of tol
 _SPAN_SAMPLES = 12  # samples per span while placing nodes
 _MEASURE_SAMPLES = 16  # samples per span / primitive for the final measurement
 _REFINE_ROUNDS = 12  # measured-and-split rounds before giving up
-_MAX_VERTICES = 400_000  # whole-contour budget: beyond it the run fails honestly
+_MAX_VERTICES = 200_000  # whole-contour budget: beyond it the run fails honestly
 _JOINT_RATIOS = np.array([0.55, 0.7, 0.85, 1.0, 1.2, 1.45, 1.8])
 
 
@@ -181,7 +181,7 @@ def _unit_tangents(curve: ProfileCurve, t: np.ndarray) -> np.ndarray:
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def _equal_sagitta_nodes(curve: ProfileCurve, tol: float) -> np.ndarray:
+def _equal_sagitta_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndarray:
     """Polyline nodes: chord c with c^2 / (8 R) = tol for the local radius R."""
     t_a, t_b = curve.piece_t_range
     t = np.linspace(t_a, t_b, 8193)
@@ -189,7 +189,7 @@ def _equal_sagitta_nodes(curve: ProfileCurve, tol: float) -> np.ndarray:
     k = np.abs(curve.curvature(t))
     dens = np.sqrt(k / (8.0 * _SAGITTA_TARGET * tol)) * speed
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(t))])
-    n = max(4, int(math.ceil(cum[-1])))
+    n = min(max(4, int(math.ceil(cum[-1]))), budget)
     return np.interp(np.linspace(0.0, cum[-1], n + 1), cum, t)
 
 
@@ -222,8 +222,12 @@ def _best_ratio(curve, t0, t1):
     return _JOINT_RATIOS[k], e[np.arange(n), k]
 
 
-def _greedy_biarc_nodes(curve: ProfileCurve, tol: float) -> np.ndarray:
-    """Arcs nodes: from one end, each span as long as the tolerance allows."""
+def _greedy_biarc_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndarray:
+    """Arcs nodes: from one end, each span as long as the tolerance allows.
+
+    Past ``budget`` spans the rest of the piece is split evenly in parameter
+    (the measurement then shows, and the run reports, what that reaches).
+    """
     t_a, t_b = curve.piece_t_range
     target = _ARC_TARGET * tol
     nodes = [t_a]
@@ -231,6 +235,9 @@ def _greedy_biarc_nodes(curve: ProfileCurve, tol: float) -> np.ndarray:
     growth = 2.0 ** np.linspace(-6.0, 3.0, 37)
     while nodes[-1] < t_b:
         t0 = nodes[-1]
+        if len(nodes) > budget:
+            nodes.extend(np.linspace(t0, t_b, 3)[1:])
+            break
         cand = np.minimum(t0 + h * growth, t_b)
         cand = np.unique(cand[cand > t0])
         _, err = _best_ratio(curve, np.full(cand.size, t0), cand)
@@ -260,7 +267,7 @@ def _greedy_biarc_nodes(curve: ProfileCurve, tol: float) -> np.ndarray:
     return np.array(nodes)
 
 
-def _spline_nodes(curve: ProfileCurve, tol: float) -> np.ndarray:
+def _spline_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndarray:
     """Spline nodes by bisection until the parametric error is within 0.7 tol."""
     t_a, t_b = curve.piece_t_range
     t_nodes = np.linspace(t_a, t_b, 9)
@@ -273,9 +280,10 @@ def _spline_nodes(curve: ProfileCurve, tol: float) -> np.ndarray:
         bad = err > 0.7 * tol
         if not np.any(bad):
             break
-        t_nodes = _split(t_nodes, bad)
-        if np.min(np.diff(t_nodes)) < 1e-13 * max(1.0, abs(t_b - t_a)):
+        candidate = _split(t_nodes, bad)
+        if len(candidate) - 1 > budget or np.min(np.diff(candidate)) < 1e-13 * (t_b - t_a):
             break
+        t_nodes = candidate
     return t_nodes
 
 
@@ -365,14 +373,14 @@ def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> P
     tol = float(tolerance)
     z = curve.tooth_count
     dense = _dense(curve)
-    if representation == "polyline":
-        t_nodes = _equal_sagitta_nodes(curve, tol)
-    elif representation == "arcs":
-        t_nodes = _greedy_biarc_nodes(curve, tol)
-    else:
-        t_nodes = _spline_nodes(curve, tol)
     per_node = 1 if representation != "arcs" else 2
-    budget = _MAX_VERTICES // (z * per_node)
+    budget = max(4, _MAX_VERTICES // (z * per_node))
+    if representation == "polyline":
+        t_nodes = _equal_sagitta_nodes(curve, tol, budget)
+    elif representation == "arcs":
+        t_nodes = _greedy_biarc_nodes(curve, tol, budget)
+    else:
+        t_nodes = _spline_nodes(curve, tol, budget)
     t_a, t_b = curve.piece_t_range
     min_step = 1e-13 * max(1.0, abs(t_b - t_a))
     for round_ in range(_REFINE_ROUNDS + 1):

@@ -259,3 +259,69 @@ def test_reported_deviation_matches_independent_measure(written, name, rep):
         assert abs(reported - independent) <= 1e-6 + 0.01 * reported, (layer, reported, fwd, bwd)
         assert abs(approx.exact_to_export - fwd) <= 1e-6 + 0.01 * reported, (layer, fwd)
         assert abs(approx.export_to_exact - bwd) <= 1e-6 + 0.01 * reported, (layer, bwd)
+
+
+# --- the issue-10 case through the real CLI ------------------------------------
+Z39_SCENE = """\
+[design]
+tooth_count = 39
+cam_radius = 150.0
+eccentricity = 3.0
+roller_radius = 5.35   # undercut limit 5.371: tooth tip radius 0.02 mm
+
+[export]
+formats = ["dxf"]
+representation = "{rep}"
+tolerance = 0.001
+"""
+
+
+@pytest.mark.parametrize("rep", ["polyline", "arcs", "spline"])
+def test_z39_near_undercut_reports_true_deviation_through_cli(tmp_path, rep):
+    import json
+    import subprocess
+    import sys
+
+    scene = tmp_path / "z39.toml"
+    scene.write_text(Z39_SCENE.format(rep=rep))
+    (tmp_path / "unrelated.csv").write_text("a,b\n1,2\n")
+    out = tmp_path / "out"
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    acc = json.loads((out / "manifest.json").read_text())["accuracy"]["working_profile"]
+    assert acc["within_tolerance"] is True and acc["file"] == "inner_gear.dxf"
+    fwd, bwd = independent_deviation(
+        out / "inner_gear.dxf", "WORKING_PROFILE", 39, 3.0, 155.35, 5.35
+    )
+    # The true two-way deviation, not 0.952 mm (the longest polyline segment).
+    assert acc["max_deviation_mm"] == pytest.approx(max(fwd, bwd), rel=0.01, abs=1e-6)
+    assert acc["max_deviation_mm"] <= 0.001
+    assert f"measured max deviation {acc['max_deviation_mm']:.3g} mm" in r.stdout
+    assert (tmp_path / "unrelated.csv").read_text() == "a,b\n1,2\n"
+
+
+def test_tolerance_not_reached_exits_1_naming_file_and_figure(tmp_path, monkeypatch, capsys):
+    """A node budget too small for the tolerance: exit 1, the files state the truth."""
+    from corr_cad import cli, sampling
+
+    monkeypatch.setattr(sampling, "_MAX_VERTICES", 1500)  # the prototype needs ~2,500
+    scene = tmp_path / "s.toml"
+    scene.write_text('[export]\nformats = ["dxf"]\nrepresentation = "polyline"\n')
+    out = tmp_path / "out"
+    assert cli.main(["run", str(scene), "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    (line,) = [e for e in err if "WORKING_PROFILE" in e]
+    assert "inner_gear.dxf" in line and "exceeds the tolerance 0.001 mm" in line
+    props = dict(ezdxf.readfile(str(out / "inner_gear.dxf")).header.custom_vars)
+    claimed = float(props["corr_cad.max_deviation_mm"])
+    assert props["corr_cad.within_tolerance"] == "false"
+    assert f"{claimed:.4g} mm" in line and claimed > 0.001
+    d = GearDesign()
+    fwd, bwd = independent_deviation(
+        out / "inner_gear.dxf", "WORKING_PROFILE", 25, d.eccentricity, d.link_length, 8.0
+    )
+    assert claimed == pytest.approx(max(fwd, bwd), rel=0.01)
