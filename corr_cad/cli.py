@@ -114,11 +114,22 @@ def _run(args: argparse.Namespace, state: dict) -> int:
             state_ = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
             print(f"interference over {i['positions']} crank positions: {state_}")
         print(f"wrote {len(manifest['files']) + 1} files to {out}")
+    status = 0
+    for acc in manifest.get("accuracy", {}).values():
+        if not acc.get("within_tolerance", True):
+            print(
+                f"corr-cad: {acc['file']}: {acc['layer']} measured max deviation "
+                f"{acc['max_deviation_mm']:.4g} mm exceeds the tolerance "
+                f"{acc['tolerance_mm']:g} mm "
+                f"({acc['representation']}, {acc['vertex_count']} vertices)",
+                file=sys.stderr,
+            )
+            status = 1
     failed = [k for k, r in manifest.get("checks", {}).items() if not r["passed"]]
     if failed:
         print(f"corr-cad: check failed: {', '.join(failed)}", file=sys.stderr)
         return 1
-    return 0
+    return status
 
 
 #: Seconds to wait for a Dask scheduler before giving up.

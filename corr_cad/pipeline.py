@@ -72,7 +72,14 @@ def _dxf_geometry(ctx: RunContext) -> None:
     t = approximate(ctx.results["theoretical"], s.representation, s.tolerance)
     ctx.results["working_approx"] = w
     ctx.results["theoretical_approx"] = t
-    ctx.manifest["accuracy"] = {"working_profile": w.as_dict(), "theoretical_profile": t.as_dict()}
+    # Where each figure goes: the run fails (exit 1) naming them if the
+    # measured deviation exceeds the tolerance (the files still state the
+    # measured value, never the tolerance).
+    where = {"file": "inner_gear.dxf"}
+    ctx.manifest["accuracy"] = {
+        "working_profile": {**w.as_dict(), **where, "layer": "WORKING_PROFILE"},
+        "theoretical_profile": {**t.as_dict(), **where, "layer": "THEORETICAL_PROFILE"},
+    }
 
 
 def _dxf_files(ctx: RunContext) -> None:

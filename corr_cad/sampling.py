@@ -3,19 +3,29 @@
 Three representations, as CAM and wire-EDM controllers want them:
 
 ``polyline``
-    vertices on the exact curve, straight segments between them;
+    vertices on the exact curve, straight segments between them, placed at
+    equal sagitta: a segment of chord ``c`` on a stretch of radius of
+    curvature ``R`` deviates by ``c^2 / (8 R)``, so the nodes are spaced to
+    make that equal to the tolerance everywhere;
 ``arcs``
     tangent-continuous biarcs (two circular arcs per span, tangent to the
-    exact curve at both ends), stored as LWPOLYLINE bulges;
+    exact curve at both ends and to each other: G1), stored as LWPOLYLINE
+    bulges. Nodes are placed greedily, each span as long as the tolerance
+    allows, and the joint point of each biarc is free (the split of the two
+    tangent legs is chosen per span);
 ``spline``
     one clamped cubic B-spline per tooth, interpolating the curve with the
     exact end tangents, joined into a single closed spline.
 
-Nodes are refined adaptively on tooth 0 until every span is within the
-tolerance; the other teeth are exact rotations. The reported
-``max_deviation`` is *measured* afterwards, densely and in both directions
-(exact curve to approximation, approximation to exact curve by projecting
-onto the curve), never inferred from a step size.
+Tooth 0 is approximated; the other teeth are exact rotations. The reported
+``max_deviation`` is then **measured**, in both directions (exact curve to
+export, export to exact curve), with the converged projection of
+:mod:`corr_cad.measure`, never inferred from a step size. A span whose
+measured deviation exceeds the tolerance is split and the whole tooth
+measured again; if the tolerance still cannot be reached (a node budget or
+float resolution is hit), the approximation is returned with its true
+measured deviation and ``within_tolerance`` false, and the run fails
+(exit 1) naming the file and the figure.
 """
 
 from __future__ import annotations
@@ -27,7 +37,15 @@ import numpy as np
 from scipy.interpolate import BSpline, make_interp_spline
 
 from . import kinematics as kin
+from .biarcs import (
+    biarc,
+    biarc_with_ratio,
+    bulge_arc_points,
+    point_bulge_distance,
+    points_on_bulges,
+)
 from .errors import ProfileError
+from .measure import DenseSampling, max_on_spans, project_points
 from .profile import ProfileCurve, replicate_teeth
 
 __all__ = [
@@ -35,15 +53,20 @@ __all__ = [
     "ProfileApproximation",
     "approximate",
     "project_to_curve",
+    "distance_to_curve",
     "bulge_arc_points",
     "point_bulge_distance",
     "biarc",
 ]
 
 REPRESENTATIONS = ("polyline", "arcs", "spline")
-_REFINE_SAFETY = 0.7  # refine a span when its estimate exceeds this share of tol
-_SPAN_SAMPLES = 12  # samples per span while refining
-_MEASURE_SAMPLES = 40  # samples per span for the final measurement
+_SAGITTA_TARGET = 0.95  # polyline: aim the equal sagitta at this share of tol
+_ARC_TARGET = 0.9  # arcs: greedy span length at this share of tol
+_SPAN_SAMPLES = 12  # samples per span while placing nodes
+_MEASURE_SAMPLES = 16  # samples per span / primitive for the final measurement
+_REFINE_ROUNDS = 12  # measured-and-split rounds before giving up
+_MAX_VERTICES = 200_000  # whole-contour budget: beyond it the run fails honestly
+_JOINT_RATIOS = np.array([0.55, 0.7, 0.85, 1.0, 1.2, 1.45, 1.8])
 
 
 @dataclass(frozen=True)
@@ -61,9 +84,14 @@ class ProfileApproximation:
     knots : (m,) float or None
         Spline knot vector (clamped, degree 3).
     max_deviation : float, mm
-        Measured maximum distance between approximation and exact curve.
+        Measured two-way maximum distance between approximation and exact
+        curve (the larger of the two directions below).
     tolerance : float, mm
     spans_per_tooth : int
+    exact_to_export : float, mm
+        Max over the exact curve of the distance to the approximation.
+    export_to_exact : float, mm
+        Max over the approximation of the distance to the exact curve.
     """
 
     representation: str
@@ -73,220 +101,228 @@ class ProfileApproximation:
     max_deviation: float
     tolerance: float
     spans_per_tooth: int
+    exact_to_export: float = math.nan
+    export_to_exact: float = math.nan
 
     @property
     def entity_vertex_count(self) -> int:
         return int(len(self.vertices))
+
+    @property
+    def within_tolerance(self) -> bool:
+        return bool(self.max_deviation <= self.tolerance)
 
     def as_dict(self) -> dict:
         return {
             "representation": self.representation,
             "tolerance_mm": self.tolerance,
             "max_deviation_mm": self.max_deviation,
+            "exact_to_export_mm": self.exact_to_export,
+            "export_to_exact_mm": self.export_to_exact,
+            "within_tolerance": self.within_tolerance,
             "vertex_count": self.entity_vertex_count,
             "spans_per_tooth": self.spans_per_tooth,
         }
 
 
-# --- geometry helpers --------------------------------------------------------
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+# --- projection onto the exact curve -----------------------------------------
+def _measure_range(curve: ProfileCurve) -> tuple[float, float]:
+    """Parameter range around tooth 0 where its nearest points can lie."""
+    t_a, t_b = curve.piece_t_range
+    # A smooth profile continues into the next tooth; only a trimmed one stops.
+    pad = 0.0 if curve.has_corners else 0.5 * (t_b - t_a)
+    return t_a - pad, t_b + pad
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.sum(a * b, axis=-1)
-
-
-def _point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ab = b - a
-    den = np.maximum(_dot(ab, ab), 1e-300)
-    u = np.clip(_dot(q - a, ab) / den, 0.0, 1.0)
-    return np.linalg.norm(q - (a + u[..., None] * ab), axis=-1)
-
-
-def _arc_geometry(a: np.ndarray, b: np.ndarray, bulge: np.ndarray):
-    """Centre, signed radius and included angle of bulge arcs (arrays broadcast)."""
-    theta = 4.0 * np.arctan(bulge)
-    chord = b - a
-    c = np.linalg.norm(chord, axis=-1)
-    mid = 0.5 * (a + b)
-    # Left normal of the chord; the centre is at distance h = c/2 * cot(theta/2)
-    # on the left for a counter-clockwise (positive) arc.
-    nrm = np.stack([-chord[..., 1], chord[..., 0]], axis=-1) / np.maximum(c, 1e-300)[..., None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h = 0.5 * c / np.tan(0.5 * theta)
-        radius = 0.5 * c / np.sin(0.5 * theta)
-    centre = mid + h[..., None] * nrm
-    return centre, radius, theta
-
-
-_STRAIGHT = 1e-9  # |bulge| below which an arc is treated as a segment
-
-
-def point_bulge_distance(
-    q: np.ndarray, a: np.ndarray, b: np.ndarray, bulge: np.ndarray
-) -> np.ndarray:
-    """Distance from points ``q`` to bulge segments ``a -> b`` (arrays broadcast), mm."""
-    q, a, b = np.broadcast_arrays(q, a, b)
-    bulge = np.broadcast_to(bulge, q.shape[:-1])
-    out = _point_segment_distance(q, a, b)
-    arc = np.abs(bulge) > _STRAIGHT
-    if np.any(arc):
-        qa, aa, ba, bu = q[arc], a[arc], b[arc], bulge[arc]
-        centre, radius, theta = _arc_geometry(aa, ba, bu)
-        va, vq = aa - centre, qa - centre
-        # Angle swept from a to q in the arc's direction, within [0, theta]?
-        ang = np.arctan2(_cross(va, vq), _dot(va, vq))
-        ang = np.where(theta > 0, np.mod(ang, 2 * np.pi), -np.mod(-ang, 2 * np.pi))
-        inside = np.abs(ang) <= np.abs(theta)
-        d_arc = np.abs(np.linalg.norm(vq, axis=-1) - np.abs(radius))
-        d_end = np.minimum(np.linalg.norm(qa - aa, axis=-1), np.linalg.norm(qa - ba, axis=-1))
-        out[arc] = np.where(inside, d_arc, d_end)
-    return out
-
-
-def bulge_arc_points(a: np.ndarray, b: np.ndarray, bulge: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Points at fractions ``u`` (k,) along bulge segments (n,): (n, k, 2)."""
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    bulge = np.asarray(bulge, dtype=float)
-    u = np.asarray(u, dtype=float)
-    lin = a[:, None, :] + u[None, :, None] * (b - a)[:, None, :]
-    arc = np.abs(bulge) > _STRAIGHT
-    if np.any(arc):
-        centre, _, theta = _arc_geometry(a[arc], b[arc], bulge[arc])
-        va = a[arc] - centre
-        ang = theta[:, None] * u[None, :]
-        c, s = np.cos(ang), np.sin(ang)
-        rot = np.stack(
-            [va[:, None, 0] * c - va[:, None, 1] * s, va[:, None, 0] * s + va[:, None, 1] * c],
-            axis=-1,
-        )
-        lin[arc] = centre[:, None, :] + rot
-    return lin
-
-
-def biarc(
-    p0: np.ndarray, t0: np.ndarray, p1: np.ndarray, t1: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Equal-parameter biarcs from (p0, unit tangent t0) to (p1, t1), vectorised.
-
-    Returns the junction points (n, 2) and the bulges of the first and
-    second arc (n,). Both arcs are tangent to the given tangents at the ends
-    and to each other at the junction.
-    """
-    v = p1 - p0
-    tt = t0 + t1
-    vt = _dot(v, tt)
-    vv = _dot(v, v)
-    c = 1.0 - _dot(t0, t1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d_gen = (-vt + np.sqrt(vt * vt + 2.0 * c * vv)) / (2.0 * c)
-        d_par = vv / (4.0 * _dot(v, t1))
-    d = np.where(np.abs(c) > 1e-12, d_gen, d_par)
-    junction = 0.5 * (p0 + d[:, None] * t0 + p1 - d[:, None] * t1)
-    ch1 = junction - p0
-    ch2 = p1 - junction
-    half1 = np.arctan2(_cross(t0, ch1), _dot(t0, ch1))
-    half2 = np.arctan2(_cross(ch2, t1), _dot(ch2, t1))
-    return junction, np.tan(0.5 * half1), np.tan(0.5 * half2)
+def _dense(curve: ProfileCurve, n: int = 4096) -> DenseSampling:
+    lo, hi = _measure_range(curve)
+    return DenseSampling.build(curve.points, curve.derivative, lo, hi, n)
 
 
 def project_to_curve(
-    curve: ProfileCurve,
-    q: np.ndarray,
-    t0: np.ndarray,
-    t_lo: float,
-    t_hi: float,
-    iterations: int = 8,
+    curve: ProfileCurve, q: np.ndarray, dense: DenseSampling | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest-point projection of ``q`` (n, 2) onto ``curve`` near parameters ``t0``.
+    """Nearest points of tooth 0's piece (padded by half a pitch if smooth) to ``q`` (n, 2).
 
-    Newton on ``(C(t) - q) . C'(t) = 0``, clamped to ``[t_lo, t_hi]``.
+    Converged, bracketed projection (see :mod:`corr_cad.measure`).
     Returns ``(t, distance)``.
     """
-    t = np.clip(np.asarray(t0, dtype=float), t_lo, t_hi)
-    h = 1e-7 * max(1.0, t_hi - t_lo)
-    for _ in range(iterations):
-        c = curve.points(t)
-        d1 = curve.derivative(t)
-        d2 = (curve.derivative(t + h) - curve.derivative(t - h)) / (2 * h)
-        diff = c - q
-        f = _dot(diff, d1)
-        fp = _dot(d1, d1) + _dot(diff, d2)
-        fp = np.where(fp > 0, fp, _dot(d1, d1))
-        step = f / np.maximum(fp, 1e-300)
-        t = np.clip(t - step, t_lo, t_hi)
-    return t, np.linalg.norm(curve.points(t) - q, axis=-1)
+    dense = dense if dense is not None else _dense(curve)
+    pr = project_points(curve.points, curve.derivative, dense, q)
+    return pr.t, pr.distance
 
 
-# --- the three representations -----------------------------------------------
+def distance_to_curve(curve: ProfileCurve, q: np.ndarray, samples_per_tooth: int = 4096):
+    """Distance from arbitrary points ``q`` (n, 2) to the closed exact ``curve``, mm.
+
+    Each point is rotated back onto tooth 0 by its polar angle and projected
+    with the converged method; a trimmed (undercut) profile is never measured
+    against its discarded swallowtail. Returns ``(distance, t)``.
+    """
+    q = np.asarray(q, dtype=float).reshape(-1, 2)
+    z = curve.tooth_count
+    pitch = 2.0 * math.pi / z
+    # Polar angle measured from +y, growing clockwise (as the curve's parameter);
+    # tooth m's piece spans the polar angles (m -+ 1/2) pitch.
+    polar = np.arctan2(q[:, 0], q[:, 1])
+    m = np.floor(polar / pitch + 0.5).astype(int) % z
+    q0 = np.empty_like(q)
+    for mm in np.unique(m):
+        sel = m == mm
+        q0[sel] = kin.rotate_by_polar_angle(q[sel], -mm * pitch)
+    dense = _dense(curve, samples_per_tooth)
+    t, dist = project_to_curve(curve, q0, dense)
+    return dist, t + m * pitch
+
+
+# --- node placement ----------------------------------------------------------
 def _unit_tangents(curve: ProfileCurve, t: np.ndarray) -> np.ndarray:
     d = curve.derivative(t)
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def _span_primitives(curve: ProfileCurve, t_nodes: np.ndarray, representation: str):
-    """Vertices and bulges for spans between consecutive nodes of one piece."""
+def _equal_sagitta_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndarray:
+    """Polyline nodes: chord c with c^2 / (8 R) = tol for the local radius R."""
+    t_a, t_b = curve.piece_t_range
+    t = np.linspace(t_a, t_b, 8193)
+    speed = np.linalg.norm(curve.derivative(t), axis=-1)
+    k = np.abs(curve.curvature(t))
+    dens = np.sqrt(k / (8.0 * _SAGITTA_TARGET * tol)) * speed
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(t))])
+    n = min(max(4, int(math.ceil(cum[-1]))), budget)
+    return np.interp(np.linspace(0.0, cum[-1], n + 1), cum, t)
+
+
+def _biarc_spans(curve: ProfileCurve, t0: np.ndarray, t1: np.ndarray, ratio: np.ndarray):
+    p0, p1 = curve.points(t0), curve.points(t1)
+    u0, u1 = _unit_tangents(curve, t0), _unit_tangents(curve, t1)
+    j, b1, b2 = biarc_with_ratio(p0, u0, p1, u1, ratio)
+    return p0, j, p1, b1, b2
+
+
+def _biarc_error(curve, t0, t1, ratio, m=_SPAN_SAMPLES) -> np.ndarray:
+    """Exact-curve-to-biarc distance of spans [t0, t1] (n,), max over m samples."""
+    p0, j, p1, b1, b2 = _biarc_spans(curve, t0, t1, ratio)
+    u = (np.arange(m) + 0.5) / m
+    ts = t0[:, None] + u[None, :] * (t1 - t0)[:, None]
+    q = curve.points(ts.ravel()).reshape(len(t0), m, 2)
+    d1 = point_bulge_distance(q, p0[:, None], j[:, None], b1[:, None])
+    d2 = point_bulge_distance(q, j[:, None], p1[:, None], b2[:, None])
+    err = np.minimum(d1, d2).max(axis=1)
+    return np.where(np.isfinite(err), err, np.inf)
+
+
+def _best_ratio(curve, t0, t1):
+    """Per span, the joint-point ratio with the smallest error, and that error."""
+    n = len(t0)
+    r = np.repeat(_JOINT_RATIOS[None, :], n, axis=0).ravel()
+    e = _biarc_error(curve, np.repeat(t0, len(_JOINT_RATIOS)), np.repeat(t1, len(_JOINT_RATIOS)), r)
+    e = e.reshape(n, -1)
+    k = np.argmin(e, axis=1)
+    return _JOINT_RATIOS[k], e[np.arange(n), k]
+
+
+def _greedy_biarc_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndarray:
+    """Arcs nodes: from one end, each span as long as the tolerance allows.
+
+    Past ``budget`` spans the rest of the piece is split evenly in parameter
+    (the measurement then shows, and the run reports, what that reaches).
+    """
+    t_a, t_b = curve.piece_t_range
+    target = _ARC_TARGET * tol
+    nodes = [t_a]
+    h = (t_b - t_a) / 16.0
+    growth = 2.0 ** np.linspace(-6.0, 3.0, 37)
+    while nodes[-1] < t_b:
+        t0 = nodes[-1]
+        if len(nodes) > budget:
+            nodes.extend(np.linspace(t0, t_b, 3)[1:])
+            break
+        cand = np.minimum(t0 + h * growth, t_b)
+        cand = np.unique(cand[cand > t0])
+        _, err = _best_ratio(curve, np.full(cand.size, t0), cand)
+        ok = err <= target
+        if ok[-1] and cand[-1] >= t_b:
+            nodes.append(t_b)
+            break
+        bad = np.flatnonzero(~ok)
+        first_bad = bad[0] if bad.size else cand.size
+        if first_bad == 0:
+            # Even the shortest candidate fails: shrink the search scale.
+            h *= 2.0**-6
+            if h < 1e-14 * max(1.0, abs(t0)):
+                nodes.append(min(t0 + 1e-9 * (t_b - t_a), t_b))
+            continue
+        good = cand[first_bad - 1]
+        if first_bad < cand.size:
+            fine = np.linspace(good, cand[first_bad], 18)[1:-1]
+            _, err_f = _best_ratio(curve, np.full(fine.size, t0), fine)
+            okf = err_f <= target
+            nb = np.flatnonzero(~okf)
+            n_ok = nb[0] if nb.size else fine.size
+            if n_ok:
+                good = fine[n_ok - 1]
+        nodes.append(float(good))
+        h = good - t0
+    return np.array(nodes)
+
+
+def _spline_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndarray:
+    """Spline nodes by bisection until the parametric error is within 0.7 tol."""
+    t_a, t_b = curve.piece_t_range
+    t_nodes = np.linspace(t_a, t_b, 9)
+    for _ in range(60):
+        spl = _piece_spline(curve, t_nodes)
+        u = (np.arange(_SPAN_SAMPLES) + 0.5) / _SPAN_SAMPLES
+        ts = (t_nodes[:-1, None] + u[None, :] * np.diff(t_nodes)[:, None]).ravel()
+        err = np.linalg.norm(spl(ts) - curve.points(ts), axis=-1)
+        err = err.reshape(len(t_nodes) - 1, -1).max(axis=1)
+        bad = err > 0.7 * tol
+        if not np.any(bad):
+            break
+        candidate = _split(t_nodes, bad)
+        if len(candidate) - 1 > budget or np.min(np.diff(candidate)) < 1e-13 * (t_b - t_a):
+            break
+        t_nodes = candidate
+    return t_nodes
+
+
+def _split(t_nodes: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    mids = 0.5 * (t_nodes[:-1] + t_nodes[1:])[bad]
+    return np.sort(np.concatenate([t_nodes, mids]))
+
+
+def _piece_spline(curve: ProfileCurve, t_nodes: np.ndarray) -> BSpline:
+    d = curve.derivative(np.array([t_nodes[0], t_nodes[-1]]))
+    return make_interp_spline(
+        t_nodes, curve.points(t_nodes), k=3, bc_type=([(1, d[0])], [(1, d[1])])
+    )
+
+
+# --- primitives and their measurement ----------------------------------------
+def _bulge_primitives(curve: ProfileCurve, t_nodes: np.ndarray, representation: str, ratio):
+    """Vertices and bulges of tooth 0 (the last node's point is the next tooth's first)."""
     p = curve.points(t_nodes)
     if representation == "polyline":
-        return p[:-1], np.zeros(len(t_nodes) - 1), p
-    tan = _unit_tangents(curve, t_nodes)
-    junction, b1, b2 = biarc(p[:-1], tan[:-1], p[1:], tan[1:])
+        return p[:-1], np.zeros(len(t_nodes) - 1)
+    _, j, _, b1, b2 = _biarc_spans(curve, t_nodes[:-1], t_nodes[1:], ratio)
     verts = np.empty((2 * (len(t_nodes) - 1), 2))
     verts[0::2] = p[:-1]
-    verts[1::2] = junction
+    verts[1::2] = j
     bulges = np.empty(2 * (len(t_nodes) - 1))
     bulges[0::2] = b1
     bulges[1::2] = b2
-    return verts, bulges, p
+    return verts, bulges
 
 
-def _golden_max(f, lo: np.ndarray, hi: np.ndarray, iters: int = 48) -> np.ndarray:
-    """Vectorised golden-section search for the maximum of ``f`` on each ``[lo, hi]``."""
-    g = 0.5 * (math.sqrt(5.0) - 1.0)
-    a, b = lo.astype(float), hi.astype(float)
-    c = b - g * (b - a)
-    d = a + g * (b - a)
-    fc, fd = f(c), f(d)
-    for _ in range(iters):
-        left = fc >= fd
-        b = np.where(left, d, b)
-        a = np.where(left, a, c)
-        d_new = np.where(left, c, a + g * (b - a))
-        c_new = np.where(left, b - g * (b - a), d)
-        f_new = f(np.where(left, c_new, d_new))
-        # Left: the old c becomes d, the new point is c. Right: old d becomes c.
-        fc, fd = np.where(left, f_new, fd), np.where(left, fc, f_new)
-        c, d = c_new, d_new
-    return np.maximum(fc, fd)
-
-
-def _max_per_span(f, n_span: int, m: int) -> np.ndarray:
-    """Max over ``u`` in [0, 1] of ``f(span, u)`` per span: sampled, then refined."""
-    u = np.linspace(0.0, 1.0, m + 1)
-    span = np.repeat(np.arange(n_span), m + 1)
-    vals = f(span, np.tile(u, n_span)).reshape(n_span, m + 1)
-    best = vals.max(axis=1)
-    # Refine only spans that could hold the maximum: between samples a smooth
-    # distance can exceed its sampled peak by far less than 20 %.
-    idx = np.flatnonzero(best >= 0.8 * best.max())
-    k = np.argmax(vals[idx], axis=1)
-    lo = u[np.maximum(k - 1, 0)]
-    hi = u[np.minimum(k + 1, m)]
-    refined = _golden_max(lambda x: f(idx, x), lo, hi)
-    best[idx] = np.maximum(best[idx], refined)
-    return best
-
-
-def _bulge_distance_fn(curve: ProfileCurve, t_nodes: np.ndarray, verts, bulges):
-    """f(span, u): distance from the exact curve at node interval ``span`` to its primitives."""
+def _measure_bulge(curve, dense, t_nodes, verts, bulges):
+    """Per node span: (exact -> export, export -> exact) maxima, mm."""
     n_span = len(t_nodes) - 1
     per_span = len(verts) // n_span
     closed = np.vstack([verts, curve.points(t_nodes[-1:])])
     dt = np.diff(t_nodes)
 
-    def f(span, u):
+    def fwd(span, u):
         q = curve.points(t_nodes[span] + u * dt[span])
         best = np.full(q.shape[0], np.inf)
         for j in range(per_span):
@@ -294,149 +330,125 @@ def _bulge_distance_fn(curve: ProfileCurve, t_nodes: np.ndarray, verts, bulges):
             best = np.minimum(best, point_bulge_distance(q, closed[k], closed[k + 1], bulges[k]))
         return best
 
-    return f
+    def bwd(seg, u):
+        q = points_on_bulges(closed[seg], closed[seg + 1], bulges[seg], u)
+        return project_points(curve.points, curve.derivative, dense, q).distance
+
+    f = max_on_spans(fwd, n_span, _MEASURE_SAMPLES)
+    b = max_on_spans(bwd, len(verts), _MEASURE_SAMPLES).reshape(n_span, per_span).max(axis=1)
+    return f, b
 
 
-def _bulge_span_error(
-    curve: ProfileCurve, t_nodes: np.ndarray, verts: np.ndarray, bulges: np.ndarray, m: int
-) -> np.ndarray:
-    """Exact-to-approximation distance per span (max over m + 1 samples), mm."""
-    f = _bulge_distance_fn(curve, t_nodes, verts, bulges)
-    n_span = len(t_nodes) - 1
-    u = np.linspace(0.0, 1.0, m + 1)
-    span = np.repeat(np.arange(n_span), m + 1)
-    return f(span, np.tile(u, n_span)).reshape(n_span, m + 1).max(axis=1)
-
-
-def _piece_spline(curve: ProfileCurve, t_nodes: np.ndarray) -> BSpline:
-    t_a, t_b = t_nodes[0], t_nodes[-1]
-    d = curve.derivative(np.array([t_a, t_b]))
-    return make_interp_spline(
-        t_nodes, curve.points(t_nodes), k=3, bc_type=([(1, d[0])], [(1, d[1])])
-    )
-
-
-def _spline_span_error(curve: ProfileCurve, t_nodes: np.ndarray, spl: BSpline, m: int):
-    u = (np.arange(m) + 0.5) / m
-    ts = (t_nodes[:-1, None] + u[None, :] * np.diff(t_nodes)[:, None]).ravel()
-    err = np.linalg.norm(spl(ts) - curve.points(ts), axis=-1)
-    return err.reshape(len(t_nodes) - 1, m).max(axis=1)
-
-
-def _refine(curve: ProfileCurve, representation: str, tol: float, max_rounds: int = 60):
-    t_a, t_b = curve.piece_t_range
-    t_nodes = np.linspace(t_a, t_b, 9)
-    for _ in range(max_rounds):
-        if representation == "spline":
-            spl = _piece_spline(curve, t_nodes)
-            err = _spline_span_error(curve, t_nodes, spl, _SPAN_SAMPLES)
-        else:
-            verts, bulges, _ = _span_primitives(curve, t_nodes, representation)
-            err = _bulge_span_error(curve, t_nodes, verts, bulges, _SPAN_SAMPLES)
-        bad = err > _REFINE_SAFETY * tol
-        if not np.any(bad):
-            return t_nodes
-        mids = 0.5 * (t_nodes[:-1] + t_nodes[1:])[bad]
-        t_nodes = np.sort(np.concatenate([t_nodes, mids]))
-        if np.min(np.diff(t_nodes)) < 1e-13 * max(1.0, abs(t_b - t_a)):
-            break
-    raise ProfileError(
-        f"tolerance = {tol:g} mm: cannot be reached for the {representation} representation "
-        "(the profile is too sharp at the tooth tip; relax the tolerance or move away "
-        "from the undercut limit)"
-    )
-
-
-def _measure_bulge(curve: ProfileCurve, t_nodes: np.ndarray, verts: np.ndarray, bulges):
-    """Both-direction deviation of tooth 0's bulge spans, refined to the local maxima."""
-    pad = 0.0 if curve.has_corners else 0.5 * (t_nodes[-1] - t_nodes[0])
-    t_lo, t_hi = t_nodes[0] - pad, t_nodes[-1] + pad
-    n_span = len(t_nodes) - 1
-    per_span = len(verts) // n_span
-    fwd = _max_per_span(_bulge_distance_fn(curve, t_nodes, verts, bulges), n_span, _MEASURE_SAMPLES)
-    closed = np.vstack([verts, curve.points(t_nodes[-1:])])
+def _measure_spline(curve, dense, t_nodes, spl):
+    """Per node span: (exact -> spline, spline -> exact) maxima, mm."""
     dt = np.diff(t_nodes)
+    dspl = spl.derivative()
+    sdense = DenseSampling.build(spl, dspl, t_nodes[0], t_nodes[-1], dense.t.size - 1)
 
-    def back(seg, u):
-        q = _points_on_bulges(closed[seg], closed[seg + 1], bulges[seg], u)
-        node = seg // per_span
-        frac = (seg % per_span + u) / per_span
-        _, d = project_to_curve(curve, q, t_nodes[node] + frac * dt[node], t_lo, t_hi)
-        return d
+    def fwd(span, u):
+        q = curve.points(t_nodes[span] + u * dt[span])
+        return project_points(spl, dspl, sdense, q).distance
 
-    bwd = _max_per_span(back, len(verts), _MEASURE_SAMPLES)
-    return max(float(fwd.max()), float(bwd.max()))
+    def bwd(span, u):
+        q = spl(t_nodes[span] + u * dt[span])
+        return project_points(curve.points, curve.derivative, dense, q).distance
 
-
-def _points_on_bulges(a: np.ndarray, b: np.ndarray, bulge: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """One point per segment at its own fraction ``u`` (n,): (n, 2)."""
-    out = a + u[:, None] * (b - a)
-    arc = np.abs(bulge) > _STRAIGHT
-    if np.any(arc):
-        centre, _, theta = _arc_geometry(a[arc], b[arc], bulge[arc])
-        va = a[arc] - centre
-        ang = theta * u[arc]
-        c, s = np.cos(ang), np.sin(ang)
-        out[arc] = centre + np.stack([va[:, 0] * c - va[:, 1] * s, va[:, 0] * s + va[:, 1] * c], -1)
-    return out
-
-
-def _measure_spline(curve: ProfileCurve, t_nodes: np.ndarray, spl) -> float:
-    dt = np.diff(t_nodes)
-
-    def f(span, u):
-        t = t_nodes[span] + u * dt[span]
-        return np.linalg.norm(spl(t) - curve.points(t), axis=-1)
-
-    return float(_max_per_span(f, len(t_nodes) - 1, _MEASURE_SAMPLES).max())
+    n_span = len(t_nodes) - 1
+    return max_on_spans(fwd, n_span, _MEASURE_SAMPLES), max_on_spans(bwd, n_span, _MEASURE_SAMPLES)
 
 
 def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> ProfileApproximation:
-    """Approximate the closed ``curve`` within ``tolerance`` (mm) and measure the result."""
+    """Approximate the closed ``curve`` within ``tolerance`` (mm) and measure the result.
+
+    Spans whose measured deviation exceeds ``tolerance`` are split and the
+    tooth measured again. If the tolerance cannot be reached, the result
+    carries its true measured deviation and ``within_tolerance`` is False.
+    """
     if representation not in REPRESENTATIONS:
         raise ProfileError(
             f"representation = {representation!r}: must be one of {', '.join(REPRESENTATIONS)}"
         )
     if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and tolerance > 0):
         raise ProfileError(f"tolerance = {tolerance!r}: allowed range is (0, inf) mm")
+    tol = float(tolerance)
     z = curve.tooth_count
-    pitch = 2.0 * math.pi / z
-    t_nodes = _refine(curve, representation, tolerance)
-    n_span = len(t_nodes) - 1
-    if representation == "spline":
-        spl = _piece_spline(curve, t_nodes)
-        dev = _measure_spline(curve, t_nodes, spl)
-        knots, ctrl = _join_spline_pieces(spl, z, pitch)
-        # The other teeth are rotations: check the joined spline there too.
-        joined = BSpline(knots, ctrl, 3)
-        span_len = t_nodes[-1] - t_nodes[0]
-        u = np.linspace(0.0, 1.0, 8 * n_span + 1)
-        ts = t_nodes[0] + u * span_len
-        worst = 0.0
-        for m in range(z):
-            exact = curve.points(ts + m * pitch)
-            worst = max(
-                worst, float(np.linalg.norm(joined(ts + m * span_len) - exact, axis=-1).max())
+    dense = _dense(curve)
+    per_node = 1 if representation != "arcs" else 2
+    budget = max(4, _MAX_VERTICES // (z * per_node))
+    if representation == "polyline":
+        t_nodes = _equal_sagitta_nodes(curve, tol, budget)
+    elif representation == "arcs":
+        t_nodes = _greedy_biarc_nodes(curve, tol, budget)
+    else:
+        t_nodes = _spline_nodes(curve, tol, budget)
+    t_a, t_b = curve.piece_t_range
+    min_step = 1e-13 * max(1.0, abs(t_b - t_a))
+    for round_ in range(_REFINE_ROUNDS + 1):
+        if representation == "spline":
+            spl = _piece_spline(curve, t_nodes)
+            f, b = _measure_spline(curve, dense, t_nodes, spl)
+        else:
+            ratio = (
+                _best_ratio(curve, t_nodes[:-1], t_nodes[1:])[0]
+                if representation == "arcs"
+                else None
             )
-        dev = max(dev, worst)
-        return ProfileApproximation(
-            representation, ctrl, np.zeros(len(ctrl)), knots, dev, float(tolerance), n_span
-        )
-    verts, bulges, _ = _span_primitives(curve, t_nodes, representation)
-    dev = _measure_bulge(curve, t_nodes, verts, bulges)
+            verts, bulges = _bulge_primitives(curve, t_nodes, representation, ratio)
+            f, b = _measure_bulge(curve, dense, t_nodes, verts, bulges)
+        bad = np.maximum(f, b) > tol
+        if not np.any(bad) or round_ == _REFINE_ROUNDS:
+            break
+        candidate = _split(t_nodes, bad)
+        if len(candidate) - 1 > budget or np.min(np.diff(candidate)) < min_step:
+            break
+        t_nodes = candidate
+    n_span = len(t_nodes) - 1
+    fwd_max, bwd_max = float(f.max()), float(b.max())
+    if representation == "spline":
+        return _spline_result(curve, t_nodes, spl, tol, fwd_max, bwd_max)
     all_verts = replicate_teeth(verts, z)
     # Rotated copies: their vertices must lie on the exact curve of their tooth.
+    pitch = 2.0 * math.pi / z
     node_t = np.concatenate([t_nodes[:-1] + m * pitch for m in range(z)])
-    step = len(verts) // n_span
-    rot_err = np.linalg.norm(all_verts[::step] - curve.points(node_t), axis=-1).max()
+    rot_err = float(np.linalg.norm(all_verts[::per_node] - curve.points(node_t), axis=-1).max())
     return ProfileApproximation(
         representation,
         all_verts,
         np.tile(bulges, z),
         None,
-        dev + float(rot_err),  # rotated copies: their own float error on top
-        float(tolerance),
+        max(fwd_max, bwd_max) + rot_err,  # rotated copies: their own float error on top
+        tol,
         n_span,
+        fwd_max + rot_err,
+        bwd_max + rot_err,
+    )
+
+
+def _spline_result(curve, t_nodes, spl, tol, fwd_max, bwd_max) -> ProfileApproximation:
+    z = curve.tooth_count
+    pitch = 2.0 * math.pi / z
+    n_span = len(t_nodes) - 1
+    knots, ctrl = _join_spline_pieces(spl, z, pitch)
+    # The other teeth are rotations: their parametric distance from the
+    # exact curve must equal tooth 0's up to float error.
+    joined = BSpline(knots, ctrl, 3)
+    span_len = t_nodes[-1] - t_nodes[0]
+    ts = t_nodes[0] + np.linspace(0.0, 1.0, 8 * n_span + 1) * span_len
+    ref = np.linalg.norm(spl(ts) - curve.points(ts), axis=-1)
+    rot_err = 0.0
+    for m in range(z):
+        d = np.linalg.norm(joined(ts + m * span_len) - curve.points(ts + m * pitch), axis=-1)
+        rot_err = max(rot_err, float(np.max(np.abs(d - ref))))
+    return ProfileApproximation(
+        "spline",
+        ctrl,
+        np.zeros(len(ctrl)),
+        knots,
+        max(fwd_max, bwd_max) + rot_err,
+        tol,
+        n_span,
+        fwd_max + rot_err,
+        bwd_max + rot_err,
     )
 
 
@@ -460,35 +472,3 @@ def _join_spline_pieces(spl: BSpline, z: int, pitch: float) -> tuple[np.ndarray,
     c = np.vstack(all_ctrl)
     c[-1] = c[0]
     return np.concatenate(all_knots), c
-
-
-def distance_to_curve(curve: ProfileCurve, q: np.ndarray, samples_per_tooth: int = 4000):
-    """Distance from arbitrary points ``q`` (n, 2) to the closed exact ``curve``, mm.
-
-    Seeds each point at the nearest of a dense sampling (k-d tree), then
-    projects with Newton, clamped to the seed's tooth piece so that a trimmed
-    (undercut) profile is never measured against its discarded swallowtail.
-    Returns ``(distance, t)``.
-    """
-    from scipy.spatial import cKDTree
-
-    q = np.asarray(q, dtype=float).reshape(-1, 2)
-    z = curve.tooth_count
-    pitch = 2.0 * math.pi / z
-    t_a, t_b = curve.piece_t_range
-    t_local = np.linspace(t_a, t_b, samples_per_tooth + 1)
-    tooth = np.repeat(np.arange(z), t_local.size)
-    t_all = np.tile(t_local, z) + tooth * pitch
-    tree = cKDTree(curve.points(t_all))
-    _, idx = tree.query(q)
-    m = tooth[idx]
-    t_seed = t_all[idx] - m * pitch
-    # Project the points rotated back onto tooth 0.
-    q0 = np.empty_like(q)
-    for mm in np.unique(m):
-        sel = m == mm
-        q0[sel] = kin.rotate_by_polar_angle(q[sel], -mm * pitch)
-    # A smooth profile continues into the next tooth; only a trimmed one stops.
-    pad = 0.0 if curve.has_corners else 0.5 * pitch
-    t, dist = project_to_curve(curve, q0, t_seed, t_a - pad, t_b + pad, iterations=12)
-    return dist, t + m * pitch

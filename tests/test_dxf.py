@@ -135,3 +135,33 @@ def test_unreadable_and_open_contours(tmp_path):
     doc.saveas(tmp_path / "open.dxf")
     with pytest.raises(Exception, match="not closed"):
         dxf.read_closed_contour(tmp_path / "open.dxf", "P")
+
+
+def test_arcs_are_g1_at_every_vertex(written):
+    """Wire EDM wants tangent continuity: each arc leaves a vertex along the tangent
+    the previous one arrived with (bulge convention: the tangent is the chord turned
+    by -theta/2 at the start, +theta/2 at the end, theta = 4 atan(bulge))."""
+    design, rep, *_, paths = written
+    if rep != "arcs":
+        pytest.skip("G1 is promised for arcs")
+    doc = ezdxf.readfile(paths["inner_gear"])
+    for layer in ("WORKING_PROFILE", "THEORETICAL_PROFILE"):
+        (pl,) = doc.modelspace().query(f'LWPOLYLINE[layer=="{layer}"]')
+        data = np.array(pl.get_points("xyb"))
+        v, b = data[:, :2], data[:, 2]
+        chord = np.roll(v, -1, axis=0) - v
+        ang = np.arctan2(chord[:, 1], chord[:, 0])
+        theta = 4 * np.arctan(b)
+        arrive = np.roll(ang + theta / 2, 1)
+        leave = ang - theta / 2
+        kink = np.angle(np.exp(1j * (leave - arrive)))
+        assert np.abs(kink).max() < 1e-8, (layer, np.abs(kink).max())
+
+
+def test_dxf_economy_at_the_same_accuracy(prototype):
+    """Issue 11: arcs <= 700 and polyline <= 2,700 vertices for the prototype at 1 um."""
+    w = working_profile(prototype)
+    arcs = approximate(w, "arcs", 1e-3)
+    poly = approximate(w, "polyline", 1e-3)
+    assert arcs.entity_vertex_count <= 700 and arcs.max_deviation <= 1e-3
+    assert poly.entity_vertex_count <= 2700 and poly.max_deviation <= 1e-3

@@ -76,3 +76,56 @@ def test_bad_arguments(prototype):
     for tol in (0.0, -1.0, float("nan")):
         with pytest.raises(ProfileError, match="tolerance"):
             approximate(curve, "polyline", tol)
+
+
+def test_projection_converges_at_a_sharp_tip():
+    """z = 39, r = 5.35 (undercut limit 5.371, tip radius 0.02 mm): the curve speed
+    at the tip is 0.4 % of its mean. Points on chords and on both sides of the curve
+    project to the true distance (brute force on 2 million parameters)."""
+    from corr_cad import GearDesign
+    from corr_cad.sampling import project_to_curve
+
+    d = GearDesign(tooth_count=39, cam_radius=150.0, eccentricity=3.0, roller_radius=5.35)
+    w = working_profile(d)
+    t_a, t_b = w.piece_t_range
+    # Chords of the coarse uniform polyline (0.95 mm long near the tip) and
+    # points pushed off the curve along its normal, tip included.
+    tn = np.linspace(t_a, t_b, 40)
+    p = w.points(tn)
+    u = np.linspace(0, 1, 11)[1:-1]
+    chords = (p[:-1, None] + u[None, :, None] * (p[1:] - p[:-1])[:, None]).reshape(-1, 2)
+    ts = np.concatenate([np.linspace(t_a, t_b, 61), t_b - np.geomspace(1e-7, 1e-3, 20)])
+    off = np.concatenate([w.points(ts) + s * w.normals(ts) for s in (-1e-3, 2e-4, 1e-3)])
+    q = np.vstack([chords, off])
+    t, dist = project_to_curve(w, q)
+    fine = np.linspace(t_a - 0.5 * (t_b - t_a), t_b + 0.5 * (t_b - t_a), 2_000_001)
+    dense = w.points(fine)
+    from scipy.spatial import cKDTree
+
+    _, j = cKDTree(dense).query(q)
+    brute = np.full(len(q), np.inf)
+    for s in (j - 1, j):
+        a, b = dense[s], dense[s + 1]
+        ab = b - a
+        u = np.clip(np.sum((q - a) * ab, 1) / np.sum(ab * ab, 1), 0, 1)
+        brute = np.minimum(brute, np.linalg.norm(q - a - u[:, None] * ab, axis=1))
+    # Equal to brute force up to the fine polyline's sagitta (2e-9 mm at the tip).
+    assert np.all(np.abs(brute - dist) <= 1e-8)
+    # A point pushed along the normal by less than the radius of curvature
+    # (0.02 mm at the tip) is exactly that far from the curve.
+    n_off = len(ts)
+    expect = np.repeat([1e-3, 2e-4, 1e-3], n_off)
+    np.testing.assert_allclose(dist[len(chords) :], expect, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(w.points(t) - q, axis=1), dist, atol=1e-12)
+
+
+def test_approximate_reports_failure_instead_of_raising(prototype, monkeypatch):
+    """A tolerance the node budget cannot reach: the true measured value, flagged."""
+    from corr_cad import sampling
+
+    monkeypatch.setattr(sampling, "_MAX_VERTICES", 500)
+    for rep in ("polyline", "arcs", "spline"):
+        a = approximate(working_profile(prototype), rep, 1e-4)
+        assert not a.within_tolerance and a.max_deviation > 1e-4
+        assert a.as_dict()["within_tolerance"] is False
+        assert len(a.vertices) <= 600

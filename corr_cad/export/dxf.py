@@ -163,7 +163,9 @@ def write_inner_gear(
             "corr_cad.representation": working.representation,
             "corr_cad.tolerance_mm": working.tolerance,
             "corr_cad.max_deviation_mm": working.max_deviation,
+            "corr_cad.within_tolerance": str(working.within_tolerance).lower(),
             "corr_cad.theoretical_max_deviation_mm": theoretical.max_deviation,
+            "corr_cad.theoretical_within_tolerance": str(theoretical.within_tolerance).lower(),
         },
     )
     msp = doc.modelspace()
