@@ -233,10 +233,15 @@ def _write_document(doc, path: Path, what: str) -> Path:
     from OCP.STEPControl import STEPControl_AsIs
 
     path = Path(path)
+    # The first writer initialises Open CASCADE's STEP statics: set ours after.
+    writer = STEPCAFControl_Writer()
     set_cval = _static(Interface_Static, "SetCVal")
     set_cval("write.step.schema", "AP214IS")
     set_cval("write.step.unit", "MM")
-    writer = STEPCAFControl_Writer()
+    # With 2D parameter curves beside the 3D ones (half the file's size): a
+    # reader without them must rebuild them by shape healing, and an unhealed
+    # read of such a file gives Open CASCADE's GProp a third of the volume.
+    _static(Interface_Static, "SetIVal")("write.surfacecurve.mode", 1)
     writer.SetNameMode(True)
     writer.SetColorMode(False)
     writer.SetLayerMode(False)
@@ -429,13 +434,15 @@ def bounding_box(shape) -> np.ndarray:
     return np.array([_xyz(box.CornerMin()), _xyz(box.CornerMax())])
 
 
-def _read_one_shape(path: Path):
+def _read_one_shape(path: Path, heal: bool = True):
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.STEPControl import STEPControl_Reader
 
     reader = STEPControl_Reader()
     if reader.ReadFile(str(path)) != IFSelect_RetDone:
         raise ExportError(f"{path}: not a readable STEP file")
+    if not heal:
+        _healing_off(reader)
     reader.TransferRoots()
     return reader.OneShape()
 
@@ -486,10 +493,16 @@ def read_step_curves(path: Path, samples_per_edge: int = 200) -> list[np.ndarray
     from OCP.TopAbs import TopAbs_EDGE
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
-    from OCP.TopTools import TopTools_IndexedMapOfShape
 
-    edges = TopTools_IndexedMapOfShape()
-    _static(TopExp, "MapShapes")(_read_one_shape(path), TopAbs_EDGE, edges)
+    try:  # OCP 8
+        from OCP.OCP.collections import (
+            IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as IndexedMapOfShape,
+        )
+    except ImportError:  # OCP 7
+        from OCP.TopTools import TopTools_IndexedMapOfShape as IndexedMapOfShape
+
+    edges = IndexedMapOfShape()
+    _static(TopExp, "MapShapes")(_read_one_shape(path, heal=False), TopAbs_EDGE, edges)
     out = []
     for i in range(1, edges.Extent() + 1):
         curve = BRepAdaptor_Curve(_static(TopoDS, "Edge")(edges.FindKey(i)))
