@@ -277,6 +277,27 @@ def test_assembly_step_has_named_parts_where_the_mesh_assembly_has_them(run):
             np.testing.assert_allclose(centre[:2], want, atol=1e-7)
             assert boxes[f"roller_{row}_{i + 1:02d}"][0, 2] == pytest.approx(z0, abs=1e-7)
 
+    # Turns (invisible in a box for the rings and plates): where a marked point
+    # (0, 100) of each part lands, from the README's layout.
+    from OCP.gp import gp_Pnt
+
+    def turned(a, p):  # polar angles grow by a
+        return [p[0] * math.cos(a) + p[1] * math.sin(a), -p[0] * math.sin(a) + p[1] * math.cos(a)]
+
+    phi = c + theta0
+    want = {
+        "ring_a": turned(0.0, (0, 100)) + [0.0],
+        "ring_b": turned(math.pi / z, (0, 100)) + [w + t],
+        "cam_a": turned(phi, (0, 100 + e)) + [0.0],
+        "cam_b": turned(phi + math.pi, (0, 100 + e)) + [w + t],
+        "frame_1": turned(theta0, (0, 100)) + [-t],
+        "frame_2": turned(theta0, (0, 100)) + [w],
+        "frame_3": turned(theta0, (0, 100)) + [2 * w + t],
+    }
+    for p in parts[:7]:
+        q = gp_Pnt(0.0, 100.0, 0.0).Transformed(p.shape.Location().Transformation())
+        np.testing.assert_allclose([q.X(), q.Y(), q.Z()], want[p.name], atol=1e-9)
+
     # Against the mesh assembly (polygons inscribed within TOL): the same boxes.
     scene = parse_scene({"design": d}, "x")
     outlines = part_outlines(scene.design, working_profile(scene.design), TOL)
