@@ -472,3 +472,59 @@ def _join_spline_pieces(spl: BSpline, z: int, pitch: float) -> tuple[np.ndarray,
     c = np.vstack(all_ctrl)
     c[-1] = c[0]
     return np.concatenate(all_knots), c
+
+
+# --- per-tooth and per-span pieces of a joined spline (CAD export) -----------
+def spline_tooth_pieces(approx: ProfileApproximation) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Split a ``spline`` approximation at its tooth boundaries.
+
+    The joined curve's knots of full multiplicity (the degree, 3) are where
+    the curve passes through a control point: the joins between teeth.
+    Returns one clamped cubic ``(knots (m,), control points (m - 4, 2))`` per
+    tooth, in order; consecutive pieces share their end control point
+    exactly (the same float values), so the chain is closed and C1 wherever
+    the exact profile is smooth.
+    """
+    if approx.representation != "spline" or approx.knots is None:
+        raise ProfileError(f"representation = {approx.representation!r}: not a spline")
+    k = 3
+    knots = np.asarray(approx.knots, dtype=float)
+    ctrl = np.asarray(approx.vertices, dtype=float)
+    values, first, counts = np.unique(knots, return_index=True, return_counts=True)
+    joins = [i for i in range(len(values)) if counts[i] >= k]
+    pieces = []
+    for a, b in zip(joins[:-1], joins[1:], strict=True):
+        start = 0 if a == 0 else first[a] - 1
+        stop = len(ctrl) - 1 if b == len(values) - 1 else first[b] - 1
+        inner = knots[first[a] + counts[a] : first[b]]
+        piece_knots = np.concatenate([np.full(k + 1, values[a]), inner, np.full(k + 1, values[b])])
+        pieces.append((piece_knots, ctrl[start : stop + 1]))
+    return pieces
+
+
+def spline_bezier_spans(approx: ProfileApproximation) -> tuple[np.ndarray, np.ndarray]:
+    """The ``spline`` approximation as cubic Bezier spans, one per knot interval.
+
+    Each span of a cubic B-spline is a cubic polynomial, so its Bezier form
+    (``P0 = C(a)``, ``P1 = P0 + h C'(a) / 3``, ``P2 = P3 - h C'(b) / 3``,
+    ``P3 = C(b)``, ``h = b - a``) is the same curve, not an approximation.
+    Returns ``(control points (n, 4, 2), parameter intervals (n, 2))``;
+    span ``i``'s ``P3`` is span ``i + 1``'s ``P0`` (the same floats), and the
+    last span ends on the first one's start.
+    """
+    ctrl_out, params = [], []
+    for knots, ctrl in spline_tooth_pieces(approx):
+        spl = BSpline(knots, ctrl, 3)
+        u = np.unique(knots)
+        p = spl(u)
+        p[0], p[-1] = ctrl[0], ctrl[-1]  # a clamped end is its control point, exactly
+        d = spl.derivative()(u)
+        h = np.diff(u)[:, None]
+        seg = np.empty((len(u) - 1, 4, 2))
+        seg[:, 0] = p[:-1]
+        seg[:, 1] = p[:-1] + h * d[:-1] / 3.0
+        seg[:, 2] = p[1:] - h * d[1:] / 3.0
+        seg[:, 3] = p[1:]
+        ctrl_out.append(seg)
+        params.append(np.stack([u[:-1], u[1:]], axis=1))
+    return np.concatenate(ctrl_out), np.concatenate(params)

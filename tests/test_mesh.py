@@ -49,6 +49,10 @@ def test_exact_volumes_independently(built):
     assert outlines["ring"].exact_volume == pytest.approx(ring_area * design.face_width)
 
 
+#: Length of one file unit in mm: glTF is in metres, the others in millimetres.
+FILE_UNIT_MM = {"stl": 1.0, "3mf": 1.0, "glb": 1000.0, "ply": 1.0}
+
+
 @pytest.mark.parametrize("fmt", ["stl", "3mf", "glb", "ply"])
 def test_round_trip_through_trimesh(built, tmp_path, fmt):
     _, _, solids = built
@@ -57,8 +61,27 @@ def test_round_trip_through_trimesh(built, tmp_path, fmt):
     back = trimesh.load(path, force="mesh")
     back.merge_vertices()
     assert back.is_watertight
-    assert back.volume == pytest.approx(tm.volume, rel=1e-6)
-    np.testing.assert_allclose(back.bounds, tm.bounds, atol=1e-4)
+    # Outward normals: consistent winding and a positive volume, in every format.
+    assert back.is_winding_consistent and back.volume > 0
+    k = FILE_UNIT_MM[fmt]
+    assert back.volume * k**3 == pytest.approx(tm.volume, rel=1e-6)
+    np.testing.assert_allclose(back.bounds * k, tm.bounds, atol=1e-4)
+
+
+def test_glb_is_in_metres_and_3mf_says_millimetres(built, tmp_path):
+    import zipfile
+
+    _, outlines, solids = built
+    tm = mesh.to_trimesh(solids["roller"])
+    glb = trimesh.load(mesh.write_mesh(tm, tmp_path / "r.glb", "glb"), force="mesh")
+    # The roller is 8 mm in radius: 0.008 in the file.
+    assert glb.bounds[1, 0] == pytest.approx(0.008, rel=1e-6)
+    path = mesh.write_mesh(tm, tmp_path / "r.3mf", "3mf")
+    with zipfile.ZipFile(path) as z:
+        model = z.read("3D/3dmodel.model").decode()
+    assert 'unit="millimeter"' in model
+    back = trimesh.load(path, force="mesh")
+    assert back.bounds[1, 0] == pytest.approx(8.0, rel=1e-6)
 
 
 def test_assembly_round_trip_keeps_named_parts(built, tmp_path):
@@ -69,9 +92,16 @@ def test_assembly_round_trip_keeps_named_parts(built, tmp_path):
     for fmt in ("glb", "3mf"):
         path = mesh.write_mesh(parts, tmp_path / f"a.{fmt}", fmt)
         scene = trimesh.load(path)
-        assert len(scene.geometry) == len(parts)
-        total = sum(g.volume for g in scene.dump())
-        assert total == pytest.approx(sum(p.volume for p in parts.values()), rel=1e-6)
+        assert set(scene.geometry) == set(parts)
+        k = FILE_UNIT_MM[fmt]
+        for name, geom in scene.geometry.items():
+            # Every part closed, outward wound, in place.
+            assert geom.is_winding_consistent and geom.volume > 0, (fmt, name)
+            assert geom.volume * k**3 == pytest.approx(parts[name].volume, rel=1e-6)
+            np.testing.assert_allclose(geom.bounds * k, parts[name].bounds, atol=1e-4)
+    for fmt in ("stl", "ply"):
+        back = trimesh.load(mesh.write_mesh(parts, tmp_path / f"a.{fmt}", fmt), force="mesh")
+        assert back.volume == pytest.approx(sum(p.volume for p in parts.values()), rel=1e-6)
 
 
 def test_assembly_places_rollers_on_cam_and_gear(built):

@@ -1,62 +1,347 @@
-"""STEP AP214 export: real B-rep read back by Open CASCADE."""
+"""STEP AP214 export, run as a user runs it, read back by Open CASCADE.
+
+The reference values are computed here from the paper's closed form and
+share no code with the exporter: the roller-centre locus
+``s = e cos(psi) + sqrt(L^2 - e^2 sin^2 psi)``, ``L = Rj + r``,
+``psi = z t`` at ``s (sin t, cos t)``; the working profile is its outer
+offset by ``r``, whose area and length follow from the locus by Steiner's
+formula (``A + r P + pi r^2`` and ``P + 2 pi r``, valid without undercut).
+"""
 
 import builtins
+import json
+import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
-import trimesh
 
-from corr_cad import ExportError, GearDesign, approximate, working_profile
-from corr_cad.parts import part_outlines
-from corr_cad.sampling import distance_to_curve
+from corr_cad import ExportError
 
 step = pytest.importorskip("corr_cad.export.step")
 pytest.importorskip("OCP")
 
 TOL = 1e-3
+SLOT_END = 1.0  # mm, the frame slot's end clearance (README, "Solids, meshes and STEP")
+
+# Two designs: the paper's prototype, and a z = 39 drive at 0.996 of its
+# undercut limit (tooth tip radius 0.02 mm).
+DESIGNS = {
+    "prototype": dict(tooth_count=25, cam_radius=135.0, roller_radius=8.0, eccentricity=3.5),
+    "z39": dict(tooth_count=39, cam_radius=150.0, roller_radius=5.35, eccentricity=3.0),
+}
+SIZES = dict(
+    roller_length=12.0,
+    face_width=12.0,
+    ring_outer_radius=180.0,
+    cam_bore_radius=40.0,
+    frame_inner_radius=100.0,
+    frame_outer_radius=172.0,
+    frame_thickness=6.0,
+)
+ANGLE = {"prototype": 33.0, "z39": 0.0}
 
 
-@pytest.fixture(scope="module")
-def written(tmp_path_factory):
-    design = GearDesign()
-    w = working_profile(design)
-    spline = approximate(w, "spline", TOL)
-    shapes = step.part_shapes(design, spline)
-    out = tmp_path_factory.mktemp("step")
-    paths = {k: step.write_step(v, out / f"{k}.step", k) for k, v in shapes.items()}
-    return design, w, part_outlines(design, w, TOL), paths
+def _scene(name: str) -> str:
+    d = {**DESIGNS[name], **SIZES}
+    lines = ["[design]"] + [f"{k} = {v}" for k, v in d.items()]
+    lines += [
+        "[export]",
+        'formats = ["step", "dxf"]',
+        'representation = "spline"',
+        f"tolerance = {TOL}",
+        f"assembly_angles_deg = [{ANGLE[name]}]",
+    ]
+    return "\n".join(lines) + "\n"
 
 
-@pytest.mark.parametrize("part", ["ring", "cam", "roller", "frame"])
-def test_step_reads_back_with_volume_and_bbox(written, part):
-    design, w, outlines, paths = written
-    text = paths[part].read_text(errors="replace")
-    assert "AUTOMOTIVE_DESIGN" in text  # AP214
-    assert "B_SPLINE_CURVE" in text or part != "ring"
-    deflection = 0.1
-    verts, faces, bbox = step.read_step_mesh(paths[part], deflection)
-    tm = trimesh.Trimesh(verts, faces, process=False)
-    tm.merge_vertices()
-    assert tm.is_watertight
-    o = outlines[part]
-    assert abs(tm.volume - o.exact_volume) <= (deflection + TOL) * o.boundary_length * o.thickness
-    radius = {
-        "ring": design.ring_outer_radius,
-        "cam": design.cam_radius,
-        "roller": design.roller_radius,
-        "frame": design.frame_outer_radius,
-    }[part]
-    np.testing.assert_allclose(bbox[1, :2], [radius, radius], atol=1e-6)
-    assert bbox[1, 2] - bbox[0, 2] == pytest.approx(o.thickness, abs=1e-6)
+@pytest.fixture(scope="module", params=list(DESIGNS))
+def run(request, tmp_path_factory):
+    """``corr-cad run`` in a fresh process, into a folder that holds another file."""
+    name = request.param
+    folder = tmp_path_factory.mktemp(name)
+    (folder / "notes.txt").write_text("not ours")
+    scene = folder / f"{name}.toml"
+    scene.write_text(_scene(name))
+    out = folder / "out"
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    assert (folder / "notes.txt").read_text() == "not ours"
+    manifest = json.loads((out / "manifest.json").read_text())
+    return name, {**DESIGNS[name], **SIZES}, out, manifest
 
 
-def test_profile_curve_in_step_is_within_tolerance(written):
-    design, w, _, paths = written
-    curves = step.read_step_curves(paths["ring"], samples_per_edge=20000)
-    assert curves
-    for c in curves:
-        d, _ = distance_to_curve(w, c[:, :2])
-        assert d.max() <= TOL
+# --- the exact geometry, from the closed form --------------------------------
+def _locus(d, n=200_000):
+    """Polar radius s(t) and ds/dt of the roller-centre locus on a uniform t grid."""
+    z, e, r = d["tooth_count"], d["eccentricity"], d["roller_radius"]
+    L = d["cam_radius"] + r
+    t = np.arange(n) * 2 * np.pi / n
+    psi = z * t
+    root = np.sqrt(L * L - (e * np.sin(psi)) ** 2)
+    s = e * np.cos(psi) + root
+    ds = z * (-e * np.sin(psi) - e * e * np.sin(psi) * np.cos(psi) / root)
+    return t, s, ds
+
+
+def exact_profile_area_and_length(d):
+    """Area enclosed by the working profile and its length (trapezoid: periodic, spectral)."""
+    t, s, ds = _locus(d)
+    dt = 2 * np.pi / len(t)
+    area0 = 0.5 * np.sum(s * s) * dt
+    length0 = np.sum(np.sqrt(s * s + ds * ds)) * dt
+    r = d["roller_radius"]
+    return area0 + r * length0 + np.pi * r * r, length0 + 2 * np.pi * r
+
+
+def exact_working_points(d, n=400_000):
+    t, s, ds = _locus(d, n)
+    p = s[:, None] * np.stack([np.sin(t), np.cos(t)], 1)
+    dp = ds[:, None] * np.stack([np.sin(t), np.cos(t)], 1) + s[:, None] * np.stack(
+        [np.cos(t), -np.sin(t)], 1
+    )
+    # t runs clockwise: the outward normal is the tangent turned counter-clockwise.
+    nrm = np.stack([-dp[:, 1], dp[:, 0]], 1) / np.linalg.norm(dp, axis=1)[:, None]
+    return p + d["roller_radius"] * nrm
+
+
+def distance_to_polygon(q, poly):
+    """Distance from points q to the closed dense polygon (two segments at the nearest vertex)."""
+    from scipy.spatial import cKDTree
+
+    _, i = cKDTree(poly).query(q)
+    best = np.full(len(q), np.inf)
+    for j0, j1 in ((i - 1, i), (i, (i + 1) % len(poly))):
+        a, b = poly[j0], poly[j1]
+        ab = b - a
+        u = np.clip(np.sum((q - a) * ab, 1) / np.sum(ab * ab, 1), 0, 1)
+        best = np.minimum(best, np.linalg.norm(q - (a + u[:, None] * ab), axis=1))
+    return best
+
+
+def exact_solids(d):
+    """(volume, surface area) of each part file from the inputs alone."""
+    w, t, r = d["face_width"], d["frame_thickness"], d["roller_radius"]
+    Ro, Rj, rb = d["ring_outer_radius"], d["cam_radius"], d["cam_bore_radius"]
+    Fi, Fo = d["frame_inner_radius"], d["frame_outer_radius"]
+    a_prof, p_prof = exact_profile_area_and_length(d)
+    ring_face = np.pi * Ro**2 - a_prof
+    cam_face = np.pi * (Rj**2 - rb**2)
+    h_roll = d["roller_length"] + 2 * t
+    slot_len = 2 * (d["eccentricity"] + SLOT_END)
+    n_slots = d["tooth_count"] + 1
+    frame_face = np.pi * (Fo**2 - Fi**2) - n_slots * (2 * r * slot_len + np.pi * r * r)
+    frame_edges = 2 * np.pi * (Fo + Fi) + n_slots * (2 * np.pi * r + 2 * slot_len)
+    return {
+        "inner_gear": (ring_face * w, 2 * ring_face + w * (2 * np.pi * Ro + p_prof)),
+        "disk_cam": (cam_face * w, 2 * cam_face + w * 2 * np.pi * (Rj + rb)),
+        "roller": (np.pi * r * r * h_roll, 2 * np.pi * r * r + 2 * np.pi * r * h_roll),
+        "teeth_frame": (frame_face * t, 2 * frame_face + t * frame_edges),
+    }
+
+
+_HEALED: dict = {}
+
+
+def _read_healed(path):
+    """The shape as FreeCAD gets it: STEPControl_Reader with its default healing."""
+    if path in _HEALED:
+        return _HEALED[path]
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+
+    reader = STEPControl_Reader()
+    assert reader.ReadFile(str(path)) == IFSelect_RetDone
+    reader.TransferRoots()
+    _HEALED[path] = reader.OneShape()
+    return _HEALED[path]
+
+
+# --- tests -------------------------------------------------------------------
+@pytest.mark.parametrize("part", ["inner_gear", "disk_cam", "roller", "teeth_frame"])
+def test_open_cascade_mass_properties_match_the_exact_solid(run, part):
+    # GProp on the read-back shape, not a tessellation: what CAD programs report.
+    name, d, out, manifest = run
+    shape = _read_healed(out / f"{part}.step")
+    volume, area = step.mass_properties(shape)
+    exact_volume, exact_area = exact_solids(d)[part]
+    assert volume == pytest.approx(exact_volume, rel=1e-5)
+    assert area == pytest.approx(exact_area, rel=1e-5)
+    facts = manifest["step"][f"{part}.step"]
+    assert facts["readback_volume_mm3"] == pytest.approx(volume, rel=1e-12)
+    assert facts["exact_volume_mm3"] == pytest.approx(exact_volume, rel=1e-9)
+
+
+def test_ring_face_area_from_open_cascade(run):
+    # The planar face alone (the profile's enclosed area is what a shop measures).
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    name, d, out, _ = run
+    shape = _read_healed(out / "inner_gear.step")
+    ring_face = np.pi * d["ring_outer_radius"] ** 2 - exact_profile_area_and_length(d)[0]
+    areas = []
+    exp = TopExp_Explorer(shape, TopAbs_FACE)
+    while exp.More():
+        face = step._static(TopoDS, "Face")(exp.Current())
+        if BRepAdaptor_Surface(face).GetType() == GeomAbs_Plane:
+            props = GProp_GProps()
+            step._static(BRepGProp, "SurfaceProperties")(face, props)
+            areas.append(props.Mass())
+        exp.Next()
+    assert len(areas) == 2
+    for a in areas:
+        assert a == pytest.approx(ring_face, rel=1e-5)
+
+
+def test_profile_edges_lie_on_the_exact_profile_and_join(run):
+    name, d, out, manifest = run
+    curves = step.read_step_curves(out / "inner_gear.step", samples_per_edge=24)
+    z = d["tooth_count"]
+    bottom = [c for c in curves if np.abs(c[:, 2]).max() <= 1e-9]
+    top = [c for c in curves if np.abs(c[:, 2] - d["face_width"]).max() <= 1e-9]
+    # Whole teeth: the same number of edges per tooth, on both faces.
+    n_edges = manifest["step"]["inner_gear.step"]["profile_edges"]
+    assert len(bottom) == len(top) == n_edges and n_edges % z == 0
+    assert len(curves) == 2 * n_edges
+    pts = np.vstack(bottom)
+    dist = distance_to_polygon(pts[:, :2], exact_working_points(d))
+    assert dist.max() <= TOL
+    # Every edge end is another edge's start.
+    starts = np.array([c[0, :2] for c in bottom])
+    ends = np.array([c[-1, :2] for c in bottom])
+    gap = np.min(np.linalg.norm(ends[:, None, :] - starts[None, :, :], axis=2), axis=1)
+    assert gap.max() <= 1e-9
+
+
+def test_every_product_is_named_after_its_part(run):
+    name, d, out, manifest = run
+    for part in ("inner_gear", "disk_cam", "roller", "teeth_frame"):
+        path = out / f"{part}.step"
+        top, parts = step.read_step(path, heal=False)
+        assert top == part and [(p.name, p.product) for p in parts] == [(part, part)]
+        text = path.read_text(errors="replace")
+        assert f"PRODUCT('{part}'" in text
+        assert "Open CASCADE STEP translator" not in text
+        assert "AUTOMOTIVE_DESIGN" in text  # AP214
+        assert manifest["step"][f"{part}.step"]["product_name"] == part
+
+
+def _expected_names(z):
+    names = ["ring_a", "ring_b", "cam_a", "cam_b", "frame_1", "frame_2", "frame_3"]
+    for row in "ab":
+        names += [f"roller_{row}_{i:02d}" for i in range(1, z + 2)]
+    return names
+
+
+def test_assembly_step_has_named_parts_where_the_mesh_assembly_has_them(run):
+    from corr_cad.export import mesh
+    from corr_cad.parts import part_outlines
+    from corr_cad.profile import working_profile
+    from corr_cad.scene import parse_scene
+
+    name, d, out, manifest = run
+    tag = f"{int(ANGLE[name]):03d}deg"
+    path = out / f"assembly_{tag}.step"
+    top, parts = step.read_step(path, heal=False)
+    z = d["tooth_count"]
+    assert top == f"assembly_{tag}"
+    assert [p.name for p in parts] == _expected_names(z)
+    product = {"ring": "inner_gear", "cam": "disk_cam", "frame": "teeth_frame"}
+    for p in parts:
+        assert p.product == product.get(p.name.split("_")[0], "roller")
+    boxes = {p.name: step.bounding_box(p.shape) for p in parts}
+
+    # Independently: every roller centre at its crank-slider radius (closed form).
+    c = math.radians(ANGLE[name])
+    e, L = d["eccentricity"], d["cam_radius"] + d["roller_radius"]
+    theta0 = c / z
+    w, t = d["face_width"], d["frame_thickness"]
+    for row, dphi, z0 in (("a", 0.0, -t), ("b", math.pi, w)):
+        for i in range(z + 1):
+            theta = theta0 + 2 * math.pi * i / (z + 1)
+            psi = c + theta0 + dphi - theta
+            s = e * math.cos(psi) + math.sqrt(L * L - (e * math.sin(psi)) ** 2)
+            centre = boxes[f"roller_{row}_{i + 1:02d}"].mean(axis=0)
+            want = [s * math.sin(theta), s * math.cos(theta)]
+            np.testing.assert_allclose(centre[:2], want, atol=1e-7)
+            assert boxes[f"roller_{row}_{i + 1:02d}"][0, 2] == pytest.approx(z0, abs=1e-7)
+
+    # Turns (invisible in a box for the rings and plates): where a marked point
+    # (0, 100) of each part lands, from the README's layout.
+    from OCP.gp import gp_Pnt
+
+    def turned(a, p):  # polar angles grow by a
+        return [p[0] * math.cos(a) + p[1] * math.sin(a), -p[0] * math.sin(a) + p[1] * math.cos(a)]
+
+    phi = c + theta0
+    want = {
+        "ring_a": turned(0.0, (0, 100)) + [0.0],
+        "ring_b": turned(math.pi / z, (0, 100)) + [w + t],
+        "cam_a": turned(phi, (0, 100 + e)) + [0.0],
+        "cam_b": turned(phi + math.pi, (0, 100 + e)) + [w + t],
+        "frame_1": turned(theta0, (0, 100)) + [-t],
+        "frame_2": turned(theta0, (0, 100)) + [w],
+        "frame_3": turned(theta0, (0, 100)) + [2 * w + t],
+    }
+    for p in parts[:7]:
+        q = gp_Pnt(0.0, 100.0, 0.0).Transformed(p.shape.Location().Transformation())
+        np.testing.assert_allclose([q.X(), q.Y(), q.Z()], want[p.name], atol=1e-9)
+
+    # Against the mesh assembly (polygons inscribed within TOL): the same boxes.
+    scene = parse_scene({"design": d}, "x")
+    outlines = part_outlines(scene.design, working_profile(scene.design), TOL)
+    solids = {k: mesh.solid(v) for k, v in outlines.items()}
+    asm = mesh.assembly(scene.design, solids, c).all_solids()
+    frame = np.array([boxes["frame_1"][0], boxes["frame_3"][1]])
+    for key, box in [(k, boxes[k]) for k in ("ring_a", "ring_b", "cam_a", "cam_b")] + [
+        ("frame", frame),
+        ("roller_a_05", boxes["roller_a_05"]),
+        ("roller_b_05", boxes["roller_b_05"]),
+    ]:
+        mesh_box = np.reshape(asm[key].bounding_box(), (2, 3))
+        np.testing.assert_allclose(box, mesh_box, atol=2 * TOL)
+    total = sum(step.mass_properties(p.shape)[0] for p in parts)
+    vols = exact_solids(d)
+    expected = 2 * vols["inner_gear"][0] + 2 * vols["disk_cam"][0] + 3 * vols["teeth_frame"][0]
+    assert total == pytest.approx(expected + 2 * (z + 1) * vols["roller"][0], rel=1e-5)
+    assert manifest["step"][f"assembly_{tag}.step"]["instances"] == len(parts)
+
+
+def test_dxf_spline_is_one_c1_spline_per_tooth_with_the_exact_area(run):
+    import ezdxf
+
+    name, d, out, manifest = run
+    doc = ezdxf.readfile(out / "inner_gear.dxf")
+    splines = [e for e in doc.modelspace() if e.dxf.layer == "WORKING_PROFILE"]
+    z = d["tooth_count"]
+    assert len(splines) == z and all(e.dxftype() == "SPLINE" for e in splines)
+    tools = [e.construction_tool() for e in splines]
+    pts = []
+    for i, tool in enumerate(tools):
+        nxt = tools[(i + 1) % z]
+        end, start = tool.control_points[-1], nxt.control_points[0]
+        assert (end - start).magnitude <= 1e-9
+        # C1: the same tangent direction on both sides of the join (smooth profile).
+        t_end = tool.derivative(tool.max_t, 1)[1].normalize()
+        t_start = nxt.derivative(0.0, 1)[1].normalize()
+        assert (t_end - t_start).magnitude <= 1e-6
+        u = np.linspace(0.0, tool.max_t, 4001)[:-1]
+        pts.append(np.array([(p.x, p.y) for p in tool.points(u)]))
+    p = np.vstack(pts)
+    area = 0.5 * abs(np.dot(p[:, 0], np.roll(p[:, 1], -1)) - np.dot(p[:, 1], np.roll(p[:, 0], -1)))
+    assert area == pytest.approx(exact_profile_area_and_length(d)[0], rel=1e-5)
+    assert distance_to_polygon(p, exact_working_points(d)).max() <= TOL
 
 
 def test_missing_extra_gives_install_hint(monkeypatch):

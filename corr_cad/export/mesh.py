@@ -29,6 +29,7 @@ from ..parts import PartOutline
 
 __all__ = [
     "MESH_FORMATS",
+    "MESH_UNITS",
     "solid",
     "to_trimesh",
     "check_mesh",
@@ -248,13 +249,31 @@ def stable_3mf(data: bytes) -> bytes:
     return buf.getvalue()
 
 
+#: Length unit of each mesh file. glTF is defined in metres (glTF 2.0, 3.4:
+#: "the units for all linear distances are meters"); 3MF says millimetres in
+#: its ``unit`` attribute (trimesh writes ``unit="millimeter"``); STL and PLY
+#: carry no unit and stay in millimetres.
+MESH_UNITS = {"stl": "mm", "3mf": "mm", "glb": "m", "ply": "mm"}
+_SCALE = {"mm": 1.0, "m": 1e-3}
+
+
 def write_mesh(meshes: dict[str, trimesh.Trimesh] | trimesh.Trimesh, path: Path, fmt: str) -> Path:
-    """Write one part or an assembly (a scene of named parts) via a temporary file."""
+    """Write one part or an assembly (a scene of named parts) via a temporary file.
+
+    Coordinates are scaled from millimetres to the format's unit
+    (:data:`MESH_UNITS`): GLB is written in metres.
+    """
     if fmt not in MESH_FORMATS:
         raise ExportError(
             f"mesh format {fmt!r} is unknown; valid formats: {', '.join(MESH_FORMATS)}"
         )
     path = Path(path)
+    scale = _SCALE[MESH_UNITS[fmt]]
+    if scale != 1.0:
+        if isinstance(meshes, dict):
+            meshes = {name: _scaled(m, scale) for name, m in meshes.items()}
+        else:
+            meshes = _scaled(meshes, scale)
     if isinstance(meshes, dict):
         obj = trimesh.Scene()
         for name, mesh in meshes.items():
@@ -270,3 +289,10 @@ def write_mesh(meshes: dict[str, trimesh.Trimesh] | trimesh.Trimesh, path: Path,
     tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
     tmp.replace(path)
     return path
+
+
+def _scaled(mesh: trimesh.Trimesh, factor: float) -> trimesh.Trimesh:
+    """A copy of ``mesh`` with every coordinate times ``factor`` (faces, winding kept)."""
+    return trimesh.Trimesh(
+        vertices=np.asarray(mesh.vertices) * factor, faces=np.asarray(mesh.faces), process=False
+    )

@@ -1,13 +1,22 @@
 """STEP AP214 export as real B-rep solids (Open CASCADE via OCP, an optional extra).
 
-The working profile goes in as one closed cubic B-spline curve: the same
-clamped spline, within the scene's tolerance, that ``spline`` DXF export
-writes. Circles are exact circles, slots exact lines and arcs. Faces are
-extruded to solids.
+The working profile goes in as the ``spline`` approximation (the curve the
+``spline`` DXF holds, within the tolerance), written as one cubic B-spline
+edge per knot span: each span of a cubic B-spline is a cubic polynomial, so
+the edges are the same curve, joined C1 through shared vertices, and every
+tooth is a whole number of edges. Circles are exact circles, slots exact
+lines and arcs. Faces are extruded to solids.
 
-Read-back verification meshes the shape (``BRepMesh_IncrementalMesh``) and
-takes the volume of that mesh: Open CASCADE's exact volume integration
-(``GProp``) is unreliable on many-lobed B-spline faces.
+Why per span: Open CASCADE's mass properties (``BRepGProp``, what FreeCAD's
+``Shape.Volume`` calls) integrate each face of an extruded edge with a fixed
+number of Gauss points, whatever the edge's knot count. On one edge of the
+whole profile that gives 134,818 mm^3 for a 354,305 mm^3 ring; one edge per
+tooth still misses by 2e-5 (z = 25) to 8e-5 (z = 39); one edge per span is
+integrated exactly (1e-12 against the spline's own area).
+
+Every file is written through XCAF, so each STEP product carries its part's
+name; :func:`write_assembly_step` writes the placed assembly as instances
+of those products.
 """
 
 from __future__ import annotations
@@ -15,6 +24,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,9 +32,21 @@ import numpy as np
 from ..design import GearDesign
 from ..errors import ExportError
 from ..parts import frame_slot_outline
-from ..sampling import ProfileApproximation
+from ..placement import Placement
+from ..sampling import ProfileApproximation, spline_bezier_spans
 
-__all__ = ["require_ocp", "write_step", "read_step_mesh", "read_step_curves", "part_shapes"]
+__all__ = [
+    "require_ocp",
+    "part_shapes",
+    "write_step",
+    "write_assembly_step",
+    "read_step",
+    "StepPart",
+    "mass_properties",
+    "bounding_box",
+    "read_step_mesh",
+    "read_step_curves",
+]
 
 _INSTALL = "pip install -e '.[step]'  (installs cadquery-ocp-novtk, Open CASCADE)"
 
@@ -49,6 +71,14 @@ def require_ocp():
         for printer in list(messenger.Printers()):
             messenger.RemovePrinter(printer)
         _QUIET = True
+
+
+def _static(cls, name: str):
+    """OCP 7 suffixes static methods with ``_s``; OCP 8 does not.
+
+    The suffixed name wins: ``TDataStd_Name.Set`` is also an instance method.
+    """
+    return getattr(cls, name + "_s", None) or getattr(cls, name)
 
 
 def _pnt(x, y, z=0.0):
@@ -76,25 +106,35 @@ def _wire(edges):
     return mk.Wire()
 
 
-def _bspline_edge(approx: ProfileApproximation):
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
+def _profile_wire(approx: ProfileApproximation):
+    """The closed profile: one cubic B-spline edge per knot span, sharing vertices."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeVertex
     from OCP.Geom import Geom_BSplineCurve
 
     # OCP 8 moved the TColgp / TColStd arrays to OCP.OCP.collections.
     from OCP.OCP.collections import Array1_double, Array1_gp_Pnt, Array1_int
 
-    poles = approx.vertices
-    knots, mults = np.unique(np.round(approx.knots, 14), return_counts=True)
-    arr = Array1_gp_Pnt(1, len(poles))
-    for i, (x, y) in enumerate(poles, 1):
-        arr.SetValue(i, _pnt(x, y))
-    kn = Array1_double(1, len(knots))
-    mu = Array1_int(1, len(knots))
-    for i, (k, m) in enumerate(zip(knots, mults, strict=True), 1):
-        kn.SetValue(i, float(k))
-        mu.SetValue(i, int(m))
-    curve = Geom_BSplineCurve(arr, kn, mu, 3, False)
-    return BRepBuilderAPI_MakeEdge(curve).Edge()
+    spans, params = spline_bezier_spans(approx)
+    n = len(spans)
+    # Span i ends where span i + 1 starts (the same floats): one vertex each.
+    verts = [BRepBuilderAPI_MakeVertex(_pnt(*spans[i, 0])).Vertex() for i in range(n)]
+    mults = Array1_int(1, 2)
+    mults.SetValue(1, 4)
+    mults.SetValue(2, 4)
+    edges = []
+    for i in range(n):
+        poles = Array1_gp_Pnt(1, 4)
+        for j in range(4):
+            poles.SetValue(j + 1, _pnt(*spans[i, j]))
+        knots = Array1_double(1, 2)
+        knots.SetValue(1, float(params[i, 0]))
+        knots.SetValue(2, float(params[i, 1]))
+        curve = Geom_BSplineCurve(poles, knots, mults, 3, False)
+        mk = BRepBuilderAPI_MakeEdge(curve, verts[i], verts[(i + 1) % n])
+        if not mk.IsDone():
+            raise ExportError(f"STEP: profile span {i} could not be made an edge")
+        edges.append(mk.Edge())
+    return _wire(edges)
 
 
 def _slot_wire(design: GearDesign, angle: float):
@@ -137,17 +177,12 @@ def _extrude(outer_wire, hole_wires, height: float):
     return BRepPrimAPI_MakePrism(face, gp_Vec(0, 0, float(height))).Shape()
 
 
-def _static(cls, name: str):
-    """OCP 7 suffixes static methods with ``_s``; OCP 8 does not."""
-    return getattr(cls, name, None) or getattr(cls, name + "_s")
-
-
 def part_shapes(design: GearDesign, working_spline: ProfileApproximation) -> dict:
     """B-rep solids of ``ring``, ``cam``, ``roller`` and ``frame`` (part coordinates)."""
     require_ocp()
     ring = _extrude(
         _wire([_circle_edge(design.ring_outer_radius)]),
-        [_wire([_bspline_edge(working_spline)])],
+        [_profile_wire(working_spline)],
         design.face_width,
     )
     cam = _extrude(
@@ -204,21 +239,51 @@ def _pin_timestamp(path: Path) -> None:
     Path(path).write_bytes(new.encode("latin-1") + sep + rest)
 
 
-def write_step(shape, path: Path, name: str) -> Path:
-    """Write one shape as STEP AP214 via a temporary file."""
-    require_ocp()
+# --- writing ------------------------------------------------------------------
+def _new_document():
+    """An XCAF document and its shape tool."""
+    from OCP.TCollection import TCollection_ExtendedString
+    from OCP.TDocStd import TDocStd_Document
+    from OCP.XCAFApp import XCAFApp_Application
+    from OCP.XCAFDoc import XCAFDoc_DocumentTool, XCAFDoc_ShapeTool
+
+    app = _static(XCAFApp_Application, "GetApplication")()
+    doc = TDocStd_Document(TCollection_ExtendedString("MDTV-XCAF"))
+    app.InitDocument(doc)
+    tool = _static(XCAFDoc_DocumentTool, "ShapeTool")(doc.Main())
+    _static(XCAFDoc_ShapeTool, "SetAutoNaming")(False)
+    return doc, tool
+
+
+def _set_name(label, name: str) -> None:
+    from OCP.TCollection import TCollection_ExtendedString
+    from OCP.TDataStd import TDataStd_Name
+
+    _static(TDataStd_Name, "Set")(label, TCollection_ExtendedString(name))
+
+
+def _write_document(doc, path: Path, what: str) -> Path:
+    """Write an XCAF document as STEP AP214 (mm) via a temporary file."""
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.Interface import Interface_Static
-    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.STEPCAFControl import STEPCAFControl_Writer
+    from OCP.STEPControl import STEPControl_AsIs
 
     path = Path(path)
+    # The first writer initialises Open CASCADE's STEP statics: set ours after.
+    writer = STEPCAFControl_Writer()
     set_cval = _static(Interface_Static, "SetCVal")
     set_cval("write.step.schema", "AP214IS")
     set_cval("write.step.unit", "MM")
-    set_cval("write.step.product.name", name)
-    writer = STEPControl_Writer()
-    if writer.Transfer(shape, STEPControl_AsIs) != IFSelect_RetDone:
-        raise ExportError(f"STEP: could not transfer {name}")
+    # With 2D parameter curves beside the 3D ones (half the file's size): a
+    # reader without them must rebuild them by shape healing, and an unhealed
+    # read of such a file gives Open CASCADE's GProp a third of the volume.
+    _static(Interface_Static, "SetIVal")("write.surfacecurve.mode", 1)
+    writer.SetNameMode(True)
+    writer.SetColorMode(False)
+    writer.SetLayerMode(False)
+    if not writer.Transfer(doc, STEPControl_AsIs):
+        raise ExportError(f"STEP: could not transfer {what}")
     tmp = path.with_name(path.name + ".part.step")
     if writer.Write(str(tmp)) != IFSelect_RetDone:
         raise ExportError(f"STEP: could not write {path}")
@@ -227,25 +292,210 @@ def write_step(shape, path: Path, name: str) -> Path:
     return path
 
 
+def write_step(shape, path: Path, name: str) -> Path:
+    """Write one solid as STEP AP214 (mm) whose product is named ``name``."""
+    require_ocp()
+    doc, tool = _new_document()
+    label = tool.AddShape(shape, False)
+    _set_name(label, name)
+    return _write_document(doc, path, name)
+
+
+def _location(p: Placement):
+    """``T(offset) . Rz(-angle) . T(pre_offset)`` as an OCC location."""
+    from OCP.gp import gp_Ax1, gp_Dir, gp_Trsf, gp_Vec
+    from OCP.TopLoc import TopLoc_Location
+
+    pre, rot, post = gp_Trsf(), gp_Trsf(), gp_Trsf()
+    pre.SetTranslation(gp_Vec(float(p.pre_offset[0]), float(p.pre_offset[1]), 0.0))
+    # Polar angles grow clockwise seen from +z: a mathematical rotation by -angle.
+    rot.SetRotation(gp_Ax1(_pnt(0, 0, 0), gp_Dir(0, 0, 1)), -float(p.angle_rad))
+    post.SetTranslation(gp_Vec(*(float(c) for c in p.offset)))
+    return TopLoc_Location(post.Multiplied(rot).Multiplied(pre))
+
+
+def write_assembly_step(
+    shapes: dict,
+    part_names: dict[str, str],
+    placements: list[Placement],
+    path: Path,
+    name: str,
+) -> Path:
+    """Write an assembly: one product per part, one named instance per placement.
+
+    ``shapes`` and ``part_names`` are keyed by part (``ring``, ``cam``, ...);
+    each placement puts an instance of ``shapes[p.part]`` named ``p.name``.
+    """
+    require_ocp()
+    doc, tool = _new_document()
+    top = tool.NewShape()
+    _set_name(top, name)
+    labels = {}
+    for key in dict.fromkeys(p.part for p in placements):
+        labels[key] = tool.AddShape(shapes[key], False)
+        _set_name(labels[key], part_names[key])
+    for p in placements:
+        comp = tool.AddComponent(top, labels[p.part], _location(p))
+        _set_name(comp, p.name)
+    tool.UpdateAssemblies()
+    return _write_document(doc, path, name)
+
+
+# --- reading back -------------------------------------------------------------
+@dataclass
+class StepPart:
+    """One solid read back from a STEP file.
+
+    ``name`` is its instance name in an assembly, else its product name;
+    ``product`` the name of the product it instantiates; ``shape`` is placed.
+    """
+
+    name: str
+    product: str
+    shape: object
+
+
+def _label_sequence():
+    try:  # OCP 8
+        from OCP.OCP.collections import Sequence_TDF_Label
+    except ImportError:  # OCP 7
+        from OCP.TDF import TDF_LabelSequence as Sequence_TDF_Label
+    return Sequence_TDF_Label()
+
+
+def _label_name(label) -> str:
+    from OCP.TDataStd import TDataStd_Name
+
+    attr = TDataStd_Name()
+    if label.FindAttribute(_static(TDataStd_Name, "GetID")(), attr):
+        return attr.Get().ToExtString()
+    return ""
+
+
+def _healing_off(reader) -> None:
+    """Switch Open CASCADE's shape healing off for one transfer (after ReadFile).
+
+    Healing (``FixShape``, on by default) checks every wire for
+    self-intersection and reorders it, quadratic in the edges of a wire: 2.5 s
+    for a z = 39 ring. Our files are built clean; the tests read them with
+    healing on, as FreeCAD does, and get the same mass properties.
+    """
+    from OCP.OCP.collections import DataMap_TCollection_AsciiString_TCollection_AsciiString
+    from OCP.TCollection import TCollection_AsciiString
+
+    params = DataMap_TCollection_AsciiString_TCollection_AsciiString()
+    for mode in _FIX_MODES:
+        params.Bind(TCollection_AsciiString(f"FixShape.{mode}"), TCollection_AsciiString("0"))
+    reader.SetShapeFixParameters(params)
+
+
+_FIX_MODES = (
+    "FixFreeShellMode FixFreeFaceMode FixFreeWireMode FixSameParameterMode FixSolidMode "
+    "FixShellOrientationMode CreateOpenSolidMode FixShellMode FixFaceOrientationMode FixFaceMode "
+    "FixWireMode FixOrientationMode FixAddNaturalBoundMode FixMissingSeamMode "
+    "FixSmallAreaWireMode RemoveSmallAreaFaceMode FixIntersectingWiresMode FixLoopWiresMode "
+    "FixSplitFaceMode AutoCorrectPrecisionMode ModifyTopologyMode ModifyGeometryMode "
+    "ClosedWireMode PreferencePCurveMode FixReorderMode FixSmallMode FixConnectedMode "
+    "FixEdgeCurvesMode FixDegeneratedMode FixLackingMode FixSelfIntersectionMode RemoveLoopMode "
+    "FixReversed2dMode FixRemovePCurveMode FixRemoveCurve3dMode FixAddPCurveMode "
+    "FixAddCurve3dMode FixSeamMode FixShiftedMode FixEdgeSameParameterMode FixNotchedEdgesMode "
+    "FixTailMode FixSelfIntersectingEdgeMode FixIntersectingEdgesMode "
+    "FixNonAdjacentIntersectingEdgesMode FixVertexPositionMode FixVertexToleranceMode"
+).split()
+
+
+def read_step(path: Path, heal: bool = True) -> tuple[str, list[StepPart]]:
+    """Read a STEP file with its names (XCAF): ``(top product name, solids)``.
+
+    A single-part file gives one :class:`StepPart`; an assembly gives one per
+    instance, its shape moved to the instance's location. ``heal=False``
+    skips Open CASCADE's shape healing (see :func:`_healing_off`).
+    """
+    require_ocp()
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPCAFControl import STEPCAFControl_Reader
+    from OCP.TDF import TDF_Label
+    from OCP.XCAFDoc import XCAFDoc_ShapeTool
+
+    doc, tool = _new_document()
+    reader = STEPCAFControl_Reader()
+    reader.SetNameMode(True)
+    reader.SetColorMode(False)
+    reader.SetLayerMode(False)
+    if reader.ReadFile(str(path)) != IFSelect_RetDone:
+        raise ExportError(f"{path}: not a readable STEP file")
+    if not heal:
+        _healing_off(reader.ChangeReader())
+    if not reader.Transfer(doc):
+        raise ExportError(f"{path}: its shapes could not be transferred")
+    roots = _label_sequence()
+    tool.GetFreeShapes(roots)
+    if roots.Length() != 1:
+        raise ExportError(f"{path}: expected one top-level product, found {roots.Length()}")
+    top = roots.Value(1)
+    is_assembly = _static(XCAFDoc_ShapeTool, "IsAssembly")
+    get_shape = _static(XCAFDoc_ShapeTool, "GetShape")
+    parts = []
+    if is_assembly(top):
+        comps = _label_sequence()
+        _static(XCAFDoc_ShapeTool, "GetComponents")(top, comps, False)
+        for i in range(1, comps.Length() + 1):
+            comp = comps.Value(i)
+            ref = TDF_Label()
+            _static(XCAFDoc_ShapeTool, "GetReferredShape")(comp, ref)
+            # A component's shape carries its location.
+            parts.append(StepPart(_label_name(comp), _label_name(ref), get_shape(comp)))
+    else:
+        parts.append(StepPart(_label_name(top), _label_name(top), get_shape(top)))
+    return _label_name(top), parts
+
+
+def mass_properties(shape) -> tuple[float, float]:
+    """Open CASCADE's own ``(volume mm^3, surface area mm^2)`` of ``shape`` (BRepGProp)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    vol, area = GProp_GProps(), GProp_GProps()
+    _static(BRepGProp, "VolumeProperties")(shape, vol)
+    _static(BRepGProp, "SurfaceProperties")(shape, area)
+    return float(vol.Mass()), float(area.Mass())
+
+
+def bounding_box(shape) -> np.ndarray:
+    """The optimal box (2, 3) of ``shape`` from its exact geometry, mm."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    box = Bnd_Box()
+    # The optimal box, not the plain one (enlarged by tolerances).
+    _static(BRepBndLib, "AddOptimal")(shape, box, False, False)
+    return np.array([_xyz(box.CornerMin()), _xyz(box.CornerMax())])
+
+
+def _read_one_shape(path: Path, heal: bool = True):
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+
+    reader = STEPControl_Reader()
+    if reader.ReadFile(str(path)) != IFSelect_RetDone:
+        raise ExportError(f"{path}: not a readable STEP file")
+    if not heal:
+        _healing_off(reader)
+    reader.TransferRoots()
+    return reader.OneShape()
+
+
 def read_step_mesh(path: Path, deflection: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Read a STEP file back; mesh it; return (vertices, faces, bbox (2, 3))."""
     require_ocp()
-    from OCP.Bnd import Bnd_Box
     from OCP.BRep import BRep_Tool
-    from OCP.BRepBndLib import BRepBndLib
     from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    from OCP.IFSelect import IFSelect_RetDone
-    from OCP.STEPControl import STEPControl_Reader
     from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopLoc import TopLoc_Location
     from OCP.TopoDS import TopoDS
 
-    reader = STEPControl_Reader()
-    if reader.ReadFile(str(path)) != IFSelect_RetDone:
-        raise ExportError(f"{path}: not a readable STEP file")
-    reader.TransferRoots()
-    shape = reader.OneShape()
+    shape = _read_one_shape(path)
     BRepMesh_IncrementalMesh(shape, float(deflection), False, 0.5, True).Perform()
     verts, faces = [], []
     offset = 0
@@ -266,40 +516,35 @@ def read_step_mesh(path: Path, deflection: float) -> tuple[np.ndarray, np.ndarra
         faces.append(tris + offset)
         offset += n
         exp.Next()
-    box = Bnd_Box()
-    # The optimal box, from the exact geometry (the plain one is enlarged by
-    # tolerances and the triangulation).
-    _static(BRepBndLib, "AddOptimal")(shape, box, False, False)
-    lo, hi = box.CornerMin(), box.CornerMax()
-    bbox = np.array([_xyz(lo), _xyz(hi)])
-    return np.vstack(verts), np.vstack(faces), bbox
+    return np.vstack(verts), np.vstack(faces), bounding_box(shape)
 
 
 def _xyz(p):
     return (p.X(), p.Y(), p.Z())
 
 
-def read_step_curves(path: Path, samples_per_edge: int = 2000) -> list[np.ndarray]:
-    """Points (n, 3) sampled on every B-spline edge of a STEP file, as read back by OCP."""
+def read_step_curves(path: Path, samples_per_edge: int = 200) -> list[np.ndarray]:
+    """Points (n, 3) sampled on every distinct B-spline edge of a STEP file, as read by OCP."""
     require_ocp()
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.GeomAbs import GeomAbs_BSplineCurve
-    from OCP.IFSelect import IFSelect_RetDone
-    from OCP.STEPControl import STEPControl_Reader
     from OCP.TopAbs import TopAbs_EDGE
-    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
 
-    reader = STEPControl_Reader()
-    if reader.ReadFile(str(path)) != IFSelect_RetDone:
-        raise ExportError(f"{path}: not a readable STEP file")
-    reader.TransferRoots()
-    exp = TopExp_Explorer(reader.OneShape(), TopAbs_EDGE)
+    try:  # OCP 8
+        from OCP.OCP.collections import (
+            IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as IndexedMapOfShape,
+        )
+    except ImportError:  # OCP 7
+        from OCP.TopTools import TopTools_IndexedMapOfShape as IndexedMapOfShape
+
+    edges = IndexedMapOfShape()
+    _static(TopExp, "MapShapes")(_read_one_shape(path, heal=False), TopAbs_EDGE, edges)
     out = []
-    while exp.More():
-        curve = BRepAdaptor_Curve(_static(TopoDS, "Edge")(exp.Current()))
+    for i in range(1, edges.Extent() + 1):
+        curve = BRepAdaptor_Curve(_static(TopoDS, "Edge")(edges.FindKey(i)))
         if curve.GetType() == GeomAbs_BSplineCurve:
             u = np.linspace(curve.FirstParameter(), curve.LastParameter(), samples_per_edge)
             out.append(np.array([_xyz(curve.Value(float(x))) for x in u]))
-        exp.Next()
     return out
