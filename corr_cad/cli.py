@@ -1,7 +1,8 @@
 """Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``.
 
-Exit codes: 0 success, 2 bad input or a refused design (one line on stderr,
-no traceback, nothing written).
+Exit codes: 0 success, 1 a [checks] limit (or the Monte Carlo gate) failed,
+2 bad input or a refused design (one line on stderr, no traceback, nothing
+written).
 """
 
 from __future__ import annotations
@@ -72,28 +73,13 @@ def _run(args: argparse.Namespace) -> int:
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
     with _executor(args, scene) as executor, StagingDir(out) as stage:
         manifest = run_scene(scene, stage, progress=say, executor=executor)
+    from .console import failed_checks, summary_lines
+
     if not args.quiet:
-        acc = manifest.get("accuracy", {}).get("working_profile")
-        if acc:
-            print(
-                f"working profile: {acc['representation']}, tolerance {acc['tolerance_mm']:g} mm, "
-                f"measured max deviation {acc['max_deviation_mm']:.3g} mm"
-            )
-        f = manifest.get("forces")
-        if f:
-            print(
-                f"roller 1: F_j mean {f['F_j_mean']:.1f} N, F_n peak {f['F_n_peak']:.1f} N, "
-                f"p_max {f['p_max']:.0f} MPa, loaded rollers {f['loaded_rollers_min']}-"
-                f"{f['loaded_rollers_max']}"
-            )
-        i = manifest.get("interference")
-        if i:
-            state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
-            print(f"interference over {i['positions']} crank positions: {state}")
-        print(f"wrote {len(manifest['files']) + 1} files to {out}")
-    failed = [k for k, r in manifest.get("checks", {}).items() if not r["passed"]]
+        print("\n".join(summary_lines(manifest, out)), flush=True)
+    failed = failed_checks(manifest)
     if failed:
-        print(f"corr-cad: check failed: {', '.join(failed)}", file=sys.stderr)
+        print(f"corr-cad: check failed: {'; '.join(failed)}", file=sys.stderr)
         return 1
     return 0
 

@@ -159,6 +159,7 @@ def _forces(ctx: RunContext) -> None:
 
 
 def _force_files(ctx: RunContext) -> None:
+    from .console import force_peaks
     from .export import plots
     from .outputs import write_csv, write_json
 
@@ -196,6 +197,8 @@ def _force_files(ctx: RunContext) -> None:
     ]
     write_csv(ctx.out / "forces.csv", header, rows)
     summary = res.summary()
+    summary["roller"] = 1  # the means and peaks above are roller 1's; "peak" is the drive's
+    summary["peak"] = force_peaks(res, s.design)
     summary["solver"] = {
         "success": res.success,
         "message": res.message,
@@ -431,7 +434,7 @@ def _checks(ctx: RunContext) -> None:
         "lost_motion_arcmin": float(res.lost_motion.max() * ARCMIN_PER_RAD),
     }
     report = evaluate_checks(values, ctx.scene.checks)
-    ctx.manifest["checks"] = report
+    ctx.manifest.setdefault("checks", {}).update(report)
     for name, r in report.items():
         state = "pass" if r["passed"] else "FAIL"
         nums = f"value {r['value']:.4g}, limit {r['limit']:.4g}, margin {r['margin']:.4g}"
@@ -441,7 +444,7 @@ def _checks(ctx: RunContext) -> None:
 def _montecarlo(ctx: RunContext) -> None:
     from .export import plots
     from .outputs import write_csv, write_json
-    from .tolerance import monte_carlo
+    from .tolerance import evaluate_failure_probability, monte_carlo
 
     s = ctx.scene
     mc_cfg = s.montecarlo
@@ -479,6 +482,15 @@ def _montecarlo(ctx: RunContext) -> None:
     ctx.manifest["montecarlo"] = {
         k: summary[k] for k in ("samples", "failure_probability", "percentiles")
     }
+    gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
+    if gate:
+        ctx.manifest.setdefault("checks", {})["montecarlo"] = gate
+        for name, g in gate.items():
+            state = "pass" if g["passed"] else "FAIL"
+            ctx.progress(
+                f"      check montecarlo {name}: {state} (failure probability "
+                f"{g['probability']:.4g}, allowed {g['allowed']:.4g})"
+            )
 
 
 def _allocation(ctx: RunContext) -> None:

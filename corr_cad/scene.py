@@ -191,6 +191,14 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "max_lost_motion_arcmin": Key(
             "float", None, "allowable output lost motion, arcmin", example=1.0
         ),
+        "max_failure_probability": Key(
+            "float",
+            None,
+            "gate the Monte Carlo too: largest allowed probability of breaking each limit, "
+            "in [0, 1] (default: only the nominal design is gated)",
+            high=1,
+            example=0.01,
+        ),
     },
     "tolerances": {
         kind: Key(
@@ -435,6 +443,19 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             "[export] formats asks for montecarlo/allocation but [tolerances] is empty; "
             f"give one of {', '.join(TOLERANCE_KINDS)}"
         )
+    mfp = checks.max_failure_probability
+    if mfp is not None:
+        if mfp < 0:
+            raise SceneError(f"[checks] max_failure_probability = {mfp:g}: allowed range is [0, 1]")
+        if not checks.active():
+            raise SceneError(
+                "[checks] max_failure_probability needs at least one limit in [checks]"
+            )
+        if "montecarlo" not in formats:
+            raise SceneError(
+                "[checks] max_failure_probability gates the Monte Carlo: "
+                "add 'montecarlo' to [export] formats"
+            )
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
     return Scene(

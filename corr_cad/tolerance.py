@@ -28,6 +28,7 @@ __all__ = [
     "Checks",
     "sample_metrics",
     "evaluate_checks",
+    "evaluate_failure_probability",
     "draw_samples",
     "monte_carlo",
     "allocate",
@@ -66,9 +67,13 @@ class Checks:
     max_gear_force: float | None = None  # N
     min_loaded_rollers: int | None = None
     max_lost_motion_arcmin: float | None = None
+    #: Largest allowed Monte Carlo failure probability per limit; ``None``:
+    #: the Monte Carlo is reported but only the nominal design is gated.
+    max_failure_probability: float | None = None
 
     def active(self) -> dict[str, float]:
-        return {k: v for k, v in self.__dict__.items() if v is not None}
+        """The limits that are set (not the failure-probability gate)."""
+        return {k: v for k, v in self.__dict__.items() if v is not None and k in CHECK_METRICS}
 
 
 #: check -> (metric, sense): "max" limits bound the metric from above.
@@ -107,6 +112,22 @@ def evaluate_checks(values: dict[str, float], checks: Checks) -> dict[str, dict]
         margin = (limit - v) if sense == "max" else (v - limit)
         out[name] = {"limit": limit, "value": v, "margin": margin, "passed": bool(margin >= 0)}
     return out
+
+
+def evaluate_failure_probability(failure_probability: dict[str, float], checks: Checks) -> dict:
+    """The Monte Carlo gate: each limit's failure probability against the allowed one.
+
+    Empty when ``checks.max_failure_probability`` is not set (then only the
+    nominal design is gated). A limit passes when its probability of being
+    broken is at most the allowed probability.
+    """
+    allowed = checks.max_failure_probability
+    if allowed is None:
+        return {}
+    return {
+        name: {"probability": float(p), "allowed": allowed, "passed": bool(p <= allowed)}
+        for name, p in failure_probability.items()
+    }
 
 
 def draw_samples(
