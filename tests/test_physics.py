@@ -14,8 +14,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from corr_cad import GearDesign
-from corr_cad import contact
+from corr_cad import GearDesign, contact
 from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.errors import DesignError
 from corr_cad.profile import undercut_analysis
