@@ -110,7 +110,7 @@ def warnings(manifest: dict) -> list[str]:
         b = (peak.get("half_width_mm") or {}).get("gear")
         if b is not None and tip < b:
             out.append(
-                f"geometry: tooth tip radius {tip:.3g} mm is below the gear contact "
+                f"geometry: tooth tip radius {tip:.3g} mm is below the largest gear contact "
                 f"half-width {b:.3g} mm: the line-contact model does not hold at the tip"
             )
     bad = peak.get("contacts_outside_validity") or {}
