@@ -193,6 +193,7 @@ def test_knife_edge_tooth_tip_warns(tmp_path):
     assert r.returncode == 0, r.stderr
     assert re.search(r"warning: geometry: tooth tip radius 0.0197 mm is below 0.1 mm", r.stdout)
     assert "below the largest gear contact half-width" in r.stdout
+    assert re.search(r"peak contact pressure \d+ MPa at the gear contact", r.stdout)
     assert "warning: material: peak contact pressure" in r.stdout
 
 

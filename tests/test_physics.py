@@ -90,6 +90,10 @@ def _ref_lost_motion_arcmin(design, crank_angle, errors):
     return max(fwd - rev, 0.0) / len(rows) * 60.0 * 180.0 / math.pi
 
 
+#: Asymmetric per-roller scatter (all in clearance with the -0.004 mm below).
+RADIUS_SCATTER = tuple(round(0.0015 * math.sin(1.7 * i), 6) for i in range(26))
+
+
 def test_lost_motion_in_arcmin_against_hand_calculation(prototype, tmp_path):
     import json
     import subprocess
@@ -101,6 +105,7 @@ def test_lost_motion_in_arcmin_against_hand_calculation(prototype, tmp_path):
         '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
         f"[solver]\ncrank_angles_deg = {angles}\n"
         "[errors]\nroller_radius_error = -0.004\n"
+        f"roller_radius_errors = {list(RADIUS_SCATTER)}\n"
         "[checks]\nmax_lost_motion_arcmin = 100.0\n"
     )
     r = subprocess.run(
@@ -111,7 +116,7 @@ def test_lost_motion_in_arcmin_against_hand_calculation(prototype, tmp_path):
     assert r.returncode == 0, r.stderr
     m = json.loads((tmp_path / "o" / "manifest.json").read_text())
     got = m["checks"]["max_lost_motion_arcmin"]["value"]
-    err = ManufacturingErrors(roller_radius_error=-0.004)
+    err = ManufacturingErrors(roller_radius_error=-0.004, roller_radius_errors=RADIUS_SCATTER)
     want = max(_ref_lost_motion_arcmin(prototype, a * DEG, err) for a in angles)
     assert want > 0.1  # a real play, not a zero that any unit would match
     assert got == pytest.approx(want, rel=1e-6)
@@ -152,18 +157,19 @@ def test_montecarlo_metrics_equal_direct_solves(prototype):
     assert gear_top >= 1  # the gear contact decides the peak in some samples
 
 
-def test_montecarlo_cam_contact_counts_when_it_is_the_peak(prototype):
-    # A cam radius oversize loads the cam contact most: the peak must follow it.
+def test_montecarlo_cam_contact_counts_when_it_is_the_peak():
+    # With a small eccentricity the tooth tips are blunt and the cam contact
+    # carries the highest pressure: the Monte Carlo peak must follow it.
+    design = GearDesign(eccentricity=1.0)
     tol = {"cam_radius": Distribution("uniform", 0.004)}
-    mc = monte_carlo(prototype, M0, tol, 4, 3, 26)
-    units = draw_samples(tol, 4, 3, prototype.roller_count)
+    mc = monte_carlo(design, M0, tol, 3, 3, 26)
+    units = draw_samples(tol, 3, 3, design.roller_count)
     angles = 2 * math.pi * np.arange(26) / 26
-    for k in range(4):
-        res = solve_forces(
-            prototype, M0, angles, errors=ManufacturingErrors(0.004 * units["cam_radius"][k])
-        )
-        p = max(res.p_cam.max(), res.p_slot.max(), res.p_gear.max())
-        assert mc.metrics["peak_pressure"][k] == pytest.approx(p, rel=1e-9)
+    for k in range(3):
+        err = ManufacturingErrors(cam_radius_error=0.004 * units["cam_radius"][k])
+        res = solve_forces(design, M0, angles, errors=err)
+        assert res.p_cam.max() > max(res.p_gear.max(), res.p_slot.max())
+        assert mc.metrics["peak_pressure"][k] == pytest.approx(res.p_cam.max(), rel=1e-9)
 
 
 # --- allocation with a "min" limit uses the lower percentile -------------------------
