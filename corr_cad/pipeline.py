@@ -132,12 +132,15 @@ def _errors(ctx: RunContext):
     return ctx.results.get("errors", ctx.scene.errors)
 
 
+def _psi_contact_limit(ctx: RunContext) -> float:
+    """Rollers beyond the trimmed tooth tips of an allowed undercut find no flank."""
+    info = ctx.results["undercut"]
+    return math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else math.pi
+
+
 def _forces(ctx: RunContext) -> None:
     s = ctx.scene
-    info = ctx.results["undercut"]
-    limit = (
-        math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else math.pi
-    )
+    limit = _psi_contact_limit(ctx)
     angles = (
         np.radians(np.asarray(s.solver.crank_angles_deg, dtype=float))
         if s.solver.crank_angles_deg is not None
@@ -460,6 +463,7 @@ def _montecarlo(ctx: RunContext) -> None:
         base_errors=_errors(ctx),
         executor=ctx.executor,
         progress=lambda done, total: ctx.progress(f"      montecarlo: {done}/{total} samples"),
+        psi_contact_limit=_psi_contact_limit(ctx),
     )
     if not res.success:
         raise SolverError("Monte Carlo: the force solver did not converge for some samples")
@@ -507,6 +511,7 @@ def _allocation(ctx: RunContext) -> None:
         "load_share": s.solver.load_share,
         "executor": ctx.executor,
         "base_errors": _errors(ctx),
+        "psi_contact_limit": _psi_contact_limit(ctx),
     }
     d, m0 = s.design, s.load.input_torque
     rows = []

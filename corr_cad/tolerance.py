@@ -164,10 +164,14 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
     return replace(base, **kw)
 
 
-def _chunk_task(design, input_torque, angles, load_share, base, tolerances, units, lo, hi):
+def _chunk_task(
+    design, input_torque, angles, load_share, base, tolerances, units, lo, hi, psi_limit=math.pi
+):
     """Solve samples ``lo..hi-1`` (runs in a worker)."""
     errs = [_errors_for(base, tolerances, units, k) for k in range(lo, hi)]
-    res = solve_forces_batch(design, input_torque, angles, errs, load_share=load_share)
+    res = solve_forces_batch(
+        design, input_torque, angles, errs, load_share=load_share, psi_contact_limit=psi_limit
+    )
     return sample_metrics(res, hi - lo), res.success
 
 
@@ -248,8 +252,13 @@ def monte_carlo(
     executor=None,
     chunk: int = 50,
     progress: Callable[[int, int], None] | None = None,
+    psi_contact_limit: float = math.pi,
 ) -> MonteCarloResult:
-    """Seeded Monte Carlo over ``tolerances``; see the module docstring."""
+    """Seeded Monte Carlo over ``tolerances``; see the module docstring.
+
+    ``psi_contact_limit``: as in :func:`~corr_cad.solver.solve_forces` (the
+    trimmed tooth tips of an allowed undercut carry nothing).
+    """
     unknown = [k for k in tolerances if k not in TOLERANCE_KINDS]
     if unknown:
         raise SceneError(
@@ -262,7 +271,17 @@ def monte_carlo(
     bounds = [(lo, min(lo + chunk, samples)) for lo in range(0, samples, chunk)]
     futures = [
         executor.submit(
-            _chunk_task, design, input_torque, angles, load_share, base, tolerances, units, lo, hi
+            _chunk_task,
+            design,
+            input_torque,
+            angles,
+            load_share,
+            base,
+            tolerances,
+            units,
+            lo,
+            hi,
+            psi_contact_limit,
         )
         for lo, hi in bounds
     ]
@@ -292,6 +311,7 @@ def allocate(
     executor=None,
     rel_precision: float = 0.02,
     base_errors: ManufacturingErrors | None = None,
+    psi_contact_limit: float = math.pi,
 ) -> dict:
     """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
 
@@ -325,6 +345,8 @@ def allocate(
             positions,
             load_share=load_share,
             executor=executor,
+            base_errors=base_errors,
+            psi_contact_limit=psi_contact_limit,
         )
         for name in checks.active():
             metric, sense = CHECK_METRICS[name]

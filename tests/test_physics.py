@@ -382,3 +382,26 @@ def test_undercut_threshold_is_where_the_working_radius_vanishes():
 
     k = locus_frame(math.pi / 39, 39, 3.0, 150.0 + r_adm)["curvature"]
     assert 1 + r_adm * k == pytest.approx(0.0, abs=1e-9)
+
+
+def test_montecarlo_on_trimmed_tips_equals_direct_solve():
+    design = GearDesign(roller_radius=11.0, allow_undercut=True)
+    limit = math.radians(undercut_analysis(design).trimmed_psi_deg)
+    tol = {"eccentricity": Distribution("uniform", 0.002)}
+    mc = monte_carlo(design, M0, tol, 2, 4, 26, psi_contact_limit=limit)
+    units = draw_samples(tol, 2, 4, design.roller_count)
+    angles = 2 * math.pi * np.arange(26) / 26
+    for k in range(2):
+        err = ManufacturingErrors(eccentricity_error=0.002 * units["eccentricity"][k])
+        res = solve_forces(design, M0, angles, errors=err, psi_contact_limit=limit)
+        p = max(res.p_cam.max(), res.p_slot.max(), res.p_gear.max())
+        assert mc.metrics["peak_pressure"][k] == pytest.approx(p, rel=1e-9)
+
+
+def test_allocation_keeps_the_scenes_errors(prototype):
+    # A +0.02 mm cam preloads every roller (F_n ~ 21,000 N): no tolerance keeps 5000 N.
+    checks = Checks(max_gear_force=5000.0)
+    kw = {"samples": 10, "seed": 2, "positions": 26}
+    base = ManufacturingErrors(cam_radius_error=0.02)
+    out = allocate(prototype, M0, {}, checks, "eccentricity", base_errors=base, **kw)
+    assert out["tolerance"] == 0.0 and out["failing_at"] == 0.0
