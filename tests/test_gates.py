@@ -250,9 +250,8 @@ def test_non_finite_through_the_cli(tmp_path):
 # --- a writer killed inside the write leaves the previous file ----------------------
 
 KILL = r"""
-import os, signal, sys
+import builtins, io, os, signal, sys
 from pathlib import Path
-import ezdxf.document
 from corr_cad import GearDesign
 from corr_cad.export import dxf
 from corr_cad.outputs import write_json
@@ -260,20 +259,37 @@ from corr_cad.outputs import write_json
 target = Path(sys.argv[2])
 which = sys.argv[1]
 
+
 class Killer:
+    # A file whose first write puts out a few bytes, then the process is killed.
     def __init__(self, f):
-        self.f, self.n = f, 0
+        self.f = f
+
     def write(self, data):
         self.f.write(data[:100])
         self.f.flush()
         os.kill(os.getpid(), signal.SIGKILL)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return self.f.__exit__(*exc)
+
     def __getattr__(self, k):
         return getattr(self.f, k)
 
-orig = ezdxf.document.Drawing.write
-ezdxf.document.Drawing.write = lambda self, stream, *a, **k: orig(self, Killer(stream), *a, **k)
-import json as _json
-_json.dumps = lambda *a, **k: os.kill(os.getpid(), signal.SIGKILL)
+
+def wrap(orig):
+    def opener(file, mode="r", *a, **k):
+        f = orig(file, mode, *a, **k)
+        return Killer(f) if any(c in mode for c in "wax") else f
+    return opener
+
+
+builtins.open = io.open = wrap(io.open)
+_fdopen = os.fdopen
+os.fdopen = lambda fd, mode="r", *a, **k: Killer(_fdopen(fd, mode, *a, **k))
 d = GearDesign(roller_radius=7.0)
 {"roller": lambda: dxf.write_roller(d, target),
  "disk_cam": lambda: dxf.write_disk_cam(d, target),
