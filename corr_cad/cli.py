@@ -1,6 +1,7 @@
 """Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``.
 
-Exit codes: 0 success; 1 a ``[checks]`` limit failed; 2 bad input, a refused
+Exit codes: 0 success; 1 a ``[checks]`` limit (or the Monte Carlo gate)
+failed, or an exported file misses its tolerance; 2 bad input, a refused
 design, an unusable output folder or a full disk (one line on stderr, no
 traceback, previous outputs left as they were); 130 SIGINT, 143 SIGTERM.
 """
@@ -95,25 +96,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     state["staging"] = staging
     with _executor(args, scene) as executor, staging as stage:
         manifest = run_scene(scene, stage, progress=say, executor=executor)
+    from .console import failed_checks, summary_lines
+
     if not args.quiet:
-        acc = manifest.get("accuracy", {}).get("working_profile")
-        if acc:
-            print(
-                f"working profile: {acc['representation']}, tolerance {acc['tolerance_mm']:g} mm, "
-                f"measured max deviation {acc['max_deviation_mm']:.3g} mm"
-            )
-        f = manifest.get("forces")
-        if f:
-            print(
-                f"roller 1: F_j mean {f['F_j_mean']:.1f} N, F_n peak {f['F_n_peak']:.1f} N, "
-                f"p_max {f['p_max']:.0f} MPa, loaded rollers {f['loaded_rollers_min']}-"
-                f"{f['loaded_rollers_max']}"
-            )
-        i = manifest.get("interference")
-        if i:
-            state_ = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
-            print(f"interference over {i['positions']} crank positions: {state_}")
-        print(f"wrote {len(manifest['files']) + 1} files to {out}")
+        print("\n".join(summary_lines(manifest, out)), flush=True)
     status = 0
     for acc in manifest.get("accuracy", {}).values():
         if not acc.get("within_tolerance", True):
@@ -125,9 +111,9 @@ def _run(args: argparse.Namespace, state: dict) -> int:
                 file=sys.stderr,
             )
             status = 1
-    failed = [k for k, r in manifest.get("checks", {}).items() if not r["passed"]]
+    failed = failed_checks(manifest)
     if failed:
-        print(f"corr-cad: check failed: {', '.join(failed)}", file=sys.stderr)
+        print(f"corr-cad: check failed: {'; '.join(failed)}", file=sys.stderr)
         return 1
     return status
 

@@ -140,12 +140,15 @@ def _errors(ctx: RunContext):
     return ctx.results.get("errors", ctx.scene.errors)
 
 
+def _psi_contact_limit(ctx: RunContext) -> float:
+    """Rollers beyond the trimmed tooth tips of an allowed undercut find no flank."""
+    info = ctx.results["undercut"]
+    return math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else math.pi
+
+
 def _forces(ctx: RunContext) -> None:
     s = ctx.scene
-    info = ctx.results["undercut"]
-    limit = (
-        math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else math.pi
-    )
+    limit = _psi_contact_limit(ctx)
     angles = (
         np.radians(np.asarray(s.solver.crank_angles_deg, dtype=float))
         if s.solver.crank_angles_deg is not None
@@ -167,6 +170,7 @@ def _forces(ctx: RunContext) -> None:
 
 
 def _force_files(ctx: RunContext) -> None:
+    from .console import force_peaks
     from .export import plots
     from .outputs import write_csv, write_json
 
@@ -204,6 +208,8 @@ def _force_files(ctx: RunContext) -> None:
     ]
     write_csv(ctx.out / "forces.csv", header, rows)
     summary = res.summary()
+    summary["roller"] = 1  # the means and peaks above are roller 1's; "peak" is the drive's
+    summary["peak"] = force_peaks(res, s.design)
     summary["solver"] = {
         "success": res.success,
         "message": res.message,
@@ -495,7 +501,7 @@ def _checks(ctx: RunContext) -> None:
         "lost_motion_arcmin": float(res.lost_motion.max() * ARCMIN_PER_RAD),
     }
     report = evaluate_checks(values, ctx.scene.checks)
-    ctx.manifest["checks"] = report
+    ctx.manifest.setdefault("checks", {}).update(report)
     for name, r in report.items():
         state = "pass" if r["passed"] else "FAIL"
         nums = f"value {r['value']:.4g}, limit {r['limit']:.4g}, margin {r['margin']:.4g}"
@@ -506,7 +512,7 @@ def _montecarlo(ctx: RunContext) -> None:
     from .export import plots
     from .outputs import write_csv, write_json
     from .progress import Progress
-    from .tolerance import monte_carlo
+    from .tolerance import evaluate_failure_probability, monte_carlo
 
     s = ctx.scene
     mc_cfg = s.montecarlo
@@ -527,6 +533,7 @@ def _montecarlo(ctx: RunContext) -> None:
         base_errors=_errors(ctx),
         executor=ctx.executor,
         progress=tick,
+        psi_contact_limit=_psi_contact_limit(ctx),
     )
     bar.close()
     if not res.success:
@@ -550,6 +557,15 @@ def _montecarlo(ctx: RunContext) -> None:
     ctx.manifest["montecarlo"] = {
         k: summary[k] for k in ("samples", "failure_probability", "percentiles")
     }
+    gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
+    if gate:
+        ctx.manifest.setdefault("checks", {})["montecarlo"] = gate
+        for name, g in gate.items():
+            state = "pass" if g["passed"] else "FAIL"
+            ctx.progress(
+                f"      check montecarlo {name}: {state} (failure probability "
+                f"{g['probability']:.4g}, allowed {g['allowed']:.4g})"
+            )
 
 
 def _allocation(ctx: RunContext) -> None:
@@ -566,6 +582,7 @@ def _allocation(ctx: RunContext) -> None:
         "load_share": s.solver.load_share,
         "executor": ctx.executor,
         "base_errors": _errors(ctx),
+        "psi_contact_limit": _psi_contact_limit(ctx),
     }
     d, m0 = s.design, s.load.input_torque
     rows = []

@@ -313,6 +313,14 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "max_lost_motion_arcmin": Key(
             "float", None, "allowable output lost motion, arcmin", low=0, high=21600, example=1.0
         ),
+        "max_failure_probability": Key(
+            "float",
+            None,
+            "gate the Monte Carlo too: largest allowed probability of breaking each limit, "
+            "in [0, 1] (default: only the nominal design is gated)",
+            high=1,
+            example=0.01,
+        ),
     },
     "tolerances": {
         kind: Key(
@@ -637,6 +645,19 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             "[export] formats asks for montecarlo/allocation but [tolerances] is empty; "
             f"give one of {', '.join(TOLERANCE_KINDS)}"
         )
+    mfp = checks.max_failure_probability
+    if mfp is not None:
+        if mfp < 0:
+            raise SceneError(f"[checks] max_failure_probability = {mfp:g}: allowed range is [0, 1]")
+        if not checks.active():
+            raise SceneError(
+                "[checks] max_failure_probability needs at least one limit in [checks]"
+            )
+        if "montecarlo" not in formats:
+            raise SceneError(
+                "[checks] max_failure_probability gates the Monte Carlo: "
+                "add 'montecarlo' to [export] formats"
+            )
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
     _unique_angle_tags(ex["assembly_angles_deg"])

@@ -740,6 +740,7 @@ def solve_forces_batch(
     errors_list: list[ManufacturingErrors],
     *,
     load_share: float = 0.55,
+    psi_contact_limit: float = math.pi,
 ) -> ForceResult:
     """Solve many error samples at the same crank angles in one vectorised call.
 
@@ -747,7 +748,7 @@ def solve_forces_batch(
     ``k P .. (k+1) P - 1`` belong to ``errors_list[k]`` (``P`` angles).
     """
     angles = np.asarray(crank_angles, dtype=float).reshape(-1)
-    geos = [roller_geometry(design, angles, err) for err in errors_list]
+    geos = [roller_geometry(design, angles, err, (), psi_contact_limit) for err in errors_list]
     P = len(angles)
     fields = {}
     for k in geos[0].__dict__:

@@ -28,6 +28,7 @@ __all__ = [
     "Checks",
     "sample_metrics",
     "evaluate_checks",
+    "evaluate_failure_probability",
     "draw_samples",
     "monte_carlo",
     "allocate",
@@ -66,9 +67,13 @@ class Checks:
     max_gear_force: float | None = None  # N
     min_loaded_rollers: int | None = None
     max_lost_motion_arcmin: float | None = None
+    #: Largest allowed Monte Carlo failure probability per limit; ``None``:
+    #: the Monte Carlo is reported but only the nominal design is gated.
+    max_failure_probability: float | None = None
 
     def active(self) -> dict[str, float]:
-        return {k: v for k, v in self.__dict__.items() if v is not None}
+        """The limits that are set (not the failure-probability gate)."""
+        return {k: v for k, v in self.__dict__.items() if v is not None and k in CHECK_METRICS}
 
 
 #: check -> (metric, sense): "max" limits bound the metric from above.
@@ -109,6 +114,22 @@ def evaluate_checks(values: dict[str, float], checks: Checks) -> dict[str, dict]
     return out
 
 
+def evaluate_failure_probability(failure_probability: dict[str, float], checks: Checks) -> dict:
+    """The Monte Carlo gate: each limit's failure probability against the allowed one.
+
+    Empty when ``checks.max_failure_probability`` is not set (then only the
+    nominal design is gated). A limit passes when its probability of being
+    broken is at most the allowed probability.
+    """
+    allowed = checks.max_failure_probability
+    if allowed is None:
+        return {}
+    return {
+        name: {"probability": float(p), "allowed": allowed, "passed": bool(p <= allowed)}
+        for name, p in failure_probability.items()
+    }
+
+
 def draw_samples(
     tolerances: dict[str, Distribution], n: int, seed: int, roller_count: int
 ) -> dict[str, np.ndarray]:
@@ -143,10 +164,14 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
     return replace(base, **kw)
 
 
-def _chunk_task(design, input_torque, angles, load_share, base, tolerances, units, lo, hi):
+def _chunk_task(
+    design, input_torque, angles, load_share, base, tolerances, units, lo, hi, psi_limit=math.pi
+):
     """Solve samples ``lo..hi-1`` (runs in a worker)."""
     errs = [_errors_for(base, tolerances, units, k) for k in range(lo, hi)]
-    res = solve_forces_batch(design, input_torque, angles, errs, load_share=load_share)
+    res = solve_forces_batch(
+        design, input_torque, angles, errs, load_share=load_share, psi_contact_limit=psi_limit
+    )
     return sample_metrics(res, hi - lo), res.success
 
 
@@ -227,8 +252,13 @@ def monte_carlo(
     executor=None,
     chunk: int = 50,
     progress: Callable[[int, int], None] | None = None,
+    psi_contact_limit: float = math.pi,
 ) -> MonteCarloResult:
-    """Seeded Monte Carlo over ``tolerances``; see the module docstring."""
+    """Seeded Monte Carlo over ``tolerances``; see the module docstring.
+
+    ``psi_contact_limit``: as in :func:`~corr_cad.solver.solve_forces` (the
+    trimmed tooth tips of an allowed undercut carry nothing).
+    """
     unknown = [k for k in tolerances if k not in TOLERANCE_KINDS]
     if unknown:
         raise SceneError(
@@ -241,7 +271,17 @@ def monte_carlo(
     bounds = [(lo, min(lo + chunk, samples)) for lo in range(0, samples, chunk)]
     futures = [
         executor.submit(
-            _chunk_task, design, input_torque, angles, load_share, base, tolerances, units, lo, hi
+            _chunk_task,
+            design,
+            input_torque,
+            angles,
+            load_share,
+            base,
+            tolerances,
+            units,
+            lo,
+            hi,
+            psi_contact_limit,
         )
         for lo, hi in bounds
     ]
@@ -271,6 +311,7 @@ def allocate(
     executor=None,
     rel_precision: float = 0.02,
     base_errors: ManufacturingErrors | None = None,
+    psi_contact_limit: float = math.pi,
 ) -> dict:
     """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
 
@@ -304,6 +345,8 @@ def allocate(
             positions,
             load_share=load_share,
             executor=executor,
+            base_errors=base_errors,
+            psi_contact_limit=psi_contact_limit,
         )
         for name in checks.active():
             metric, sense = CHECK_METRICS[name]

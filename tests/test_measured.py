@@ -1,13 +1,13 @@
 """Measured profiles: registration, round trips through CSV and DXF, bad data."""
 
 import json
+import math
 
 import ezdxf
 import numpy as np
 import pytest
 
 from corr_cad import GearDesign, ProfileError, working_profile
-from corr_cad import kinematics as kin
 from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.export.measured_io import read_measured_points
 from corr_cad.measured import register, validate_points
@@ -17,17 +17,52 @@ from corr_cad.scene import load_scene
 from corr_cad.solver import solve_forces
 
 DEV = harmonic_deviation([(3, 0.004, 20.0), (25, 0.002, 0.0)])
-ROT, SHIFT = np.radians(0.3), np.array([0.05, -0.02])
+ROT, SHIFT = 0.3 * math.pi / 180.0, np.array([0.05, -0.02])
+
+
+def dev_by_hand(t):
+    """The deviation DEV, written out (phase 20 deg = 20 pi / 180 rad)."""
+    return 0.004 * np.cos(3 * t - 20.0 * math.pi / 180.0) + 0.002 * np.cos(25 * t)
+
+
+def closed_form(t, z=25, e=3.5, Rj=135.0, r=8.0):
+    """Roller-centre locus point and its outward unit normal, from the closed form.
+
+    s = e cos(psi) + sqrt(L^2 - e^2 sin^2 psi), L = Rj + r, psi = z t, point
+    s (sin t, cos t); the normal is the tangent turned a quarter, outwards.
+    """
+    L = Rj + r
+    psi = z * t
+    W = np.sqrt(L * L - (e * np.sin(psi)) ** 2)
+    s = e * np.cos(psi) + W
+    ds = z * (-e * np.sin(psi) - e * e * np.sin(psi) * np.cos(psi) / W)
+    tx, ty = ds * np.sin(t) + s * np.cos(t), ds * np.cos(t) - s * np.sin(t)
+    n = np.stack([ty, -tx], axis=1) / np.hypot(tx, ty)[:, None]
+    n *= np.sign(n[:, 0] * np.sin(t) + n[:, 1] * np.cos(t))[:, None]
+    return s[:, None] * np.stack([np.sin(t), np.cos(t)], axis=1), n
+
+
+def place(pts):
+    """Turn every polar angle by ROT (from +y towards +x), then shift: by hand."""
+    c, s = math.cos(ROT), math.sin(ROT)
+    x, y = pts[:, 0], pts[:, 1]
+    return np.stack([x * c + y * s, -x * s + y * c], axis=1) + SHIFT
 
 
 @pytest.fixture(scope="module")
 def measured():
-    """The nominal profile with a known deviation, placed off-centre and turned."""
+    """The nominal profile with a known deviation, placed off-centre and turned.
+
+    Built from the closed-form curve here, not from the package's normals or
+    deviation function: working profile = locus + r n; + deviation = material
+    added = inwards.
+    """
     design = GearDesign()
     w = working_profile(design)
     t = np.linspace(0, 2 * np.pi, 6000, endpoint=False)
-    pts = w.points(t) - DEV(t)[:, None] * w.normals(t)  # + = material added = inwards
-    return design, w, kin.rotate_by_polar_angle(pts, ROT) + SHIFT
+    P, n = closed_form(t)
+    pts = P + (8.0 - dev_by_hand(t))[:, None] * n
+    return design, w, place(pts)
 
 
 def test_registration_recovers_placement_and_deviation(measured):
@@ -81,7 +116,48 @@ def test_round_trip_to_forces(measured, tmp_path, kind):
     doc = ezdxf.readfile(out / "measured_profile.dxf")
     layers = {e.dxf.layer for e in doc.modelspace()}
     assert {"WORKING_PROFILE", "MEASURED_PROFILE", "DEVIATION_EXAGGERATED"} <= layers
+    check_deviation_dxf(out / "measured_profile.dxf")
     assert json.loads((out / "manifest.json").read_text())["files"]["measured_profile.dxf"]
+
+
+def _layer_points(doc, layer):
+    """The closed contour on ``layer``, flattened by ezdxf's own path code (bulges too)."""
+    from ezdxf import path
+
+    (e,) = [x for x in doc.modelspace() if x.dxf.layer == layer]
+    assert e.closed
+    return np.array([(v.x, v.y) for v in path.make_path(e).flattening(1e-5)])
+
+
+def _distance_to(points, curve):
+    """Distance of each point to a dense closed polyline ``curve`` (segments)."""
+    from scipy.spatial import cKDTree
+
+    a, b = curve, np.roll(curve, -1, axis=0)
+    _, idx = cKDTree(curve).query(points, k=4)
+    best = np.full(len(points), np.inf)
+    for j in range(4):
+        for seg in (idx[:, j], (idx[:, j] - 1) % len(curve)):
+            d = b[seg] - a[seg]
+            u = np.clip(np.sum((points - a[seg]) * d, 1) / np.sum(d * d, 1), 0, 1)
+            best = np.minimum(best, np.hypot(*(points - a[seg] - u[:, None] * d).T))
+    return best
+
+
+def check_deviation_dxf(path, exaggeration=200.0):
+    """Each layer of measured_profile.dxf against the closed form written out here."""
+    doc = ezdxf.readfile(path)
+    assert float(doc.header.custom_vars.get("corr_cad.exaggeration")) == exaggeration
+    t = np.linspace(0, 2 * np.pi, 400_000, endpoint=False)
+    P, n = closed_form(t)
+    nominal = P + 8.0 * n
+    measured = P + (8.0 - dev_by_hand(t))[:, None] * n
+    exaggerated = P + (8.0 - exaggeration * dev_by_hand(t))[:, None] * n
+    assert _distance_to(_layer_points(doc, "WORKING_PROFILE"), nominal).max() < 1.1e-3
+    assert _distance_to(_layer_points(doc, "MEASURED_PROFILE"), measured).max() < 1e-5
+    # Registration recovers the deviation to ~2e-6 mm; x200 that is 4e-4 mm.
+    far = _distance_to(_layer_points(doc, "DEVIATION_EXAGGERATED"), exaggerated).max()
+    assert far < 2e-3  # a sign or scale error would miss by > 0.5 mm
 
 
 def test_bad_measured_data(measured, tmp_path):

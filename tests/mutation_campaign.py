@@ -1,0 +1,311 @@
+# ruff: noqa: E501  (the mutations are exact source lines)
+"""The mutation campaign: one realistic mistake at a time, the tests that must catch it.
+
+Run from the repository root:  python tests/mutation_campaign.py [INDEX ...]
+Each mutation is applied to the source, the named tests run in a subprocess,
+and the file is restored (also on Ctrl-C). Prints one row per mutation:
+index | CAUGHT or MISSED | file | mistake | tests | first failing test.
+Not collected by pytest (the file name does not start with test_).
+"""
+
+import os
+import pathlib
+import subprocess
+import sys
+
+WT = pathlib.Path(__file__).resolve().parents[1]
+M = [
+    (
+        "tolerance.py",
+        'math.radians(float(v["cam_phase"]))',
+        'float(v["cam_phase"])',
+        "MC cam phase tolerance deg used as rad",
+        "tests/test_physics.py::test_montecarlo_metrics_equal_direct_solves",
+    ),
+    (
+        "tolerance.py",
+        'np.radians(v["slot_angle"])',
+        'v["slot_angle"]',
+        "MC slot angle tolerance deg used as rad",
+        "tests/test_physics.py::test_montecarlo_metrics_equal_direct_solves",
+    ),
+    (
+        "deviations.py",
+        "math.radians(float(p))",
+        "float(p)",
+        "harmonic phase deg used as rad",
+        "tests/test_physics.py -k phase_is_in_degrees or scene_angles",
+    ),
+    (
+        "tolerance.py",
+        "ARCMIN_PER_RAD = 180.0 * 60.0 / math.pi",
+        "ARCMIN_PER_RAD = 180.0 / math.pi",
+        "lost motion in degrees, labelled arcmin",
+        "tests/test_physics.py::test_lost_motion_in_arcmin_against_hand_calculation",
+    ),
+    (
+        "solver.py",
+        "return play / g.psi.shape[1]",
+        "return play",
+        "lost motion: crank play not divided by z + 1",
+        "tests/test_physics.py::test_lost_motion_in_arcmin_against_hand_calculation",
+    ),
+    (
+        "tolerance.py",
+        "p = np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear)",
+        "p = np.maximum(res.p_cam, res.p_slot)",
+        "MC peak pressure leaves out the gear contact",
+        "tests/test_physics.py::test_montecarlo_metrics_equal_direct_solves",
+    ),
+    (
+        "tolerance.py",
+        "p = np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear)",
+        "p = np.maximum(res.p_gear, res.p_slot)",
+        "MC peak pressure leaves out the cam contact",
+        "tests/test_physics.py -k montecarlo",
+    ),
+    (
+        "tolerance.py",
+        'q = percentile if sense == "max" else 100.0 - percentile',
+        "q = percentile",
+        "allocation uses the upper percentile for min checks",
+        "tests/test_physics.py::test_allocation_min_loaded_rollers_uses_lower_percentile",
+    ),
+    (
+        "pipeline.py",
+        "        psi_contact_limit=limit,\n",
+        "",
+        "forces ignore the trimmed tips of an allowed undercut",
+        "tests/test_physics.py::test_trimmed_tips_carry_nothing",
+    ),
+    (
+        "deviations.py",
+        "            or self.profile_deviation is not None\n        )\n\n    def slot_errors",
+        "        )\n\n    def slot_errors",
+        "periodicity shortcut taken with a profile deviation",
+        "tests/test_physics.py -k shortcut",
+    ),
+    (
+        "scene.py",
+        '        if not math.isfinite(v):\n            raise SceneError(f"{where} = {value!r}: must be a finite number")\n',
+        "",
+        "NaN/inf let through every float key",
+        "tests/test_gates.py -k non_finite",
+    ),
+    (
+        "contact.py",
+        "VALIDITY_KNEE = 0.99",
+        "VALIDITY_KNEE = 0.5",
+        "contact law replaced by its tangent from 0.5 of the validity limit",
+        "tests/test_physics.py -k exact_circle_overlap",
+    ),
+    (
+        "design.py",
+        "L = float(self.cam_radius) + float(self.roller_radius)",
+        "L = float(self.cam_radius)",
+        "collision limit with Rj for L",
+        "tests/test_physics.py -k collision",
+    ),
+    (
+        "export/dxf.py",
+        '    tmp = path.with_name(path.name + ".part")\n    with _fixed_metadata():\n        doc.saveas(tmp)\n    tmp.replace(path)',
+        "    with _fixed_metadata():\n        doc.saveas(path)",
+        "DXF writer not atomic",
+        "tests/test_gates.py -k killed",
+    ),
+    (
+        "outputs.py",
+        "    fd, tmp = tempfile.mkstemp(",
+        "    path.write_text(text, encoding='utf-8')\n    return path\n    fd, tmp = tempfile.mkstemp(",
+        "JSON/CSV writer writes the target in place (not atomic)",
+        "tests/test_gates.py -k killed",
+    ),
+    (
+        "solver.py",
+        "k_gear = -k_locus / (1.0 + r * k_locus)",
+        "k_gear = k_locus / (1.0 + r * k_locus)",
+        "gear curvature sign flipped (concave <-> convex)",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "solver.py",
+        "k_gear = -k_locus / (1.0 + r * k_locus)",
+        "k_gear = -k_locus",
+        "gear curvature of the locus, not the working profile",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "solver.py",
+        "e_act = e + errors.eccentricity_error",
+        "e_act = e",
+        "eccentricity error dropped",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "solver.py",
+        "k_roller=1.0 / (r + dr),",
+        "k_roller=1.0 / r + 0.0 * dr,",
+        "roller radius error left out of the roller curvature",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "solver.py",
+        "psi + z * delta",
+        "psi - z * delta",
+        "slot angle error sign",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "solver.py",
+        "g_n = g_n + np.asarray(errors.profile_deviation(t_abs), dtype=float)",
+        "g_n = g_n - np.asarray(errors.profile_deviation(t_abs), dtype=float)",
+        "profile deviation sign (material added = clearance)",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "contact.py",
+        "return 2.0 * np.sqrt(force / np.asarray(u_per_force, dtype=float)) / (np.pi * length)",
+        "return 4.0 * np.sqrt(force / np.asarray(u_per_force, dtype=float)) / (np.pi * length)",
+        "Hertz pressure 4F/(pi b l)",
+        "tests/test_physics.py -k by_hand",
+    ),
+    (
+        "tolerance.py",
+        '"passed": bool(p <= allowed)',
+        '"passed": True',
+        "Monte Carlo gate never fails",
+        "tests/test_gates.py -k gate",
+    ),
+    (
+        "console.py",
+        '"roller": int(k) + 1,',
+        '"roller": int(k),',
+        "console rollers numbered from 0",
+        "tests/test_gates.py -k console",
+    ),
+    (
+        "console.py",
+        "best = max(CONTACTS, key=lambda c: float(pressures[c].max()))",
+        'best = max(("cam", "slot"), key=lambda c: float(pressures[c].max()))',
+        "console pressure peak ignores the gear",
+        "tests/test_gates.py -k console or knife",
+    ),
+    (
+        "console.py",
+        "        if tip < MIN_TIP_RADIUS_MM:",
+        "        if tip < 0.01:",
+        "tip-radius warning at 0.01 mm instead of 0.1",
+        "tests/test_gates.py -k knife",
+    ),
+    (
+        "solver.py",
+        "a = np.where(g.loadable, g.advance, 0.0)",
+        "a = np.where(g.loadable, -g.advance, 0.0)",
+        "lost motion with the advance's sign flipped",
+        "tests/test_physics.py::test_lost_motion_in_arcmin_against_hand_calculation",
+    ),
+    (
+        "pipeline.py",
+        "float(res.lost_motion.max() * ARCMIN_PER_RAD)",
+        "float(res.lost_motion.min() * ARCMIN_PER_RAD)",
+        "lost-motion check takes the smallest position, not the largest",
+        "tests/test_physics.py::test_lost_motion_in_arcmin_against_hand_calculation",
+    ),
+    (
+        "solver.py",
+        "return g_j + rho_n * g_n - np.abs(rho_s) * clearance_slot, dr",
+        "return g_j + rho_n * g_n, dr",
+        "slot clearance of an undersize roller dropped",
+        "tests/test_physics.py::test_lost_motion_in_arcmin_against_hand_calculation",
+    ),
+    (
+        "reference.py",
+        "k_gear = -k_loc / (1.0 + r * k_loc)",
+        "k_gear = k_loc / (1.0 + r * k_loc)",
+        "(reference) gear curvature sign flipped: the reference itself is checked",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "console.py",
+        "PRESSURE_BOUND_MPA = 4000.0",
+        "PRESSURE_BOUND_MPA = 40000.0",
+        "material bound 40 GPa: no warning for 18-38 GPa",
+        "tests/test_gates.py -k gigapascal or knife",
+    ),
+    (
+        "tolerance.py",
+        "errs, load_share=load_share, psi_contact_limit=psi_limit",
+        "errs, load_share=load_share",
+        "Monte Carlo ignores the trimmed tooth tips (bug found and fixed)",
+        "tests/test_physics.py -k trimmed_tips_equals",
+    ),
+    (
+        "tolerance.py",
+        "            base_errors=base_errors,\n            psi_contact_limit",
+        "            psi_contact_limit",
+        "allocation drops the scene's [errors] (bug found and fixed)",
+        "tests/test_physics.py -k keeps_the_scenes",
+    ),
+    (
+        "solver.py",
+        "t_abs = phi[:, None] / z + theta[None, :]",
+        "t_abs = phi[:, None] + theta[None, :]",
+        "profile deviation read at the crank angle, not the roller's polar angle",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "solver.py",
+        "rho_s=-rho_s,",
+        "rho_s=rho_s,",
+        "slot force reported with the wrong sign",
+        "tests/test_solver.py",
+    ),
+    (
+        "design.py",
+        "return self.young_modulus / (2.0 * (1.0 - self.poisson_ratio**2))",
+        "return self.young_modulus / (1.0 - self.poisson_ratio**2)",
+        "contact modulus E' of one body, not of the pair",
+        "tests/test_solver.py -k independent",
+    ),
+    (
+        "export/measured_io.py",
+        "exag = working.points(tt) - exaggeration",
+        "exag = working.points(tt) + exaggeration",
+        "exaggerated deviation drawn on the wrong side",
+        "tests/test_measured.py -k round_trip",
+    ),
+]
+only = [int(x) for x in sys.argv[1:]]
+env = dict(os.environ, PYTHONPATH=str(WT))
+for i, (f, old, new, what, tests) in enumerate(M):
+    if only and i not in only:
+        continue
+    p = WT / "corr_cad" / f
+    src = p.read_text()
+    assert src.count(old) >= 1, (i, old)
+    p.write_text(src.replace(old, new, 1))
+    try:
+        r = subprocess.run(
+            [
+                "nice",
+                sys.executable,
+                "-m",
+                "pytest",
+                "-x",
+                "-q",
+                "-p",
+                "no:cacheprovider",
+                *tests.split(" ", 1)[0:1],
+                *(["-k", tests.split(" -k ", 1)[1]] if " -k " in tests else []),
+            ],
+            cwd=WT,
+            env=env,
+            capture_output=True,
+            text=True,
+        )
+        last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
+        state = "CAUGHT" if r.returncode != 0 else "MISSED"
+        failed = [x for x in r.stdout.splitlines() if x.startswith("FAILED")]
+        print(f"{i}|{state}|{f}|{what}|{tests}|{failed[0][7:90] if failed else last}", flush=True)
+    finally:
+        p.write_text(src)
