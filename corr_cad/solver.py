@@ -64,6 +64,7 @@ __all__ = [
     "solve_forces",
     "cycle_angles",
     "solve_forces_batch",
+    "BatchSolver",
 ]
 
 #: Printed forms of the paper that can be switched on to reproduce it:
@@ -309,27 +310,32 @@ class ForceResult:
 class _Contact:
     """One contact of every roller, with weight ``w`` (force = w F_j).
 
-    The knee of the validity continuation is computed once; Newton then
-    calls :func:`contact.approach_and_slope` with it.
+    The knee of the validity continuation is located once; Newton then
+    calls :func:`contact.approach_and_slope` with it (the continuation
+    itself is evaluated only where a force passes the knee).
     """
 
     def __init__(self, w, c, k1, k2):
-        self.w = w
-        self.cw = c * w  # b^2 per unit F_j
+        self.w = w  # None: unit weight
+        self.cw = c if w is None else c * w  # b^2 per unit F_j
+        self.wcw = self.cw if w is None else w * self.cw
         self.k1 = k1
         self.k2 = k2
-        self.knee = contact.knee(k1, k2)
+        self.uk = contact.knee_point(k1, k2)
 
     def take(self, sel):
         out = object.__new__(_Contact)
-        out.w, out.cw, out.k1 = self.w[sel], self.cw[sel], self.k1[sel]
+        out.w = None if self.w is None else self.w[sel]
+        out.cw, out.wcw, out.k1, out.uk = self.cw[sel], self.wcw[sel], self.k1[sel], self.uk[sel]
         out.k2 = self.k2 if np.ndim(self.k2) == 0 else self.k2[sel]
-        out.knee = tuple(k if np.ndim(k) == 0 else k[sel] for k in self.knee)
         return out
 
     def value_and_slope(self, F):
-        val, slope = contact.approach_and_slope(self.cw * F, self.k1, self.k2, self.knee)
-        return self.w * val, self.w * self.cw * slope
+        knee = (self.uk, None, None)
+        val, slope = contact.approach_and_slope(self.cw * F, self.k1, self.k2, knee)
+        if self.w is None:
+            return val, self.wcw * slope
+        return self.w * val, self.wcw * slope
 
 
 class _Compliance:
@@ -351,7 +357,7 @@ class _Compliance:
         self.slope0 = lam * (1.0 + wn**2 + ws**2)
         if not self.linear:
             self.contacts = [
-                _Contact(one, self.cj, k1, geo.k_cam * one),
+                _Contact(None, self.cj, k1, geo.k_cam * one),
                 _Contact(wn, self.cn, k1, geo.k_gear),
                 _Contact(ws, self.cs, k1, 0.0),
             ]
@@ -733,6 +739,79 @@ def _result(
     )
 
 
+class BatchSolver:
+    """Many error samples at the same crank angles: the nominal geometry is built once.
+
+    Only the gaps and the contact curvatures depend on the errors, so each
+    sample costs its own :func:`_error_gaps` and the solve. Results are
+    identical, bit for bit, to :func:`roller_geometry` per sample.
+    """
+
+    def __init__(
+        self, design: GearDesign, crank_angles: np.ndarray, *, input_torque: float, load_share=0.55
+    ):
+        self.design = design
+        self.angles = np.asarray(crank_angles, dtype=float).reshape(-1)
+        self.nominal = roller_geometry(design, self.angles)
+        self.target = load_share * float(input_torque)
+        R = design.roller_count
+        self.theta = np.arange(R) * design.slot_pitch_rad
+
+    def geometry(self, errors_list: list[ManufacturingErrors]) -> RollerGeometry:
+        """The stacked (sample-major) geometry of ``errors_list``."""
+        g0 = self.nominal
+        d = self.design
+        n = len(errors_list)
+        gaps, k_roller, k_cam = [], [], []
+        r, Rj = d.roller_radius, d.cam_radius
+        for err in errors_list:
+            if err.any:
+                gap, dr = _error_gaps(
+                    d, err, self.angles, self.theta, g0.psi, g0.s, g0.rho_n, g0.rho_s
+                )
+            else:
+                gap, dr = np.zeros_like(g0.psi), np.zeros_like(g0.psi)
+            gaps.append(gap)
+            k_roller.append(1.0 / (r + dr))
+            k_cam.append(1.0 / (Rj + err.cam_radius_error))
+        P = len(self.angles)
+
+        def tile(a):
+            return np.tile(a, (n, 1))
+
+        return RollerGeometry(
+            psi=tile(g0.psi),
+            s=tile(g0.s),
+            rho_n=tile(g0.rho_n),
+            rho_s=tile(g0.rho_s),
+            advance=tile(g0.advance),
+            arm=tile(g0.arm),
+            gap=np.concatenate(gaps, axis=0),
+            k_roller=np.concatenate(k_roller, axis=0),
+            k_cam=np.repeat(np.asarray(k_cam, dtype=float), P)[:, None],
+            k_gear=tile(g0.k_gear),
+            loadable=tile(g0.loadable),
+        )
+
+    def solve(self, errors_list: list[ManufacturingErrors]) -> ForceResult:
+        """Rows ``k P .. (k+1) P - 1`` of the result belong to ``errors_list[k]``."""
+        geo = self.geometry(errors_list)
+        comp = _Compliance(geo, self.design, "nonlinear")
+        tau, Fj, iterations, _, rel = _solve_positions(geo, comp, self.target)
+        return _result(
+            self.design,
+            geo,
+            Fj,
+            tau,
+            rel,
+            iterations,
+            np.tile(self.angles, len(errors_list)),
+            self.target,
+            len(tau),
+            False,
+        )
+
+
 def solve_forces_batch(
     design: GearDesign,
     input_torque: float,
@@ -746,29 +825,5 @@ def solve_forces_batch(
     Returns one :class:`ForceResult` whose rows are sample-major: rows
     ``k P .. (k+1) P - 1`` belong to ``errors_list[k]`` (``P`` angles).
     """
-    angles = np.asarray(crank_angles, dtype=float).reshape(-1)
-    geos = [roller_geometry(design, angles, err) for err in errors_list]
-    P = len(angles)
-    fields = {}
-    for k in geos[0].__dict__:
-        vals = [getattr(g, k) for g in geos]
-        if isinstance(vals[0], np.ndarray) and vals[0].ndim == 2:
-            fields[k] = np.concatenate(vals, axis=0)
-        else:  # per-sample scalar (the cam curvature): one value per row
-            fields[k] = np.repeat(np.asarray(vals, dtype=float), P)[:, None]
-    geo = RollerGeometry(**fields)
-    comp = _Compliance(geo, design, "nonlinear")
-    target = load_share * float(input_torque)
-    tau, Fj, iterations, _, rel = _solve_positions(geo, comp, target)
-    return _result(
-        design,
-        geo,
-        Fj,
-        tau,
-        rel,
-        iterations,
-        np.tile(angles, len(errors_list)),
-        target,
-        len(tau),
-        False,
-    )
+    solver = BatchSolver(design, crank_angles, input_torque=input_torque, load_share=load_share)
+    return solver.solve(errors_list)

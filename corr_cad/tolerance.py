@@ -20,7 +20,7 @@ import numpy as np
 from .design import GearDesign
 from .deviations import ManufacturingErrors
 from .errors import SceneError
-from .solver import cycle_angles, solve_forces_batch
+from .solver import BatchSolver, cycle_angles
 
 __all__ = [
     "TOLERANCE_KINDS",
@@ -143,11 +143,23 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
     return replace(base, **kw)
 
 
+#: Samples solved together inside a task: their arrays (block x positions x
+#: rollers) stay in the CPU cache, which is worth ~2x over large batches.
+#: Each row is solved independently, so the block size never changes a bit.
+_BLOCK_ROWS = 1500
+
+
 def _chunk_task(design, input_torque, angles, load_share, base, tolerances, units, lo, hi):
-    """Solve samples ``lo..hi-1`` (runs in a worker)."""
-    errs = [_errors_for(base, tolerances, units, k) for k in range(lo, hi)]
-    res = solve_forces_batch(design, input_torque, angles, errs, load_share=load_share)
-    return sample_metrics(res, hi - lo), res.success
+    """Solve samples ``lo..hi-1`` (runs in a worker), a few samples at a time."""
+    solver = BatchSolver(design, angles, input_torque=input_torque, load_share=load_share)
+    block = max(1, _BLOCK_ROWS // len(solver.angles))
+    parts, ok = [], True
+    for a in range(lo, hi, block):
+        b = min(a + block, hi)
+        res = solver.solve([_errors_for(base, tolerances, units, k) for k in range(a, b)])
+        parts.append(sample_metrics(res, b - a))
+        ok &= bool(res.success)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, ok
 
 
 class SerialExecutor:
