@@ -45,7 +45,7 @@ position per class of the ``2 pi/(z+1)`` periodicity.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -661,41 +661,87 @@ def solve_forces(
         periodic = False
         solve_angles = angles
 
-    geo = roller_geometry(design, solve_angles, errors, variants, psi_contact_limit)
-    if "working_half_only" in variants:
-        sign = 1.0 if input_torque >= 0 else -1.0
-        geo = RollerGeometry(**{**geo.__dict__, "loadable": geo.loadable & (sign * geo.arm > 0)})
-    comp = _Compliance(geo, design, contact_model)
     target = load_share * float(input_torque)
-    tau, Fj, iterations, res, rel = _solve_positions(geo, comp, target, rtol)
-
-    if periodic:
-        idx = inverse.reshape(-1)
-        cols = (np.arange(R)[None, :] - shift[:, None]) % R
-        take = (idx[:, None], cols)
-        Fj = Fj[take]
-        tau = tau[idx]
-        rel = rel[idx]
-        psi = np.mod(angles[:, None] - np.arange(R)[None, :] * design.slot_pitch_rad, 2 * np.pi)
-        geo = RollerGeometry(
-            **{
-                k: (
-                    psi
-                    if k == "psi"
-                    else v[take]
-                    if isinstance(v, np.ndarray) and v.ndim == 2
-                    else v
-                )
-                for k, v in geo.__dict__.items()
-            }
+    sign = 1.0 if input_torque >= 0 else -1.0
+    block = max(1, _BLOCK_ELEMENTS // R)
+    pieces = []
+    for a in range(0, len(solve_angles), block):
+        geo = roller_geometry(
+            design, solve_angles[a : a + block], errors, variants, psi_contact_limit
         )
-    return _result(
-        design, geo, Fj, tau, rel, iterations, angles, target, len(solve_angles), full_cycle
+        if "working_half_only" in variants:
+            geo = replace(geo, loadable=geo.loadable & (sign * geo.arm > 0))
+        comp = _Compliance(geo, design, contact_model)
+        tau, Fj, iterations, _, rel = _solve_positions(geo, comp, target, rtol)
+        pieces.append(
+            _result(design, geo, Fj, tau, rel, iterations, solve_angles[a : a + block], target, 0)
+        )
+    out = _concatenate(pieces) if len(pieces) > 1 else pieces[0]
+    out.positions_solved = len(solve_angles)
+    out.full_cycle = full_cycle
+    if periodic:
+        # Position n is its class's solution with the rollers turned by shift[n].
+        flat = inverse.reshape(-1)[:, None] * R + (np.arange(R)[None, :] - shift[:, None]) % R
+        flat = flat.reshape(-1)
+        idx = inverse.reshape(-1)
+
+        def remap(v):
+            if isinstance(v, np.ndarray) and v.ndim == 2:
+                return v.reshape(-1).take(flat).reshape(N, R)
+            return v
+
+        psi = np.mod(angles[:, None] - np.arange(R)[None, :] * design.slot_pitch_rad, 2 * np.pi)
+        geo = RollerGeometry(**{k: remap(v) for k, v in out.geometry.__dict__.items()})
+        geo = replace(geo, psi=psi)
+        fields = {k: remap(v) for k, v in out.__dict__.items() if k != "geometry"}
+        fields.update(
+            geometry=geo,
+            psi=psi,
+            crank_angles=angles,
+            cam_rotation=out.cam_rotation[idx],
+        )
+        out = ForceResult(**fields)
+    return out
+
+
+#: Elements (positions x rollers) solved together: small enough that the
+#: solver's temporaries stay in the CPU cache (about 2x faster than one large
+#: batch). Each position is solved on its own, so the block size changes no bit.
+_BLOCK_ELEMENTS = 6000
+
+
+def _concatenate(pieces: list[ForceResult]) -> ForceResult:
+    """Stack block results along positions."""
+    first = pieces[0]
+
+    def cat(vals):
+        v = vals[0]
+        if isinstance(v, np.ndarray) and v.ndim >= 1:
+            return np.concatenate(vals, axis=0)
+        return v
+
+    geo = RollerGeometry(
+        **{k: cat([getattr(p.geometry, k) for p in pieces]) for k in first.geometry.__dict__}
+    )
+    fields = {
+        k: cat([getattr(p, k) for p in pieces])
+        for k in first.__dict__
+        if k not in ("geometry", "iterations", "moment_residual", "success", "message")
+    }
+    worst = max(p.moment_residual for p in pieces)
+    bad = [p for p in pieces if not p.success]
+    return ForceResult(
+        success=not bad,
+        message=bad[0].message if bad else first.message,
+        iterations=max(p.iterations for p in pieces),
+        moment_residual=worst,
+        geometry=geo,
+        **fields,
     )
 
 
 def _result(
-    design, geo, Fj, tau, rel, iterations, angles, target, solved, full_cycle, rtol=_RTOL
+    design, geo, Fj, tau, rel, iterations, angles, target, solved, full_cycle=False, rtol=_RTOL
 ) -> ForceResult:
     """Forces, pressures and validity from the solved cam forces."""
     Fn = geo.rho_n * Fj
