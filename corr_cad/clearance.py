@@ -38,7 +38,14 @@ import numpy as np
 from .design import GearDesign
 from .deviations import ManufacturingErrors
 
-__all__ = ["Clearance", "clearance", "locus_foot", "distance_to_working_profile", "COLUMNS"]
+__all__ = [
+    "Clearance",
+    "clearance",
+    "locus_foot",
+    "distance_to_working_profile",
+    "COLUMNS",
+    "INTERFERENCE_EPS",
+]
 
 #: clearance.csv columns (an interface: the names do not change).
 COLUMNS = (
@@ -51,6 +58,10 @@ COLUMNS = (
 )
 
 _NEWTON_STEPS = 12
+
+#: Clearances above ``-INTERFERENCE_EPS`` count as contact, not interference:
+#: the round-off of the closed forms at ~150 mm is ~1e-13 mm.
+INTERFERENCE_EPS = 1e-9
 
 
 def _locus(t: np.ndarray, z: int, e: float, L: float, order: int = 2):
@@ -189,7 +200,7 @@ class Clearance:
                 "max_mm": float(a[k_max]),
                 "max_at_crank_angle_deg": float(ang[k_max[0]]),
                 "max_roller": int(k_max[1]) + 1,
-                "interference_count": int(np.count_nonzero(a < 0)),
+                "interference_count": int(np.count_nonzero(a < -INTERFERENCE_EPS)),
             }
         work = np.maximum(np.abs(self.cam), np.abs(self.ring))
         out["working_contacts_max_abs_mm"] = float(work.max())

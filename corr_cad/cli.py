@@ -86,6 +86,13 @@ def _run(args: argparse.Namespace) -> int:
                 f"p_max {f['p_max']:.0f} MPa, loaded rollers {f['loaded_rollers_min']}-"
                 f"{f['loaded_rollers_max']}"
             )
+        c = manifest.get("clearance")
+        if c:
+            print(
+                f"clearance over {c['positions']} crank positions: smallest "
+                f"{1e3 * c['min_clearance_mm']:.4g} um (negative: interference), "
+                f"working contacts within {1e3 * c['working_contacts_max_abs_mm']:.3g} um"
+            )
         i = manifest.get("interference")
         if i:
             state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"

@@ -51,6 +51,9 @@ FORMATS = (
     "sweeps",
 )
 
+#: ``[export] interference_method``: exact 2D clearances, mesh booleans, or both.
+INTERFERENCE_METHODS = ("exact", "mesh", "both")
+
 
 @dataclass(frozen=True)
 class Key:
@@ -124,8 +127,21 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "assembly_angles_deg": Key(
             "list[float]", [0.0], "crank angles of the assembly meshes, deg (relative to the frame)"
         ),
+        "interference_method": Key(
+            "str",
+            "exact",
+            "interference check: exact 2D clearances (clearance.csv), mesh booleans "
+            "(interference.csv) or both",
+            choices=INTERFERENCE_METHODS,
+        ),
         "interference_positions": Key(
-            "int", 36, "crank positions of the interference sweep (full cycle)", low=0, high=100000
+            "int",
+            None,
+            "crank positions of the interference check over a full cycle "
+            "(default 3600 exact, 36 mesh)",
+            low=0,
+            high=100000,
+            example=3600,
         ),
         "tolerance": Key(
             "float", 0.001, "max deviation of exported geometry from the exact curve, mm", low=0
@@ -246,7 +262,15 @@ class Scene:
     tolerance: float = 0.001
     chord_tolerance: float = 0.001
     assembly_angles_deg: tuple[float, ...] = (0.0,)
-    interference_positions: int = 36
+    interference_method: str = "exact"
+    interference_positions: int | None = None  # None: 3600 exact, 36 mesh
+
+    def positions_for(self, method: str) -> int:
+        """Crank positions of the ``exact`` or ``mesh`` interference check."""
+        if self.interference_positions is not None:
+            return self.interference_positions
+        return 3600 if method == "exact" else 36
+
     load: LoadSpec | None = None
     solver: SolverSpec = field(default_factory=SolverSpec)
     errors: ErrorSpec = field(default_factory=ErrorSpec)
@@ -447,6 +471,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             ex["chord_tolerance"] if ex["chord_tolerance"] is not None else ex["tolerance"]
         ),
         assembly_angles_deg=tuple(ex["assembly_angles_deg"]),
+        interference_method=ex["interference_method"],
         interference_positions=ex["interference_positions"],
         load=load,
         solver=solver,

@@ -19,6 +19,7 @@ __all__ = [
     "forces_png",
     "load_distribution_png",
     "interference_png",
+    "clearance_png",
     "montecarlo_png",
     "sweep_png",
 ]
@@ -142,6 +143,30 @@ def interference_png(angles_deg, rows, parts, allowance, path: Path) -> Path:
     ax1.legend(fontsize=8)
     ax2.legend(fontsize=8)
     ax1.set_title("interference check (dotted: what tessellation alone can produce)")
+    return _save(fig, path)
+
+
+def clearance_png(clr, path: Path) -> Path:
+    """Exact clearances over the cycle: smallest and largest over the rollers, um."""
+    ang = np.degrees(clr.crank_angles)
+    order = np.argsort(ang)
+    ang = ang[order]
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
+    for i, name in enumerate(("cam", "ring", "slot")):
+        a = getattr(clr, name)[order] * 1e3
+        lo, hi = a.min(axis=1), a.max(axis=1)
+        ax1.fill_between(ang, lo, hi, color=f"C{i}", alpha=0.2, lw=0)
+        ax1.plot(ang, lo, color=f"C{i}", lw=1.2, label=f"roller vs {name}: smallest")
+    ax1.axhline(0.0, color="k", lw=0.8)
+    ax1.set_ylabel("clearance [um] (negative: interference)")
+    ax1.set_title("exact clearance over the cycle (band: all rollers)")
+    ax1.legend(fontsize=8)
+    nb = clr.neighbour[order]
+    ax2.fill_between(ang, nb.min(axis=1), nb.max(axis=1), color="C3", alpha=0.2, lw=0)
+    ax2.plot(ang, nb.min(axis=1), color="C3", lw=1.2, label="roller vs neighbours: smallest")
+    ax2.set_ylabel("clearance [mm]")
+    ax2.set_xlabel("crank angle relative to the frame [deg]")
+    ax2.legend(fontsize=8)
     return _save(fig, path)
 
 
