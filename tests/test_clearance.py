@@ -18,7 +18,6 @@ import sys
 import numpy as np
 import pytest
 
-from corr_cad import GearDesign
 from corr_cad.clearance import clearance, distance_to_working_profile
 from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.solver import roller_geometry
@@ -59,7 +58,8 @@ def test_nominal_prototype_is_in_exact_contact(nominal_3600):
 def test_one_roller_2um_oversize(prototype, nominal_3600):
     per = [0.0] * R
     per[6] = 0.002
-    c = clearance(prototype, nominal_3600.crank_angles, ManufacturingErrors(roller_radius_errors=per))
+    err = ManufacturingErrors(roller_radius_errors=per)
+    c = clearance(prototype, nominal_3600.crank_angles, err)
     for contact in (c.cam, c.ring):
         assert np.abs(contact[:, 6] + 0.002).max() <= 0.05e-3
     others = [i for i in range(R) if i != 6]
