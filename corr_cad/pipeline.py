@@ -568,11 +568,26 @@ def _allocation(ctx: RunContext) -> None:
     }
     d, m0 = s.design, s.load.input_torque
     rows = []
+    n = kw["samples"]
+
+    def report(kind, label):
+        def show(done: int, expected: int, rate: float) -> None:
+            left = (expected - done) * n / rate if rate > 0 else float("nan")
+            ctx.progress(
+                f"      allocation {kind} ({label}): {done}/~{expected} Monte Carlos of {n} "
+                f"samples, {rate:.0f} samples/s, about {left:.0f} s left"
+            )
+
+        return show
+
     for kind in s.tolerances:
         ctx.progress(f"      allocation: searching {kind}")
         # Jointly: the other tolerances as given; alone: the others perfect.
-        joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
-        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, **kw)["tolerance"]
+        joint = allocate(
+            d, m0, s.tolerances, s.checks, kind, progress=report(kind, "others as given"), **kw
+        )
+        alone = allocate(d, m0, {}, s.checks, kind, progress=report(kind, "others perfect"), **kw)
+        joint["tolerance_alone"] = alone["tolerance"]
         rows.append(joint)
 
     def fmt(x):

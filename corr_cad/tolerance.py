@@ -283,6 +283,7 @@ def allocate(
     executor=None,
     rel_precision: float = 0.02,
     base_errors: ManufacturingErrors | None = None,
+    progress: Callable[[int, int, float], None] | None = None,
 ) -> dict:
     """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
 
@@ -292,7 +293,28 @@ def allocate(
     until a check fails, then bisect (geometrically) to ``rel_precision``.
     Returns ``{"kind", "tolerance", "unit", "failing_at", "evaluations"}``;
     ``tolerance`` is 0 when even a perfect part fails.
+
+    ``progress(done, expected, samples_per_s)`` is called after each Monte
+    Carlo: evaluations done, the expected total (the bisection's remaining
+    steps are known once the root is bracketed; before that, a doubling
+    more), and the measured sample rate.
     """
+    import time
+
+    t_start = time.perf_counter()
+    state = {"lo": 0.0, "hi": None}
+
+    def expected_total() -> int:
+        lo, hi = state["lo"], state["hi"]
+        bisect = 0
+        width = (hi - lo) if hi is not None else None
+        if width is not None:
+            while width > rel_precision * hi:
+                width *= 0.5
+                bisect += 1
+            return evals + bisect
+        return evals + 1 + max(1, math.ceil(math.log2(1.0 / rel_precision)))
+
     if not checks.active():
         raise SceneError("tolerance allocation needs at least one limit in [checks]")
     evals = 0
@@ -316,14 +338,25 @@ def allocate(
             positions,
             load_share=load_share,
             executor=executor,
+            base_errors=base_errors,
         )
+        ok = True
         for name in checks.active():
             metric, sense = CHECK_METRICS[name]
             q = percentile if sense == "max" else 100.0 - percentile
             value = float(np.percentile(mc.metrics[metric], q))
             if not evaluate_checks({metric: value}, replace_checks(checks, name))[name]["passed"]:
-                return False
-        return True
+                ok = False
+                break
+        if ok:
+            state["lo"] = T
+        elif T > 0:
+            state["hi"] = T
+        if progress:
+            rate = evals * samples / max(time.perf_counter() - t_start, 1e-9)
+            done = not ok and T == 0
+            progress(evals, evals if done else max(expected_total(), evals), rate)
+        return ok
 
     unit = TOLERANCE_KINDS[kind][1]
     if not passes(0.0):
