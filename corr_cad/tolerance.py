@@ -146,7 +146,7 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
 #: Samples solved together inside a task: their arrays (block x positions x
 #: rollers) stay in the CPU cache, which is worth ~2x over large batches.
 #: Each row is solved independently, so the block size never changes a bit.
-_BLOCK_ROWS = 1500
+_BLOCK_ROWS = 400
 
 
 def _chunk_task(design, input_torque, angles, load_share, base, tolerances, units, lo, hi):
