@@ -691,9 +691,8 @@ def solve_forces(
             return v
 
         psi = np.mod(angles[:, None] - np.arange(R)[None, :] * design.slot_pitch_rad, 2 * np.pi)
-        geo = RollerGeometry(**{k: remap(v) for k, v in out.geometry.__dict__.items()})
-        geo = replace(geo, psi=psi)
-        fields = {k: remap(v) for k, v in out.__dict__.items() if k != "geometry"}
+        geo = _ExpandedGeometry(out.geometry, remap, psi)
+        fields = {k: remap(v) for k, v in out.__dict__.items() if k not in ("geometry", "psi")}
         fields.update(
             geometry=geo,
             psi=psi,
@@ -702,6 +701,31 @@ def solve_forces(
         )
         out = ForceResult(**fields)
     return out
+
+
+class _ExpandedGeometry:
+    """The :class:`RollerGeometry` of a full cycle, each field expanded on first use.
+
+    A full cycle solves one position per periodicity class; the per-position
+    geometry is the class's, with the rollers turned. Expanding every field
+    up front costs more than the solve, and most callers read few of them.
+    """
+
+    def __init__(self, compact: RollerGeometry, remap, psi: np.ndarray):
+        self._compact = compact
+        self._remap = remap
+        self.psi = psi
+
+    def __getattr__(self, name: str):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        value = self._remap(getattr(self._compact, name))
+        setattr(self, name, value)
+        return value
+
+    def expanded(self) -> RollerGeometry:
+        """A plain :class:`RollerGeometry` with every field expanded."""
+        return RollerGeometry(**{k: getattr(self, k) for k in RollerGeometry.__dataclass_fields__})
 
 
 #: Elements (positions x rollers) solved together: small enough that the
