@@ -674,7 +674,18 @@ def solve_forces(
         comp = _Compliance(geo, design, contact_model)
         tau, Fj, iterations, _, rel = _solve_positions(geo, comp, target, rtol)
         pieces.append(
-            _result(design, geo, Fj, tau, rel, iterations, solve_angles[a : a + block], target, 0)
+            _result(
+                design,
+                geo,
+                Fj,
+                tau,
+                rel,
+                iterations,
+                solve_angles[a : a + block],
+                target,
+                0,
+                comp=comp,
+            )
         )
     out = _concatenate(pieces) if len(pieces) > 1 else pieces[0]
     out.positions_solved = len(solve_angles)
@@ -765,17 +776,35 @@ def _concatenate(pieces: list[ForceResult]) -> ForceResult:
 
 
 def _result(
-    design, geo, Fj, tau, rel, iterations, angles, target, solved, full_cycle=False, rtol=_RTOL
+    design,
+    geo,
+    Fj,
+    tau,
+    rel,
+    iterations,
+    angles,
+    target,
+    solved,
+    full_cycle=False,
+    rtol=_RTOL,
+    comp: _Compliance | None = None,
 ) -> ForceResult:
-    """Forces, pressures and validity from the solved cam forces."""
+    """Forces, pressures and validity from the solved cam forces.
+
+    ``comp``: the compliance the solve used; its half-width factors (the
+    same expressions of the same arrays) are reused.
+    """
     Fn = geo.rho_n * Fj
     Fs = geo.rho_s * Fj
     length = design.roller_length
     modulus = design.material.contact_modulus
     k1 = geo.k_roller
-    cj = contact.half_width_sq_per_force(k1, geo.k_cam, length, modulus)
-    cn = contact.half_width_sq_per_force(k1, geo.k_gear, length, modulus)
-    cs = contact.half_width_sq_per_force(k1, 0.0, length, modulus)
+    if comp is not None:
+        cj, cn, cs = comp.cj, comp.cn, comp.cs
+    else:
+        cj = contact.half_width_sq_per_force(k1, geo.k_cam, length, modulus)
+        cn = contact.half_width_sq_per_force(k1, geo.k_gear, length, modulus)
+        cs = contact.half_width_sq_per_force(k1, 0.0, length, modulus)
     uj, un, us = cj * Fj, cn * Fn, cs * np.abs(Fs)
     limit = max(rtol, 1e-9)
     success = bool(np.all(rel <= limit))
@@ -879,6 +908,7 @@ class BatchSolver:
             self.target,
             len(tau),
             False,
+            comp=comp,
         )
 
 
