@@ -379,7 +379,7 @@ def solver_speed(out: Path, quick: bool = False) -> list:
 
 
 def throughput(out: Path, quick: bool = False) -> list:
-    """Monte Carlo samples per second, in this process and on a process pool."""
+    """Monte Carlo samples per second: in this process, and on 1 and 2 pool workers."""
     from concurrent.futures import ProcessPoolExecutor
 
     from .tolerance import SerialExecutor
@@ -389,17 +389,116 @@ def throughput(out: Path, quick: bool = False) -> list:
     design = GearDesign()
     rows = []
     n_pool = 1000 if quick else 10000
-    for label, n in (("serial", min(n_pool, 1000)), (f"process pool ({os.cpu_count()})", n_pool)):
-        ex = SerialExecutor() if label == "serial" else ProcessPoolExecutor(os.cpu_count())
-        t0 = time.perf_counter()
-        mc(design, M0, tol, n, 1, 360, executor=ex, chunk=50)
-        dt = time.perf_counter() - t0
-        if hasattr(ex, "shutdown"):
-            ex.shutdown()
+    repeat = 3
+    for label, n, workers in (
+        ("serial", min(n_pool, 1000), 0),
+        ("process pool, 1 worker", n_pool, 1),
+        ("process pool, 2 workers", n_pool, 2),
+    ):
+        times = []
+        for _ in range(repeat):
+            ex = SerialExecutor() if workers == 0 else ProcessPoolExecutor(workers)
+            t0 = time.perf_counter()
+            mc(design, M0, tol, n, 1, 360, executor=ex, chunk=50)
+            times.append(time.perf_counter() - t0)
+            if hasattr(ex, "shutdown"):
+                ex.shutdown()
+        dt = statistics.median(times)
         rows.append([label, n, dt, n / dt])
     header = ["executor", "samples", "time_s", "samples_per_s"]
-    _table("Monte Carlo throughput (360 positions, 4 tolerances)", header, rows)
+    _table(
+        f"Monte Carlo throughput (360 positions, 4 tolerances, median of {repeat})", header, rows
+    )
     _write_csv(out, "montecarlo_throughput.csv", header, rows)
+    return rows
+
+
+def interference(out: Path, quick: bool = False) -> list:
+    """Exact clearance against the mesh booleans: time per crank position and resolution.
+
+    Resolution: the smallest interference each method can tell from contact.
+    The exact method's is its round-off (the largest |clearance| of the
+    nominal prototype's working contacts over the cycle); the mesh's is its
+    tessellation allowance, ``2 chord_tolerance`` of gap.
+    """
+    from .clearance import clearance
+    from .export import mesh
+    from .parts import part_outlines
+    from .pipeline import interference_allowance
+
+    design = GearDesign()
+    rows = []
+    for n in (36, 360) if quick else (36, 360, 3600):
+        ang = cycle_angles(n)
+        clearance(design, ang)
+        t = _median_time(lambda ang=ang: clearance(design, ang), 3 if quick else 7)
+        c = clearance(design, ang)
+        res = max(np.abs(c.cam).max(), np.abs(c.ring).max())
+        rows.append(["exact", n, "-", t, 1e3 * t / n, float(res)])
+    w = working_profile(design)
+    for tol in (0.01,) if quick else (0.01, 0.001):
+        outlines = part_outlines(design, w, tol)
+        solids = {k: mesh.solid(o) for k, o in outlines.items()}
+        stack = mesh.frame_stack(design, solids["frame"])
+        pieces = mesh.frame_pieces(design, stack)
+        n = 2
+
+        def sweep(solids=solids, stack=stack, pieces=pieces, tol=tol, n=n):
+            for a in cycle_angles(n):
+                asm = mesh.assembly(design, solids, float(a), stack=stack, pieces=pieces)
+                mesh.interference_at(asm, search_length=max(0.1, 50 * tol))
+
+        t = _median_time(sweep, 1 if quick else 3)
+        gap = interference_allowance(design, tol)["ring"]["gap_mm"]
+        rows.append(["mesh", n, tol, t, 1e3 * t / n, gap])
+    header = ["method", "positions", "chord_tol_mm", "time_s", "ms_per_position", "resolution_mm"]
+    _table("interference: exact clearance vs mesh booleans (prototype)", header, rows)
+    _write_csv(out, "interference_methods.csv", header, rows)
+
+    def draw(ax):
+        for r in rows:
+            ax.loglog(
+                r[4], r[5], "o" if r[0] == "exact" else "s", color="C0" if r[0] == "exact" else "C1"
+            )
+            label = f"{r[0]} ({r[1]} pos.)" if r[0] == "exact" else f"mesh, chord {r[2]} mm"
+            ax.annotate(label, (r[4], r[5]), fontsize=8)
+        ax.set_xlabel("time per crank position [ms]")
+        ax.set_ylabel("smallest interference told from contact [mm]")
+        ax.set_title(f"interference check: exact vs mesh ({_machine()})")
+
+    _figure(out, "interference_methods.png", draw)
+    return rows
+
+
+def cold_start(out: Path, quick: bool = False) -> list:
+    """Wall time of a fresh ``python -m corr_cad run`` for a DXF-only and a forces-only scene."""
+    import subprocess
+    import sys
+
+    scenes = {
+        "dxf only (arcs, 1 um)": '[export]\nformats = ["dxf"]\nrepresentation = "arcs"\n',
+        "forces only (3600 positions)": (
+            '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
+        ),
+        "clearance only (3600 positions)": '[export]\nformats = ["interference"]\n',
+        "import only": None,
+    }
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, text in scenes.items():
+            if text is None:
+                cmd = [sys.executable, "-c", "import corr_cad.cli"]
+            else:
+                (Path(tmp) / "s.toml").write_text(text)
+                cmd = [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "o", "--quiet"]
+
+            def once(cmd=cmd):
+                subprocess.run(cmd, cwd=tmp, check=True, capture_output=True)
+
+            rows.append([label, _median_time(once, 3 if quick else 5)])
+    header = ["run", "wall_s"]
+    _table("cold start: a fresh process, median", header, rows)
+    _write_csv(out, "cold_start.csv", header, rows)
     return rows
 
 
@@ -410,6 +509,8 @@ STUDIES = {
     "speed": solver_speed,
     "montecarlo": montecarlo,
     "throughput": throughput,
+    "interference": interference,
+    "coldstart": cold_start,
 }
 
 

@@ -56,7 +56,16 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument(
         "--study",
         action="append",
-        choices=("profile", "solids", "solver", "speed", "montecarlo", "throughput"),
+        choices=(
+            "profile",
+            "solids",
+            "solver",
+            "speed",
+            "montecarlo",
+            "throughput",
+            "interference",
+            "coldstart",
+        ),
         help="run only this study (repeatable); default all",
     )
     bench.add_argument("--quick", action="store_true", help="fewer settings and repeats")

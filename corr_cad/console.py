@@ -197,6 +197,13 @@ def summary_lines(manifest: dict, out) -> list[str]:
             lines.append(f"  {metric}: {vals}")
         for name, prob in (mc.get("failure_probability") or {}).items():
             lines.append(f"  P(fail {name}) = {prob:.4g}")
+    c = manifest.get("clearance")
+    if c:
+        lines.append(
+            f"clearance over {c['positions']} crank positions: smallest "
+            f"{1e3 * c['min_clearance_mm']:.4g} um (negative: interference), "
+            f"working contacts within {1e3 * c['working_contacts_max_abs_mm']:.3g} um"
+        )
     i = manifest.get("interference")
     if i:
         state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"

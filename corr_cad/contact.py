@@ -31,6 +31,7 @@ __all__ = [
     "VALIDITY_KNEE",
     "half_width_sq_per_force",
     "knee",
+    "knee_point",
     "approach",
     "approach_slope",
     "approach_and_slope",
@@ -50,11 +51,18 @@ def half_width_sq_per_force(k1, k2, length: float, modulus: float):
     return 4.0 / (np.pi * length * modulus * ksum)
 
 
+def knee_point(k1, k2):
+    """``u_k = b^2`` where the tangent continuation starts, mm^2."""
+    k1 = np.asarray(k1, dtype=float)
+    k2 = np.asarray(k2, dtype=float)
+    return VALIDITY_KNEE / np.maximum(np.maximum(k1 * k1, k2 * k2), 1e-300)
+
+
 def knee(k1, k2):
     """Where the tangent continuation starts: ``(u_k, delta(u_k), delta'(u_k))``."""
     k1 = np.asarray(k1, dtype=float)
     k2 = np.asarray(k2, dtype=float)
-    uk = VALIDITY_KNEE / np.maximum(np.maximum(k1 * k1, k2 * k2), 1e-300)
+    uk = knee_point(k1, k2)
     q1 = np.sqrt(1.0 - k1 * k1 * uk)
     q2 = np.sqrt(1.0 - k2 * k2 * uk)
     return uk, k1 * uk / (1.0 + q1) + k2 * uk / (1.0 + q2), 0.5 * k1 / q1 + 0.5 * k2 / q2
@@ -64,10 +72,14 @@ def approach_and_slope(u, k1, k2, knee_values=None):
     """``(delta(u), d delta / d u)`` together, sharing the square roots.
 
     ``knee_values`` from :func:`knee` may be passed when the same contacts
-    are evaluated many times (the solver's Newton loop).
+    are evaluated many times (the solver's Newton loop); ``(u_k, None,
+    None)`` (from :func:`knee_point`) is enough: the continuation is then
+    computed only where ``u`` passes the knee, which is rare.
     """
     u = np.asarray(u, dtype=float)
-    uk, dk, sk = knee_values if knee_values is not None else knee(k1, k2)
+    if knee_values is None:
+        knee_values = (knee_point(k1, k2), None, None)
+    uk, dk, sk = knee_values
     ue = np.minimum(u, uk)
     q1 = np.sqrt(1.0 - k1 * k1 * ue)
     val = k1 * ue / (1.0 + q1)
@@ -77,6 +89,20 @@ def approach_and_slope(u, k1, k2, knee_values=None):
         val = val + k2 * ue / (1.0 + q2)
         slope = slope + 0.5 * k2 / q2
     beyond = u > uk
+    if not beyond.any():
+        return val, slope
+    if dk is None:  # the continuation, only where it is used
+        shape = np.broadcast_shapes(u.shape, np.shape(k1), np.shape(k2))
+        val = np.broadcast_to(val, shape).copy()
+        slope = np.broadcast_to(slope, shape).copy()
+        beyond = np.broadcast_to(beyond, shape)
+        ub = np.broadcast_to(u, shape)[beyond]
+        kb1 = np.broadcast_to(np.asarray(k1, dtype=float), shape)[beyond]
+        kb2 = np.broadcast_to(np.asarray(k2, dtype=float), shape)[beyond]
+        ukb, dkb, skb = knee(kb1, kb2)
+        val[beyond] = dkb + skb * (ub - ukb)
+        slope[beyond] = skb
+        return val, slope
     return np.where(beyond, dk + sk * (u - uk), val), np.where(beyond, sk, slope)
 
 

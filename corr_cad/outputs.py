@@ -55,6 +55,8 @@ __all__ = [
     "StagingDir",
     "write_json",
     "write_csv",
+    "write_columns",
+    "format_columns",
     "sha256_of",
     "safe_folder_name",
     "check_out_dir",
@@ -412,6 +414,28 @@ def _unlock(fd: int, path: Path) -> None:
 
 def _stderr(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
+
+
+def format_columns(columns: Sequence[object], fmts: Sequence[str]) -> str:
+    """CSV body (no header) from equal-length columns and ``%``-formats, one per column.
+
+    Vectorised: one ``%`` operation over all rows, in C. The text is the same,
+    byte for byte, as formatting each value with ``format(v, spec)`` and
+    writing rows with :func:`write_csv` (numbers never need quoting).
+    """
+    lists = [c.tolist() if hasattr(c, "tolist") else list(c) for c in columns]
+    n = len(lists[0]) if lists else 0
+    if n == 0:
+        return ""
+    row = ",".join(fmts) + "\n"
+    return (row * n) % tuple(v for r in zip(*lists, strict=True) for v in r)
+
+
+def write_columns(
+    path: Path, header: Sequence[str], columns: Sequence[object], fmts: Sequence[str]
+) -> Path:
+    """Write a CSV from columns with :func:`format_columns`."""
+    return _atomic_text(path, ",".join(header) + "\n" + format_columns(columns, fmts))
 
 
 class StagingDir:

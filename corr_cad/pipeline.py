@@ -172,7 +172,7 @@ def _forces(ctx: RunContext) -> None:
 def _force_files(ctx: RunContext) -> None:
     from .console import force_peaks
     from .export import plots
-    from .outputs import write_csv, write_json
+    from .outputs import write_columns, write_json
 
     res = ctx.results["forces"]
     s = ctx.scene
@@ -190,11 +190,6 @@ def _force_files(ctx: RunContext) -> None:
         res.p_slot.ravel(),
         res.p_gear.ravel(),
     ]
-    fmt = ("{:.6f}", "{:d}", "{:.6f}") + ("{:.9g}",) * 6
-    rows = (
-        [f.format(v) for f, v in zip(fmt, row, strict=True)]
-        for row in zip(*(c.tolist() for c in cols), strict=True)
-    )
     header = [
         "crank_angle_deg",
         "roller",
@@ -206,7 +201,7 @@ def _force_files(ctx: RunContext) -> None:
         "p_slot",
         "p_gear",
     ]
-    write_csv(ctx.out / "forces.csv", header, rows)
+    write_columns(ctx.out / "forces.csv", header, cols, ("%.6f", "%d", "%.6f") + ("%.9g",) * 6)
     summary = res.summary()
     summary["roller"] = 1  # the means and peaks above are roller 1's; "peak" is the drive's
     summary["peak"] = force_peaks(res, s.design)
@@ -412,7 +407,7 @@ def _interference(ctx: RunContext) -> None:
             cache[de] = mesh.solid(roller_outline(d, float(de), tol)) if de else solids["roller"]
         rollers.append(cache[de])
     allowance = interference_allowance(d, tol)
-    n = s.interference_positions
+    n = s.positions_for("mesh")
     angles = np.arange(n) * 360.0 / n
     rows = []
     from .progress import Progress
@@ -454,10 +449,89 @@ def _interference(ctx: RunContext) -> None:
         "violations": len(bad),
         "first_violations": bad[:20],
     }
+    if s.interference_method == "both":
+        summary["agreement_with_exact"] = _agreement(ctx, angles, rows, allowance, tol)
     plots.interference_png(angles, rows, parts, allowance, ctx.out / "interference.png")
     ctx.files.extend(["interference.csv", "interference.png"])
     ctx.manifest["interference"] = summary
     ctx.results["interference"] = summary
+
+
+def _clearance(ctx: RunContext) -> None:
+    from .clearance import COLUMNS, clearance
+    from .export import plots
+    from .outputs import write_columns
+
+    s = ctx.scene
+    info = ctx.results["undercut"]
+    psi_end = math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else None
+    n = s.positions_for("exact")
+    angles = 2.0 * np.pi * np.arange(n) / n
+    clr = clearance(s.design, angles, _errors(ctx), psi_end)
+    cols = clr.columns()
+    write_columns(
+        ctx.out / "clearance.csv",
+        COLUMNS,
+        [cols[c] for c in COLUMNS],
+        ("%.6f", "%d") + ("%.9g",) * 4,
+    )
+    plots.clearance_png(clr, ctx.out / "clearance.png")
+    ctx.files.extend(["clearance.csv", "clearance.png"])
+    summary = {"method": "exact", **clr.summary()}
+    ctx.manifest["clearance"] = summary
+    ctx.results["clearance"] = clr
+
+
+def _agreement(ctx: RunContext, angles_deg, rows, allowance, tol: float) -> dict:
+    """Do the mesh booleans and the exact clearances agree, within the tessellation allowance?
+
+    Compared for row A at the mesh positions, with the errors the mesh models
+    (the roller radii). A contact agrees when: an exact clearance beyond the
+    gap allowance shows no mesh overlap beyond the volume allowance; a mesh
+    overlap beyond the volume allowance has a negative exact clearance; an
+    exact interference beyond the gap allowance shows a mesh overlap; and a
+    positive exact clearance within the search length matches the mesh gap
+    to the gap allowance.
+    """
+    from .clearance import clearance
+    from .deviations import ManufacturingErrors
+
+    d = ctx.scene.design
+    err = ctx.scene.errors
+    mesh_errors = ManufacturingErrors(
+        roller_radius_error=err.roller_radius_error, roller_radius_errors=err.roller_radius_errors
+    )
+    clr = clearance(d, np.radians(np.asarray(angles_deg, dtype=float)), mesh_errors)
+    index = {float(a): k for k, a in enumerate(angles_deg)}
+    search = max(0.1, 50 * tol)
+    exact_of = {"ring": clr.ring, "cam": clr.cam, "frame": clr.slot}
+    bad, compared = [], 0
+    for r in rows:
+        if r["row"] != "a":
+            continue
+        k, i = index[r["crank_angle_deg"]], r["roller"] - 1
+        for part, ex in exact_of.items():
+            c = float(ex[k, i])
+            vol, gap = r[f"{part}_volume"], r[f"{part}_gap"]
+            g_allow, v_allow = allowance[part]["gap_mm"], allowance[part]["volume_mm3"]
+            ok = not (c > g_allow and vol > v_allow)
+            ok &= not (vol > v_allow and c >= 0)
+            ok &= not (c < -g_allow and vol <= 0)
+            if 0 <= c < search and vol <= 0:
+                ok &= abs(gap - c) <= g_allow
+            compared += 1
+            if not ok:
+                bad.append(
+                    {
+                        "crank_angle_deg": r["crank_angle_deg"],
+                        "roller": r["roller"],
+                        "part": part,
+                        "exact_clearance_mm": c,
+                        "mesh_volume_mm3": vol,
+                        "mesh_gap_mm": gap,
+                    }
+                )
+    return {"agree": not bad, "contacts_compared": compared, "disagreements": bad[:20]}
 
 
 def interference_allowance(design, chord_tol: float) -> dict:
@@ -510,7 +584,7 @@ def _checks(ctx: RunContext) -> None:
 
 def _montecarlo(ctx: RunContext) -> None:
     from .export import plots
-    from .outputs import write_csv, write_json
+    from .outputs import write_columns, write_json
     from .progress import Progress
     from .tolerance import evaluate_failure_probability, monte_carlo
 
@@ -541,13 +615,9 @@ def _montecarlo(ctx: RunContext) -> None:
     names = list(res.metrics)
     kinds = list(res.magnitudes)
     header = ["sample"] + [f"{k}_magnitude" for k in kinds] + names
-    rows = (
-        [str(i)]
-        + [f"{res.magnitudes[k][i]:.9g}" for k in kinds]
-        + [f"{res.metrics[m][i]:.9g}" for m in names]
-        for i in range(n)
-    )
-    write_csv(ctx.out / "montecarlo.csv", header, rows)
+    cols = [np.arange(n)] + [res.magnitudes[k] for k in kinds] + [res.metrics[m] for m in names]
+    fmts = ["%d"] + ["%.9g"] * (len(cols) - 1)
+    write_columns(ctx.out / "montecarlo.csv", header, cols, fmts)
     summary = res.summary(s.checks)
     summary.update({"seed": mc_cfg["seed"], "positions": mc_cfg["positions"]})
     summary["tolerances"] = {k: d.__dict__ for k, d in s.tolerances.items()}
@@ -679,7 +749,8 @@ STAGES: dict[str, Stage] = {
         Stage("solids", ("profiles",), _solids, "watertight solids (manifold3d), volumes checked"),
         Stage("mesh_files", ("solids",), _mesh_files, "part and assembly meshes"),
         Stage("step_files", ("profiles",), _step_files, "STEP AP214 parts and assembly, read back"),
-        Stage("interference", ("solids",), _interference, "interference sweep over the cycle"),
+        Stage("clearance", ("undercut",), _clearance, "exact clearance of every roller"),
+        Stage("interference", ("solids",), _interference, "mesh interference sweep (booleans)"),
         Stage("checks", ("forces",), _checks, "design checks against [checks] limits"),
         Stage("montecarlo", ("undercut",), _montecarlo, "Monte Carlo over [tolerances]"),
         Stage("allocation", ("undercut",), _allocation, "tolerance allocation against [checks]"),
@@ -701,7 +772,20 @@ FORMAT_TARGETS = {
 }
 
 
-def plan(formats: tuple[str, ...], checks: bool = False, measured: bool = False) -> list[str]:
+#: ``[export] interference_method`` -> the stages of the ``interference`` format.
+INTERFERENCE_STAGES = {
+    "exact": ("clearance",),
+    "mesh": ("interference",),
+    "both": ("clearance", "interference"),
+}
+
+
+def plan(
+    formats: tuple[str, ...],
+    checks: bool = False,
+    measured: bool = False,
+    interference_method: str = "exact",
+) -> list[str]:
     """Stages needed for ``formats`` (and the checks), in dependency order, each once.
 
     With a measured profile it is registered first: the forces, Monte Carlo
@@ -719,7 +803,11 @@ def plan(formats: tuple[str, ...], checks: bool = False, measured: bool = False)
     if measured:
         visit("measured_profile")
     for f in formats:
-        visit(FORMAT_TARGETS[f])
+        if f == "interference":
+            for name in INTERFERENCE_STAGES[interference_method]:
+                visit(name)
+        else:
+            visit(FORMAT_TARGETS[f])
     if checks:
         visit("checks")
     return order
@@ -764,6 +852,7 @@ def run_scene(
         scene.formats,
         checks=bool(scene.checks.active()),
         measured=scene.measured_profile is not None,
+        interference_method=scene.interference_method,
     )
     timings = []
     for i, name in enumerate(stages, 1):

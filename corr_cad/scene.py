@@ -54,6 +54,11 @@ FORMATS = (
     "sweeps",
 )
 
+#: ``[export] interference_method``: exact 2D clearances, mesh booleans, or both.
+INTERFERENCE_METHODS = ("exact", "mesh", "both")
+#: Upper bound of the mesh-boolean sweep (each position costs ~0.8 s).
+MESH_POSITIONS_MAX = 3600
+
 
 @dataclass(frozen=True)
 class Key:
@@ -185,8 +190,21 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=MAX_ANGLE_DEG,
             max_len=360,
         ),
+        "interference_method": Key(
+            "str",
+            "exact",
+            "interference check: exact 2D clearances (clearance.csv), mesh booleans "
+            "(interference.csv) or both",
+            choices=INTERFERENCE_METHODS,
+        ),
         "interference_positions": Key(
-            "int", 36, "crank positions of the interference sweep (full cycle)", low=0, high=3600
+            "int",
+            None,
+            "crank positions of the interference check over a full cycle "
+            "(default 3600 exact, 36 mesh)",
+            low=0,
+            high=100000,
+            example=3600,
         ),
         "tolerance": Key(
             "float",
@@ -391,7 +409,15 @@ class Scene:
     tolerance: float = 0.001
     chord_tolerance: float = 0.001
     assembly_angles_deg: tuple[float, ...] = (0.0,)
-    interference_positions: int = 36
+    interference_method: str = "exact"
+    interference_positions: int | None = None  # None: 3600 exact, 36 mesh
+
+    def positions_for(self, method: str) -> int:
+        """Crank positions of the ``exact`` or ``mesh`` interference check."""
+        if self.interference_positions is not None:
+            return self.interference_positions
+        return 3600 if method == "exact" else 36
+
     load: LoadSpec | None = None
     solver: SolverSpec = field(default_factory=SolverSpec)
     errors: ErrorSpec = field(default_factory=ErrorSpec)
@@ -661,6 +687,13 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
     _unique_angle_tags(ex["assembly_angles_deg"])
+    ip = ex["interference_positions"]
+    if ex["interference_method"] != "exact" and ip is not None and ip > MESH_POSITIONS_MAX:
+        raise SceneError(
+            f"[export] interference_positions = {ip}: allowed range with interference_method "
+            f"= {ex['interference_method']!r} is (0, {MESH_POSITIONS_MAX}] (about 0.8 s of mesh "
+            'booleans per position); use interference_method = "exact" for finer sweeps'
+        )
     scene = Scene(
         name=name,
         design=design,
@@ -671,6 +704,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             ex["chord_tolerance"] if ex["chord_tolerance"] is not None else ex["tolerance"]
         ),
         assembly_angles_deg=tuple(ex["assembly_angles_deg"]),
+        interference_method=ex["interference_method"],
         interference_positions=ex["interference_positions"],
         load=load,
         solver=solver,

@@ -20,7 +20,7 @@ import numpy as np
 from .design import GearDesign
 from .deviations import ManufacturingErrors
 from .errors import SceneError
-from .solver import cycle_angles, solve_forces_batch
+from .solver import BatchSolver, cycle_angles
 
 __all__ = [
     "TOLERANCE_KINDS",
@@ -164,15 +164,31 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
     return replace(base, **kw)
 
 
+#: Samples solved together inside a task: their arrays (block x positions x
+#: rollers) stay in the CPU cache, which is worth ~2x over large batches.
+#: Each row is solved independently, so the block size never changes a bit.
+_BLOCK_ROWS = 400
+
+
 def _chunk_task(
     design, input_torque, angles, load_share, base, tolerances, units, lo, hi, psi_limit=math.pi
 ):
-    """Solve samples ``lo..hi-1`` (runs in a worker)."""
-    errs = [_errors_for(base, tolerances, units, k) for k in range(lo, hi)]
-    res = solve_forces_batch(
-        design, input_torque, angles, errs, load_share=load_share, psi_contact_limit=psi_limit
+    """Solve samples ``lo..hi-1`` (runs in a worker), a few samples at a time."""
+    solver = BatchSolver(
+        design,
+        angles,
+        input_torque=input_torque,
+        load_share=load_share,
+        psi_contact_limit=psi_limit,
     )
-    return sample_metrics(res, hi - lo), res.success
+    block = max(1, _BLOCK_ROWS // len(solver.angles))
+    parts, ok = [], True
+    for a in range(lo, hi, block):
+        b = min(a + block, hi)
+        res = solver.solve([_errors_for(base, tolerances, units, k) for k in range(a, b)])
+        parts.append(sample_metrics(res, b - a))
+        ok &= bool(res.success)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, ok
 
 
 class SerialExecutor:
@@ -312,6 +328,7 @@ def allocate(
     rel_precision: float = 0.02,
     base_errors: ManufacturingErrors | None = None,
     psi_contact_limit: float = math.pi,
+    progress: Callable[[int, int, float], None] | None = None,
 ) -> dict:
     """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
 
@@ -321,7 +338,28 @@ def allocate(
     until a check fails, then bisect (geometrically) to ``rel_precision``.
     Returns ``{"kind", "tolerance", "unit", "failing_at", "evaluations"}``;
     ``tolerance`` is 0 when even a perfect part fails.
+
+    ``progress(done, expected, samples_per_s)`` is called after each Monte
+    Carlo: evaluations done, the expected total (the bisection's remaining
+    steps are known once the root is bracketed; before that, a doubling
+    more), and the measured sample rate.
     """
+    import time
+
+    t_start = time.perf_counter()
+    state = {"lo": 0.0, "hi": None}
+
+    def expected_total() -> int:
+        lo, hi = state["lo"], state["hi"]
+        bisect = 0
+        width = (hi - lo) if hi is not None else None
+        if width is not None:
+            while width > rel_precision * hi:
+                width *= 0.5
+                bisect += 1
+            return evals + bisect
+        return evals + 1 + max(1, math.ceil(math.log2(1.0 / rel_precision)))
+
     if not checks.active():
         raise SceneError("tolerance allocation needs at least one limit in [checks]")
     evals = 0
@@ -348,13 +386,23 @@ def allocate(
             base_errors=base_errors,
             psi_contact_limit=psi_contact_limit,
         )
+        ok = True
         for name in checks.active():
             metric, sense = CHECK_METRICS[name]
             q = percentile if sense == "max" else 100.0 - percentile
             value = float(np.percentile(mc.metrics[metric], q))
             if not evaluate_checks({metric: value}, replace_checks(checks, name))[name]["passed"]:
-                return False
-        return True
+                ok = False
+                break
+        if ok:
+            state["lo"] = T
+        elif T > 0:
+            state["hi"] = T
+        if progress:
+            rate = evals * samples / max(time.perf_counter() - t_start, 1e-9)
+            done = not ok and T == 0
+            progress(evals, evals if done else max(expected_total(), evals), rate)
+        return ok
 
     unit = TOLERANCE_KINDS[kind][1]
     if not passes(0.0):

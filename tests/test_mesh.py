@@ -121,7 +121,11 @@ def test_assembly_places_rollers_on_cam_and_gear(built):
 
 def _interference(tmp_path, **errors):
     data = {
-        "export": {"formats": ["interference"], "interference_positions": 4},
+        "export": {
+            "formats": ["interference"],
+            "interference_method": "mesh",
+            "interference_positions": 4,
+        },
         "errors": errors,
     }
     out = tmp_path / "o"

@@ -32,7 +32,7 @@ def test_plan_is_minimal_and_ordered():
     assert pipeline.plan(("step",)) == ["undercut", "profiles", "step_files"]
     from corr_cad.scene import FORMATS
 
-    full = pipeline.plan(FORMATS, checks=True, measured=True)
+    full = pipeline.plan(FORMATS, checks=True, measured=True, interference_method="both")
     assert len(full) == len(set(full)) == len(pipeline.STAGES)
     assert pipeline.plan(("forces",), checks=True) == [
         "undercut",

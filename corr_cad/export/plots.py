@@ -19,6 +19,7 @@ __all__ = [
     "forces_png",
     "load_distribution_png",
     "interference_png",
+    "clearance_png",
     "montecarlo_png",
     "sweep_png",
 ]
@@ -142,6 +143,48 @@ def interference_png(angles_deg, rows, parts, allowance, path: Path) -> Path:
     ax1.legend(fontsize=8)
     ax2.legend(fontsize=8)
     ax1.set_title("interference check (dotted: what tessellation alone can produce)")
+    return _save(fig, path)
+
+
+def _envelope(ang, values, bins: int = 720):
+    """Smallest and largest over rollers and over each of ``bins`` angle bins (exact envelope)."""
+    lo, hi = values.min(axis=1), values.max(axis=1)
+    n = len(ang)
+    if n <= bins:
+        return ang, lo, hi
+    edges = np.linspace(0, n, bins + 1).astype(int)
+    starts = edges[:-1]
+    return ang[starts], np.minimum.reduceat(lo, starts), np.maximum.reduceat(hi, starts)
+
+
+def clearance_png(clr, path: Path) -> Path:
+    """Exact clearances over the cycle: smallest and largest over the rollers, um.
+
+    Values within 1e-9 mm of zero (the closed forms' round-off) are drawn as 0.
+    """
+    ang = np.degrees(clr.crank_angles)
+    order = np.argsort(ang)
+    ang = ang[order]
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
+    span = 1.0
+    for i, name in enumerate(("cam", "ring", "slot")):
+        a = getattr(clr, name)[order]
+        a = np.where(np.abs(a) < 1e-9, 0.0, a) * 1e3
+        x, lo, hi = _envelope(ang, a)
+        span = max(span, float(np.abs(lo).max()), float(np.abs(hi).max()))
+        ax1.fill_between(x, lo, hi, color=f"C{i}", alpha=0.15, lw=0)
+        ax1.plot(x, lo, color=f"C{i}", lw=1.2, label=f"roller vs {name}: smallest")
+    ax1.axhline(0.0, color="k", lw=0.8)
+    ax1.set_ylim(-1.1 * span, 1.1 * span)
+    ax1.set_ylabel("clearance [um] (negative: interference)")
+    ax1.set_title("exact clearance over the cycle (band: all rollers)")
+    ax1.legend(fontsize=8)
+    x, lo, hi = _envelope(ang, clr.neighbour[order])
+    ax2.plot(x, lo, color="C3", lw=1.2, label="roller vs neighbours: smallest")
+    ax2.plot(x, hi, color="C3", lw=0.8, ls="--", label="largest")
+    ax2.set_ylabel("clearance [mm]")
+    ax2.set_xlabel("crank angle relative to the frame [deg]")
+    ax2.legend(fontsize=8)
     return _save(fig, path)
 
 
