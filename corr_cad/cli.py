@@ -94,6 +94,10 @@ def _run(args: argparse.Namespace) -> int:
     failed = [k for k, r in manifest.get("checks", {}).items() if not r["passed"]]
     if failed:
         print(f"corr-cad: check failed: {', '.join(failed)}", file=sys.stderr)
+    bad = manifest.get("inspection", {}).get("failed")
+    if bad:
+        print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
+    if failed or bad:
         return 1
     return 0
 

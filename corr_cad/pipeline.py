@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from . import pipeline_shop as shop
 from .errors import ExportError, SolverError
 from .profile import theoretical_profile, undercut_analysis, working_profile
 from .sampling import approximate
@@ -107,6 +108,7 @@ def _measured(ctx: RunContext) -> None:
     src = str(s.measured_profile)
     pts = validate_points(read_measured_points(s.measured_profile), w, src)
     reg = register(w, pts)
+    ctx.results["registration"], ctx.results["measured_points"] = reg, pts
     ctx.results["errors"] = replace(s.errors, profile_deviation=reg.deviation)
     ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
     ctx.progress(
@@ -591,6 +593,9 @@ STAGES: dict[str, Stage] = {
         Stage("montecarlo", ("undercut",), _montecarlo, "Monte Carlo over [tolerances]"),
         Stage("allocation", ("undercut",), _allocation, "tolerance allocation against [checks]"),
         Stage("sweeps", (), _sweeps, "the paper's parametric sweeps"),
+        Stage("edm_files", ("profiles",), shop.edm_files, "wire-EDM path, DXF and G-code"),
+        Stage("cmm_points", ("profiles",), shop.cmm_points, "CMM nominal points"),
+        Stage("inspection", ("measured_profile",), shop.inspection, "per-tooth inspection"),
     )
 }
 
@@ -605,7 +610,11 @@ FORMAT_TARGETS = {
     "montecarlo": "montecarlo",
     "allocation": "allocation",
     "sweeps": "sweeps",
+    **{"edm": "edm_files", "cmm": "cmm_points", "inspection": "inspection"},
 }
+
+#: Targets that use other targets' results when they run (the EDM lead-in uses forces).
+_LATE = ("edm_files", "inspection")
 
 
 def plan(formats: tuple[str, ...], checks: bool = False, measured: bool = False) -> list[str]:
@@ -625,7 +634,7 @@ def plan(formats: tuple[str, ...], checks: bool = False, measured: bool = False)
 
     if measured:
         visit("measured_profile")
-    for f in formats:
+    for f in sorted(formats, key=lambda f: FORMAT_TARGETS[f] in _LATE):
         visit(FORMAT_TARGETS[f])
     if checks:
         visit("checks")
