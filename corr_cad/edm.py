@@ -96,8 +96,13 @@ class Move:
     def bulge(self) -> float:
         return math.tan(self.sweep_rad / 4.0) if self.kind == "arc" else 0.0
 
-    def points(self, u: np.ndarray) -> np.ndarray:
-        """Points at fractions ``u`` (m,) of the move; arcs with linearly blended radius."""
+    def points(self, u: np.ndarray, radius_at: float = 0.0) -> np.ndarray:
+        """Points at fractions ``u`` (m,) of the move.
+
+        An arc whose rounded ends are not exactly equidistant from its centre
+        is traced at the start radius (``radius_at = 0``), the end radius (1)
+        or a blend: controllers differ, the measurement takes the worst.
+        """
         u = np.asarray(u, dtype=float)
         a, b = np.asarray(self.start), np.asarray(self.end)
         if self.kind == "line":
@@ -106,7 +111,7 @@ class Move:
         r0, r1 = np.linalg.norm(a - c), np.linalg.norm(b - c)
         a0 = math.atan2(a[1] - c[1], a[0] - c[0])
         ang = a0 + u * self.sweep_rad
-        rad = r0 + u * (r1 - r0)
+        rad = r0 + radius_at * (r1 - r0) + 0.0 * u
         return c + rad[:, None] * np.stack([np.cos(ang), np.sin(ang)], axis=1)
 
     def tangent(self, at_end: bool) -> np.ndarray:
@@ -233,9 +238,24 @@ def _round_pt(p, dec: int) -> tuple[float, float]:
 
 
 def _arc_move(a, b, centre, clockwise: bool, dec: int) -> Move:
-    """An arc with its ends rounded and its centre at the start plus rounded I, J."""
+    """An arc with its ends rounded and its centre at the start plus rounded I, J.
+
+    Of the rounded centres next to the exact one, the one giving the least
+    difference between start and end radius is taken.
+    """
     a_r, b_r = _round_pt(a, dec), _round_pt(b, dec)
-    ij = _round_pt(np.asarray(centre) - np.asarray(a_r), dec)
+    q = 10.0**-dec
+    ij0 = np.round(np.asarray(centre) - np.asarray(a_r), dec)
+    best = None
+    for di in (-q, 0.0, q):
+        for dj in (-q, 0.0, q):
+            ij = (round(ij0[0] + di, dec), round(ij0[1] + dj, dec))
+            c = np.array([a_r[0] + ij[0], a_r[1] + ij[1]])
+            mis = abs(np.linalg.norm(np.subtract(a_r, c)) - np.linalg.norm(np.subtract(b_r, c)))
+            key = (round(mis / q, 6), abs(di) + abs(dj))
+            if best is None or key < best[0]:
+                best = (key, ij)
+    ij = best[1]
     c = (round(a_r[0] + ij[0], dec), round(a_r[1] + ij[1], dec))
     return Move("arc", a_r, b_r, c, bool(clockwise))
 
@@ -296,9 +316,17 @@ def _split_at(verts: np.ndarray, bulges: np.ndarray, q: np.ndarray):
 
 
 def _measure(curve: ProfileCurve, moves: tuple[Move, ...], samples: int = 17) -> float:
-    """Largest distance of the written moves from the exact curve (sampled, then refined)."""
+    """Largest distance of the written moves from the exact curve (sampled, then refined).
+
+    Arcs are traced at their start radius and at their end radius (they
+    differ by the rounding of the centre); the worst of both is returned.
+    """
+    return max(_measure_at(curve, moves, samples, ra) for ra in (0.0, 1.0))
+
+
+def _measure_at(curve: ProfileCurve, moves: tuple[Move, ...], samples: int, ra: float) -> float:
     u = np.linspace(0.0, 1.0, samples)
-    pts = np.concatenate([m.points(u) for m in moves])
+    pts = np.concatenate([m.points(u, ra) for m in moves])
     d, t = signed_normal_distance(curve, pts)
     d = np.abs(d).reshape(len(moves), samples)
     t = t.reshape(len(moves), samples)
@@ -309,7 +337,7 @@ def _measure(curve: ProfileCurve, moves: tuple[Move, ...], samples: int = 17) ->
     g = 0.5 * (math.sqrt(5.0) - 1.0)
 
     def dist_at(uu):
-        p = np.concatenate([m.points(np.array([x])) for m, x in zip(moves, uu, strict=True)])
+        p = np.concatenate([m.points(np.array([x]), ra) for m, x in zip(moves, uu, strict=True)])
         return np.abs(signed_normal_distance(curve, p, seed)[0])
 
     x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
