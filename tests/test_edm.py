@@ -45,13 +45,13 @@ def curve(t, off, z=Z, e=E, ll=L):
 def distance(q, off):
     """Distance of points ``q`` from the closed-form offset curve (Newton, numeric derivatives)."""
     q = np.asarray(q, dtype=float)
-    # seed: the nearest of 81 samples within +-0.06 rad of the point's polar angle
-    win = np.linspace(-0.06, 0.06, 81)
+    # seed: the nearest of 41 samples within +-0.06 rad of the point's polar angle
+    win = np.linspace(-0.06, 0.06, 41)
     tt = np.arctan2(q[:, 0], q[:, 1])[:, None] + win[None, :]
     dd = np.linalg.norm(curve(tt, off)[0] - q[:, None, :], axis=-1)
     t = tt[np.arange(len(q)), np.argmin(dd, axis=1)]
     h = 1e-6
-    for _ in range(30):
+    for _ in range(12):
         c = curve(t, off)[0]
         c1 = (curve(t + h, off)[0] - curve(t - h, off)[0]) / (2 * h)
         c2 = (curve(t + h, off)[0] - 2 * c + curve(t - h, off)[0]) / (h * h)
@@ -129,7 +129,7 @@ def trace(path):
     return moves, comments, feed
 
 
-def arc_points(m, n=48):
+def arc_points(m, n=16):
     c = m["centre"]
     a0 = math.atan2(*(m["start"] - c)[::-1])
     a1 = math.atan2(*(m["end"] - c)[::-1])
@@ -156,7 +156,7 @@ def test_gcode_traced_by_independent_parser_follows_exact_offset(edm_run):
     contour = [m for m in moves if m["section"] == "contour"]
     pts = np.concatenate(
         [
-            arc_points(m)[0] if m["kind"] != 1 else np.linspace(m["start"], m["end"], 48)
+            arc_points(m)[0] if m["kind"] != 1 else np.linspace(m["start"], m["end"], 16)
             for m in contour
         ]
     )
