@@ -219,3 +219,5 @@ def test_design_fit_recovers_known_parameter_errors(tmp_path):
         assert sig < 0.05 * max(abs(true), 1e-3)  # and the uncertainty is meaningful
     assert fit["rms_residual_mm"] == pytest.approx(0.5e-3, rel=0.1)
     assert fit["rms_nominal_mm"] > 5 * fit["rms_residual_mm"]
+    # runout is about the CMM origin (the datum axis): teeth 5 um off-centre -> 2 x 5 um
+    assert summary["runout_mm"] == pytest.approx(2 * np.hypot(*c), rel=0.05)
