@@ -197,6 +197,10 @@ def test_lead_in_tangent_and_start_hole_in_scrap(edm_run):
         min(1.0, float(np.dot(direction(contour[-1], True), direction(lead_out[0], False))))
     )
     assert k_in < 2e-4 and k_out < 2e-4  # tangent, to the 1e-4 mm number format
+    # quarter arcs: lead_in_length / 2 radius, 90 deg
+    for m in (lead_in[-1], lead_out[0]):
+        assert abs(arc_points(m)[1]) == pytest.approx(math.pi / 2, abs=1e-3)
+        assert np.linalg.norm(m["start"] - m["centre"]) == pytest.approx(1.0, abs=2e-4)
     # start hole: the program starts and ends there, and the hole lies in the opening
     hole = lead_in[0]["start"]
     np.testing.assert_array_equal(hole, lead_out[-1]["end"])
