@@ -42,6 +42,7 @@ import numpy as np
 from scipy import optimize
 
 from . import kinematics as kin
+from .errors import ProfileError
 from .profile import ProfileCurve
 from .projection import signed_normal_distance
 
@@ -128,7 +129,10 @@ def inspect_teeth(
     for k in range(z):
         sel = np.flatnonzero(use & (k0 == k))
         if sel.size < 3:
-            raise ValueError(f"tooth space {k + 1} has {sel.size} measured points; need 3")
+            raise ProfileError(
+                f"[inspection] evaluation_psi_deg = {evaluation_psi_deg:g}: tooth space {k + 1} "
+                f"has {sel.size} measured points in the evaluated range; need at least 3"
+            )
         q, fk, tk = placed[sel], f[sel], t[sel]
         delta = 0.0
         for _ in range(4):
