@@ -123,6 +123,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     failed = failed_checks(manifest)
     if failed:
         print(f"corr-cad: check failed: {'; '.join(failed)}", file=sys.stderr)
+    bad = manifest.get("inspection", {}).get("failed")
+    if bad:
+        print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
+    if failed or bad:
         return 1
     return status
 

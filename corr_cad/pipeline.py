@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from . import pipeline_shop as shop
 from .errors import ExportError, SolverError
 from .profile import theoretical_profile, undercut_analysis, working_profile
 from .sampling import approximate
@@ -115,6 +116,7 @@ def _measured(ctx: RunContext) -> None:
     pts = validate_points(read_measured_points(s.measured_profile), w, src)
     reg = register(w, pts)
     check_fit(reg, s.design.eccentricity, src)
+    ctx.results["registration"], ctx.results["measured_points"] = reg, pts
     ctx.results["errors"] = replace(s.errors, profile_deviation=reg.deviation)
     ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
     ctx.progress(
@@ -755,6 +757,9 @@ STAGES: dict[str, Stage] = {
         Stage("montecarlo", ("undercut",), _montecarlo, "Monte Carlo over [tolerances]"),
         Stage("allocation", ("undercut",), _allocation, "tolerance allocation against [checks]"),
         Stage("sweeps", (), _sweeps, "the paper's parametric sweeps"),
+        Stage("edm_files", ("profiles",), shop.edm_files, "wire-EDM path, DXF and G-code"),
+        Stage("cmm_points", ("profiles",), shop.cmm_points, "CMM nominal points"),
+        Stage("inspection", ("measured_profile",), shop.inspection, "per-tooth inspection"),
     )
 }
 
@@ -769,7 +774,11 @@ FORMAT_TARGETS = {
     "montecarlo": "montecarlo",
     "allocation": "allocation",
     "sweeps": "sweeps",
+    **{"edm": "edm_files", "cmm": "cmm_points", "inspection": "inspection"},
 }
+
+#: Targets that use other targets' results when they run (the EDM lead-in uses forces).
+_LATE = ("edm_files", "inspection")
 
 
 #: ``[export] interference_method`` -> the stages of the ``interference`` format.
@@ -802,7 +811,7 @@ def plan(
 
     if measured:
         visit("measured_profile")
-    for f in formats:
+    for f in sorted(formats, key=lambda f: FORMAT_TARGETS[f] in _LATE):
         if f == "interference":
             for name in INTERFERENCE_STAGES[interference_method]:
                 visit(name)

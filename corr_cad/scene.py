@@ -52,6 +52,9 @@ FORMATS = (
     "montecarlo",
     "allocation",
     "sweeps",
+    "edm",
+    "cmm",
+    "inspection",
 )
 
 #: ``[export] interference_method``: exact 2D clearances, mesh booleans, or both.
@@ -380,6 +383,42 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "points": Key("int", 7, "points per sweep over the paper's ranges", low=1, high=1000),
         "positions": Key("int", 720, "crank positions per sweep point", low=0, high=100_000),
     },
+    "edm": {
+        "wire_diameter": Key("float", 0.25, "wire diameter, mm", low=0, high=1.0),
+        "spark_gap": Key("float", 0.02, "spark gap (overcut per side), mm", low=0, high=0.5),
+        "start_hole_diameter": Key("float", 3.0, "start hole diameter, mm", low=0, high=50.0),
+        "lead_in_length": Key(
+            "float", 2.0, "lead-in: start hole centre to the wire path, mm", low=0, high=50.0
+        ),
+        "feed_mm_per_min": Key("float", 2.0, "cutting feed F, mm/min", low=0, high=10000.0),
+    },
+    "inspection": {
+        "point_spacing": Key(
+            "float", 0.5, "CMM nominal points: spacing along the curve, mm", low=0
+        ),
+        "evaluation_psi_deg": Key(
+            "float",
+            180.0,
+            "evaluated flank: |psi| up to this from the tooth-space centre, deg",
+            low=0,
+            high=180.0,
+        ),
+        "profile_tolerance": Key(
+            "float", None, "profile: half-band around the nominal, mm", low=0, example=0.01
+        ),
+        "position_tolerance_arcsec": Key(
+            "float", None, "tooth position, arcsec", low=0, example=20.0
+        ),
+        "single_pitch_tolerance_arcsec": Key(
+            "float", None, "single pitch deviation, arcsec", low=0, example=20.0
+        ),
+        "cumulative_pitch_tolerance_arcsec": Key(
+            "float", None, "cumulative pitch over any span, arcsec", low=0, example=40.0
+        ),
+        "runout_tolerance": Key(
+            "float", None, "runout of the tooth spaces, mm", low=0, example=0.02
+        ),
+    },
 }
 
 
@@ -427,6 +466,8 @@ class Scene:
     tolerances: dict = field(default_factory=dict)
     montecarlo: dict = field(default_factory=dict)
     sweeps: dict = field(default_factory=dict)
+    edm: dict = field(default_factory=dict)
+    inspection: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
@@ -694,6 +735,19 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"= {ex['interference_method']!r} is (0, {MESH_POSITIONS_MAX}] (about 0.8 s of mesh "
             'booleans per position); use interference_method = "exact" for finer sweeps'
         )
+    if "inspection" in formats and er["measured_profile"] is None:
+        raise SceneError(
+            "[export] formats lists 'inspection' but [errors] measured_profile is not set"
+        )
+    spacing = values["inspection"]["point_spacing"]
+    if (
+        "cmm" in formats
+        and 2 * math.pi * (design.link_length + design.roller_radius) / spacing > 2e6
+    ):
+        raise SceneError(
+            f"[inspection] point_spacing = {spacing:g}: more than 2,000,000 points; "
+            "allowed range is at least 1e-6 of the circumference"
+        )
     scene = Scene(
         name=name,
         design=design,
@@ -719,6 +773,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         tolerances=tolerances,
         montecarlo=values["montecarlo"],
         sweeps=values["sweeps"],
+        edm=values["edm"],
+        inspection=values["inspection"],
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)

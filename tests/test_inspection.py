@@ -1,0 +1,223 @@
+"""Per-tooth inspection report and the design-family fit (issue 12).
+
+Measured profiles are synthesised here from the closed form (roller centre
+``s = e cos psi + sqrt(L^2 - e^2 sin^2 psi)``, ``psi = z t``, working profile
+= outer offset by ``r``), written as CSV into a folder with other files and
+run through the CLI.
+"""
+
+import csv
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+Z, E, RJ, R = 25, 3.5, 135.0, 8.0
+L = RJ + R
+PITCH = 2 * math.pi / Z
+AS = math.radians(1 / 3600)  # one arcsec in rad
+TURNED, TURN_AS = 5, 10.0  # tooth space 5 turned by +10 arcsec
+BUMPED, BUMP_UM = 12, 4.0  # tooth space 12: a 4 um bump on one flank
+M = 60  # points per tooth
+
+
+def working(t, e=E, ll=L):
+    psi = Z * t
+    w = np.sqrt(ll * ll - (e * np.sin(psi)) ** 2)
+    s = e * np.cos(psi) + w
+    ds = -Z * e * np.sin(psi) * s / w
+    ur = np.stack([np.sin(t), np.cos(t)], -1)
+    ut = np.stack([np.cos(t), -np.sin(t)], -1)
+    n = s[:, None] * ur - ds[:, None] * ut
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return s[:, None] * ur + R * n, n
+
+
+def turn(p, a):
+    """Turn points so that their polar angle (from +y towards +x) grows by ``a``."""
+    c, s = math.cos(a), math.sin(a)
+    return np.stack([p[:, 0] * c + p[:, 1] * s, -p[:, 0] * s + p[:, 1] * c], 1)
+
+
+def synthetic(noise_um=0.0, turned=True, bump=True, seed=3):
+    t_loc = (np.arange(M) + 0.5) / M * PITCH - PITCH / 2
+    out = []
+    for k in range(Z):
+        t = t_loc + k * PITCH
+        p, n = working(t)
+        if bump and k + 1 == BUMPED:
+            psi = Z * t_loc
+            dev = BUMP_UM * 1e-3 * np.exp(-(((psi - math.radians(60)) / math.radians(12)) ** 2))
+            p = p - dev[:, None] * n  # + = material added = into the opening
+        if turned and k + 1 == TURNED:
+            p = turn(p, TURN_AS * AS)
+        out.append(p)
+    pts = np.vstack(out)
+    if noise_um:
+        pts = pts + np.random.default_rng(seed).normal(0, noise_um * 1e-3, pts.shape)
+    return pts
+
+
+LIMITS = """
+[inspection]
+profile_tolerance = 0.003
+position_tolerance_arcsec = 5.0
+single_pitch_tolerance_arcsec = 8.0
+cumulative_pitch_tolerance_arcsec = 30.0
+runout_tolerance = 0.005
+"""
+
+
+def run(folder, pts, extra=""):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "readme.txt").write_text("other file\n")
+    (folder / "cmm.csv").write_text(
+        "x,y\n" + "\n".join(f"{x:.10f},{y:.10f}" for x, y in pts) + "\n"
+    )
+    (folder / "s.toml").write_text(
+        '[export]\nformats = ["inspection"]\n[errors]\nmeasured_profile = "cmm.csv"\n'
+        + LIMITS
+        + extra
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+    )
+    out = folder / "out"
+    with open(out / "inspection.csv") as f:
+        rows = list(csv.DictReader(f))
+    table = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return r, table, json.loads((out / "inspection.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def turned(tmp_path_factory):
+    """Only tooth space 5 turned; with forces."""
+    folder = tmp_path_factory.mktemp("turned")
+    return run(
+        folder, synthetic(bump=False), "[load]\ninput_torque = 1.1e5\n[solver]\npositions = 104\n"
+    )
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    """Tooth space 5 turned and a bump on tooth space 12."""
+    return run(tmp_path_factory.mktemp("clean"), synthetic())
+
+
+@pytest.fixture(scope="module")
+def noisy(tmp_path_factory):
+    return run(tmp_path_factory.mktemp("noisy"), synthetic(noise_um=0.5))
+
+
+def test_csv_columns_and_files(clean):
+    r, table, summary = clean
+    assert list(table)[:7] == [
+        "tooth",
+        "profile_deviation_mm",
+        "form_deviation_mm",
+        "position_arcsec",
+        "single_pitch_arcsec",
+        "cumulative_pitch_arcsec",
+        "runout_mm",
+    ]
+    assert table["tooth"].tolist() == list(range(1, Z + 1))
+    assert summary["teeth"] == Z
+
+
+def test_turned_tooth_position_and_pitches(turned):
+    _, table, summary = turned
+    pos, sp = table["position_arcsec"], table["single_pitch_arcsec"]
+    k = TURNED - 1
+    assert pos[k] == pytest.approx(TURN_AS, abs=1.0)
+    others = np.delete(pos, k)
+    assert np.abs(others).max() < 1.0
+    assert sp[k] > TURN_AS - 1.0 and sp[k + 1] < -(TURN_AS - 1.0)  # opposite signs
+    assert np.abs(np.delete(sp, [k, k + 1])).max() < 1.0
+    # single pitches close the circle; cumulative from tooth 1 is their running sum
+    assert sp.sum() == pytest.approx(0.0, abs=1e-6)  # 9 significant digits in the CSV
+    np.testing.assert_allclose(table["cumulative_pitch_arcsec"], pos - pos[0], atol=1e-6)
+    assert summary["cumulative_pitch_total_arcsec"] == pytest.approx(pos.max() - pos.min())
+
+
+def test_bump_appears_in_profile_and_form(clean):
+    _, table, _ = clean
+    k = BUMPED - 1
+    prof, form = table["profile_deviation_mm"], table["form_deviation_mm"]
+    assert prof[k] == pytest.approx(BUMP_UM * 1e-3, rel=0.1)
+    assert form[k] > 0.8 * BUMP_UM * 1e-3
+    assert table["profile_max_mm"][k] == pytest.approx(BUMP_UM * 1e-3, rel=0.1)  # added
+    rest = np.delete(np.arange(Z), [k, TURNED - 1])
+    # the others only see the whole-gear fit leaning ~TURN_AS/z towards the turned tooth
+    # (0.4 arcsec = 0.3 um at the flank); their form stays clean
+    assert prof[rest].max() < 0.5e-3 and form[rest].max() < 0.1e-3
+    # the turned tooth has a profile deviation but (almost) no form deviation
+    assert prof[TURNED - 1] > 1e-3 and form[TURNED - 1] < 0.1e-3
+
+
+def test_failing_limits_exit_1_naming_tooth_and_value(clean):
+    r, table, summary = clean
+    assert r.returncode == 1
+    lim = summary["limits"]
+    assert not lim["profile_tolerance"]["passed"]
+    # the turned tooth leaves the band too (10 arcsec = 7 um at 147 mm, tilted by the flank)
+    assert lim["profile_tolerance"]["failing_teeth"] == [TURNED, BUMPED]
+    assert lim["position_tolerance_arcsec"]["failing_teeth"] == [TURNED]
+    assert lim["single_pitch_tolerance_arcsec"]["failing_teeth"] == [TURNED, TURNED + 1]
+    assert lim["cumulative_pitch_tolerance_arcsec"]["passed"]
+    assert lim["runout_tolerance"]["passed"]
+    err = r.stderr.strip().splitlines()
+    assert len(err) == 1 and "inspection failed" in err[0]
+    assert "profile_tolerance tooth " in err[0]
+    assert (
+        f"position_tolerance_arcsec tooth {TURNED} value {table['position_arcsec'][4]:.6g}"
+        in (err[0])
+    )
+
+
+def test_noise_does_not_move_verdicts(clean, noisy):
+    _, _, a = clean
+    _, _, b = noisy
+    for key, v in a["limits"].items():
+        assert b["limits"][key]["passed"] == v["passed"], key
+        assert b["limits"][key].get("failing_teeth") == v.get("failing_teeth"), key
+
+
+def test_forces_side_by_side(turned):
+    _, _, summary = turned
+    f = summary["forces"]
+    assert f["computed"] and f["positions"] == 104
+    rows = f["roller_1_and_all"]
+    for key in ("F_j_mean", "F_n_peak", "p_max", "F_n_peak_any_roller"):
+        assert rows[key]["nominal"] > 0 and rows[key]["measured"] > 0
+    # a turned tooth adds material on one flank: it preloads some contacts
+    assert rows["F_n_peak_any_roller"]["measured"] > rows["F_n_peak_any_roller"]["nominal"]
+
+
+def test_design_fit_recovers_known_parameter_errors(tmp_path):
+    de, dl, ph, c = 0.01, -0.02, math.radians(0.02), np.array([0.004, -0.003])
+    t = (np.arange(Z * M) + 0.5) / (Z * M) * 2 * math.pi
+    p, _ = working(t, E + de, L + dl)
+    p = turn(p, ph) + c
+    p = p + np.random.default_rng(7).normal(0, 0.5e-3, p.shape)
+    _, _, summary = run(tmp_path, p)
+    fit = summary["design_fit"]
+    assert fit["success"]
+    for val, sig, true in (
+        (fit["eccentricity_error_mm"], fit["eccentricity_sigma_mm"], de),
+        (fit["link_length_error_mm"], fit["link_length_sigma_mm"], dl),
+        (fit["phase_deg"], fit["phase_sigma_deg"], math.degrees(ph)),
+        (fit["centre_mm"][0], fit["centre_sigma_mm"][0], c[0]),
+        (fit["centre_mm"][1], fit["centre_sigma_mm"][1], c[1]),
+    ):
+        assert abs(val - true) <= 3 * sig, (val, true, sig)
+        assert sig < 0.05 * max(abs(true), 1e-3)  # and the uncertainty is meaningful
+    assert fit["rms_residual_mm"] == pytest.approx(0.5e-3, rel=0.1)
+    assert fit["rms_nominal_mm"] > 5 * fit["rms_residual_mm"]
+    # runout is about the CMM origin (the datum axis): teeth 5 um off-centre -> 2 x 5 um
+    assert summary["runout_mm"] == pytest.approx(2 * np.hypot(*c), rel=0.05)
