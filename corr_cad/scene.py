@@ -20,6 +20,7 @@ from .deviations import harmonic_deviation
 from .errors import CorrCadError, SceneError
 from .sampling import REPRESENTATIONS
 from .solver import VARIANTS
+from .sweeps import PAPER_SWEEPS
 from .tolerance import TOLERANCE_KINDS, Checks, Distribution
 
 __all__ = [
@@ -214,8 +215,23 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "allocation_samples": Key("int", 200, "samples per step of the allocation search", low=0),
     },
     "sweeps": {
-        "points": Key("int", 7, "points per sweep over the paper's ranges", low=1, high=1000),
+        "points": Key("int", 7, "points per sweep", low=1, high=1000),
         "positions": Key("int", 720, "crank positions per sweep point", low=0, high=1_000_000),
+        **{
+            name: Key(
+                "list[float]",
+                None,
+                f"[min, max] of the {name.replace('_', ' ')} sweep, mm (default: "
+                + (
+                    "+-20 % of the design value"
+                    if where == "design"
+                    else "+-0.02 mm around the [errors] value"
+                )
+                + "; the paper's range for its Table 1 design; clipped to the valid design space)",
+                example=[lo, hi],
+            )
+            for name, (where, lo, hi) in PAPER_SWEEPS.items()
+        },
     },
 }
 
@@ -435,6 +451,14 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             "[export] formats asks for montecarlo/allocation but [tolerances] is empty; "
             f"give one of {', '.join(TOLERANCE_KINDS)}"
         )
+    for name, (where, _, _) in PAPER_SWEEPS.items():
+        rng = values["sweeps"][name]
+        if rng is None:
+            continue
+        if len(rng) != 2 or not rng[0] < rng[1]:
+            raise SceneError(f"[sweeps] {name} = {rng!r}: must be [min, max] with min < max (mm)")
+        if where == "design" and rng[0] <= 0:
+            raise SceneError(f"[sweeps] {name} = {rng!r}: allowed range is min > 0 (mm)")
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
     return Scene(
