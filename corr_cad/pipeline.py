@@ -538,16 +538,19 @@ def _allocation(ctx: RunContext) -> None:
         ctx.progress(f"      allocation: searching {kind}")
         # Jointly: the other tolerances as given; alone: the others perfect.
         joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
-        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, **kw)["tolerance"]
+        dist = s.tolerances[kind].kind
+        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, distribution=dist, **kw)[
+            "tolerance"
+        ]
         rows.append(joint)
 
     def fmt(x):
         return "" if x is None else f"{x:.6g}"
 
     header = ["tolerance", "largest_symmetric_tolerance", "largest_if_others_perfect"]
-    header += ["unit", "fails_at", "evaluations"]
+    header += ["unit", "meaning", "fails_at", "evaluations"]
     table = (
-        [r["kind"], fmt(r["tolerance"]), fmt(r["tolerance_alone"]), r["unit"]]
+        [r["kind"], fmt(r["tolerance"]), fmt(r["tolerance_alone"]), r["unit"], r["meaning"]]
         + [fmt(r["failing_at"]), str(r["evaluations"])]
         for r in rows
     )
@@ -556,9 +559,10 @@ def _allocation(ctx: RunContext) -> None:
     ctx.files.extend(["allocation.csv", "allocation.json"])
     ctx.manifest["allocation"] = rows
     for r in rows:
+        t = "sigma " if r["distribution"] == "normal" else "+- "
         ctx.progress(
-            f"      {r['kind']:14s} +- {r['tolerance']:.4g} {r['unit']} with the others as given, "
-            f"+- {r['tolerance_alone']:.4g} {r['unit']} if the others were perfect"
+            f"      {r['kind']:14s} {t}{r['tolerance']:.4g} {r['unit']} with the others as given, "
+            f"{t}{r['tolerance_alone']:.4g} {r['unit']} if the others were perfect"
         )
 
 

@@ -271,15 +271,21 @@ def allocate(
     executor=None,
     rel_precision: float = 0.02,
     base_errors: ManufacturingErrors | None = None,
+    distribution: str | None = None,
 ) -> dict:
-    """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
+    """Largest symmetric tolerance ``T`` of ``kind`` that keeps the checks.
 
+    ``T`` is in the terms the tolerance was given in: a sigma when
+    ``tolerances[kind]`` is normal, a uniform half-width (+-T) when it is
+    uniform or not given; ``distribution`` ("normal" or "uniform")
+    overrides. The result says which (``distribution``, ``meaning``).
     The other kinds keep their given distributions. The same standard draws
     are reused for every ``T`` (common random numbers), so the metrics move
     monotonically with ``T`` and a bracketing search applies: double ``T``
     until a check fails, then bisect (geometrically) to ``rel_precision``.
-    Returns ``{"kind", "tolerance", "unit", "failing_at", "evaluations"}``;
-    ``tolerance`` is 0 when even a perfect part fails.
+    Returns ``{"kind", "tolerance", "unit", "distribution", "meaning",
+    "failing_at", "evaluations"}``; ``tolerance`` is 0 when even a perfect
+    part fails.
     """
     if not checks.active():
         raise SceneError("tolerance allocation needs at least one limit in [checks]")
@@ -290,11 +296,17 @@ def allocate(
             f"tolerance {kind!r} is unknown; valid kinds: {', '.join(TOLERANCE_KINDS)}"
         )
 
+    if distribution is None:
+        distribution = tolerances[kind].kind if kind in tolerances else "uniform"
+    if distribution not in ("normal", "uniform"):
+        raise SceneError(f"distribution {distribution!r} must be normal or uniform")
+    meaning = "sigma" if distribution == "normal" else "uniform half-width"
+
     def passes(T: float) -> bool:
         nonlocal evals
         evals += 1
         tol = dict(tolerances)
-        tol[kind] = Distribution("uniform", T)
+        tol[kind] = Distribution(distribution, T)
         mc = monte_carlo(
             design,
             input_torque,
@@ -319,6 +331,8 @@ def allocate(
             "kind": kind,
             "tolerance": 0.0,
             "unit": unit,
+            "distribution": distribution,
+            "meaning": meaning,
             "failing_at": 0.0,
             "evaluations": evals,
         }
@@ -331,6 +345,8 @@ def allocate(
                 "kind": kind,
                 "tolerance": lo,
                 "unit": unit,
+                "distribution": distribution,
+                "meaning": meaning,
                 "failing_at": None,
                 "evaluations": evals,
             }
@@ -340,7 +356,15 @@ def allocate(
             lo = mid
         else:
             hi = mid
-    return {"kind": kind, "tolerance": lo, "unit": unit, "failing_at": hi, "evaluations": evals}
+    return {
+        "kind": kind,
+        "tolerance": lo,
+        "unit": unit,
+        "distribution": distribution,
+        "meaning": meaning,
+        "failing_at": hi,
+        "evaluations": evals,
+    }
 
 
 def replace_checks(checks: Checks, keep: str) -> Checks:
