@@ -1,4 +1,4 @@
-"""Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``.
+"""Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``, ``corr-cad schema``.
 
 Exit codes: 0 success, 2 bad input or a refused design (one line on stderr,
 no traceback, nothing written).
@@ -56,6 +56,12 @@ def _parser() -> argparse.ArgumentParser:
         help="run only this study (repeatable); default all",
     )
     bench.add_argument("--quick", action="store_true", help="fewer settings and repeats")
+    schema = sub.add_parser(
+        "schema", help="print the JSON Schema of scene files (for TOML editors)"
+    )
+    schema.add_argument(
+        "--out", type=Path, default=None, help="write it to this file instead of printing"
+    )
     new = sub.add_parser("new", help="write a commented scene template")
     new.add_argument("scene", type=Path, help="file to create (refuses to overwrite)")
     return p
@@ -143,6 +149,21 @@ def _new(args: argparse.Namespace) -> int:
     return 0
 
 
+def _schema(args: argparse.Namespace) -> int:
+    from .schema_json import schema_text
+
+    text = schema_text()
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(args.out.name + ".part")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
@@ -154,6 +175,8 @@ def main(argv: list[str] | None = None) -> int:
             run(args.out, args.study or list(STUDIES), quick=args.quick)
             print(f"wrote the benchmark tables and plots to {args.out}")
             return 0
+        if args.command == "schema":
+            return _schema(args)
         return _new(args)
     except CorrCadError as exc:
         print(f"corr-cad: error: {exc}", file=sys.stderr)
