@@ -392,7 +392,17 @@ def _measure_spline(curve: ProfileCurve, t_nodes: np.ndarray, spl) -> float:
 
 
 def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> ProfileApproximation:
-    """Approximate the closed ``curve`` within ``tolerance`` (mm) and measure the result."""
+    """Approximate the closed ``curve`` within ``tolerance`` (mm) and measure the result.
+
+    ``representation`` is ``"polyline"``, ``"arcs"`` (tangent biarcs) or
+    ``"spline"`` (one clamped cubic B-spline); ``max_deviation`` is measured,
+    not estimated.
+
+    >>> from corr_cad import GearDesign, working_profile, approximate
+    >>> a = approximate(working_profile(GearDesign()), "arcs", 0.001)
+    >>> a.max_deviation < 0.001
+    True
+    """
     if representation not in REPRESENTATIONS:
         raise ProfileError(
             f"representation = {representation!r}: must be one of {', '.join(REPRESENTATIONS)}"

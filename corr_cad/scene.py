@@ -451,14 +451,14 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             "[export] formats asks for montecarlo/allocation but [tolerances] is empty; "
             f"give one of {', '.join(TOLERANCE_KINDS)}"
         )
-    for name, (where, _, _) in PAPER_SWEEPS.items():
-        rng = values["sweeps"][name]
+    for swept, (where, _, _) in PAPER_SWEEPS.items():
+        rng = values["sweeps"][swept]
         if rng is None:
             continue
         if len(rng) != 2 or not rng[0] < rng[1]:
-            raise SceneError(f"[sweeps] {name} = {rng!r}: must be [min, max] with min < max (mm)")
+            raise SceneError(f"[sweeps] {swept} = {rng!r}: must be [min, max] with min < max (mm)")
         if where == "design" and rng[0] <= 0:
-            raise SceneError(f"[sweeps] {name} = {rng!r}: allowed range is min > 0 (mm)")
+            raise SceneError(f"[sweeps] {swept} = {rng!r}: allowed range is min > 0 (mm)")
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
     return Scene(
@@ -497,7 +497,17 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a TOML scene file."""
+    """Read and validate a TOML scene file.
+
+    >>> import tempfile, pathlib
+    >>> from corr_cad import load_scene
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "mine.toml"
+    >>> text = "[design]\\ntooth_count = 39\\neccentricity = 2.0\\nroller_radius = 6.0\\n"
+    >>> _ = path.write_text(text)
+    >>> scene = load_scene(path)
+    >>> scene.name, scene.design.roller_count, scene.formats
+    ('mine', 40, ('dxf', 'png'))
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

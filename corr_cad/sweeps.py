@@ -172,9 +172,10 @@ def sweep_range(
     scene's error); ``clipped_*`` name the limit that cut the range (or
     ``None``); ``swept`` is ``None`` when no valid value lies in the range.
 
-    >>> r = sweep_range(GearDesign(tooth_count=39), "roller_radius")
-    >>> r["source"], r["requested"], r["clipped_high"]
-    ('default', [6.4, 9.6], None)
+    >>> d = GearDesign(tooth_count=39, eccentricity=2.0, roller_radius=6.0)
+    >>> r = sweep_range(d, "roller_radius")
+    >>> r["source"], r["requested"], round(r["swept"][1], 3), r["clipped_high"]
+    ('default', [4.8, 7.2], 6.839, 'undercut')
     >>> r = sweep_range(GearDesign(), "roller_radius")
     >>> r["source"], round(r["swept"][1], 3), r["clipped_high"]
     ('paper', 10.053, 'undercut')

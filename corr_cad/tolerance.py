@@ -228,7 +228,20 @@ def monte_carlo(
     chunk: int = 50,
     progress: Callable[[int, int], None] | None = None,
 ) -> MonteCarloResult:
-    """Seeded Monte Carlo over ``tolerances``; see the module docstring."""
+    """Seeded Monte Carlo over ``tolerances``; see the module docstring.
+
+    Each sample draws every tolerance, solves ``positions`` crank positions
+    of a cycle and keeps four metrics (:func:`sample_metrics`).
+
+    >>> from corr_cad import GearDesign, monte_carlo, Distribution, Checks
+    >>> tol = {"roller_radius": Distribution("normal", 0.001)}   # sigma 1 um per roller
+    >>> mc = monte_carlo(GearDesign(), 1.1e5, tol, samples=40, seed=1, positions=36)
+    >>> sorted(mc.metrics)
+    ['lost_motion_arcmin', 'min_loaded_rollers', 'peak_gear_force', 'peak_pressure']
+    >>> s = mc.summary(Checks(max_gear_force=8000.0))
+    >>> s["failure_probability"]                 # share of samples above 8000 N
+    {'max_gear_force': 0.125}
+    """
     unknown = [k for k in tolerances if k not in TOLERANCE_KINDS]
     if unknown:
         raise SceneError(
@@ -286,6 +299,12 @@ def allocate(
     Returns ``{"kind", "tolerance", "unit", "distribution", "meaning",
     "failing_at", "evaluations"}``; ``tolerance`` is 0 when even a perfect
     part fails.
+
+    >>> from corr_cad import GearDesign, allocate, Checks
+    >>> a = allocate(GearDesign(), 1.1e5, {}, Checks(max_gear_force=8000.0), "roller_radius",
+    ...              samples=20, positions=36)
+    >>> a["meaning"], round(a["tolerance"] * 1000, 2), a["unit"]   # +-2.16 um keeps p95 < 8 kN
+    ('uniform half-width', 2.16, 'mm')
     """
     if not checks.active():
         raise SceneError("tolerance allocation needs at least one limit in [checks]")
