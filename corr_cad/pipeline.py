@@ -652,6 +652,13 @@ def _cell(v) -> str:
     return f"{v:.6g}" if isinstance(v, float) else str(v)
 
 
+def _report(ctx: RunContext) -> None:
+    from .export.report import write_report
+
+    path = write_report(ctx.scene, ctx.manifest, ctx.results, list(ctx.files), ctx.out)
+    ctx.files.append(path.name)
+
+
 STAGES: dict[str, Stage] = {
     st.name: st
     for st in (
@@ -672,7 +679,8 @@ STAGES: dict[str, Stage] = {
         Stage("checks", ("forces",), _checks, "design checks against [checks] limits"),
         Stage("montecarlo", ("undercut",), _montecarlo, "Monte Carlo over [tolerances]"),
         Stage("allocation", ("undercut",), _allocation, "tolerance allocation against [checks]"),
-        Stage("sweeps", (), _sweeps, "the paper's parametric sweeps"),
+        Stage("sweeps", (), _sweeps, "parametric sweeps around the design"),
+        Stage("report", (), _report, "report.html (runs last, reads what the run made)"),
     )
 }
 
@@ -687,6 +695,7 @@ FORMAT_TARGETS = {
     "montecarlo": "montecarlo",
     "allocation": "allocation",
     "sweeps": "sweeps",
+    "report": "report",
 }
 
 
@@ -711,6 +720,9 @@ def plan(formats: tuple[str, ...], checks: bool = False, measured: bool = False)
         visit(FORMAT_TARGETS[f])
     if checks:
         visit("checks")
+    if "report" in order:  # the report reads everything the others made
+        order.remove("report")
+        order.append("report")
     return order
 
 

@@ -50,6 +50,7 @@ FORMATS = (
     "montecarlo",
     "allocation",
     "sweeps",
+    "report",
 )
 
 
