@@ -22,7 +22,7 @@ import numpy as np
 from .design import GearDesign
 from .deviations import ManufacturingErrors
 from .errors import CorrCadError, DesignError
-from .profile import undercut_analysis
+from .profile import min_speed_factor, undercut_analysis
 from .solver import solve_forces
 
 __all__ = [
@@ -137,8 +137,8 @@ def _why_invalid(design: GearDesign, name: str, value: float) -> str | None:
     except DesignError as exc:
         msg = str(exc)
         return "adjacent rollers collide" if "collide" in msg else msg.split(";")[0]
-    info = undercut_analysis(d)
-    if info.undercut:
+    # The closed-form undercut test (as undercut_analysis, without the extras).
+    if min_speed_factor(d.tooth_count, d.eccentricity, d.link_length, d.roller_radius)[0] < 0:
         return "undercut"
     return None
 
