@@ -151,3 +151,13 @@ def test_schema_and_loader_agree_on_random_scenes(validator, entries):
     if local:
         # For keys that depend on no other key, the schema is exact.
         assert schema_ok == loader_ok, data
+
+
+def test_schema_out_writes_the_printed_text(tmp_path, validator):
+    path = tmp_path / "editor" / "scene.schema.json"
+    subprocess.run(
+        [sys.executable, "-m", "corr_cad", "schema", "--out", str(path)],
+        check=True,
+        capture_output=True,
+    )
+    assert json.loads(path.read_text()) == validator.schema
