@@ -218,3 +218,24 @@ def test_sweep_png_states_range_and_clipping(figures, tmp_path):
     assert "M0 = 1.1e+05 N*mm" in text
     for ax in fig.axes:  # few enough ticks that the labels cannot overlap
         assert len(ax.get_xticks()) <= 7
+
+
+def test_bench_point_labels_never_overprint():
+    import matplotlib.pyplot as plt
+
+    from corr_cad.bench import _place_labels
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    # Points as in the solver-fidelity study: three nearly on top of each other.
+    pts = [(0.015, 0.52, "rigid (no compliance)"), (0.0152, 0.58, "linear contact")]
+    pts += [(0.0168, 0.585, "nonlinear contact"), (0.02, 1e-16, "exact"), (0.04, 1e-16, "1e-13")]
+    ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o")
+    _place_labels(ax, pts)
+    fig.canvas.draw()
+    boxes = [t.get_window_extent() for t in ax.texts]
+    assert len(boxes) == len(pts)
+    for i, a in enumerate(boxes):
+        assert ax.bbox.y0 <= a.y0 and a.y1 <= ax.bbox.y1  # inside the axes
+        for b in boxes[i + 1 :]:
+            assert not a.overlaps(b)
+    plt.close(fig)
