@@ -1,4 +1,4 @@
-"""Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``.
+"""Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``, ``corr-cad schema``.
 
 Exit codes: 0 success; 1 a ``[checks]`` limit (or the Monte Carlo gate)
 failed, or an exported file misses its tolerance; 2 bad input, a refused
@@ -69,6 +69,12 @@ def _parser() -> argparse.ArgumentParser:
         help="run only this study (repeatable); default all",
     )
     bench.add_argument("--quick", action="store_true", help="fewer settings and repeats")
+    schema = sub.add_parser(
+        "schema", help="print the JSON Schema of scene files (for TOML editors)"
+    )
+    schema.add_argument(
+        "--out", type=Path, default=None, help="write it to this file instead of printing"
+    )
     new = sub.add_parser("new", help="write a commented scene template")
     new.add_argument("scene", type=Path, help="file to create (refuses to overwrite)")
     return p
@@ -243,6 +249,21 @@ def _on_sigterm(signum, frame) -> None:
     raise _Terminated()
 
 
+def _schema(args: argparse.Namespace) -> int:
+    from .schema_json import schema_text
+
+    text = schema_text()
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(args.out.name + ".part")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     import signal
 
@@ -259,6 +280,8 @@ def main(argv: list[str] | None = None) -> int:
             run(args.out, args.study or list(STUDIES), quick=args.quick)
             print(f"wrote the benchmark tables and plots to {args.out}")
             return 0
+        if args.command == "schema":
+            return _schema(args)
         return _new(args)
     except CorrCadError as exc:
         print(f"corr-cad: error: {exc}", file=sys.stderr)

@@ -223,12 +223,18 @@ def _force_files(ctx: RunContext) -> None:
         "output_torque_Nmm_mean": float(res.output_torque.mean()),
     }
     write_json(ctx.out / "forces_summary.json", summary)
-    order = np.argsort(ang)
-    plots.forces_png(
-        ang[order], res.F_j[order, 0], res.F_s[order, 0], res.F_n[order, 0], ctx.out / "forces.png"
-    )
+    plots.forces_png(res, ctx.out / "forces.png", s.design, s.load.input_torque)
+    # The load distribution where the gear force peaks.
+    at = int(np.unravel_index(np.argmax(res.F_n), res.F_n.shape)[0])
     plots.load_distribution_png(
-        s.design, float(ang[0]), res.F_n[0], ctx.out / "load_distribution.png"
+        s.design,
+        float(ang[at]),
+        res.F_j[at],
+        res.F_n[at],
+        res.F_s[at],
+        ctx.out / "load_distribution.png",
+        s.load.input_torque,
+        " (peak $F_n$)",
     )
     ctx.files.extend(["forces.csv", "forces_summary.json", "forces.png", "load_distribution.png"])
     ctx.manifest["forces"] = {k: v for k, v in summary.items() if k != "solver"}
@@ -453,7 +459,9 @@ def _interference(ctx: RunContext) -> None:
     }
     if s.interference_method == "both":
         summary["agreement_with_exact"] = _agreement(ctx, angles, rows, allowance, tol)
-    plots.interference_png(angles, rows, parts, allowance, ctx.out / "interference.png")
+    plots.interference_png(
+        angles, rows, parts, allowance, ctx.out / "interference.png", d, summary["ok"]
+    )
     ctx.files.extend(["interference.csv", "interference.png"])
     ctx.manifest["interference"] = summary
     ctx.results["interference"] = summary
@@ -623,11 +631,23 @@ def _montecarlo(ctx: RunContext) -> None:
     summary = res.summary(s.checks)
     summary.update({"seed": mc_cfg["seed"], "positions": mc_cfg["positions"]})
     summary["tolerances"] = {k: d.__dict__ for k, d in s.tolerances.items()}
+    nominal = _nominal_metrics(ctx, mc_cfg["positions"])
+    summary["nominal"] = nominal
     write_json(ctx.out / "montecarlo_summary.json", summary)
-    plots.montecarlo_png(res.metrics, s.checks, ctx.out / "montecarlo.png")
+    plots.montecarlo_png(
+        res.metrics,
+        s.checks,
+        ctx.out / "montecarlo.png",
+        summary,
+        nominal,
+        s.design,
+        s.load.input_torque,
+        s.tolerances,
+    )
     ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
     ctx.manifest["montecarlo"] = {
-        k: summary[k] for k in ("samples", "failure_probability", "percentiles")
+        k: summary[k]
+        for k in ("samples", "failure_probability", "percentiles", "nominal", "sensitivity")
     }
     gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
     if gate:
@@ -638,6 +658,22 @@ def _montecarlo(ctx: RunContext) -> None:
                 f"      check montecarlo {name}: {state} (failure probability "
                 f"{g['probability']:.4g}, allowed {g['allowed']:.4g})"
             )
+
+
+def _nominal_metrics(ctx: RunContext, positions: int) -> dict:
+    """The Monte Carlo metrics of the scene's own design and errors (no tolerance drawn)."""
+    from .solver import cycle_angles
+    from .tolerance import sample_metrics
+
+    s = ctx.scene
+    res = solve_forces(
+        s.design,
+        s.load.input_torque,
+        cycle_angles(positions),
+        load_share=s.solver.load_share,
+        errors=_errors(ctx),
+    )
+    return {k: float(v[0]) for k, v in sample_metrics(res, 1).items()}
 
 
 def _allocation(ctx: RunContext) -> None:
@@ -665,7 +701,10 @@ def _allocation(ctx: RunContext) -> None:
         # Jointly: the other tolerances as given; alone: the others perfect.
         joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
         bar.update(1)
-        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, **kw)["tolerance"]
+        dist = s.tolerances[kind].kind
+        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, distribution=dist, **kw)[
+            "tolerance"
+        ]
         bar.update(1)
         rows.append(joint)
     bar.close()
@@ -674,9 +713,9 @@ def _allocation(ctx: RunContext) -> None:
         return "" if x is None else f"{x:.6g}"
 
     header = ["tolerance", "largest_symmetric_tolerance", "largest_if_others_perfect"]
-    header += ["unit", "fails_at", "evaluations"]
+    header += ["unit", "meaning", "fails_at", "evaluations"]
     table = (
-        [r["kind"], fmt(r["tolerance"]), fmt(r["tolerance_alone"]), r["unit"]]
+        [r["kind"], fmt(r["tolerance"]), fmt(r["tolerance_alone"]), r["unit"], r["meaning"]]
         + [fmt(r["failing_at"]), str(r["evaluations"])]
         for r in rows
     )
@@ -685,18 +724,29 @@ def _allocation(ctx: RunContext) -> None:
     ctx.files.extend(["allocation.csv", "allocation.json"])
     ctx.manifest["allocation"] = rows
     for r in rows:
+        t = "sigma " if r["distribution"] == "normal" else "+- "
         ctx.progress(
-            f"      {r['kind']:14s} +- {r['tolerance']:.4g} {r['unit']} with the others as given, "
-            f"+- {r['tolerance_alone']:.4g} {r['unit']} if the others were perfect"
+            f"      {r['kind']:14s} {t}{r['tolerance']:.4g} {r['unit']} with the others as given, "
+            f"{t}{r['tolerance_alone']:.4g} {r['unit']} if the others were perfect"
         )
 
 
 def _sweeps(ctx: RunContext) -> None:
     from .export import plots
     from .outputs import write_csv, write_json
-    from .sweeps import METRICS, comparison_rows, run_sweeps
+    from .sweeps import (
+        METRICS,
+        PAPER_SWEEPS,
+        comparison_rows,
+        is_paper_design,
+        run_sweeps,
+        sweep_range,
+    )
 
     s = ctx.scene
+    ranges = {
+        name: sweep_range(s.design, name, s.sweeps.get(name), _errors(ctx)) for name in PAPER_SWEEPS
+    }
     results = run_sweeps(
         s.design,
         s.load.input_torque,
@@ -704,35 +754,74 @@ def _sweeps(ctx: RunContext) -> None:
         s.sweeps["positions"],
         s.solver.load_share,
         executor=ctx.executor,
+        ranges=ranges,
     )
     header = ["value", "status", *METRICS, "loaded_rollers_min", "loaded_rollers_max"]
+    header += ["range_source", "requested_min", "requested_max", "clipped_low", "clipped_high"]
     for name, pts in results.items():
+        rng = ranges[name]
+        limits = [rng["source"], *(f"{v:.6g}" for v in rng["requested"])]
+        limits += [rng["clipped_low"] or "", rng["clipped_high"] or ""]
         write_csv(
             ctx.out / f"sweep_{name}.csv",
             header,
             (
                 [f"{p['value']:.6g}", p["status"]]
-                + [f"{p.get(k, ''):.6g}" if k in p else "" for k in header[2:]]
+                + [f"{p[k]:.6g}" if k in p else "" for k in header[2:-5]]
+                + limits
                 for p in pts
             ),
         )
-        plots.sweep_png(name, pts, ctx.out / f"sweep_{name}.png")
-        ctx.files.extend([f"sweep_{name}.csv", f"sweep_{name}.png"])
-        ctx.progress(
-            f"      sweep {name}: {sum(p['status'] == 'ok' for p in pts)}/{len(pts)} points solved"
+        plots.sweep_png(
+            name, pts, ctx.out / f"sweep_{name}.png", rng, s.design, s.load.input_torque
         )
-    rows = comparison_rows(results)
-    cols = list(rows[0]) if rows else []
-    write_csv(ctx.out / "sweeps_vs_paper.csv", cols, ([_cell(r[c]) for c in cols] for r in rows))
-    write_json(ctx.out / "sweeps.json", {"points": results, "vs_paper": rows})
-    ctx.files.extend(["sweeps_vs_paper.csv", "sweeps.json"])
-    ctx.manifest["sweeps"] = {n: [p["status"] for p in pts] for n, pts in results.items()}
+        ctx.files.extend([f"sweep_{name}.csv", f"sweep_{name}.png"])
+        lim = "; ".join(
+            f"{side} end clipped at {v:.5g} mm ({why})"
+            for side, v, why in (
+                ("low", (rng["swept"] or [None])[0], rng["clipped_low"]),
+                ("high", (rng["swept"] or [None, None])[-1], rng["clipped_high"]),
+            )
+            if why and v is not None
+        )
+        ctx.progress(
+            f"      sweep {name} {rng['requested'][0]:g}..{rng['requested'][1]:g} mm "
+            f"({rng['source']}): {sum(p['status'] == 'ok' for p in pts)}/{len(pts)} points solved"
+            + (f"; {lim}" if lim else "")
+            + ("; no valid value in the range" if rng["swept"] is None else "")
+        )
+    out = {"ranges": ranges, "points": results}
+    if is_paper_design(s.design):
+        rows = comparison_rows(results, ranges)
+        cols = list(rows[0]) if rows else []
+        write_csv(
+            ctx.out / "sweeps_vs_paper.csv", cols, ([_cell(r[c]) for c in cols] for r in rows)
+        )
+        ctx.files.append("sweeps_vs_paper.csv")
+        out["vs_paper"] = rows
+    write_json(ctx.out / "sweeps.json", out)
+    ctx.files.append("sweeps.json")
+    ctx.manifest["sweeps"] = {
+        n: {
+            "range": ranges[n],
+            "points": len(pts),
+            "solved": sum(p["status"] == "ok" for p in pts),
+        }
+        for n, pts in results.items()
+    }
 
 
 def _cell(v) -> str:
     if v is None:
         return ""
     return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def _report(ctx: RunContext) -> None:
+    from .export.report import write_report
+
+    path = write_report(ctx.scene, ctx.manifest, ctx.results, list(ctx.files), ctx.out)
+    ctx.files.append(path.name)
 
 
 STAGES: dict[str, Stage] = {
@@ -760,6 +849,7 @@ STAGES: dict[str, Stage] = {
         Stage("edm_files", ("profiles",), shop.edm_files, "wire-EDM path, DXF and G-code"),
         Stage("cmm_points", ("profiles",), shop.cmm_points, "CMM nominal points"),
         Stage("inspection", ("measured_profile",), shop.inspection, "per-tooth inspection"),
+        Stage("report", (), _report, "report.html (runs last, reads what the run made)"),
     )
 }
 
@@ -775,6 +865,7 @@ FORMAT_TARGETS = {
     "allocation": "allocation",
     "sweeps": "sweeps",
     **{"edm": "edm_files", "cmm": "cmm_points", "inspection": "inspection"},
+    "report": "report",
 }
 
 #: Targets that use other targets' results when they run (the EDM lead-in uses forces).
@@ -819,6 +910,9 @@ def plan(
             visit(FORMAT_TARGETS[f])
     if checks:
         visit("checks")
+    if "report" in order:  # the report reads everything the others made
+        order.remove("report")
+        order.append("report")
     return order
 
 
@@ -850,7 +944,18 @@ def run_scene(
 ) -> dict:
     """Run the stages ``scene`` needs, writing into ``out`` (a staging folder).
 
-    Returns the manifest (also written as ``manifest.json``).
+    Returns the manifest (also written as ``manifest.json``). The CLI wraps
+    this in a staging folder that it swaps in when everything is written.
+
+    >>> import tempfile, pathlib
+    >>> from corr_cad import GearDesign, run_scene
+    >>> from corr_cad.scene import Scene
+    >>> out = pathlib.Path(tempfile.mkdtemp())
+    >>> m = run_scene(Scene(name="demo", design=GearDesign(), formats=("dxf",)), out)
+    >>> sorted(m["files"])
+    ['disk_cam.dxf', 'inner_gear.dxf', 'roller.dxf', 'teeth_frame.dxf']
+    >>> m["accuracy"]["working_profile"]["max_deviation_mm"] <= 0.001
+    True
     """
     from .outputs import GENERATOR, sha256_of, write_json
 

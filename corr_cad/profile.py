@@ -153,12 +153,29 @@ def min_speed_factor(z: int, e: float, L: float, offset: float) -> tuple[float, 
     return float(f[i]), float(psi[i])
 
 
-def admissible_roller_radius(z: int, e: float, cam_radius: float) -> float:
-    """Largest roller radius without undercut for ``z``, ``e`` and ``Rj``, mm.
+def admissible_roller_radius(
+    design: GearDesign | int, e: float | None = None, cam_radius: float | None = None
+) -> float:
+    """Largest roller radius without undercut for a design's ``z``, ``e`` and ``Rj``, mm.
 
-    Root in ``r`` of ``min_psi (1 + r k(psi; L = Rj + r)) = 0``; ``inf`` if the
-    locus stays convex for every radius tried (up to 1e6 mm).
+    Takes a :class:`GearDesign` (its roller radius is ignored), or, as
+    before, the scalars ``(z, e, cam_radius)``. Root in ``r`` of
+    ``min_psi (1 + r k(psi; L = Rj + r)) = 0``; ``inf`` if the locus stays
+    convex for every radius tried (up to 1e6 mm).
+
+    >>> round(admissible_roller_radius(GearDesign()), 4)
+    10.053
+    >>> admissible_roller_radius(25, 3.5, 135.0) == admissible_roller_radius(GearDesign())
+    True
     """
+    if isinstance(design, GearDesign):
+        if e is not None or cam_radius is not None:
+            raise TypeError("admissible_roller_radius(design) takes no further arguments")
+        z, e, cam_radius = design.tooth_count, design.eccentricity, design.cam_radius
+    else:
+        if e is None or cam_radius is None:
+            raise TypeError("admissible_roller_radius(z, e, cam_radius) needs all three")
+        z = design
 
     def h(r: float) -> float:
         return min_speed_factor(z, e, cam_radius + r, r)[0]
@@ -276,6 +293,12 @@ def working_profile(design: GearDesign, info: UndercutInfo | None = None) -> Pro
     Raises :class:`UndercutError` for an undercut design unless
     ``design.allow_undercut``; then the swallowtails are trimmed and the curve
     is the boundary of the union of roller discs.
+
+    >>> from corr_cad import GearDesign, working_profile
+    >>> prof = working_profile(GearDesign())
+    >>> x, y = prof.points([0.0])[0]        # t = 0: the tooth space on +y, mm
+    >>> round(float(x), 9), round(float(y), 6)   # e + Rj + 2r
+    (0.0, 154.5)
     """
     info = info if info is not None else undercut_analysis(design)
     z, e, L, r = design.tooth_count, design.eccentricity, design.link_length, design.roller_radius

@@ -363,6 +363,15 @@ def approximate(curve: ProfileCurve, representation: str, tolerance: float) -> P
     Spans whose measured deviation exceeds ``tolerance`` are split and the
     tooth measured again. If the tolerance cannot be reached, the result
     carries its true measured deviation and ``within_tolerance`` is False.
+
+    ``representation`` is ``"polyline"``, ``"arcs"`` (tangent biarcs) or
+    ``"spline"`` (one clamped cubic B-spline); ``max_deviation`` is measured,
+    not estimated.
+
+    >>> from corr_cad import GearDesign, working_profile, approximate
+    >>> a = approximate(working_profile(GearDesign()), "arcs", 0.001)
+    >>> a.max_deviation < 0.001
+    True
     """
     if representation not in REPRESENTATIONS:
         raise ProfileError(

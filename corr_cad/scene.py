@@ -23,6 +23,7 @@ from .errors import CorrCadError, SceneError
 from .inputfiles import read_regular_file
 from .sampling import REPRESENTATIONS
 from .solver import VARIANTS
+from .sweeps import PAPER_SWEEPS
 from .tolerance import TOLERANCE_KINDS, Checks, Distribution
 
 __all__ = [
@@ -55,6 +56,7 @@ FORMATS = (
     "edm",
     "cmm",
     "inspection",
+    "report",
 )
 
 #: ``[export] interference_method``: exact 2D clearances, mesh booleans, or both.
@@ -380,8 +382,23 @@ SCHEMA: dict[str, dict[str, Key]] = {
         ),
     },
     "sweeps": {
-        "points": Key("int", 7, "points per sweep over the paper's ranges", low=1, high=1000),
+        "points": Key("int", 7, "points per sweep", low=1, high=1000),
         "positions": Key("int", 720, "crank positions per sweep point", low=0, high=100_000),
+        **{
+            name: Key(
+                "list[float]",
+                None,
+                f"[min, max] of the {name.replace('_', ' ')} sweep, mm (default: "
+                + (
+                    "+-20 % of the design value"
+                    if where == "design"
+                    else "+-0.02 mm around the [errors] value"
+                )
+                + "; the paper's range for its Table 1 design; clipped to the valid design space)",
+                example=[lo, hi],
+            )
+            for name, (where, lo, hi) in PAPER_SWEEPS.items()
+        },
     },
     "edm": {
         "wire_diameter": Key("float", 0.25, "wire diameter, mm", low=0, high=1.0),
@@ -725,6 +742,14 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
                 "[checks] max_failure_probability gates the Monte Carlo: "
                 "add 'montecarlo' to [export] formats"
             )
+    for swept, (where, _, _) in PAPER_SWEEPS.items():
+        rng = values["sweeps"][swept]
+        if rng is None:
+            continue
+        if len(rng) != 2 or not rng[0] < rng[1]:
+            raise SceneError(f"[sweeps] {swept} = {rng!r}: must be [min, max] with min < max (mm)")
+        if where == "design" and rng[0] <= 0:
+            raise SceneError(f"[sweeps] {swept} = {rng!r}: allowed range is min > 0 (mm)")
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
     _unique_angle_tags(ex["assembly_angles_deg"])
@@ -903,7 +928,17 @@ def _nesting_depth(text: str) -> int:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a TOML scene file."""
+    """Read and validate a TOML scene file.
+
+    >>> import tempfile, pathlib
+    >>> from corr_cad import load_scene
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "mine.toml"
+    >>> text = "[design]\\ntooth_count = 39\\neccentricity = 2.0\\nroller_radius = 6.0\\n"
+    >>> _ = path.write_text(text)
+    >>> scene = load_scene(path)
+    >>> scene.name, scene.design.roller_count, scene.formats
+    ('mine', 40, ('dxf', 'png'))
+    """
     path = Path(path)
     raw = read_regular_file(path, "scene file", MAX_SCENE_BYTES)
     try:

@@ -629,6 +629,19 @@ def solve_forces(
     rtol : float
         Relative tolerance of the moment balance and the contact equations.
         ``success`` requires the moment residual below ``max(rtol, 1e-9)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from corr_cad import GearDesign, solve_forces
+    >>> res = solve_forces(GearDesign(), 1.1e5, positions=360)   # M0 = 110 N*m
+    >>> res.F_j.shape                       # (positions, z + 1 rollers), N
+    (360, 26)
+    >>> res.success, round(float(res.F_n.max()))   # peak gear force over all rollers, N
+    (True, 2882)
+    >>> one = solve_forces(GearDesign(), 1.1e5, np.radians([90.0]))
+    >>> int(one.loaded_count[0])            # rollers carrying load at 90 deg
+    13
     """
     if contact_model not in CONTACT_MODELS:
         raise SolverError(

@@ -274,6 +274,18 @@ def monte_carlo(
 
     ``psi_contact_limit``: as in :func:`~corr_cad.solver.solve_forces` (the
     trimmed tooth tips of an allowed undercut carry nothing).
+
+    Each sample draws every tolerance, solves ``positions`` crank positions
+    of a cycle and keeps four metrics (:func:`sample_metrics`).
+
+    >>> from corr_cad import GearDesign, monte_carlo, Distribution, Checks
+    >>> tol = {"roller_radius": Distribution("normal", 0.001)}   # sigma 1 um per roller
+    >>> mc = monte_carlo(GearDesign(), 1.1e5, tol, samples=40, seed=1, positions=36)
+    >>> sorted(mc.metrics)
+    ['lost_motion_arcmin', 'min_loaded_rollers', 'peak_gear_force', 'peak_pressure']
+    >>> s = mc.summary(Checks(max_gear_force=8000.0))
+    >>> s["failure_probability"]                 # share of samples above 8000 N
+    {'max_gear_force': 0.125}
     """
     unknown = [k for k in tolerances if k not in TOLERANCE_KINDS]
     if unknown:
@@ -329,9 +341,14 @@ def allocate(
     base_errors: ManufacturingErrors | None = None,
     psi_contact_limit: float = math.pi,
     progress: Callable[[int, int, float], None] | None = None,
+    distribution: str | None = None,
 ) -> dict:
-    """Largest symmetric (uniform +-T) tolerance of ``kind`` that keeps the checks.
+    """Largest symmetric tolerance ``T`` of ``kind`` that keeps the checks.
 
+    ``T`` is in the terms the tolerance was given in: a sigma when
+    ``tolerances[kind]`` is normal, a uniform half-width (+-T) when it is
+    uniform or not given; ``distribution`` ("normal" or "uniform")
+    overrides. The result says which (``distribution``, ``meaning``).
     The other kinds keep their given distributions. The same standard draws
     are reused for every ``T`` (common random numbers), so the metrics move
     monotonically with ``T`` and a bracketing search applies: double ``T``
@@ -343,6 +360,16 @@ def allocate(
     Carlo: evaluations done, the expected total (the bisection's remaining
     steps are known once the root is bracketed; before that, a doubling
     more), and the measured sample rate.
+
+    Returns ``{"kind", "tolerance", "unit", "distribution", "meaning",
+    "failing_at", "evaluations"}``; ``tolerance`` is 0 when even a perfect
+    part fails.
+
+    >>> from corr_cad import GearDesign, allocate, Checks
+    >>> a = allocate(GearDesign(), 1.1e5, {}, Checks(max_gear_force=8000.0), "roller_radius",
+    ...              samples=20, positions=36)
+    >>> a["meaning"], round(a["tolerance"] * 1000, 2), a["unit"]   # +-2.16 um keeps p95 < 8 kN
+    ('uniform half-width', 2.16, 'mm')
     """
     import time
 
@@ -369,11 +396,17 @@ def allocate(
             f"tolerance {kind!r} is unknown; valid kinds: {', '.join(TOLERANCE_KINDS)}"
         )
 
+    if distribution is None:
+        distribution = tolerances[kind].kind if kind in tolerances else "uniform"
+    if distribution not in ("normal", "uniform"):
+        raise SceneError(f"distribution {distribution!r} must be normal or uniform")
+    meaning = "sigma" if distribution == "normal" else "uniform half-width"
+
     def passes(T: float) -> bool:
         nonlocal evals
         evals += 1
         tol = dict(tolerances)
-        tol[kind] = Distribution("uniform", T)
+        tol[kind] = Distribution(distribution, T)
         mc = monte_carlo(
             design,
             input_torque,
@@ -410,6 +443,8 @@ def allocate(
             "kind": kind,
             "tolerance": 0.0,
             "unit": unit,
+            "distribution": distribution,
+            "meaning": meaning,
             "failing_at": 0.0,
             "evaluations": evals,
         }
@@ -422,6 +457,8 @@ def allocate(
                 "kind": kind,
                 "tolerance": lo,
                 "unit": unit,
+                "distribution": distribution,
+                "meaning": meaning,
                 "failing_at": None,
                 "evaluations": evals,
             }
@@ -431,7 +468,15 @@ def allocate(
             lo = mid
         else:
             hi = mid
-    return {"kind": kind, "tolerance": lo, "unit": unit, "failing_at": hi, "evaluations": evals}
+    return {
+        "kind": kind,
+        "tolerance": lo,
+        "unit": unit,
+        "distribution": distribution,
+        "meaning": meaning,
+        "failing_at": hi,
+        "evaluations": evals,
+    }
 
 
 def replace_checks(checks: Checks, keep: str) -> Checks:

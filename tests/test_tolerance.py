@@ -142,6 +142,26 @@ def test_allocation_found_tolerance_passes_and_ten_percent_more_fails():
     assert p90(1.1 * T) > 5000.0
 
 
+def test_allocation_answers_as_sigma_when_the_tolerance_was_a_sigma():
+    design = GearDesign()
+    checks = Checks(max_gear_force=5000.0)
+    kw = {"percentile": 90.0, "samples": 30, "seed": 2, "positions": 36}
+    given = {"roller_radius": Distribution("normal", 0.001)}
+    r = allocate(design, M0, given, checks, "roller_radius", **kw)
+    assert (r["distribution"], r["meaning"]) == ("normal", "sigma")
+    T = r["tolerance"]
+    assert T > 0 and r["failing_at"] <= 1.1 * T
+
+    def p90(t):
+        mc = monte_carlo(design, M0, {"roller_radius": Distribution("normal", t)}, 30, 2, 36)
+        return np.percentile(mc.metrics["peak_gear_force"], 90.0)
+
+    # T is a sigma: normal draws of sigma T pass, 10 % more fail.
+    assert p90(T) <= 5000.0 < p90(1.1 * T)
+    u = allocate(design, M0, {}, checks, "roller_radius", **kw)
+    assert u["meaning"] == "uniform half-width" and u["tolerance"] != T
+
+
 @pytest.mark.parametrize(
     "data,pattern",
     [

@@ -1,4 +1,9 @@
-"""Matplotlib figures (PNG). The only module importing matplotlib."""
+"""Matplotlib figures (PNG). The only module importing matplotlib.
+
+Every figure states the design (z, Rj, r, e, l), the load and the units, so
+a picture taken out of its folder still says what it shows. Figures are
+byte-deterministic (no time stamps, no software tag).
+"""
 
 from __future__ import annotations
 
@@ -9,12 +14,16 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.patches import PathPatch  # noqa: E402
+from matplotlib.path import Path as MplPath  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from ..design import GearDesign  # noqa: E402
 from ..kinematics import centre_distance, unit_radial  # noqa: E402
 from ..profile import ProfileCurve  # noqa: E402
 
 __all__ = [
+    "design_caption",
     "preview_png",
     "forces_png",
     "load_distribution_png",
@@ -34,9 +43,63 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def design_caption(design: GearDesign | None, input_torque: float | None = None) -> str:
+    """One line naming the design and the load, e.g. for a figure's subtitle.
+
+    >>> design_caption(GearDesign(), 1.1e5)
+    'z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm; M0 = 1.1e+05 N*mm'
+    """
+    if design is None:
+        return ""
+    text = (
+        f"z = {design.tooth_count}, Rj = {design.cam_radius:g} mm, "
+        f"r = {design.roller_radius:g} mm, e = {design.eccentricity:g} mm, "
+        f"l = {design.roller_length:g} mm"
+    )
+    if input_torque is not None:
+        text += f"; M0 = {input_torque:.3g} N*mm"
+    return text
+
+
+def _title(fig, title: str, design: GearDesign | None, input_torque: float | None) -> None:
+    cap = design_caption(design, input_torque)
+    fig.suptitle(title + (f"\n{cap}" if cap else ""), fontsize=11)
+
+
+def _xy_circle(centre, radius, n=721):
+    a = np.linspace(0, 2 * np.pi, n)
+    return np.column_stack([centre[0] + radius * np.sin(a), centre[1] + radius * np.cos(a)])
+
+
 def _circle(ax, centre, radius, **kw):
-    a = np.linspace(0, 2 * np.pi, 721)
-    ax.plot(centre[0] + radius * np.sin(a), centre[1] + radius * np.cos(a), **kw)
+    p = _xy_circle(centre, radius)
+    ax.plot(p[:, 0], p[:, 1], **kw)
+
+
+def _ring_path(outer: np.ndarray, inner: np.ndarray) -> MplPath:
+    """Region between two closed curves (the inner one a hole)."""
+
+    def closed(p, reverse):
+        p = p[::-1] if reverse else p
+        return np.vstack([p, p[:1]])
+
+    def area(p):
+        return 0.5 * float(
+            np.dot(p[:, 0], np.roll(p[:, 1], -1)) - np.dot(p[:, 1], np.roll(p[:, 0], -1))
+        )
+
+    o = closed(outer, area(outer) < 0)  # counter-clockwise
+    i = closed(inner, area(inner) > 0)  # clockwise
+    verts = np.vstack([o, i])
+    codes = np.r_[
+        MplPath.MOVETO,
+        [MplPath.LINETO] * (len(o) - 2),
+        MplPath.CLOSEPOLY,
+        MplPath.MOVETO,
+        [MplPath.LINETO] * (len(i) - 2),
+        MplPath.CLOSEPOLY,
+    ]
+    return MplPath(verts, codes)
 
 
 def preview_png(
@@ -46,103 +109,263 @@ def preview_png(
     path: Path,
     crank_angle_rad: float = 0.0,
 ) -> Path:
-    """Second stage at one crank angle: gear, locus, cam, rollers, plus a tooth close-up."""
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 6))
-    wp = working.sample(400)
-    tp = theoretical.sample(400)
+    """Second stage at one crank angle: ring, cam, rollers and frame, plus a tooth close-up.
+
+    Shaded: the gear ring's material (outer rim to working profile) and the
+    cam (minus its bore). The slotted frame plate, which lies in its own
+    plane beside the gear and cam, is drawn in outline.
+    """
+    from ..parts import slot_polygon
+
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 7))
+    wp = working.sample(max(400, 40 * design.tooth_count))
+    tp = theoretical.sample(max(400, 40 * design.tooth_count))
     e, Rj, r = design.eccentricity, design.cam_radius, design.roller_radius
     L = design.link_length
+    # crank_angle_rad is relative to the frame (= z * frame angle).
+    theta0 = crank_angle_rad / design.tooth_count
+    phi_abs = crank_angle_rad + theta0
+    cam_c = e * unit_radial(phi_abs)
+    theta = theta0 + np.arange(design.roller_count) * design.slot_pitch_rad
+    s = centre_distance(phi_abs - theta, e, L)
+    centres = s[:, None] * unit_radial(theta)
+    ring = _ring_path(_xy_circle((0, 0), design.ring_outer_radius), wp)
+    cam = _ring_path(_xy_circle(cam_c, Rj), _xy_circle((0, 0), design.cam_bore_radius))
     for a in (ax, ax2):
-        a.fill(np.r_[wp[:, 0], wp[:1, 0]], np.r_[wp[:, 1], wp[:1, 1]], color="#dde6f0", zorder=0)
+        a.add_patch(PathPatch(ring, facecolor="#c9d7e8", edgecolor="none", zorder=0))
+        a.add_patch(PathPatch(cam, facecolor="#f2d0cb", edgecolor="none", zorder=0))
+        a.plot(*np.vstack([wp, wp[:1]]).T, color="C0", lw=1.2, label="working profile (gear)")
         a.plot(
-            np.r_[wp[:, 0], wp[:1, 0]],
-            np.r_[wp[:, 1], wp[:1, 1]],
-            color="C0",
-            lw=1.2,
-            label="working profile",
-        )
-        a.plot(
-            np.r_[tp[:, 0], tp[:1, 0]],
-            np.r_[tp[:, 1], tp[:1, 1]],
+            *np.vstack([tp, tp[:1]]).T,
             "--",
             color="C7",
             lw=0.8,
             label="theoretical profile (roller centres)",
         )
-        _circle(a, (0, 0), design.ring_outer_radius, color="k", lw=1.0)
-        # crank_angle_rad is relative to the frame (= z * frame angle).
-        theta0 = crank_angle_rad / design.tooth_count
-        phi_abs = crank_angle_rad + theta0
-        cam_c = e * unit_radial(phi_abs)
+        _circle(a, (0, 0), design.ring_outer_radius, color="C0", lw=1.0)
         _circle(a, cam_c, Rj, color="C3", lw=1.0, label="disk cam")
-        theta = theta0 + np.arange(design.roller_count) * design.slot_pitch_rad
-        s = centre_distance(phi_abs - theta, e, L)
-        centres = s[:, None] * unit_radial(theta)
-        for c in centres:
-            _circle(a, c, r, color="C2", lw=0.8)
+        _circle(a, (0, 0), design.cam_bore_radius, color="C3", lw=0.6)
+        for k, th in enumerate(theta):
+            sp = slot_polygon(design, th, 0.002 * r)
+            a.plot(
+                *np.vstack([sp, sp[:1]]).T,
+                color="C4",
+                lw=0.6,
+                label="frame slots (frame plane)" if k == 0 else None,
+            )
+        for c in (design.frame_inner_radius, design.frame_outer_radius):
+            _circle(a, (0, 0), c, color="C4", lw=0.6, ls="-.")
+        for k, c in enumerate(centres):
+            roller = _xy_circle(c, r, 181)
+            a.fill(*roller.T, color="#b9e0b5", zorder=1)
+            a.plot(*roller.T, color="C2", lw=0.8, label="rollers" if k == 0 else None)
+        a.plot([0, cam_c[0]], [0, cam_c[1]], color="C3", lw=1.5)
+        a.plot([0], [0], "k+", ms=8)
         a.set_aspect("equal")
         a.set_xlabel("x [mm]")
         a.set_ylabel("y [mm]")
-    ax.set_title(f"z = {design.tooth_count}, e = {e:g}, Rj = {Rj:g}, r = {r:g} mm")
-    ax.legend(loc="lower left", fontsize=7)
+    top = max(design.frame_outer_radius, design.ring_outer_radius) * 1.03
+    ax.set_xlim(-top, top)
+    ax.set_ylim(-top, top)
+    ax.set_title(
+        f"crank angle {np.degrees(crank_angle_rad):g} deg (relative to the frame)", fontsize=10
+    )
+    for k in (0, 1):
+        c = centres[k] * (1 - 2.6 * r / np.linalg.norm(centres[k]))
+        ax.annotate(f"roller {k + 1}", c, fontsize=7, ha="center", va="center")
     # Close-up around the tooth space on +y and its neighbours.
     span = 2.5 * (2 * np.pi / design.tooth_count)
-    top = L + e + r
-    ax2.set_xlim(-top * np.sin(span / 2), top * np.sin(span / 2))
-    ax2.set_ylim(top - 4 * r - 2 * e, design.ring_outer_radius + 2)
-    ax2.set_title("tooth close-up (tooth space on +y)")
+    top2 = L + e + r
+    ax2.set_xlim(-top2 * np.sin(span / 2), top2 * np.sin(span / 2))
+    ax2.set_ylim(top2 - 4 * r - 2 * e, design.ring_outer_radius + 2)
+    ax2.set_title("tooth close-up (tooth space on +y)", fontsize=10)
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
+    _title(fig, "Second stage (shaded: gear ring and cam material)", design, None)
+    fig.subplots_adjust(left=0.06, right=0.98, top=0.88, bottom=0.12, wspace=0.25)
     return _save(fig, path)
 
 
-def forces_png(angles_deg: np.ndarray, F_j, F_s, F_n, path: Path, title: str = "") -> Path:
-    """Forces on roller 1 against crank angle (paper Figs. 11-16 style)."""
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    ax.plot(angles_deg, F_j, label="$F_j$ (cam)")
-    ax.plot(angles_deg, F_n, label="$F_n$ (inner gear)")
-    ax.plot(angles_deg, F_s, label="$F_s$ (slot wall)")
-    ax.set_xlabel("crank angle relative to the frame [deg]")
-    ax.set_ylabel("force on roller 1 [N]")
-    ax.set_xlim(float(angles_deg.min()), float(angles_deg.max()))
-    ax.grid(alpha=0.3)
-    ax.legend()
-    ax.set_title(title or "mesh forces on roller 1")
+_CONTACTS = (("p_cam", "cam", "C0"), ("p_gear", "inner gear", "C1"), ("p_slot", "slot wall", "C2"))
+
+
+def forces_png(
+    res,
+    path: Path,
+    design: GearDesign | None = None,
+    input_torque: float | None = None,
+) -> Path:
+    """Forces over the crank cycle: the envelope over all rollers and roller 1,
+    and the peak contact pressure of each contact (cam, gear, slot)."""
+    ang = np.degrees(np.asarray(res.crank_angles))
+    order = np.argsort(ang)
+    ang = ang[order]
+    F_j, F_n, F_s = (np.asarray(x)[order] for x in (res.F_j, res.F_n, res.F_s))
+    style = dict(marker="o", ms=3) if len(ang) < 60 else {}
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), sharex=True)
+    for F, name, c in (
+        (F_j, "$F_j$ (cam)", "C0"),
+        (F_n, "$F_n$ (inner gear)", "C1"),
+        (np.abs(F_s), "$|F_s|$ (slot wall)", "C2"),
+    ):
+        ax1.plot(ang, F.max(axis=1), color=c, lw=1.6, label=f"max {name} over all rollers", **style)
+        ax1.plot(ang, F[:, 0], color=c, lw=0.9, ls="--", label=f"{name}, roller 1", **style)
+    k = np.unravel_index(np.argmax(F_n), F_n.shape)
+    ax1.annotate(
+        f"peak $F_n$ {F_n[k]:.0f} N\nroller {k[1] + 1} at {ang[k[0]]:g} deg",
+        (ang[k[0]], F_n[k]),
+        xytext=(10, -25),
+        textcoords="offset points",
+        fontsize=8,
+        arrowprops=dict(arrowstyle="->", lw=0.6),
+    )
+    ax1.set_ylabel("force [N]")
+    ax1.grid(alpha=0.3)
+    ax1.legend(fontsize=7, ncol=3, loc="upper left", bbox_to_anchor=(0, -0.02, 1, 0), mode="expand")
+    for key, name, c in _CONTACTS:
+        p = np.asarray(getattr(res, key))[order]
+        ax2.plot(ang, p.max(axis=1), color=c, lw=1.4, label=f"{name}: max over rollers", **style)
+    P = np.maximum(np.maximum(res.p_cam, res.p_gear), res.p_slot)
+    ax2.set_title(f"peak Hertz contact pressure, highest {P.max():.0f} MPa", fontsize=9)
+    ax2.set_ylabel("contact pressure [MPa]")
+    ax2.set_xlabel("crank angle relative to the frame [deg]")
+    ax2.grid(alpha=0.3)
+    ax2.legend(fontsize=8)
+    if len(ang) > 1:
+        ax2.set_xlim(float(ang.min()), float(ang.max()))
+    ax1.set_ylim(bottom=0)
+    ax2.set_ylim(bottom=0)
+    _title(
+        fig, "Mesh forces over the cycle (solid: envelope over all rollers)", design, input_torque
+    )
+    fig.subplots_adjust(left=0.09, right=0.97, top=0.9, bottom=0.08, hspace=0.55)
     return _save(fig, path)
 
 
 def load_distribution_png(
-    design: GearDesign, crank_angle_deg: float, F_n: np.ndarray, path: Path
+    design: GearDesign,
+    crank_angle_deg: float,
+    F_j: np.ndarray,
+    F_n: np.ndarray,
+    F_s: np.ndarray,
+    path: Path,
+    input_torque: float | None = None,
+    note: str = "",
 ) -> Path:
-    """Polar picture of the gear force on every roller at one crank angle."""
-    fig = plt.figure(figsize=(6, 6))
-    ax = fig.add_subplot(projection="polar")
+    """Polar picture of the three forces on every roller at one crank angle.
+
+    Frame coordinates: roller k sits at slot angle (k - 1) * 360/(z + 1)
+    deg from +y towards +x, the eccentric at the crank angle.
+    """
+    fig = plt.figure(figsize=(7.5, 8))
+    ax = fig.add_axes([0.1, 0.1, 0.8, 0.72], projection="polar")
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)  # angles from +y towards +x, as in the paper
-    theta = np.arange(design.roller_count) * design.slot_pitch_rad
-    ax.bar(theta, F_n, width=0.6 * design.slot_pitch_rad, color="C1", alpha=0.8)
-    ax.set_title(f"gear force $F_n$ per roller [N], crank at {crank_angle_deg:g} deg")
+    pitch = design.slot_pitch_rad
+    theta = np.arange(design.roller_count) * pitch
+    w = 0.22 * pitch
+    for off, F, name, c in (
+        (-w, F_j, "$F_j$ (cam)", "C0"),
+        (0.0, F_n, "$F_n$ (inner gear)", "C1"),
+        (w, np.abs(F_s), "$|F_s|$ (slot wall)", "C2"),
+    ):
+        ax.bar(theta + off, F, width=w, color=c, alpha=0.85, label=name)
+    fmax = float(max(np.max(F_j), np.max(F_n), np.max(np.abs(F_s)), 1e-300))
+    top = 1.18 * fmax
+    ax.set_ylim(0, top)
+    # Radial scale in the gap between rollers 1 and 2, on a white ground.
+    ax.set_rlabel_position(np.degrees(0.5 * pitch))
+    for t in ax.get_yticklabels():
+        t.set_fontsize(7)
+        t.set_bbox(dict(facecolor="white", edgecolor="none", alpha=0.8, pad=0.5))
+    ax.set_xticks(theta)
+    step = 1 if design.roller_count <= 40 else int(np.ceil(design.roller_count / 40))
+    ax.set_xticklabels(
+        [str(k + 1) if k % step == 0 else "" for k in range(design.roller_count)], fontsize=7
+    )
+    ecc = np.radians(crank_angle_deg)
+    ax.annotate(
+        "",
+        xy=(ecc, 0.95 * top),
+        xytext=(ecc, 0.0),
+        arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.8),
+    )
+    ax.text(ecc, 1.0 * top, "eccentric", color="C3", fontsize=8, ha="center", va="bottom")
+    loaded = int(np.count_nonzero(F_j > 0))
+    ax.set_title(
+        f"roller numbers around the rim; radial scale in N; {loaded} of "
+        f"{design.roller_count} rollers loaded",
+        fontsize=8,
+        pad=18,
+    )
+    fig.legend(loc="lower center", ncol=3, fontsize=8, frameon=False)
+    _title(
+        fig,
+        f"Forces on every roller at crank angle {crank_angle_deg:.4g} deg{note} [N]",
+        design,
+        input_torque,
+    )
     return _save(fig, path)
 
 
-def interference_png(angles_deg, rows, parts, allowance, path: Path) -> Path:
+def interference_png(
+    angles_deg,
+    rows,
+    parts,
+    allowance,
+    path: Path,
+    design: GearDesign | None = None,
+    ok: bool | None = None,
+) -> Path:
     """Worst intersection volume and largest gap per crank angle, with the allowances."""
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), sharex=True)
+    bad = 0
     for i, p in enumerate(parts):
         vol = [max(r[f"{p}_volume"] for r in rows if r["crank_angle_deg"] == a) for a in angles_deg]
         gap = [max(r[f"{p}_gap"] for r in rows if r["crank_angle_deg"] == a) for a in angles_deg]
+        bad += sum(v > allowance[p]["volume_mm3"] for v in vol)
+        bad += sum(g > allowance[p]["gap_mm"] for g in gap)
         ax1.plot(angles_deg, vol, "o-", ms=3, color=f"C{i}", label=f"roller vs {p}")
-        ax1.axhline(allowance[p]["volume_mm3"], color=f"C{i}", ls=":", lw=0.8)
+        ax1.axhline(
+            allowance[p]["volume_mm3"],
+            color=f"C{i}",
+            ls=":",
+            lw=1.0,
+            label=f"allowance {p}: {allowance[p]['volume_mm3']:.2g} mm$^3$",
+        )
         ax2.plot(angles_deg, gap, "o-", ms=3, color=f"C{i}", label=f"roller vs {p}")
     ax2.axhline(
-        allowance["ring"]["gap_mm"], color="k", ls=":", lw=0.8, label="tessellation allowance"
+        allowance["ring"]["gap_mm"],
+        color="k",
+        ls=":",
+        lw=1.0,
+        label=f"allowance: {allowance['ring']['gap_mm']:.2g} mm",
     )
     ax1.set_ylabel("worst intersection volume [mm$^3$]")
     ax1.set_yscale("symlog", linthresh=1e-6)
     ax1.set_ylim(bottom=0.0)
     ax2.set_ylabel("largest min. gap [mm]")
     ax2.set_xlabel("crank angle relative to the frame [deg]")
-    ax1.legend(fontsize=8)
-    ax2.legend(fontsize=8)
-    ax1.set_title("interference check (dotted: what tessellation alone can produce)")
+    for a in (ax1, ax2):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    passed = (bad == 0) if ok is None else ok
+    verdict = (
+        "PASS: no interference beyond tessellation"
+        if passed
+        else "FAIL: interference beyond the tessellation allowance"
+    )
+    ax1.set_title(verdict, color="C2" if passed else "C3", fontsize=10, fontweight="bold")
+    fig.text(
+        0.02,
+        0.01,
+        "Allowance (dotted): what tessellation alone can produce at a tangent contact - both "
+        "meshes may miss the exact\nsurface by the chord tolerance, a lens of penetration "
+        "2 x chord tolerance, or a gap of the same size. Within it counts as contact.",
+        fontsize=7,
+    )
+    _title(fig, f"Interference check over {len(angles_deg)} crank positions", design, None)
+    fig.subplots_adjust(left=0.1, right=0.73, top=0.88, bottom=0.14, hspace=0.25)
     return _save(fig, path)
 
 
@@ -197,30 +420,139 @@ _LIMIT_OF = {
 _LABEL = {
     "peak_pressure": "peak contact pressure [MPa]",
     "peak_gear_force": "peak gear force $F_n$ [N]",
-    "min_loaded_rollers": "fewest loaded rollers",
+    "min_loaded_rollers": "fewest loaded rollers [-]",
     "lost_motion_arcmin": "output lost motion [arcmin]",
+}
+_SHORT = {
+    "peak_pressure": "pressure",
+    "peak_gear_force": "$F_n$",
+    "min_loaded_rollers": "loaded rollers",
+    "lost_motion_arcmin": "lost motion",
 }
 
 
-def montecarlo_png(metrics: dict, checks, path: Path) -> Path:
-    """Histograms of the per-sample metrics with the check limits."""
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
-    for ax, (name, values) in zip(axes.ravel(), metrics.items(), strict=False):
-        ax.hist(values, bins=40, color="C0", alpha=0.8)
-        limit = getattr(checks, _LIMIT_OF[name])
+def _bins(values: np.ndarray, integer: bool):
+    lo, hi = float(values.min()), float(values.max())
+    if integer:
+        return np.arange(np.floor(lo) - 0.5, np.ceil(hi) + 1.5)
+    return np.histogram_bin_edges(values, bins=min(40, max(10, int(np.sqrt(len(values))))))
+
+
+def montecarlo_png(
+    metrics: dict,
+    checks,
+    path: Path,
+    summary: dict | None = None,
+    nominal: dict | None = None,
+    design: GearDesign | None = None,
+    input_torque: float | None = None,
+    tolerances: dict | None = None,
+) -> Path:
+    """Histograms of the per-sample metrics with percentiles, limits and the nominal
+    design's value, the failure probability, and the sensitivity ranking."""
+    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
+    flat = axes.ravel()
+    n = len(next(iter(metrics.values())))
+    for ax, (name, values) in zip(flat[[0, 1, 3, 4]], metrics.items(), strict=False):
+        values = np.asarray(values, dtype=float)
+        lim_key = _LIMIT_OF[name]
+        limit = getattr(checks, lim_key)
+        scale = max(abs(float(values.max())), abs(float(values.min())), abs(limit or 0.0), 1.0)
+        if float(values.max() - values.min()) <= 1e-6 * scale:
+            # One value for every sample: a histogram would be a one-pixel spike.
+            ax.axvline(
+                values[0], color="C0", lw=8, alpha=0.6, label=f"all samples: {values[0]:.4g}"
+            )
+            ax.set_ylim(0, n * 1.1)
+            ax.text(
+                0.5,
+                0.55,
+                f"all {n} samples: {values[0]:.4g}\n(spread below {1e-6 * scale:.1g})",
+                transform=ax.transAxes,
+                ha="center",
+                fontsize=10,
+                bbox=dict(facecolor="white", edgecolor="0.7"),
+            )
+        else:
+            marks = [v for v in (limit, (nominal or {}).get(name)) if v is not None]
+            lo = min(float(values.min()), *marks) if marks else float(values.min())
+            hi = max(float(values.max()), *marks) if marks else float(values.max())
+            if name != "min_loaded_rollers" and np.ptp(values) < 0.05 * (hi - lo):
+                # Samples bunched far from the limit: bins over the whole axis, so
+                # the bunch is a visible bar, not a one-pixel spike.
+                bins = np.linspace(lo, hi, 41)
+            else:
+                bins = _bins(values, name == "min_loaded_rollers")
+            ax.hist(values, bins=bins, color="C0", alpha=0.75)
+            for q, ls in ((5, ":"), (50, "-"), (95, "--"), (99, "-.")):
+                v = float(np.percentile(values, q))
+                ax.axvline(v, color="0.25", ls=ls, lw=1.0, label=f"p{q} = {v:.4g}")
+        if nominal and name in nominal:
+            ax.axvline(nominal[name], color="C2", lw=2.0, label=f"nominal = {nominal[name]:.4g}")
         if limit is not None:
-            ax.axvline(limit, color="C3", lw=1.5, label="limit")
-            ax.legend(fontsize=8)
+            ax.axvline(limit, color="C3", lw=2.0, label=f"limit = {limit:g}")
+            pf = (summary or {}).get("failure_probability", {}).get(lim_key)
+            if pf is not None:
+                ax.set_title(
+                    f"P(fail) = {100 * pf:.1f} %", fontsize=10, color="C3" if pf > 0 else "C2"
+                )
+        else:
+            ax.set_title("no limit set in [checks]", fontsize=9, color="0.4")
         ax.set_xlabel(_LABEL[name])
         ax.set_ylabel("samples")
-    fig.suptitle(f"Monte Carlo, {len(next(iter(metrics.values())))} samples")
-    fig.tight_layout()
+        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.legend(fontsize=7, loc="upper right")
+        ax.margins(x=0.08)
+    ax = flat[2]
+    sens = (summary or {}).get("sensitivity") or []
+    if sens:
+        kinds = [s["tolerance"] for s in sens]
+        ms = list(metrics)
+        y = np.arange(len(kinds))
+        h = 0.8 / len(ms)
+        for j, m in enumerate(ms):
+            ax.barh(
+                y + (j - (len(ms) - 1) / 2) * h,
+                [s["spearman"][m] for s in sens],
+                height=h,
+                label=_SHORT[m],
+                color=f"C{j}",
+            )
+        ax.set_yticks(y)
+        ax.set_yticklabels([k.replace("_", " ") for k in kinds], fontsize=8)
+        ax.invert_yaxis()
+        ax.axvline(0, color="k", lw=0.6)
+        ax.set_xlim(-1, 1)
+        ax.set_xlabel("Spearman rank correlation with |drawn error| [-]")
+        ax.legend(fontsize=7, loc="lower right")
+    ax.set_title("sensitivity (most influential first)", fontsize=10)
+    ax = flat[5]
+    ax.axis("off")
+    lines = ["Tolerances (centred on the [errors] values):"]
+    for k, d in (tolerances or {}).items():
+        kind, scale = (d.kind, d.scale) if hasattr(d, "kind") else (d["kind"], d["scale"])
+        what = "sigma" if kind == "normal" else "uniform +-"
+        unit = "deg" if k in ("cam_phase", "slot_angle") else "mm"
+        lines.append(f"  {k.replace('_', ' ')}: {what} {scale:g} {unit}")
+    lines.append("")
+    lines.append("Lines: p5 dotted, p50 solid, p95 dashed, p99 dash-dot;")
+    lines.append("green = nominal design, red = limit from [checks].")
+    ax.text(0.0, 1.0, "\n".join(lines), va="top", fontsize=9, family="monospace")
+    _title(fig, f"Monte Carlo over the tolerances, {n} samples", design, input_torque)
+    fig.subplots_adjust(left=0.05, right=0.98, top=0.9, bottom=0.07, hspace=0.35, wspace=0.28)
     return _save(fig, path)
 
 
-def sweep_png(name: str, points: list[dict], path: Path) -> Path:
+def sweep_png(
+    name: str,
+    points: list[dict],
+    path: Path,
+    rng: dict | None = None,
+    design: GearDesign | None = None,
+    input_torque: float | None = None,
+) -> Path:
     """Means and peaks of roller 1's forces against the swept value (Figs. 11-16 style)."""
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 5))
     ok = [p for p in points if p["status"] == "ok"]
     x = [p["value"] for p in ok]
     for key, label in (("F_j_mean", "$F_j$"), ("F_n_mean", "$F_n$"), ("F_s_mean", "$F_s$")):
@@ -232,16 +564,49 @@ def sweep_png(name: str, points: list[dict], path: Path) -> Path:
     ):
         ax2.plot(x, [p[key] for p in ok], "o-", label=label)
     skipped = [p["value"] for p in points if p["status"] != "ok"]
+    label = name.replace("_", " ")
     for ax in (ax1, ax2):
         for v in skipped:
             ax.axvline(v, color="0.7", ls=":", lw=1)
-        ax.set_xlabel(name.replace("_", " ") + " [mm]")
+        ax.set_xlabel(label + " [mm]")
         ax.set_ylabel("force on roller 1 [N]")
+        ax.xaxis.set_major_locator(MaxNLocator(5))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    title = name.replace("_", " ")
+        if ok:
+            ax.legend(fontsize=8)
+    if design is not None and name in ("eccentricity", "roller_radius", "cam_radius"):
+        v0 = getattr(design, name)
+        for ax in (ax1, ax2):
+            ax.axvline(v0, color="C3", lw=0.8, ls="--")
+        ax1.annotate(
+            "design",
+            (v0, 1.0),
+            xycoords=("data", "axes fraction"),
+            color="C3",
+            fontsize=8,
+            ha="center",
+            va="bottom",
+        )
+    notes = []
+    if rng is not None:
+        src = {"scene": "[sweeps] range", "paper": "the paper's range", "default": "default range"}
+        notes.append(
+            f"{src.get(rng['source'], rng['source'])} {rng['requested'][0]:g} .. "
+            f"{rng['requested'][1]:g} mm"
+        )
+        if rng["swept"] is None:
+            notes.append("no valid value in the range")
+        else:
+            for side, i in (("low", 0), ("high", 1)):
+                why = rng[f"clipped_{side}"]
+                if why:
+                    notes.append(f"{side} end clipped at {rng['swept'][i]:.5g} mm ({why})")
     if skipped:
-        title += f" (dotted: {len(skipped)} points not computed - undercut or invalid)"
-    fig.suptitle(title)
-    fig.tight_layout()
+        notes.append(f"dotted: {len(skipped)} points not computed - undercut or invalid")
+    if not ok:
+        for ax in (ax1, ax2):
+            ax.text(0.5, 0.5, "no valid point", transform=ax.transAxes, ha="center")
+    fig.text(0.5, 0.01, "; ".join(notes), ha="center", fontsize=8)
+    _title(fig, f"Sweep of the {label}", design, input_torque)
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.86, bottom=0.16, wspace=0.25)
     return _save(fig, path)

@@ -1,0 +1,196 @@
+"""report.html: self-contained, parses as HTML, embeds every plot it names, true numbers."""
+
+from __future__ import annotations
+
+import base64
+import csv
+import json
+import shutil
+import subprocess
+import sys
+from html.parser import HTMLParser
+
+import pytest
+
+SCENE = """
+[design]
+tooth_count = 25
+cam_radius = 135.0
+roller_radius = 8.0
+eccentricity = 3.5
+
+[export]
+formats = ["dxf", "png", "forces", "montecarlo", "allocation", "sweeps", "report"]
+
+[load]
+input_torque = 1.1e5
+
+[solver]
+positions = 360
+
+[checks]
+max_contact_pressure = 2500.0
+max_gear_force = 8000.0
+
+[tolerances]
+roller_radius = { normal = 0.001 }
+cam_radius = { uniform = 0.002 }
+
+[montecarlo]
+samples = 30
+positions = 36
+allocation_samples = 10
+
+[sweeps]
+points = 2
+positions = 52
+"""
+
+VOID = {"meta", "img", "br", "hr", "link", "input", "col", "area", "base", "wbr", "source"}
+
+
+class _Page(HTMLParser):
+    """Collects images, captions, links and checks that elements nest properly."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.stack: list[str] = []
+        self.images: list[dict] = []
+        self.captions: list[str] = []
+        self.urls: list[str] = []
+        self.cells: list[str] = []
+        self._caption = None
+        self._cell = None
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.images.append(a)
+        for key in ("src", "href"):
+            if key in a and not a[key].startswith(("data:", "#")):
+                self.urls.append(a[key])
+        if tag in ("script", "link", "iframe", "object"):
+            self.urls.append(f"<{tag}>")
+        if tag not in VOID:
+            self.stack.append(tag)
+        if tag == "figcaption":
+            self._caption = ""
+        if tag == "td":
+            self._cell = ""
+
+    def handle_endtag(self, tag):
+        assert self.stack and self.stack[-1] == tag, (tag, self.stack[-3:])
+        self.stack.pop()
+        if tag == "figcaption":
+            self.captions.append(self._caption)
+            self._caption = None
+        if tag == "td":
+            self.cells.append(self._cell.strip())
+            self._cell = None
+
+    def handle_data(self, data):
+        if self._caption is not None:
+            self._caption += data
+        if self._cell is not None:
+            self._cell += data
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """The CLI in a separate process, on a folder that holds other files too."""
+    root = tmp_path_factory.mktemp("report")
+    (root / "notes.txt").write_text("not ours\n")
+    scene = root / "design.toml"
+    scene.write_text(SCENE)
+    out = root / "out"
+    subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out), "--quiet"],
+        check=True,
+        cwd=root,
+    )
+    page = _Page()
+    html = (out / "report.html").read_text(encoding="utf-8")
+    page.feed(html)
+    page.close()
+    return out, html, page
+
+
+def test_report_parses_and_embeds_every_plot_it_names(run):
+    out, html, page = run
+    assert page.stack == []  # every element closed
+    assert html.startswith("<!DOCTYPE html>")
+    pngs = sorted(p.name for p in out.glob("*.png"))
+    assert "forces.png" in pngs and "montecarlo.png" in pngs and len(pngs) >= 9
+    assert sorted(i["alt"] for i in page.images) == pngs
+    for img in page.images:
+        prefix = "data:image/png;base64,"
+        assert img["src"].startswith(prefix)
+        data = base64.b64decode(img["src"][len(prefix) :], validate=True)
+        assert data == (out / img["alt"]).read_bytes()
+    named = sorted(c.split(":")[0] for c in page.captions)
+    assert named == pngs
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "report.html" in manifest["files"]
+
+
+def test_report_needs_no_network(run):
+    _, html, page = run
+    assert page.urls == []
+    assert "http://" not in html and "https://" not in html
+
+
+def _cell_after(cells: list[str], label: str, k: int = 1) -> str:
+    return cells[cells.index(label) + k]
+
+
+def test_report_numbers_are_the_run_s_numbers(run):
+    out, _, page = run
+    cells = page.cells
+    # Peak gear force over all rollers and positions, read independently from forces.csv.
+    with open(out / "forces.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    best = max(rows, key=lambda r: float(r["F_n"]))
+    assert _cell_after(cells, "gear force F_n") == f"{float(best['F_n']):,.4g}"
+    assert _cell_after(cells, "gear force F_n", 3) == best["roller"]
+    assert float(_cell_after(cells, "gear force F_n", 4)) == pytest.approx(
+        float(best["crank_angle_deg"]), abs=1e-9
+    )
+    m = json.loads((out / "manifest.json").read_text())
+    # Undercut margin: the admissible radius (10.053 mm for Table 1) minus r = 8.
+    assert _cell_after(cells, "largest roller radius without undercut") == "10.05"
+    assert _cell_after(cells, "margin to it (admissible - r)") == "2.053"
+    tip = m["undercut"]["min_working_radius_mm"]
+    label = "tip radius of the working profile (smallest radius of curvature)"
+    assert _cell_after(cells, label) == f"{tip:.4g}"
+    for name, r in m["checks"].items():
+        assert _cell_after(cells, name, 3) == f"{r['margin']:,.4g}"
+        assert _cell_after(cells, name, 5) == ("pass" if r["passed"] else "FAIL")
+    # Allocation in the user's own terms.
+    assert _cell_after(cells, "roller_radius", 1) in ("sigma",)
+    assert "uniform half-width" in cells
+    # The DXF's measured accuracy is stated beside the file.
+    acc = m["accuracy"]["working_profile"]["max_deviation_mm"]
+    row = _cell_after(cells, "inner_gear.dxf")
+    assert f"measured max deviation {acc:.3g} mm" in row
+
+
+@pytest.mark.skipif(not shutil.which("chromium"), reason="no headless Chromium here")
+def test_report_opens_in_headless_chromium(run, tmp_path):
+    out, _, page = run
+    shot = tmp_path / "report.png"
+    cmd = ["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
+    dom = subprocess.run(
+        [*cmd, "--dump-dom", (out / "report.html").as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert dom.returncode == 0, dom.stderr[-2000:]
+    assert "corr-cad report: design" in dom.stdout
+    assert dom.stdout.count("<img") == len(page.images)
+    subprocess.run(
+        [*cmd, f"--screenshot={shot}", "--window-size=1200,2400", (out / "report.html").as_uri()],
+        capture_output=True,
+        timeout=120,
+    )
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
