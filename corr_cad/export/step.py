@@ -44,7 +44,6 @@ __all__ = [
     "StepPart",
     "mass_properties",
     "bounding_box",
-    "read_step_mesh",
     "read_step_curves",
 ]
 
@@ -483,40 +482,6 @@ def _read_one_shape(path: Path, heal: bool = True):
         _healing_off(reader)
     reader.TransferRoots()
     return reader.OneShape()
-
-
-def read_step_mesh(path: Path, deflection: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Read a STEP file back; mesh it; return (vertices, faces, bbox (2, 3))."""
-    require_ocp()
-    from OCP.BRep import BRep_Tool
-    from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
-    from OCP.TopExp import TopExp_Explorer
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS
-
-    shape = _read_one_shape(path)
-    BRepMesh_IncrementalMesh(shape, float(deflection), False, 0.5, True).Perform()
-    verts, faces = [], []
-    offset = 0
-    exp = TopExp_Explorer(shape, TopAbs_FACE)
-    while exp.More():
-        face = _static(TopoDS, "Face")(exp.Current())
-        loc = TopLoc_Location()
-        tri = _static(BRep_Tool, "Triangulation")(face, loc)
-        if tri is None:
-            raise ExportError(f"{path}: a face could not be meshed")
-        trsf = loc.Transformation()
-        n = tri.NbNodes()
-        pts = np.array([[*_xyz(tri.Node(i).Transformed(trsf))] for i in range(1, n + 1)])
-        tris = np.array([tri.Triangle(i).Get() for i in range(1, tri.NbTriangles() + 1)]) - 1
-        if face.Orientation() == TopAbs_REVERSED:
-            tris = tris[:, ::-1]
-        verts.append(pts)
-        faces.append(tris + offset)
-        offset += n
-        exp.Next()
-    return np.vstack(verts), np.vstack(faces), bounding_box(shape)
 
 
 def _xyz(p):
