@@ -176,8 +176,8 @@ def profile_export(out: Path, quick: bool = False) -> list:
     def draw(ax):
         for rep in ("polyline", "arcs", "spline"):
             sel = [r for r in rows if r[0] == rep]
-            ax.loglog([r[5] for r in sel], [r[2] for r in sel], "o-", label=rep)
-        ax.set_xlabel("time to approximate, measure and write one profile [s]")
+            ax.loglog([r[6] for r in sel], [r[2] for r in sel], "o-", label=rep)
+        ax.set_xlabel("CPU time to approximate, measure and write one profile [s]")
         ax.set_ylabel("measured max deviation [mm]")
         ax.legend()
         ax.set_title(f"DXF profile: accuracy vs time ({_machine()})")

@@ -9,12 +9,13 @@ minimiser of ``g(t) = |C(t) - q|^2``. It is found in three steps:
    sampled as a long flank.
 2. *Bracket*: each seed's neighbouring samples bound the parameter.
 3. *Safeguarded Newton* on ``f(t) = (C(t) - q) . C'(t)`` (half of ``g'``)
-   inside the bracket: a Newton step that leaves the bracket, or a
-   non-positive ``f'``, is replaced by bisection; the bracket shrinks at
-   every step (``rtsafe``). The iteration stops when the step is below
-   ``1e-13`` of the bracket width. A point that has not converged after
-   :data:`MAX_ITER` steps (never seen in practice) falls back to a dense
-   sampling of its final bracket.
+   inside the bracket, with the Gauss-Newton slope ``|C'|^2`` (the dropped
+   term is distance x curvature x ``|C'|^2``, small next to it for points
+   near the curve): a step that leaves the bracket is replaced by
+   bisection; the bracket shrinks at every step (``rtsafe``). The
+   iteration stops when the step is below ``1e-13`` of the bracket width.
+   A point that has not converged after :data:`MAX_ITER` steps (never seen
+   in practice) falls back to a dense sampling of its bracket.
 
 The bracket ends are candidates too, so a point whose nearest curve point is
 the end of a trimmed (undercut) piece is measured to that end.

@@ -10,6 +10,8 @@ from corr_cad import GearDesign, approximate, theoretical_profile, working_profi
 from corr_cad.export import dxf
 from corr_cad.sampling import distance_to_curve
 
+from .test_dxf_accuracy import read_layer
+
 
 def _perimeter(points):
     return float(np.sum(np.linalg.norm(np.roll(points, -1, 0) - points, axis=1)))
@@ -45,8 +47,15 @@ def test_files_read_back_with_units_and_header(written):
 def test_profile_round_trip(written, layer):
     design, rep, tol, w, t, aw, at, paths = written
     curve, approx = (w, aw) if layer == "WORKING_PROFILE" else (t, at)
-    pts, kind = dxf.read_closed_contour(paths["inner_gear"], layer, flatten_distance=1e-6)
-    assert kind == ("SPLINE" if rep == "spline" else "LWPOLYLINE")
+    # Read back with ezdxf's own path / bulge / B-spline handling.
+    kinds = {
+        e.dxftype()
+        for e in ezdxf.readfile(paths["inner_gear"]).modelspace()
+        if e.dxf.layer == layer
+    }
+    assert kinds == {"SPLINE" if rep == "spline" else "LWPOLYLINE"}
+    chains = read_layer(paths["inner_gear"], layer)
+    pts = np.vstack([c[:-1] for c in chains])
     d, _ = distance_to_curve(curve, pts)
     assert d.max() <= tol
     # Enclosed area: the difference is bounded by deviation x perimeter.
@@ -64,7 +73,10 @@ def test_bulge_area_is_exact(written):
     (pl,) = [e for e in doc.modelspace() if e.dxf.layer == "WORKING_PROFILE"]
     data = np.array(pl.get_points("xyb"))
     exact = dxf.bulge_polygon_area(data[:, :2], data[:, 2])
-    dense = dxf.contour_area(dxf.flatten_bulge_polygon(data[:, :2], data[:, 2], 1e-7))
+    from ezdxf import path as ezpath
+
+    flat = np.array([(p.x, p.y) for p in ezpath.make_path(pl).flattening(1e-7, segments=4)])
+    dense = dxf.contour_area(flat[:-1])
     assert exact == pytest.approx(dense, abs=1e-3)
 
 
@@ -108,8 +120,9 @@ def test_frame_slots(written):
     import shapely
 
     for i, s in enumerate(slots):
-        data = np.array(s.get_points("xyb"))
-        pts = dxf.flatten_bulge_polygon(data[:, :2], data[:, 2], 1e-5)
+        from ezdxf import path as ezpath
+
+        pts = np.array([(p.x, p.y) for p in ezpath.make_path(s).flattening(1e-5, segments=4)])[:-1]
         poly = shapely.Polygon(pts)
         assert poly.is_valid and s.closed
         # Width 2r: the slot is r either side of its radial centre line.
