@@ -78,6 +78,8 @@ def _bad_values(section: str, key: str, spec) -> list[tuple[str, object]]:
         out += [("1e300", [1e300]), ("-1e300", [-1e300]), ("nested", [[1.0]])]
         if key in PER_ROLLER:
             out += [("wrong length", [0.0] * 3), ("empty", [])]
+            out += [("right length, one 1e300", [0.0] * Z + [1e300])]
+            out += [("right length, one 1", [0.0] * Z + [-R])]  # r: far beyond the model
         elif key in ("assembly_angles_deg", "crank_angles_deg"):
             out.append(("empty", []))
     elif k == "list[list[float]]":
