@@ -509,9 +509,13 @@ def test_measured_points_checked_tooth_by_tooth(folder):
         validate_points(sparse, working_profile(GearDesign()), "m")
 
 
-@pytest.mark.parametrize("kind", ["fifo", "dev", "dir"])
+@pytest.mark.parametrize("kind", ["fifo", "dev", "dir", "big"])
 def test_measured_profile_not_a_regular_file(folder, kind):
-    if kind == "fifo":
+    if kind == "big":
+        with open(folder / "m.csv", "wb") as fh:  # sparse: 201 MB of nothing
+            fh.truncate(201 * 1024 * 1024)
+        name = "m.csv"
+    elif kind == "fifo":
         os.mkfifo(folder / "m.csv")
         name = "m.csv"
     elif kind == "dev":
