@@ -351,7 +351,11 @@ def test_a_used_section_is_not_warned():
 
 # --- resources --------------------------------------------------------------------
 def test_polyline_estimate_bounds_the_real_count():
-    """The DXF vertex estimate (curvature integral) is an upper bound within 1.5x."""
+    """The DXF vertex estimate (curvature integral) is an upper bound within 2x.
+
+    (The uniform-refinement sampler wrote 1300/4050 vertices at 1e-2/1e-3, the
+    node-budget sampler 800/2525; the estimate, 1460/4617, bounds both.)
+    """
     from corr_cad import GearDesign, working_profile
     from corr_cad.resources import estimate
     from corr_cad.sampling import approximate
@@ -361,7 +365,7 @@ def test_polyline_estimate_bounds_the_real_count():
     for tol in (1e-2, 1e-3):
         real = len(approximate(w, "polyline", tol).vertices)
         est = estimate(parse_scene({"export": {"tolerance": tol}})).profile_vertices
-        assert real <= est <= 1.5 * real, (tol, real, est)
+        assert real <= est <= 2.0 * real, (tol, real, est)
 
 
 def _peak_rss_mb(folder: Path, scene: str) -> tuple[subprocess.CompletedProcess, float]:
