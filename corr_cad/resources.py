@@ -130,7 +130,8 @@ class Estimate:
 #: prototype, working and theoretical profiles, tol = 1e-2, 1e-3, 1e-4
 #: (``approximate``): polyline 1300/4500/13650 vertices against an integral
 #: of 768/2430/7685 (ratio <= 1.85, exponent 1/2); arcs 800/1400/2800; spline
-#: 451/701/1251 control points. The ratios round the worst case up.
+#: 451/701/1251 control points. The ratios round the worst case up; the
+#: node-budget sampler (polyline 800/2525/7775) stays below the estimate.
 _REPR = {"polyline": (0.5, 1.9), "arcs": (1.0 / 3.0, 0.6), "spline": (0.25, 0.3)}
 
 
