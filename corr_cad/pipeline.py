@@ -968,6 +968,16 @@ def run_scene(
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
     )
+    from .resources import estimate
+
+    est = estimate(scene)
+    if est.memory_bytes or est.seconds:
+        mem = max(est.memory_bytes.values(), default=0.0)
+        work = ", ".join(f"{k} ~{v:.2g} s" for k, v in est.seconds.items())
+        ctx.progress(
+            f"estimate: peak memory ~{mem / 2**20:.0f} MB (budget 2048 MB)"
+            + (f"; solver work {work}" if work else "")
+        )
     timings = []
     for i, name in enumerate(stages, 1):
         ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")

@@ -8,7 +8,10 @@ an exploding file, with one line naming the key and a value that would work.
 The per-cell costs are measured (peak RSS, prototype design, numpy 2):
 
 * ``solve_forces``: 36 000 positions x 26 rollers raised the peak RSS by
-  285 MB, 305 bytes per (position, roller) cell -> ``SOLVER_CELL_BYTES``.
+  285 MB, 305 bytes per (position, roller) cell; a whole forces-only run
+  (solver, then forces.csv formatted while the result is alive) peaked at
+  260 MB for 10 000 positions and 678 MB for 40 000: 561 bytes per cell
+  -> ``SOLVER_CELL_BYTES`` (a DXF-only run peaks at 103 MB, below ``BASE_BYTES``).
 * ``monte_carlo``: a chunk of 50 samples x 3600 positions x 26 rollers
   raised it by 3.0 GB, 650 bytes per (sample, position, roller) cell ->
   ``BATCH_CELL_BYTES``; every worker holds one chunk.
@@ -45,7 +48,7 @@ __all__ = [
 MEMORY_BUDGET = 2 * 1024**3
 #: Interpreter, numpy, scipy, the exporters: what a run holds before its arrays.
 BASE_BYTES = 250 * 1024**2
-SOLVER_CELL_BYTES = 320
+SOLVER_CELL_BYTES = 600
 BATCH_CELL_BYTES = 700
 #: Samples per Monte Carlo task (``tolerance.monte_carlo``'s ``chunk``).
 MC_CHUNK = 50
@@ -127,7 +130,8 @@ class Estimate:
 #: prototype, working and theoretical profiles, tol = 1e-2, 1e-3, 1e-4
 #: (``approximate``): polyline 1300/4500/13650 vertices against an integral
 #: of 768/2430/7685 (ratio <= 1.85, exponent 1/2); arcs 800/1400/2800; spline
-#: 451/701/1251 control points. The ratios round the worst case up.
+#: 451/701/1251 control points. The ratios round the worst case up; the
+#: node-budget sampler (polyline 800/2525/7775) stays below the estimate.
 _REPR = {"polyline": (0.5, 1.9), "arcs": (1.0 / 3.0, 0.6), "spline": (0.25, 0.3)}
 
 

@@ -78,6 +78,8 @@ def _bad_values(section: str, key: str, spec) -> list[tuple[str, object]]:
         out += [("1e300", [1e300]), ("-1e300", [-1e300]), ("nested", [[1.0]])]
         if key in PER_ROLLER:
             out += [("wrong length", [0.0] * 3), ("empty", [])]
+            out += [("right length, one 1e300", [0.0] * Z + [1e300])]
+            out += [("right length, one 1", [0.0] * Z + [-R])]  # r: far beyond the model
         elif key in ("assembly_angles_deg", "crank_angles_deg"):
             out.append(("empty", []))
     elif k == "list[list[float]]":
@@ -349,7 +351,11 @@ def test_a_used_section_is_not_warned():
 
 # --- resources --------------------------------------------------------------------
 def test_polyline_estimate_bounds_the_real_count():
-    """The DXF vertex estimate (curvature integral) is an upper bound within 1.5x."""
+    """The DXF vertex estimate (curvature integral) is an upper bound within 2x.
+
+    (The uniform-refinement sampler wrote 1300/4050 vertices at 1e-2/1e-3, the
+    node-budget sampler 800/2525; the estimate, 1460/4617, bounds both.)
+    """
     from corr_cad import GearDesign, working_profile
     from corr_cad.resources import estimate
     from corr_cad.sampling import approximate
@@ -359,7 +365,7 @@ def test_polyline_estimate_bounds_the_real_count():
     for tol in (1e-2, 1e-3):
         real = len(approximate(w, "polyline", tol).vertices)
         est = estimate(parse_scene({"export": {"tolerance": tol}})).profile_vertices
-        assert real <= est <= 1.5 * real, (tol, real, est)
+        assert real <= est <= 2.0 * real, (tol, real, est)
 
 
 def _peak_rss_mb(folder: Path, scene: str) -> tuple[subprocess.CompletedProcess, float]:
@@ -418,7 +424,8 @@ def test_sizes_have_upper_bounds():
             if spec.kind in ("int", "float"):
                 assert spec.high is not None or spec.note, (section, key)
             if spec.kind.startswith("list"):
-                assert spec.max_len is not None or key in PER_ROLLER or key in ("formats", "variants"), key
+                fixed = key in PER_ROLLER or key in ("formats", "variants")  # by the design/choices
+                assert spec.max_len is not None or fixed, key
 
 
 # --- measured profiles --------------------------------------------------------------
@@ -506,9 +513,13 @@ def test_measured_points_checked_tooth_by_tooth(folder):
         validate_points(sparse, working_profile(GearDesign()), "m")
 
 
-@pytest.mark.parametrize("kind", ["fifo", "dev", "dir"])
+@pytest.mark.parametrize("kind", ["fifo", "dev", "dir", "big"])
 def test_measured_profile_not_a_regular_file(folder, kind):
-    if kind == "fifo":
+    if kind == "big":
+        with open(folder / "m.csv", "wb") as fh:  # sparse: 201 MB of nothing
+            fh.truncate(201 * 1024 * 1024)
+        name = "m.csv"
+    elif kind == "fifo":
         os.mkfifo(folder / "m.csv")
         name = "m.csv"
     elif kind == "dev":
