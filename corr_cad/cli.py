@@ -97,8 +97,6 @@ def _run(args: argparse.Namespace, state: dict) -> int:
 
     _check_workers(args)
     scene = load_scene(args.scene)
-    for warning in scene.warnings:  # printed with --quiet too: the user must know
-        print(f"corr-cad: warning: {warning}", file=sys.stderr)
     if args.quiet:
         from . import progress
 
@@ -110,6 +108,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     staging = StagingDir(out)
     state["staging"] = staging
     with _executor(args, scene) as executor, staging as stage:
+        # Printed with --quiet too (the user must know), once the run is
+        # accepted: a refused run prints only its one error line.
+        for warning in scene.warnings:
+            print(f"corr-cad: warning: {warning}", file=sys.stderr)
         manifest = run_scene(scene, stage, progress=say, executor=executor)
     from .console import failed_checks, summary_lines
 
@@ -269,8 +271,9 @@ def main(argv: list[str] | None = None) -> int:
 
     args = _parser().parse_args(argv)
     state: dict = {}
+    previous = None
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _on_sigterm)
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         if args.command == "run":
             return _run(args, state)
@@ -303,6 +306,9 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
         return code
+    finally:
+        if previous is not None:  # called in-process (tests, notebooks): leave no handler behind
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

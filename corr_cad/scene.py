@@ -396,6 +396,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
                 )
                 + "; the paper's range for its Table 1 design; clipped to the valid design space)",
                 example=[lo, hi],
+                max_len=2,
             )
             for name, (where, lo, hi) in PAPER_SWEEPS.items()
         },
@@ -411,7 +412,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     "inspection": {
         "point_spacing": Key(
-            "float", 0.5, "CMM nominal points: spacing along the curve, mm", low=0
+            "float", 0.5, "CMM nominal points: spacing along the curve, mm", low=0, high=100.0
         ),
         "evaluation_psi_deg": Key(
             "float",
@@ -421,19 +422,29 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=180.0,
         ),
         "profile_tolerance": Key(
-            "float", None, "profile: half-band around the nominal, mm", low=0, example=0.01
+            "float",
+            None,
+            "profile: half-band around the nominal, mm",
+            low=0,
+            high=10.0,
+            example=0.01,
         ),
         "position_tolerance_arcsec": Key(
-            "float", None, "tooth position, arcsec", low=0, example=20.0
+            "float", None, "tooth position, arcsec", low=0, high=36000.0, example=20.0
         ),
         "single_pitch_tolerance_arcsec": Key(
-            "float", None, "single pitch deviation, arcsec", low=0, example=20.0
+            "float", None, "single pitch deviation, arcsec", low=0, high=36000.0, example=20.0
         ),
         "cumulative_pitch_tolerance_arcsec": Key(
-            "float", None, "cumulative pitch over any span, arcsec", low=0, example=40.0
+            "float",
+            None,
+            "cumulative pitch over any span, arcsec",
+            low=0,
+            high=36000.0,
+            example=40.0,
         ),
         "runout_tolerance": Key(
-            "float", None, "runout of the tooth spaces, mm", low=0, example=0.02
+            "float", None, "runout of the tooth spaces, mm", low=0, high=10.0, example=0.02
         ),
     },
 }
@@ -518,9 +529,9 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         except OverflowError:  # a TOML integer beyond the float range
             v = math.inf
         if not math.isfinite(v):
-            raise SceneError(
-                f"{where} = {show(value)}: must be a finite number in {key_range(spec)}"
-            )
+            bounded = spec.low is not None or spec.high is not None
+            rng = f" in {key_range(spec)}" if bounded else ""
+            raise SceneError(f"{where} = {show(value)}: must be a finite number{rng}")
         _bounds(where, v, spec)
         return v
     if spec.kind == "str":

@@ -88,7 +88,7 @@ def scene_json_schema() -> dict:
 
     >>> s = scene_json_schema()
     >>> s["properties"]["design"]["properties"]["roller_radius"]["exclusiveMinimum"]
-    0
+    0.0
     >>> s["additionalProperties"], s["properties"]["export"]["additionalProperties"]
     (False, False)
     """

