@@ -78,7 +78,7 @@ def force_peaks(res, design) -> dict:
         u = contact.half_width_sq_per_force(geo.k_roller, curv[c], length, modulus) * forces[c]
         half[c] = float(np.sqrt(np.max(u)))
     out["half_width_mm"] = half
-    loaded = res.F_j > 0
+    loaded = res.loaded
     valid = {"cam": res.valid_cam, "slot": res.valid_slot, "gear": res.valid_gear}
     out["contacts_outside_validity"] = {
         c: int(np.count_nonzero(~valid[c] & loaded)) for c in CONTACTS

@@ -219,7 +219,7 @@ def _force_files(ctx: RunContext) -> None:
         "cam_moment_Nmm": res.cam_moment,
         "load_share": s.solver.load_share,
         "variants": list(s.solver.variants),
-        "contacts_outside_validity": int(np.count_nonzero(~res.valid & (res.F_j > 0))),
+        "contacts_outside_validity": int(np.count_nonzero(~res.valid & res.loaded)),
         "output_torque_Nmm_mean": float(res.output_torque.mean()),
     }
     write_json(ctx.out / "forces_summary.json", summary)

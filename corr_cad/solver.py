@@ -212,6 +212,20 @@ def _error_gaps(design, errors, phi, theta, psi, s, rho_n, rho_s):
     return g_j + rho_n * g_n - np.abs(rho_s) * clearance_slot, dr
 
 
+#: A roller counts as loaded when its cam force exceeds this share of the
+#: largest cam force at the same position. A roller exactly at the edge of
+#: the loaded zone (psi = 0 or pi) comes out of the solve with a force of
+#: ~1e-13 of the others': that is round-off, not load, and counting it made
+#: the loaded-roller count depend on which positions were solved.
+LOADED_SHARE = 1e-9
+
+
+def loaded_mask(F_j: np.ndarray) -> np.ndarray:
+    """Rollers carrying load, (P, R) bool, from cam forces (P, R), N."""
+    F_j = np.asarray(F_j)
+    return F_j > LOADED_SHARE * np.max(F_j, axis=-1, keepdims=True).clip(min=0.0) + 0.0
+
+
 @dataclass
 class ForceResult:
     """Mesh forces over crank positions, in the style of ``scipy.optimize.OptimizeResult``.
@@ -242,9 +256,14 @@ class ForceResult:
     full_cycle: bool = True
 
     @property
+    def loaded(self) -> np.ndarray:
+        """Which rollers carry load, (P, R) bool: see :func:`loaded_mask`."""
+        return loaded_mask(self.F_j)
+
+    @property
     def loaded_count(self) -> np.ndarray:
         """Rollers carrying load at each position, (P,)."""
-        return np.count_nonzero(self.F_j > 0, axis=1)
+        return np.count_nonzero(self.loaded, axis=1)
 
     @property
     def small_rotation(self) -> np.ndarray:

@@ -20,7 +20,7 @@ import numpy as np
 from .design import GearDesign
 from .deviations import ManufacturingErrors
 from .errors import SceneError
-from .solver import BatchSolver, cycle_angles
+from .solver import BatchSolver, cycle_angles, loaded_mask
 
 __all__ = [
     "TOLERANCE_KINDS",
@@ -94,7 +94,7 @@ def sample_metrics(res, n_samples: int) -> dict[str, np.ndarray]:
         return x.reshape(n_samples, P, -1) if x.ndim == 2 else x.reshape(n_samples, P)
 
     p = np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear)
-    loaded = per(res.F_j > 0).sum(axis=2)
+    loaded = per(loaded_mask(res.F_j)).sum(axis=2)
     return {
         "peak_gear_force": per(res.F_n).reshape(n_samples, P * R).max(axis=1),
         "peak_pressure": per(p).reshape(n_samples, P * R).max(axis=1),
