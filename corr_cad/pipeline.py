@@ -747,6 +747,10 @@ def _sweeps(ctx: RunContext) -> None:
     ranges = {
         name: sweep_range(s.design, name, s.sweeps.get(name), _errors(ctx)) for name in PAPER_SWEEPS
     }
+    from .progress import Progress
+
+    total = sum(s.sweeps["points"] for r in ranges.values() if r["swept"] is not None)
+    bar = Progress(total, "      sweeps", "points")
     results = run_sweeps(
         s.design,
         s.load.input_torque,
@@ -755,7 +759,9 @@ def _sweeps(ctx: RunContext) -> None:
         s.solver.load_share,
         executor=ctx.executor,
         ranges=ranges,
+        progress=bar.update,
     )
+    bar.close()
     header = ["value", "status", *METRICS, "loaded_rollers_min", "loaded_rollers_max"]
     header += ["range_source", "requested_min", "requested_max", "clipped_low", "clipped_high"]
     for name, pts in results.items():
@@ -845,7 +851,7 @@ STAGES: dict[str, Stage] = {
         Stage("checks", ("forces",), _checks, "design checks against [checks] limits"),
         Stage("montecarlo", ("undercut",), _montecarlo, "Monte Carlo over [tolerances]"),
         Stage("allocation", ("undercut",), _allocation, "tolerance allocation against [checks]"),
-        Stage("sweeps", (), _sweeps, "the paper's parametric sweeps"),
+        Stage("sweeps", (), _sweeps, "parametric sweeps around the design"),
         Stage("edm_files", ("profiles",), shop.edm_files, "wire-EDM path, DXF and G-code"),
         Stage("cmm_points", ("profiles",), shop.cmm_points, "CMM nominal points"),
         Stage("inspection", ("measured_profile",), shop.inspection, "per-tooth inspection"),

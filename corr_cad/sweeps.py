@@ -15,6 +15,7 @@ the points.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -273,11 +274,13 @@ def run_sweeps(
     executor=None,
     names=tuple(PAPER_SWEEPS),
     ranges: dict[str, dict] | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> dict[str, list[dict]]:
     """All sweeps, each point a task on ``executor`` (``submit`` interface).
 
     ``ranges`` maps a sweep name to a :func:`sweep_range` result; missing
     ones get the default range. A sweep with no valid range has no points.
+    ``progress(n)`` is called with 1 after each point is back.
     """
     from .tolerance import SerialExecutor
 
@@ -297,7 +300,14 @@ def run_sweeps(
             )
             for v in values
         ]
-    return {name: [f.result() for f in futs] for name, futs in jobs.items()}
+    out = {}
+    for name, futs in jobs.items():
+        out[name] = []
+        for f in futs:
+            out[name].append(f.result())
+            if progress:
+                progress(1)
+    return out
 
 
 def comparison_rows(
