@@ -109,7 +109,8 @@ def test_manifest_records_what_ran(tmp_path):
         "p_max",
     ):
         assert summary[key] > 0
-    assert summary["loaded_rollers_min"] == summary["loaded_rollers_max"] == 13
+    # 13 rollers carry load; 12 where one sits exactly at the edge of the loaded zone.
+    assert (summary["loaded_rollers_min"], summary["loaded_rollers_max"]) == (12, 13)
 
 
 def test_outputs_are_deterministic(tmp_path):
