@@ -171,6 +171,8 @@ def check_out_dir(out: Path) -> Path:
         raise OutputError(f"--out {given!r}: cannot be resolved ({exc})") from exc
     if real == Path(real.anchor):
         raise OutputError(f"--out {given!r}: resolves to {real}; give a folder below it")
+    if any(len(part.encode("utf-8", "surrogateescape")) > 255 for part in real.parts):
+        raise OutputError(f"--out: a folder name is longer than 255 bytes ({given[:60]!r}...)")
     if os.path.lexists(real):
         if not real.is_dir():
             raise OutputError(f"--out {given!r}: is an existing file; give a folder")
