@@ -199,10 +199,17 @@ def summary_lines(manifest: dict, out) -> list[str]:
             lines.append(f"  P(fail {name}) = {prob:.4g}")
     c = manifest.get("clearance")
     if c:
+        low, work = c["min_clearance_mm"], c["working_contacts_max_abs_mm"]
+        # Within 1e-9 mm is exact contact: the rest is floating-point round-off.
+        smallest = (
+            "0 (exact contact, |c| <= 1e-9 mm)"
+            if abs(low) <= 1e-9
+            else f"{1e3 * low:.4g} um ({'interference' if low < 0 else 'clearance'})"
+        )
+        working = "<= 1e-9 mm" if work <= 1e-9 else f"{1e3 * work:.3g} um"
         lines.append(
-            f"clearance over {c['positions']} crank positions: smallest "
-            f"{1e3 * c['min_clearance_mm']:.4g} um (negative: interference), "
-            f"working contacts within {1e3 * c['working_contacts_max_abs_mm']:.3g} um"
+            f"clearance over {c['positions']} crank positions: smallest {smallest}; "
+            f"working contacts within {working} of exact contact"
         )
     i = manifest.get("interference")
     if i:

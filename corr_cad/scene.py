@@ -21,6 +21,7 @@ from .deviations import ManufacturingErrors as ErrorSpec
 from .deviations import harmonic_deviation
 from .errors import CorrCadError, SceneError
 from .inputfiles import read_regular_file
+from .profile import working_profile
 from .sampling import REPRESENTATIONS
 from .solver import VARIANTS
 from .sweeps import PAPER_SWEEPS
@@ -632,6 +633,10 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         key = str(exc).split(" ", 1)[0]
         section = "material" if key in SCHEMA["material"] else "design"
         raise SceneError(f"[{section}] {exc}") from exc
+    try:  # an undercut design is refused here, before anything runs (closed form, ms)
+        working_profile(design)
+    except CorrCadError as exc:
+        raise SceneError(f"[design] {exc}") from exc
 
     ex = values["export"]
     formats = tuple(ex["formats"])
@@ -896,16 +901,34 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         warn("[export] assembly_angles_deg", "formats lists no mesh (stl, 3mf, glb, ply)")
     if "interference_positions" in ex and "interference" not in f:
         warn("[export] interference_positions", 'formats does not list "interference"')
+    if "interference_method" in ex and "interference" not in f:
+        warn("[export] interference_method", 'formats does not list "interference"')
+    if "edm" in data and "edm" not in f:
+        warn("[edm]", 'formats does not list "edm"')
+    insp = data.get("inspection", {})
+    if "inspection" in data and not {"cmm", "inspection"} & f:
+        warn("[inspection]", 'formats lists neither "cmm" nor "inspection"')
+    else:
+        if "point_spacing" in insp and "cmm" not in f:
+            warn("[inspection] point_spacing", 'only "cmm" uses it')
+        for k in insp:
+            if k != "point_spacing" and "inspection" not in f:
+                warn(f"[inspection] {k}", 'formats does not list "inspection"')
     er = data.get("errors", {})
     if "measured_exaggeration" in er and not (measured and "dxf" in f):
         warn("[errors] measured_exaggeration", 'it scales measured_profile.dxf (needs "dxf")')
     physical = [k for k in er if k not in ("measured_profile", "measured_exaggeration")]
+    # The exact clearance takes every error kind, the mesh sweep only roller radii.
+    exact = "interference" in f and ex.get("interference_method", "exact") != "mesh"
     roller_only = "interference" in f
     for k in physical:  # the sweeps vary the nominal design: they ignore [errors]
         if not (
-            forces or mc or (roller_only and k in ("roller_radius_error", "roller_radius_errors"))
+            forces
+            or mc
+            or exact
+            or (roller_only and k in ("roller_radius_error", "roller_radius_errors"))
         ):
-            warn(f"[errors] {k}", "only forces, checks, montecarlo, allocation use it")
+            warn(f"[errors] {k}", "only forces, checks, montecarlo, allocation, interference")
     return tuple(out)
 
 
@@ -1018,22 +1041,40 @@ def _toml_value(v: Any) -> str:
 
 
 def template_text() -> str:
-    """A commented scene with every section and key (optional ones commented out)."""
-    lines = [
-        "# corr_cad scene. Units: mm, N, N*mm, MPa; angles in degrees.",
-        "# Run it with:  corr-cad run THIS_FILE --out outputs/NAME",
-        "",
-    ]
-    for section, keys in SCHEMA.items():
-        lines.append(f"[{section}]")
-        for k, spec in keys.items():
-            choices = f" (one of: {', '.join(spec.choices)})" if spec.choices else ""
-            lines.append(f"# {spec.help}{choices}")
-            if spec.default is None:
-                lines.append(f"# {k} = {_toml_value(spec.example)}")
-            elif section in ("errors",) or (section == "solver" and k == "variants"):
-                lines.append(f"# {k} = {_toml_value(spec.default)}")
-            else:
-                lines.append(f"{k} = {_toml_value(spec.default)}")
-        lines.append("")
+    """A commented scene with every section and key (optional ones commented out).
+
+    Sections and keys that would have no effect with the template's own
+    formats are written commented out too, so that a fresh scene runs without
+    a single "has no effect" warning; uncomment them with the format they need.
+    """
+    quiet: set[str] = set()
+    for _ in range(2):  # pass 1 finds what would warn, pass 2 writes it commented
+        lines = [
+            "# corr_cad scene. Units: mm, N, N*mm, MPa; angles in degrees.",
+            "# Run it with:  corr-cad run THIS_FILE --out outputs/NAME",
+            "# Commented sections and keys take effect with the formats they name.",
+            "",
+        ]
+        for section, keys in SCHEMA.items():
+            off = f"[{section}]" in quiet
+            lines.append(f"{'# ' if off else ''}[{section}]")
+            for k, spec in keys.items():
+                choices = f" (one of: {', '.join(spec.choices)})" if spec.choices else ""
+                lines.append(f"# {spec.help}{choices}")
+                commented = (
+                    off
+                    or f"[{section}] {k}" in quiet
+                    or spec.default is None
+                    or section == "errors"
+                    or (section == "solver" and k == "variants")
+                )
+                value = spec.example if spec.default is None else spec.default
+                lines.append(f"{'# ' if commented else ''}{k} = {_toml_value(value)}")
+            lines.append("")
+        data = tomllib.loads("\n".join(lines))
+        formats = tuple(data.get("export", {}).get("formats", SCHEMA["export"]["formats"].default))
+        found = {w.split(" has no effect")[0] for w in no_effect_warnings(data, formats, False)}
+        if not found - quiet:
+            break
+        quiet |= found
     return "\n".join(lines)

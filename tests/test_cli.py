@@ -93,3 +93,34 @@ def test_bundled_prototype_runs(tmp_path):
     r = corr_cad("run", str(ROOT / "templates" / "prototype.toml"), "--out", str(tmp_path / "p"))
     assert r.returncode == 0, r.stderr
     assert "roller 1: F_j mean 1741.9 N" in r.stdout
+
+
+def test_fresh_template_runs_without_a_warning(tmp_path):
+    """`corr-cad new` then `run`: nothing in the template is a silent no-op, nor warned."""
+    scene = tmp_path / "fresh.toml"
+    assert corr_cad("new", str(scene)).returncode == 0
+    r = corr_cad("run", str(scene), "--out", str(tmp_path / "out"), "--quiet")
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+
+
+def test_undercut_is_refused_before_anything_runs(tmp_path):
+    scene = tmp_path / "u.toml"
+    scene.write_text('[design]\nroller_radius = 11.0\n[export]\nformats = ["dxf"]\n')
+    r = corr_cad("run", str(scene), "--out", str(tmp_path / "out"))
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith("corr-cad: error: [design] roller_radius = 11: ")
+    assert "10.053" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_shop_and_interference_keys_without_their_format_warn(tmp_path):
+    scene = tmp_path / "w.toml"
+    scene.write_text(
+        '[export]\nformats = ["dxf"]\ninterference_method = "mesh"\n'
+        "[edm]\nwire_diameter = 0.3\n[inspection]\npoint_spacing = 2.0\n"
+    )
+    r = corr_cad("run", str(scene), "--out", str(tmp_path / "out"), "--quiet")
+    assert r.returncode == 0
+    warned = [ln for ln in r.stderr.splitlines() if ln.startswith("corr-cad: warning: ")]
+    assert len(warned) == 3
+    for what in ("[export] interference_method", "[edm]", "[inspection]"):
+        assert any(what + " has no effect" in ln for ln in warned), what
