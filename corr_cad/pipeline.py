@@ -68,9 +68,16 @@ def _profiles(ctx: RunContext) -> None:
 
 
 def _dxf_geometry(ctx: RunContext) -> None:
+    from .progress import Progress
+
     s = ctx.scene
+    # A fine tolerance takes seconds per profile: a line with rate and time left.
+    bar = Progress(2, f"      dxf profiles ({s.representation}, {s.tolerance:g} mm)", "profiles")
     w = approximate(ctx.results["working"], s.representation, s.tolerance)
+    bar.update(1)
     t = approximate(ctx.results["theoretical"], s.representation, s.tolerance)
+    bar.update(1)
+    bar.close()
     ctx.results["working_approx"] = w
     ctx.results["theoretical_approx"] = t
     # Where each figure goes: the run fails (exit 1) naming them if the

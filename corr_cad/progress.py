@@ -39,6 +39,10 @@ def _duration(seconds: float) -> str:
     return f"{s // 3600}h{(s % 3600) // 60:02d}m"
 
 
+#: Plain progress lines start only once the work has taken this long, s.
+QUIET_S = 2.0
+
+
 class Progress:
     """Counts ``total`` units of work; ``update(n)`` after each piece is done."""
 
@@ -86,6 +90,8 @@ class Progress:
             self._bar.update(n)
             return
         now = time.monotonic()
+        if now - self.t0 < min(self.interval, QUIET_S):
+            return  # work done within a couple of seconds needs no progress line
         if now - self._last >= self.interval or self.done >= self.total:
             self._last = now
             print(self.line(), file=self.stream, flush=True)
