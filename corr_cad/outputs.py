@@ -69,6 +69,11 @@ __all__ = [
 MANIFEST_NAME = "manifest.json"
 LOCK_NAME = ".corr-cad.lock"
 STAGING_PREFIX = ".corr-cad-staging-"
+#: Written into every staging folder on creation: only folders holding it are
+#: ever removed as leftovers (a user's folder that merely has the name is not).
+STAGING_MARK = ".corr-cad-staging"
+#: The lock file's content: a file of that name with other content is the user's.
+LOCK_MARK = b"corr-cad lock\n"
 GENERATOR = "corr-cad"
 #: How long a run waits for another run into the same folder before refusing
 #: (environment variable ``CORR_CAD_LOCK_WAIT_S`` overrides it, 0..3600 s).
@@ -334,6 +339,10 @@ def recover(folder: Path, say: Callable[[str], None]) -> None:
         _roll_forward(folder, m, say)
     for entry in sorted(os.scandir(folder), key=lambda e: e.name):
         if _staging(entry.name) and entry.is_dir(follow_symlinks=False):
+            mark = Path(entry.path) / STAGING_MARK
+            if not (mark.is_file() and not mark.is_symlink()):
+                say(f"corr-cad: warning: {entry.name} is not a corr-cad staging folder; left alone")
+                continue
             shutil.rmtree(entry.path)
             say(f"corr-cad: note: removed {entry.name}, left by an interrupted run")
         elif entry.name.startswith(MANIFEST_NAME + ".") and entry.name.endswith(".part"):
@@ -400,6 +409,15 @@ def _lock(folder: Path, wait_s: float) -> tuple[int, Path]:
         except FileNotFoundError:
             same = False
         if same:
+            content = os.pread(fd, 64, 0)
+            if content not in (b"", LOCK_MARK):  # a file of the user's with our name
+                os.close(fd)
+                raise OutputError(
+                    f"{path}: is not corr-cad's lock file; corr-cad leaves it alone - move it "
+                    "away or choose another --out"
+                )
+            if not content:
+                os.pwrite(fd, LOCK_MARK, 0)
             return fd, path
         os.close(fd)  # the holder removed it as we waited: lock the new one
 
@@ -484,6 +502,7 @@ class StagingDir:
                 tempfile.mkdtemp(dir=self.target, prefix=f"{STAGING_PREFIX}{os.getpid()}-")
             )
             os.chmod(self.path, 0o777 & ~_umask())
+            (self.path / STAGING_MARK).write_bytes(b"")
         except BaseException:
             self._unlock()
             raise
@@ -524,7 +543,7 @@ class StagingDir:
         prev_files = prev["files"] if prev else {}
         new: dict[str, dict] = {}
         for entry in sorted(os.scandir(stage), key=lambda e: e.name):
-            if entry.name == MANIFEST_NAME:
+            if entry.name in (MANIFEST_NAME, STAGING_MARK):
                 continue
             if not entry.is_file(follow_symlinks=False) or not _valid_name(entry.name):
                 raise ExportError(f"staged output {entry.name!r} is not a regular file")

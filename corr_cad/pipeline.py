@@ -20,7 +20,7 @@ import numpy as np
 
 from . import __version__
 from . import pipeline_shop as shop
-from .errors import SolverError
+from .errors import SceneError, SolverError
 from .pipeline_geometry import (  # noqa: F401  (re-exported)
     MESH_FORMATS,
     PART_NAMES,
@@ -433,6 +433,13 @@ def _sweeps(ctx: RunContext) -> None:
     }
     from .progress import Progress
 
+    for name, rng in ranges.items():  # a range the user gave with no valid point is an error
+        given = s.sweeps.get(name)
+        if given is not None and rng["swept"] is None:
+            why = rng.get("clipped_low") or rng.get("clipped_high") or "outside the design space"
+            raise SceneError(
+                f"[sweeps] {name} = {given!r}: no point of this range is a valid design ({why})"
+            )
     total = sum(s.sweeps["points"] for r in ranges.values() if r["swept"] is not None)
     bar = Progress(total, "      sweeps", "points")
     results = run_sweeps(

@@ -124,3 +124,32 @@ def test_shop_and_interference_keys_without_their_format_warn(tmp_path):
     assert len(warned) == 3
     for what in ("[export] interference_method", "[edm]", "[inspection]"):
         assert any(what + " has no effect" in ln for ln in warned), what
+
+
+def test_user_files_with_corr_cad_names_are_left_alone(tmp_path):
+    """A lock file or a staging-named folder that corr-cad did not make survives a run."""
+    (tmp_path / ".corr-cad.lock").write_text("LOCKMINE\n")
+    mine = tmp_path / ".corr-cad-staging-1-abc"
+    mine.mkdir()
+    (mine / "keep").write_text("mine\n")
+    scene = tmp_path / "d.toml"
+    scene.write_text('[export]\nformats = ["dxf"]\ntolerance = 0.01\n')
+    r = corr_cad("run", str(scene), "--out", str(tmp_path), "--quiet")
+    assert r.returncode == 2 and "is not corr-cad's lock file" in r.stderr
+    assert (tmp_path / ".corr-cad.lock").read_text() == "LOCKMINE\n"
+    (tmp_path / ".corr-cad.lock").unlink()
+    r = corr_cad("run", str(scene), "--out", str(tmp_path), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert (mine / "keep").read_text() == "mine\n"
+    assert "not a corr-cad staging folder" in r.stderr
+
+
+def test_sweep_range_with_no_valid_design_is_refused(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        '[export]\nformats = ["sweeps"]\n[load]\ninput_torque = 1.1e5\n'
+        "[sweeps]\neccentricity = [1e300, 1e301]\npoints = 2\npositions = 36\n"
+    )
+    r = corr_cad("run", str(scene), "--out", str(tmp_path / "o"), "--quiet")
+    assert r.returncode == 2 and not (tmp_path / "o").exists()
+    assert r.stderr.startswith("corr-cad: error: [sweeps] eccentricity = [1e+300, 1e+301]: ")

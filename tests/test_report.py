@@ -194,3 +194,20 @@ def test_report_opens_in_headless_chromium(run, tmp_path):
         timeout=120,
     )
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_report_with_step_files_states_their_read_back(tmp_path):
+    """STEP parts and the assembly STEP both get an accuracy line (an assembly once crashed it)."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        "[design]\ntooth_count = 5\ncam_radius = 30.0\nroller_radius = 3.0\neccentricity = 1.0\n"
+        '[export]\nformats = ["step", "report"]\ntolerance = 0.01\n'
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    html = (tmp_path / "o" / "report.html").read_text(encoding="utf-8")
+    assert "read back: volume error" in html and "named instances" in html

@@ -112,6 +112,11 @@ def _accuracy_of(name: str, manifest: dict) -> str:
         return "parts as above, placed at the crank angle"
     if ext == "step" and name in manifest.get("step", {}):
         s = manifest["step"][name]
+        if "instances" in s:  # the assembly: named instances of the part products
+            return (
+                f"read back: {s['instances']} named instances, placement error "
+                f"{_fmt(s.get('max_placement_error_mm'), 3)} mm"
+            )
         text = f"read back: volume error {_fmt(s['volume_error_mm3'], 3)} mm^3"
         if s.get("profile_spline_deviation_mm") is not None:
             text += f", profile spline {_fmt(s['profile_spline_deviation_mm'], 3)} mm"
