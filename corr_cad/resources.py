@@ -31,7 +31,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
-from .sampling import _MAX_VERTICES
 
 __all__ = [
     "MEMORY_BUDGET",
@@ -54,8 +53,9 @@ BATCH_CELL_BYTES = 700
 #: Samples per Monte Carlo task (``tolerance.monte_carlo``'s ``chunk``).
 MC_CHUNK = 50
 #: Most vertices (polyline/arcs) or control points (spline) of one DXF profile:
-#: the approximator's own budget, beyond which it cannot reach the tolerance.
-MAX_PROFILE_VERTICES = _MAX_VERTICES
+#: the approximator's own budget (``sampling._MAX_VERTICES``, a test keeps the
+#: two equal), beyond which it cannot reach the tolerance.
+MAX_PROFILE_VERTICES = 200_000
 #: Most triangles of one mesh file (an STL of 5e6 triangles is 250 MB).
 MAX_MESH_TRIANGLES = 5_000_000
 #: Largest CSV a run may write (forces.csv rows are about 110 bytes).

@@ -567,3 +567,10 @@ def test_readme_bounds_table_is_generated_from_the_schema():
     text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
     block = text.split("<!-- bounds-table -->\n")[1].split("<!-- /bounds-table -->")[0]
     assert block == bounds_table()
+
+
+def test_dxf_vertex_limit_is_the_approximators_budget():
+    """A tolerance the approximator cannot reach is refused up front, not after the work."""
+    from corr_cad import resources, sampling
+
+    assert resources.MAX_PROFILE_VERTICES == sampling._MAX_VERTICES
