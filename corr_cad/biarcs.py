@@ -96,6 +96,28 @@ def bulge_arc_points(a: np.ndarray, b: np.ndarray, bulge: np.ndarray, u: np.ndar
     return lin
 
 
+def _equal_leg(p0, t0, p1, t1):
+    """Chord ``v``, ``|v|^2``, ``1 - t0.t1`` and the equal tangent-leg length ``d``."""
+    v = p1 - p0
+    tt = t0 + t1
+    vt = _dot(v, tt)
+    vv = _dot(v, v)
+    c = 1.0 - _dot(t0, t1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d_gen = (-vt + np.sqrt(vt * vt + 2.0 * c * vv)) / (2.0 * c)
+        d_par = vv / (4.0 * _dot(v, t1))
+    return v, vv, c, np.where(np.abs(c) > 1e-12, d_gen, d_par)
+
+
+def _bulges(p0, t0, p1, t1, junction):
+    """Junction and the bulges of the two arcs through it, tangent to t0 and t1."""
+    ch1 = junction - p0
+    ch2 = p1 - junction
+    half1 = np.arctan2(_cross(t0, ch1), _dot(t0, ch1))
+    half2 = np.arctan2(_cross(ch2, t1), _dot(ch2, t1))
+    return junction, np.tan(0.5 * half1), np.tan(0.5 * half2)
+
+
 def biarc(
     p0: np.ndarray, t0: np.ndarray, p1: np.ndarray, t1: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -105,21 +127,9 @@ def biarc(
     second arc (n,). Both arcs are tangent to the given tangents at the ends
     and to each other at the junction.
     """
-    v = p1 - p0
-    tt = t0 + t1
-    vt = _dot(v, tt)
-    vv = _dot(v, v)
-    c = 1.0 - _dot(t0, t1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d_gen = (-vt + np.sqrt(vt * vt + 2.0 * c * vv)) / (2.0 * c)
-        d_par = vv / (4.0 * _dot(v, t1))
-    d = np.where(np.abs(c) > 1e-12, d_gen, d_par)
+    *_, d = _equal_leg(p0, t0, p1, t1)
     junction = 0.5 * (p0 + d[:, None] * t0 + p1 - d[:, None] * t1)
-    ch1 = junction - p0
-    ch2 = p1 - junction
-    half1 = np.arctan2(_cross(t0, ch1), _dot(t0, ch1))
-    half2 = np.arctan2(_cross(ch2, t1), _dot(ch2, t1))
-    return junction, np.tan(0.5 * half1), np.tan(0.5 * half2)
+    return _bulges(p0, t0, p1, t1, junction)
 
 
 def biarc_with_ratio(
@@ -132,15 +142,7 @@ def biarc_with_ratio(
     ``|p1 - d2 t1 - p0 - d1 t0| = d1 + d2``. Returns junctions and bulges as
     :func:`biarc` does; both arcs stay tangent to each other (G1).
     """
-    v = p1 - p0
-    tt = t0 + t1
-    vt = _dot(v, tt)
-    vv = _dot(v, v)
-    c = 1.0 - _dot(t0, t1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d_gen = (-vt + np.sqrt(vt * vt + 2.0 * c * vv)) / (2.0 * c)
-        d_par = vv / (4.0 * _dot(v, t1))
-    d = np.where(np.abs(c) > 1e-12, d_gen, d_par)
+    v, vv, c, d = _equal_leg(p0, t0, p1, t1)
     d1 = ratio * d
     with np.errstate(divide="ignore", invalid="ignore"):
         d2 = (vv - 2.0 * d1 * _dot(v, t0)) / (2.0 * _dot(v, t1) + 2.0 * d1 * c)
@@ -148,11 +150,7 @@ def biarc_with_ratio(
     b = p1 - d2[:, None] * t1
     w = (d1 / (d1 + d2))[:, None]
     junction = a + w * (b - a)
-    ch1 = junction - p0
-    ch2 = p1 - junction
-    half1 = np.arctan2(_cross(t0, ch1), _dot(t0, ch1))
-    half2 = np.arctan2(_cross(ch2, t1), _dot(ch2, t1))
-    return junction, np.tan(0.5 * half1), np.tan(0.5 * half2)
+    return _bulges(p0, t0, p1, t1, junction)
 
 
 def points_on_bulges(a: np.ndarray, b: np.ndarray, bulge: np.ndarray, u: np.ndarray) -> np.ndarray:

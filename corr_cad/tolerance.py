@@ -448,35 +448,31 @@ def allocate(
             "failing_at": 0.0,
             "evaluations": evals,
         }
+
+    def answer(tolerance: float, failing_at: float | None) -> dict:
+        return {
+            "kind": kind,
+            "tolerance": tolerance,
+            "unit": unit,
+            "distribution": distribution,
+            "meaning": meaning,
+            "failing_at": failing_at,
+            "evaluations": evals,
+        }
+
     lo, hi = 0.0, (1e-3 if unit == "mm" else 1e-2)
     cap = 0.5 * design.roller_radius if unit == "mm" else 5.0
     while passes(hi):
         lo, hi = hi, 2.0 * hi
         if hi > cap:
-            return {
-                "kind": kind,
-                "tolerance": lo,
-                "unit": unit,
-                "distribution": distribution,
-                "meaning": meaning,
-                "failing_at": None,
-                "evaluations": evals,
-            }
+            return answer(lo, None)
     while hi - lo > rel_precision * hi:
         mid = math.sqrt(lo * hi) if lo > 0 else 0.5 * hi
         if passes(mid):
             lo = mid
         else:
             hi = mid
-    return {
-        "kind": kind,
-        "tolerance": lo,
-        "unit": unit,
-        "distribution": distribution,
-        "meaning": meaning,
-        "failing_at": hi,
-        "evaluations": evals,
-    }
+    return answer(lo, hi)
 
 
 def replace_checks(checks: Checks, keep: str) -> Checks:
