@@ -423,22 +423,28 @@ def throughput(out: Path, quick: bool = False) -> list:
     rows = []
     n_pool = 1000 if quick else 10000
     repeat = 3
-    for label, n, workers in (
-        ("serial", min(n_pool, 1000), 0),
-        ("process pool, 1 worker", n_pool, 1),
-        ("process pool, 2 workers", n_pool, 2),
+    from .tolerance import KERNEL_MIN_WORK
+
+    mc(design, M0, tol, 2, 1, 4, kernel=True)  # load (or compile) the kernel once
+    for label, n, workers, kernel in (
+        ("serial", min(n_pool, 1000), 0, False),
+        ("serial", min(n_pool, 1000), 0, True),
+        ("process pool, 1 worker", n_pool, 1, None),
+        ("process pool, 2 workers", n_pool, 2, None),
     ):
         times = []
         for _ in range(repeat):
             ex = SerialExecutor() if workers == 0 else ProcessPoolExecutor(workers)
             t0 = time.perf_counter()
-            mc(design, M0, tol, n, 1, 360, executor=ex, chunk=50)
+            mc(design, M0, tol, n, 1, 360, executor=ex, chunk=50, kernel=kernel)
             times.append(time.perf_counter() - t0)
             if hasattr(ex, "shutdown"):
                 ex.shutdown()
         dt = statistics.median(times)
-        rows.append([label, n, dt, n / dt])
-    header = ["executor", "samples", "time_s", "samples_per_s"]
+        if kernel is None:
+            kernel = n * 360 >= KERNEL_MIN_WORK
+        rows.append([label, "kernel" if kernel else "numpy", n, dt, n / dt])
+    header = ["executor", "solver", "samples", "time_s", "samples_per_s"]
     _table(
         f"Monte Carlo throughput (360 positions, 4 tolerances, median of {repeat})", header, rows
     )
@@ -535,6 +541,81 @@ def cold_start(out: Path, quick: bool = False) -> list:
     return rows
 
 
+_KERNEL_SCRIPT = """
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from corr_cad import GearDesign
+from corr_cad.bench import _tolerances
+from corr_cad.tolerance import monte_carlo
+n, positions, kernel = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "kernel"
+with ProcessPoolExecutor(2) as pool:
+    monte_carlo(GearDesign(), 1.1e5, _tolerances(True), n, 1, positions, executor=pool,
+                kernel=kernel)
+"""
+
+
+def kernel_crossover(out: Path, quick: bool = False) -> list:
+    """Whole-process wall time of a Monte Carlo on 2 workers: numpy against the kernel.
+
+    Each run is a fresh ``python`` (imports included). ``kernel, first run``
+    compiles into an empty numba cache (once per installation); ``kernel``
+    loads the cached machine code. The crossover justifies
+    :data:`corr_cad.tolerance.KERNEL_MIN_WORK`.
+    """
+    import subprocess
+    import sys
+
+    from .tolerance import KERNEL_MIN_WORK
+
+    sizes = (
+        [(200, 364), (1000, 360)] if quick else [(200, 364), (1000, 360), (2778, 360), (10000, 360)]
+    )
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+
+        def once(n, P, path, cache):
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            cmd = [sys.executable, "-c", _KERNEL_SCRIPT, str(n), str(P), path]
+            t0 = time.perf_counter()
+            subprocess.run(cmd, check=True, capture_output=True, env=env)
+            return time.perf_counter() - t0
+
+        warm = str(Path(tmp) / "warm")
+        once(10, 36, "kernel", warm)  # fill the cache once
+        for n, P in sizes:
+            repeat = 1 if (quick or n * P > 2e6) else 3
+            t_np = statistics.median(once(n, P, "numpy", warm) for _ in range(repeat))
+            t_cold = statistics.median(
+                once(n, P, "kernel", str(Path(tmp) / f"cold{n}_{i}")) for i in range(repeat)
+            )
+            t_warm = statistics.median(once(n, P, "kernel", warm) for _ in range(repeat))
+            chosen = "kernel" if n * P >= KERNEL_MIN_WORK else "numpy"
+            rows.append([n, P, n * P, t_np, t_cold, t_warm, chosen])
+    header = ["samples", "positions", "work", "numpy_s", "kernel_first_run_s", "kernel_s", "chosen"]
+    _table(
+        f"Monte Carlo, 2 workers, whole process (4 tolerances; kernel from "
+        f"{KERNEL_MIN_WORK:,} samples x positions)",
+        header,
+        rows,
+    )
+    _write_csv(out, "kernel_crossover.csv", header, rows)
+
+    def draw(ax):
+        w = [r[2] for r in rows]
+        ax.loglog(w, [r[3] for r in rows], "o-", label="numpy")
+        ax.loglog(w, [r[4] for r in rows], "s--", label="kernel, first run (compiles)")
+        ax.loglog(w, [r[5] for r in rows], "^-", label="kernel (cached)")
+        ax.axvline(KERNEL_MIN_WORK, color="0.5", lw=0.8)
+        ax.text(KERNEL_MIN_WORK, ax.get_ylim()[1], " kernel used from here", va="top", fontsize=8)
+        ax.set_xlabel("samples x crank positions")
+        ax.set_ylabel("wall time of the whole process [s]")
+        ax.set_title(f"Monte Carlo on 2 workers: numpy vs compiled kernel ({_machine()})")
+        ax.legend(fontsize=8)
+
+    _figure(out, "kernel_crossover.png", draw)
+    return rows
+
+
 STUDIES = {
     "profile": profile_export,
     "solids": solids,
@@ -542,6 +623,7 @@ STUDIES = {
     "speed": solver_speed,
     "montecarlo": montecarlo,
     "throughput": throughput,
+    "kernel": kernel_crossover,
     "interference": interference,
     "coldstart": cold_start,
 }

@@ -63,6 +63,7 @@ def _parser() -> argparse.ArgumentParser:
             "speed",
             "montecarlo",
             "throughput",
+            "kernel",
             "interference",
             "coldstart",
         ),

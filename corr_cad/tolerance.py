@@ -19,8 +19,8 @@ import numpy as np
 
 from .design import GearDesign
 from .deviations import ManufacturingErrors
-from .errors import SceneError
-from .solver import BatchSolver, cycle_angles, loaded_mask
+from .errors import SceneError, SolverError
+from .solver import _RTOL, BatchSolver, cycle_angles, loaded_mask, roller_geometry
 
 __all__ = [
     "TOLERANCE_KINDS",
@@ -164,16 +164,51 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
     return replace(base, **kw)
 
 
-#: Samples solved together inside a task: their arrays (block x positions x
-#: rollers) stay in the CPU cache, which is worth ~2x over large batches.
+#: Samples solved together by the numpy path: their arrays (block x positions
+#: x rollers) stay in the CPU cache, which is worth ~2x over large batches.
 #: Each row is solved independently, so the block size never changes a bit.
 _BLOCK_ROWS = 400
 
+#: Work (samples x crank positions) from which the compiled kernel is used.
+#: Below it numba's import, cache load and (once per installation) compile
+#: cost more than the kernel saves; ``corr-cad bench --study kernel`` measures
+#: the crossover. The choice depends only on the work, never on the machine
+#: or on whether the kernel is compiled already, so a scene always gives the
+#: same bits.
+KERNEL_MIN_WORK = 1_000_000
+
+
+def _sample_errors(base: ManufacturingErrors, tolerances, draws, n: int, R: int):
+    """Each sample's errors: ``base`` plus its draws, as arrays (n,) and (n, R).
+
+    Roller radius: ``base.roller_radius_error`` + per-roller base + draw (mm);
+    slot angle and cam phase draws are in degrees, the arrays in rad.
+    """
+    v = {kind: tolerances[kind].draw(u) for kind, u in draws.items()}
+    cam = base.cam_radius_error + v.get("cam_radius", np.zeros(n))
+    ecc = base.eccentricity_error + v.get("eccentricity", np.zeros(n))
+    phase = base.cam_phase_error + np.radians(v.get("cam_phase", np.zeros(n)))
+    if "roller_radius" in v:
+        per = np.asarray(base.roller_radius_errors or np.zeros(R))
+        dr = base.roller_radius_error + (per + v["roller_radius"])
+    else:
+        dr = np.tile(base.roller_errors(R), (n, 1))
+    if "slot_angle" in v:
+        per = np.asarray(base.slot_angle_errors or np.zeros(R))
+        dl = per + np.radians(v["slot_angle"])
+    else:
+        dl = np.tile(base.slot_errors(R), (n, 1))
+    return cam, ecc, phase, dr, dl
+
 
 def _chunk_task(
-    design, input_torque, angles, load_share, base, tolerances, units, lo, hi, psi_limit=math.pi
+    design, input_torque, angles, load_share, base, tolerances, draws, n, psi_limit, kernel
 ):
-    """Solve samples ``lo..hi-1`` (runs in a worker), a few samples at a time."""
+    """Solve one chunk of ``n`` samples (runs in a worker); ``draws``: its standard draws."""
+    if kernel:
+        return _kernel_chunk(
+            design, input_torque, angles, load_share, base, tolerances, draws, n, psi_limit
+        )
     solver = BatchSolver(
         design,
         angles,
@@ -183,12 +218,69 @@ def _chunk_task(
     )
     block = max(1, _BLOCK_ROWS // len(solver.angles))
     parts, ok = [], True
-    for a in range(lo, hi, block):
-        b = min(a + block, hi)
-        res = solver.solve([_errors_for(base, tolerances, units, k) for k in range(a, b)])
+    for a in range(0, n, block):
+        b = min(a + block, n)
+        res = solver.solve([_errors_for(base, tolerances, draws, k) for k in range(a, b)])
         parts.append(sample_metrics(res, b - a))
         ok &= bool(res.success)
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, ok
+
+
+def _kernel_chunk(design, input_torque, angles, load_share, base, tolerances, draws, n, psi_limit):
+    """The compiled kernel (:mod:`corr_cad.mc_kernel`): each sample at every
+    position from the nominal geometry, keeping only the metrics."""
+    from . import mc_kernel
+
+    R = design.roller_count
+    g = roller_geometry(design, angles, psi_contact_limit=psi_limit)
+    if base.profile_deviation is not None:
+        t_abs = angles[:, None] / design.tooth_count + np.arange(R)[None, :] * design.slot_pitch_rad
+        pd = np.asarray(base.profile_deviation(t_abs), dtype=float) + 0.0 * g.psi
+    else:
+        pd = np.zeros_like(g.psi)
+    cam, ecc, phase, dr, dl = _sample_errors(base, tolerances, draws, n, R)
+    out = np.empty((n, 4))
+    rel = np.empty(n)
+    c = np.ascontiguousarray
+    mc_kernel.solve_samples(
+        c(g.psi),
+        c(g.s),
+        c(g.rho_n),
+        c(np.abs(g.rho_s)),
+        c(np.where(g.loadable, g.advance, 0.0)),
+        c(g.loadable),
+        c(g.k_gear),
+        c(pd),
+        c(cam, dtype=float),
+        c(ecc, dtype=float),
+        c(phase, dtype=float),
+        c(dr, dtype=float),
+        c(dl, dtype=float),
+        float(design.eccentricity),
+        float(design.link_length),
+        float(design.tooth_count),
+        float(design.roller_radius),
+        float(design.cam_radius),
+        float(design.roller_length),
+        float(design.material.contact_modulus),
+        load_share * float(input_torque),
+        _RTOL,
+        out,
+        rel,
+    )
+    if np.any(np.isinf(rel)):
+        raise SolverError(
+            f"no roller can carry the moment {load_share * float(input_torque):g} N*mm "
+            f"in {int(np.count_nonzero(np.isinf(rel)))} of {n} samples "
+            "(all loadable rollers face the wrong way or are masked)"
+        )
+    metrics = {
+        "peak_gear_force": out[:, 0],
+        "peak_pressure": out[:, 1],
+        "min_loaded_rollers": out[:, 2],
+        "lost_motion_arcmin": out[:, 3] * ARCMIN_PER_RAD,
+    }
+    return metrics, bool(np.all(rel <= max(_RTOL, 1e-9)))
 
 
 class SerialExecutor:
@@ -269,11 +361,16 @@ def monte_carlo(
     chunk: int = 50,
     progress: Callable[[int, int], None] | None = None,
     psi_contact_limit: float = math.pi,
+    kernel: bool | None = None,
 ) -> MonteCarloResult:
     """Seeded Monte Carlo over ``tolerances``; see the module docstring.
 
     ``psi_contact_limit``: as in :func:`~corr_cad.solver.solve_forces` (the
     trimmed tooth tips of an allowed undercut carry nothing).
+
+    ``kernel``: solve with the compiled kernel (:mod:`corr_cad.mc_kernel`,
+    same results to round-off) or with the numpy solver; by default the
+    kernel from :data:`KERNEL_MIN_WORK` samples x positions on.
 
     Each sample draws every tolerance, solves ``positions`` crank positions
     of a cycle and keeps four metrics (:func:`sample_metrics`).
@@ -297,6 +394,23 @@ def monte_carlo(
     units = draw_samples(tolerances, samples, seed, design.roller_count)
     executor = executor or SerialExecutor()
     bounds = [(lo, min(lo + chunk, samples)) for lo in range(0, samples, chunk)]
+    if kernel is None:
+        kernel = samples * len(angles) >= KERNEL_MIN_WORK
+    if kernel and not isinstance(executor, SerialExecutor):
+        # Compile (or load from the cache) here, once, before the workers start:
+        # forked workers inherit it.
+        _chunk_task(
+            design,
+            input_torque,
+            angles[:1],
+            load_share,
+            base,
+            tolerances,
+            {k: u[:1] for k, u in units.items()},
+            1,
+            psi_contact_limit,
+            True,
+        )
     futures = [
         executor.submit(
             _chunk_task,
@@ -306,10 +420,10 @@ def monte_carlo(
             load_share,
             base,
             tolerances,
-            units,
-            lo,
-            hi,
+            {k: u[lo:hi] for k, u in units.items()},
+            hi - lo,
             psi_contact_limit,
+            kernel,
         )
         for lo, hi in bounds
     ]
@@ -401,6 +515,9 @@ def allocate(
     if distribution not in ("normal", "uniform"):
         raise SceneError(f"distribution {distribution!r} must be normal or uniform")
     meaning = "sigma" if distribution == "normal" else "uniform half-width"
+    # The kernel pays for itself on the whole allocation's work (all its Monte
+    # Carlos), decided once so that every evaluation takes the same path.
+    kernel = samples * positions * expected_total() >= KERNEL_MIN_WORK
 
     def passes(T: float) -> bool:
         nonlocal evals
@@ -418,6 +535,7 @@ def allocate(
             executor=executor,
             base_errors=base_errors,
             psi_contact_limit=psi_contact_limit,
+            kernel=kernel,
         )
         ok = True
         for name in checks.active():

@@ -164,3 +164,14 @@ def test_manifest_lists_stages_with_times(tmp_path):
     m = json.loads(Path(out / "manifest.json").read_text())
     assert [s["name"] for s in m["stages"]] == ["undercut", "profiles", "dxf_geometry", "dxf_files"]
     assert all(s["seconds"] >= 0 for s in m["stages"])
+
+
+def test_bench_study_names_in_the_cli_are_the_bench_studies():
+    """The CLI lists them without importing the bench (cold start); they must agree."""
+    import argparse
+
+    from corr_cad import bench, cli
+
+    sub = next(a for a in cli._parser()._actions if isinstance(a, argparse._SubParsersAction))
+    study = next(a for a in sub.choices["bench"]._actions if "--study" in a.option_strings)
+    assert tuple(study.choices) == tuple(bench.STUDIES)
