@@ -37,7 +37,9 @@ class _Contact:
     def take(self, sel):
         out = object.__new__(_Contact)
         out.w = None if self.w is None else self.w[sel]
-        out.cw, out.wcw, out.k1, out.uk = self.cw[sel], self.wcw[sel], self.k1[sel], self.uk[sel]
+        out.cw, out.wcw, out.k1, out.uk = (
+            x if np.ndim(x) == 0 else x[sel] for x in (self.cw, self.wcw, self.k1, self.uk)
+        )
         out.k2 = self.k2 if np.ndim(self.k2) == 0 else self.k2[sel]
         return out
 
