@@ -39,7 +39,9 @@ is monotone in ``tau``, so the root is bracketed); the per-roller equation is
 inverted by Newton from a start to the right of the root, which converges
 monotonically because the approach is convex in the force. Everything is
 vectorised over positions and rollers, and a full cycle solves only one
-position per class of the ``2 pi/(z+1)`` periodicity.
+position per class of the ``2 pi/(z+1)`` periodicity. A design without
+errors takes a closed-form fast path (:mod:`corr_cad.solver_nominal`);
+Monte Carlo (:class:`BatchSolver`) never does.
 """
 
 from __future__ import annotations

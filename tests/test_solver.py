@@ -273,7 +273,7 @@ NOMINAL_CASES = [
     dict(positions=3600),
     dict(positions=3640),
     dict(positions=360, input_torque=-M0),
-    dict(crank_angles=np.radians([0.0, 7.3, 90.0, 123.4, 180.0, 400.0, -30.0])),
+    dict(crank_angles=np.radians([0.0, 7.3, 90.0, 123.4, 180.0, 400.0, -30.0])),  # and psi = 0, pi
     dict(positions=360, contact_model="linear"),
     dict(positions=360, variants=("working_half_only",)),
     dict(positions=360, psi_contact_limit=2.5),
@@ -281,7 +281,7 @@ NOMINAL_CASES = [
 ]
 
 
-@pytest.mark.parametrize("case", NOMINAL_CASES, ids=lambda c: ",".join(map(str, c.values())))
+@pytest.mark.parametrize("case", NOMINAL_CASES, ids=lambda c: ",".join(map(str, c)))
 def test_nominal_fast_path_equals_general_path(prototype, monkeypatch, case):
     """The closed-form path without errors (solver_nominal) against the general one.
 
