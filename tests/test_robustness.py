@@ -8,8 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from corr_cad import CorrCadError, ProfileError, SceneError, working_profile
-from corr_cad import solver as solver_mod
+from corr_cad import CorrCadError, ProfileError, SceneError, solver_geometry, working_profile
 from corr_cad.export.measured_io import read_measured_points
 from corr_cad.measured import validate_points
 from corr_cad.outputs import StagingDir
@@ -93,7 +92,7 @@ def test_scene_without_errors_never_builds_error_terms(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise AssertionError("error terms built for a scene without errors")
 
-    monkeypatch.setattr(solver_mod, "_error_gaps", boom)
+    monkeypatch.setattr(solver_geometry, "_error_gaps", boom)
     data = {
         "export": {"formats": ["forces"]},
         "load": {"input_torque": 1e5},

@@ -267,3 +267,62 @@ def test_loaded_count_does_not_depend_on_the_resolution(prototype):
     assert np.array_equal(fine.loaded_count[::10], coarse.loaded_count)
     F = fine.F_j
     assert not np.any(fine.loaded & (F < 1e-6 * F.max(axis=1, keepdims=True)))
+
+
+NOMINAL_CASES = [
+    dict(positions=3600),
+    dict(positions=3640),
+    dict(positions=360, input_torque=-M0),
+    dict(crank_angles=np.radians([0.0, 7.3, 90.0, 123.4, 180.0, 400.0, -30.0])),  # and psi = 0, pi
+    dict(positions=360, contact_model="linear"),
+    dict(positions=360, variants=("working_half_only",)),
+    dict(positions=360, psi_contact_limit=2.5),
+    dict(positions=52, input_torque=1e9),  # heavy: more Newton steps
+]
+
+
+@pytest.mark.parametrize("case", NOMINAL_CASES, ids=lambda c: ",".join(map(str, c)))
+def test_nominal_fast_path_equals_general_path(prototype, monkeypatch, case):
+    """The closed-form path without errors (solver_nominal) against the general one.
+
+    Same model, other arithmetic: closed-form geometry, a window of rollers,
+    the linear start without sorting. Agreement to round-off, every field.
+    """
+    from corr_cad import solver
+
+    case = dict(case)
+    torque = case.pop("input_torque", M0)
+    taken = []
+    fast_result = solver._nominal_result
+    monkeypatch.setattr(solver, "_nominal_result", lambda *a: taken.append(1) or fast_result(*a))
+    fast = solve_forces(prototype, torque, **case)
+    assert taken, "the fast path was not taken"
+    monkeypatch.setattr(solver, "_nominal_result", lambda *a: None)
+    slow = solve_forces(prototype, torque, **case)
+    assert fast.success and slow.success
+    for name in ("F_j", "F_n", "F_s", "p_cam", "p_slot", "p_gear", "cam_rotation"):
+        x, y = getattr(fast, name), getattr(slow, name)
+        np.testing.assert_allclose(x, y, rtol=0, atol=1e-12 * np.abs(y).max(), err_msg=name)
+    for name in ("valid_cam", "valid_slot", "valid_gear", "loaded", "psi", "crank_angles"):
+        assert np.array_equal(getattr(fast, name), getattr(slow, name)), name
+    for name in ("s", "rho_n", "rho_s", "advance", "arm", "gap", "k_roller", "k_gear"):
+        x, y = getattr(fast.geometry, name), getattr(slow.geometry, name)
+        np.testing.assert_allclose(x, y, rtol=0, atol=1e-13 * np.abs(y).max(), err_msg=name)
+    assert np.array_equal(fast.geometry.loadable, slow.geometry.loadable)
+    assert fast.geometry.k_cam == slow.geometry.k_cam
+
+
+def test_blocks_change_no_bit(prototype, monkeypatch):
+    """Blocks are written into outputs allocated once: the same bits as one block."""
+    from corr_cad import solver
+
+    err = ManufacturingErrors(eccentricity_error=0.02)
+    blocks = solve_forces(prototype, M0, positions=720, errors=err)
+    monkeypatch.setattr(solver, "_BLOCK_ELEMENTS", 10**9)
+    one = solve_forces(prototype, M0, positions=720, errors=err)
+    for k, v in one.__dict__.items():
+        if isinstance(v, np.ndarray):
+            assert np.array_equal(getattr(blocks, k), v), k
+    for k in one.geometry.expanded().__dict__:
+        assert np.array_equal(getattr(blocks.geometry, k), getattr(one.geometry, k)), k
+    assert (blocks.success, blocks.iterations) == (one.success, one.iterations)
