@@ -600,6 +600,13 @@ def kernel_crossover(out: Path, quick: bool = False) -> list:
     )
     _write_csv(out, "kernel_crossover.csv", header, rows)
 
+    _draw_kernel_crossover(out, rows)
+    return rows
+
+
+def _draw_kernel_crossover(out: Path, rows: list) -> Path:
+    from .tolerance import KERNEL_MIN_WORK
+
     def draw(ax):
         w = [r[2] for r in rows]
         ax.loglog(w, [r[3] for r in rows], "o-", label="numpy")
@@ -609,11 +616,14 @@ def kernel_crossover(out: Path, quick: bool = False) -> list:
         ax.text(KERNEL_MIN_WORK, ax.get_ylim()[1], " kernel used from here", va="top", fontsize=8)
         ax.set_xlabel("samples x crank positions")
         ax.set_ylabel("wall time of the whole process [s]")
+        lo, hi = ax.get_ylim()
+        ticks = [t for t in (0.5, 1, 2, 5, 10, 20, 50, 100) if lo <= t <= hi]
+        ax.set_yticks(ticks, [f"{t:g}" for t in ticks])
+        ax.set_yticks([], minor=True)
         ax.set_title(f"Monte Carlo on 2 workers: numpy vs compiled kernel ({_machine()})")
         ax.legend(fontsize=8)
 
-    _figure(out, "kernel_crossover.png", draw)
-    return rows
+    return _figure(out, "kernel_crossover.png", draw)
 
 
 STUDIES = {
