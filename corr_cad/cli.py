@@ -270,7 +270,10 @@ def _schema(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     import signal
 
+    from .memory import keep_freed_memory
+
     args = _parser().parse_args(argv)
+    keep_freed_memory()  # fresh pages fault at every new array otherwise: see memory.py
     state: dict = {}
     previous = None
     if threading.current_thread() is threading.main_thread():
