@@ -645,16 +645,13 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
         for name in worker_stages(stages):
             pending[name] = ctx.executor.submit(run_stage_in_worker, ctx.scene, str(ctx.out), name)
     timings: dict[str, dict] = {}
-    # Manifest sections in the order a serial run writes them: a stage's own
-    # keys, or ("worker", stage) where a worker's sections go.
-    order: list = []
-    worker_sections: dict[str, dict] = {}
+    joined: set[str] = set()
 
-    def join() -> None:
+    def join() -> None:  # manifest.json is key-sorted: the sections' order does not matter
         for name, fut in pending.items():
-            if name not in worker_sections:
+            if name not in joined:
                 sections, files, seconds = fut.result()
-                worker_sections[name] = sections
+                joined.add(name)
                 ctx.manifest.update(sections)
                 ctx.files.extend(files)
                 timings[name] = {"name": name, "seconds": round(seconds, 6), "worker": True}
@@ -663,16 +660,13 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
         for i, name in enumerate(stages, 1):
             if name in pending:
                 ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc} (in a worker)")
-                order.append(("worker", name))
                 continue
             if name == "report":  # it reads what every other stage made
                 join()
             ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")
-            before = set(ctx.manifest)
             t0 = time.perf_counter()
             STAGES[name].run(ctx)
             timings[name] = {"name": name, "seconds": round(time.perf_counter() - t0, 6)}
-            order.extend([k for k in ctx.manifest if k not in before])
         join()
     except BaseException:
         if any(not f.done() for f in pending.values()):
@@ -680,15 +674,6 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
             # into it afterwards.
             kill_pool(ctx.executor)
         raise
-    if pending:
-        manifest = {}
-        for key in order:
-            if isinstance(key, tuple):
-                manifest.update({k: ctx.manifest[k] for k in worker_sections[key[1]]})
-            else:
-                manifest[key] = ctx.manifest[key]
-        manifest.update({k: v for k, v in ctx.manifest.items() if k not in manifest})
-        ctx.manifest = manifest
     return [timings[name] for name in stages]
 
 

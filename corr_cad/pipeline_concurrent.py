@@ -12,9 +12,9 @@ What stays as in a serial run:
 
 * the bytes of every file (the worker runs the same stage function on the
   same scene; nothing in it depends on the process);
-* ``manifest.json``: the worker returns the manifest sections its stage
-  wrote, and they are put back in stage order; ``stages`` lists every stage
-  in plan order, the worker's with ``"worker": true``;
+* ``manifest.json`` (written key-sorted): the worker returns the manifest
+  sections its stage wrote; ``stages`` lists every stage in plan order, the
+  worker's with ``"worker": true`` and its own time;
 * errors: an error in the worker is raised in the main process, where the
   CLI reports it as it would have;
 * interruption: if the main process fails or is interrupted (SIGINT,
