@@ -20,6 +20,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from corr_cad import GearDesign, approximate, working_profile
 from corr_cad.parts import part_outlines
 from corr_cad.placement import assembly_placements
@@ -78,8 +80,12 @@ def phases(design: GearDesign, out: Path, tol: float = 1e-3) -> dict[str, float]
     add("write assembly", t0)
     t0 = pt()
     _, parts = step.read_step(path, heal=False)
+    # As the stage checks it: one box per product, every instance's location.
+    boxes = {}
     for p in parts:
-        step.bounding_box(p.shape)
+        if p.product not in boxes:
+            boxes[p.product] = step.bounding_box(step.unplaced(p.shape))
+        step.transform_points(p.shape, np.repeat(boxes[p.product], 4, axis=0))
     add("read + check assembly", t0)
     return t
 

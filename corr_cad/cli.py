@@ -108,12 +108,15 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
     staging = StagingDir(out)
     state["staging"] = staging
-    with _executor(args, scene) as executor, staging as stage:
+    concurrent = _concurrent_stages(args, scene)
+    with _executor(args, scene, concurrent) as executor, staging as stage:
         # Printed with --quiet too (the user must know), once the run is
         # accepted: a refused run prints only its one error line.
         for warning in scene.warnings:
             print(f"corr-cad: warning: {warning}", file=sys.stderr)
-        manifest = run_scene(scene, stage, progress=say, executor=executor)
+        manifest = run_scene(
+            scene, stage, progress=say, executor=executor, concurrent_stages=concurrent
+        )
     from .console import failed_checks, summary_lines
 
     if not args.quiet:
@@ -177,9 +180,30 @@ def _worker_init(parent_pid: int) -> None:
     threading.Thread(target=watch, name="corr-cad-parent-watch", daemon=True).start()
 
 
+def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
+    """Run the STEP export in a pool worker beside the other stages?
+
+    With the process executor and two or more workers (``--workers``, default
+    all cores), when the scene has other work to overlap it with
+    (:mod:`corr_cad.pipeline_concurrent`).
+    """
+    from .pipeline import plan
+    from .pipeline_concurrent import worker_stages
+
+    if args.executor != "process" or (args.workers or os.cpu_count() or 1) < 2:
+        return False
+    stages = plan(
+        scene.formats,
+        checks=bool(scene.checks.active()),
+        measured=scene.measured_profile is not None,
+        interference_method=scene.interference_method,
+    )
+    return bool(worker_stages(stages))
+
+
 @contextlib.contextmanager
-def _executor(args: argparse.Namespace, scene):
-    """The executor for sample work; only started (or contacted) when the scene needs one."""
+def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
+    """The executor for sample work and worker stages; only started (or contacted) when needed."""
     from .errors import SceneError
 
     needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
@@ -208,10 +232,12 @@ def _executor(args: argparse.Namespace, scene):
         finally:
             client.close()
         return
-    if args.executor == "serial" or not needs:
+    if args.executor == "serial" or not (needs or concurrent_stages):
         yield None
         return
     from concurrent.futures import ProcessPoolExecutor
+
+    from .pipeline_concurrent import kill_pool
 
     pool = ProcessPoolExecutor(
         max_workers=args.workers, initializer=_worker_init, initargs=(os.getpid(),)
@@ -219,12 +245,7 @@ def _executor(args: argparse.Namespace, scene):
     try:
         yield pool
     except BaseException:
-        procs = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for p in procs:
-            p.kill()
-        for p in procs:
-            p.join(5)
+        kill_pool(pool)
         raise
     pool.shutdown(wait=True)
 

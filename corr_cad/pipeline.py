@@ -636,13 +636,62 @@ def _clean(obj):
     return obj
 
 
+def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[dict]:
+    """Run ``stages`` in order (some in a pool worker if ``concurrent``); their timings."""
+    from .pipeline_concurrent import kill_pool, run_stage_in_worker, worker_stages
+
+    pending = {}
+    if concurrent and ctx.executor is not None:
+        for name in worker_stages(stages):
+            pending[name] = ctx.executor.submit(run_stage_in_worker, ctx.scene, str(ctx.out), name)
+    timings: dict[str, dict] = {}
+    joined: set[str] = set()
+
+    def join() -> None:  # manifest.json is key-sorted: the sections' order does not matter
+        for name, fut in pending.items():
+            if name not in joined:
+                sections, files, seconds = fut.result()
+                joined.add(name)
+                ctx.manifest.update(sections)
+                ctx.files.extend(files)
+                timings[name] = {"name": name, "seconds": round(seconds, 6), "worker": True}
+
+    try:
+        for i, name in enumerate(stages, 1):
+            if name in pending:
+                ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc} (in a worker)")
+                continue
+            if name == "report":  # it reads what every other stage made
+                join()
+            ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")
+            t0 = time.perf_counter()
+            STAGES[name].run(ctx)
+            timings[name] = {"name": name, "seconds": round(time.perf_counter() - t0, 6)}
+        join()
+    except BaseException:
+        if any(not f.done() for f in pending.values()):
+            # Before the caller removes the staging folder: no worker may write
+            # into it afterwards.
+            kill_pool(ctx.executor)
+        raise
+    return [timings[name] for name in stages]
+
+
 def run_scene(
-    scene: Scene, out: Path, progress: Callable[[str], None] | None = None, executor=None
+    scene: Scene,
+    out: Path,
+    progress: Callable[[str], None] | None = None,
+    executor=None,
+    concurrent_stages: bool = False,
 ) -> dict:
     """Run the stages ``scene`` needs, writing into ``out`` (a staging folder).
 
     Returns the manifest (also written as ``manifest.json``). The CLI wraps
     this in a staging folder that it swaps in when everything is written.
+    With ``concurrent_stages`` (``executor`` must then be a process pool),
+    the STEP export runs in a pool worker beside the other stages
+    (:mod:`corr_cad.pipeline_concurrent`); the files and the manifest are
+    the same as in a serial run, but for the ``stages`` timings.
 
     >>> import tempfile, pathlib
     >>> from corr_cad import GearDesign, run_scene
@@ -675,12 +724,7 @@ def run_scene(
             f"estimate: peak memory ~{mem / 2**20:.0f} MB (budget 2048 MB)"
             + (f"; solver work {work}" if work else "")
         )
-    timings = []
-    for i, name in enumerate(stages, 1):
-        ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")
-        t0 = time.perf_counter()
-        STAGES[name].run(ctx)
-        timings.append({"name": name, "seconds": round(time.perf_counter() - t0, 6)})
+    timings = _run_stages(ctx, stages, concurrent_stages)
     files = {
         name: {"sha256": sha256_of(ctx.out / name), "bytes": (ctx.out / name).stat().st_size}
         for name in sorted(ctx.files)

@@ -133,9 +133,21 @@ def _step_files(ctx: RunContext) -> None:
         want = [(p.name, PART_NAMES[p.part]) for p in placements]
         if product != f"assembly_{tag}" or got != want:
             raise ExportError(f"{fname}: read-back names differ from the placements written")
-        centres = np.array([step.bounding_box(p.shape).mean(axis=0) for p in parts])
-        expected = np.array([_placed_centre(p, s.design) for p in placements])
-        offset = float(np.abs(centres - expected).max())
+        # Each product's box once, from its shape in this file; it must be the
+        # box of its own part file. Then the corners of that box moved by each
+        # instance's location as read, against the placement applied here.
+        boxes: dict[str, np.ndarray] = {}
+        offset = 0.0
+        for p, want in zip(parts, placements, strict=True):
+            if p.product not in boxes:
+                box = step.bounding_box(step.unplaced(p.shape))
+                own = np.array(report[f"{p.product}.step"]["bbox_mm"])
+                if not np.abs(box - own).max() <= 1e-9:
+                    raise ExportError(f"{fname}: product {p.product} is not {p.product}.step")
+                boxes[p.product] = box
+            corners = _box_corners(boxes[p.product])
+            moved = step.transform_points(p.shape, corners)
+            offset = max(offset, float(np.abs(moved - _placed_points(want, corners)).max()))
         if offset > 1e-6:
             raise ExportError(f"{fname}: a part is {offset:.3g} mm from where it was placed")
         report[fname] = {
@@ -156,19 +168,18 @@ def _profile_edge_count(spline) -> int:
     return int(len(spline_bezier_spans(spline)[0]))
 
 
-def _placed_centre(p, design) -> np.ndarray:
-    """Centre of a placed part's bounding box, from the part's own box (mm)."""
+def _box_corners(box: np.ndarray) -> np.ndarray:
+    """The 8 corners (8, 3) of a box given as (2, 3) min / max corners."""
+    idx = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    return box[idx, [0, 1, 2]]
+
+
+def _placed_points(p, points: np.ndarray) -> np.ndarray:
+    """``points`` (n, 3) of a part moved by placement ``p``: ``T(offset) . R(angle) . T(pre)``."""
     from .kinematics import rotate_by_polar_angle
 
-    half_height = {
-        "ring": design.face_width,
-        "cam": design.face_width,
-        "roller": design.roller_length + 2.0 * design.frame_thickness,
-        "frame": design.frame_thickness,
-    }[p.part] / 2.0
-    # Ring, roller and frame are centred on their axis; the cam disc on the origin.
-    xy = rotate_by_polar_angle(np.asarray(p.pre_offset, dtype=float), p.angle_rad)
-    return np.array([xy[0] + p.offset[0], xy[1] + p.offset[1], half_height + p.offset[2]])
+    xy = rotate_by_polar_angle(points[:, :2] + np.asarray(p.pre_offset, dtype=float), p.angle_rad)
+    return np.column_stack([xy, points[:, 2]]) + np.asarray(p.offset, dtype=float)
 
 
 def _interference(ctx: RunContext) -> None:

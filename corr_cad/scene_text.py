@@ -60,8 +60,8 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         warn("[export] tolerance", 'formats lists no "dxf" (and no mesh/STEP takes it over)')
     if "chord_tolerance" in ex and not geometry:
         warn("[export] chord_tolerance", "formats lists no mesh, step or interference")
-    if "assembly_angles_deg" in ex and not _MESH & f:
-        warn("[export] assembly_angles_deg", "formats lists no mesh (stl, 3mf, glb, ply)")
+    if "assembly_angles_deg" in ex and not (_MESH | {"step"}) & f:  # STEP writes assemblies too
+        warn("[export] assembly_angles_deg", "formats lists no mesh (stl, 3mf, glb, ply) or step")
     if "interference_positions" in ex and "interference" not in f:
         warn("[export] interference_positions", 'formats does not list "interference"')
     if "interference_method" in ex and "interference" not in f:

@@ -308,7 +308,16 @@ WARN_CASES = [
     ("[export]\nchord_tolerance = 0.01\n", "[export] chord_tolerance has no effect"),
     ("[export]\ninterference_positions = 10\n", "[export] interference_positions has no effect"),
     ("[errors]\ncam_radius_error = 0.001\n", "[errors] cam_radius_error has no effect"),
+    ("[export]\nassembly_angles_deg = [5.0]\n", "[export] assembly_angles_deg has no effect"),
 ]
+
+
+def test_assembly_angles_not_warned_for_step_alone():
+    """STEP writes assembly_<angle>deg.step at each angle: the key has an effect."""
+    from corr_cad.scene import parse_scene
+
+    s = parse_scene({"export": {"formats": ["step"], "assembly_angles_deg": [5.0]}})
+    assert s.warnings == ()
 
 
 @pytest.mark.parametrize("extra,needle", WARN_CASES)

@@ -361,6 +361,11 @@ def test_same_bytes_any_hash_seed_folder_and_executor(reference_runs):
         assert {k: v for k, v in m.items() if k != "stages"} == {
             k: v for k, v in m0.items() if k != "stages"
         }
+    # The pool runs exported STEP in a worker beside the other stages; serial did not.
+    workers = [[s["name"] for s in assert_complete(o)["stages"] if s.get("worker")] for o in rest]
+    assert workers == [["step_files"], ["step_files"]]
+    assert not [s for s in m0["stages"] if s.get("worker")]
+    assert [s["name"] for s in m0["stages"]] == [s["name"] for s in m["stages"]]
     for out in reference_runs:
         text = (out / "manifest.json").read_text()
         assert str(out) not in text and str(out.parent) not in text
@@ -468,6 +473,59 @@ def test_sigint_sigterm_leave_previous_outputs(reference_runs, tmp_path, sig, co
         f"corr-cad: interrupted ({sig.name}); previous outputs left as they were"
     ]
     assert snapshot(out) == before
+
+
+#: STEP beside a cheap plot: the pool exists only for the STEP worker.
+STEP_SCENE = DESIGN + '[export]\nformats = ["png", "step"]\nchord_tolerance = 0.05\n'
+
+
+def test_sigterm_while_the_step_worker_runs(reference_runs, tmp_path):
+    """The worker is killed and waited for before the staging folder goes: nothing is left."""
+    out = tmp_path / "o"
+    shutil.copytree(reference_runs[0], out)
+    (out / "notes.txt").write_text("mine\n")
+    before = snapshot(out)
+    scene = tmp_path / "s.toml"
+    scene.write_text(STEP_SCENE)
+    p = start(scene, "--out", out, "--quiet")
+    main = psutil.Process(p.pid)
+    deadline = time.monotonic() + 60
+    workers = []
+    while not workers and time.monotonic() < deadline and p.poll() is None:
+        workers = main.children(recursive=True)
+        time.sleep(0.01)
+    assert workers, "the STEP worker never started"
+    time.sleep(0.5)  # inside Open CASCADE's import or the export
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143, err
+    assert err.strip().splitlines() == [
+        "corr-cad: interrupted (SIGTERM); previous outputs left as they were"
+    ]
+    assert psutil.wait_procs(workers, timeout=10)[1] == []
+    assert snapshot(out) == before and leftovers(out) == []
+
+
+BREAK_STEP = """
+import sys
+from corr_cad.errors import ExportError
+from corr_cad.export import step
+def broken(*a, **k):
+    raise ExportError("inner_gear.step: broken on purpose")
+step.write_step = broken
+from corr_cad.cli import main
+sys.exit(main(["run", *sys.argv[1:]]))
+"""
+
+
+def test_an_error_in_the_step_worker_is_the_runs_error(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text(STEP_SCENE)
+    p = start(scene, "--out", tmp_path / "o", prefix=("-c", BREAK_STEP))
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 2, err
+    assert err.strip().splitlines() == ["corr-cad: error: inner_gear.step: broken on purpose"]
+    assert not (tmp_path / "o").exists()
 
 
 def test_second_run_waits_or_is_refused(reference_runs, tmp_path):

@@ -152,3 +152,58 @@ def test_staging_replaces_previous(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "two"]
     assert set(json.loads((out / "manifest.json").read_text())["files"]) == {"two"}
     shutil.rmtree(out)
+
+
+def test_worker_stages_only_beside_other_work():
+    from corr_cad.pipeline_concurrent import worker_stages
+
+    assert worker_stages(pipeline.plan(("step",))) == ()  # nothing to overlap it with
+    assert worker_stages(pipeline.plan(("dxf", "forces"))) == ()
+    assert worker_stages(pipeline.plan(("png", "step"))) == ("step_files",)
+
+
+FAIL_BESIDE_THE_WORKER = """
+import os, sys, time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+from pathlib import Path
+import psutil
+from corr_cad import pipeline
+from corr_cad.cli import _worker_init
+from corr_cad.errors import SolverError
+from corr_cad.scene import parse_scene
+
+def boom(ctx):
+    # Fail once the worker has begun writing STEP files (four more to come).
+    while not any(n.endswith(".step") for n in os.listdir(ctx.out)):
+        time.sleep(0.005)
+    raise SolverError("boom")
+
+pipeline.STAGES["preview_png"] = replace(pipeline.STAGES["preview_png"], run=boom)
+scene = parse_scene({"export": {"formats": ["png", "step"], "chord_tolerance": 0.05}}, "t")
+out = Path(sys.argv[1])
+pool = ProcessPoolExecutor(2, initializer=_worker_init, initargs=(os.getpid(),))
+try:
+    pipeline.run_scene(scene, out, executor=pool, concurrent_stages=True)
+except SolverError:
+    pass
+# Returned: the worker is dead already, so nothing more is written.
+print(len(psutil.Process().children(recursive=True)))
+names = sorted(os.listdir(out))
+time.sleep(3.0)
+print(names == sorted(os.listdir(out)))
+"""
+
+
+def test_a_failing_stage_kills_the_step_worker_before_returning(tmp_path):
+    import subprocess
+    import sys
+
+    r = subprocess.run(
+        [sys.executable, "-c", FAIL_BESIDE_THE_WORKER, str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["0", "True"]

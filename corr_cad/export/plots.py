@@ -14,7 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.patches import PathPatch  # noqa: E402
+from matplotlib.patches import PathPatch, Polygon  # noqa: E402
 from matplotlib.path import Path as MplPath  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
@@ -132,8 +132,11 @@ def preview_png(
     ring = _ring_path(_xy_circle((0, 0), design.ring_outer_radius), wp)
     cam = _ring_path(_xy_circle(cam_c, Rj), _xy_circle((0, 0), design.cam_bore_radius))
     for a in (ax, ax2):
-        a.add_patch(PathPatch(ring, facecolor="#c9d7e8", edgecolor="none", zorder=0))
-        a.add_patch(PathPatch(cam, facecolor="#f2d0cb", edgecolor="none", zorder=0))
+        # add_artist, not add_patch or fill: the limits are set below, and
+        # add_patch's data-limit update walks every segment of these dense
+        # paths as a Bezier curve (0.5 s of this figure). Same pixels.
+        a.add_artist(PathPatch(ring, facecolor="#c9d7e8", edgecolor="none", zorder=0))
+        a.add_artist(PathPatch(cam, facecolor="#f2d0cb", edgecolor="none", zorder=0))
         a.plot(*np.vstack([wp, wp[:1]]).T, color="C0", lw=1.2, label="working profile (gear)")
         a.plot(
             *np.vstack([tp, tp[:1]]).T,
@@ -157,7 +160,7 @@ def preview_png(
             _circle(a, (0, 0), c, color="C4", lw=0.6, ls="-.")
         for k, c in enumerate(centres):
             roller = _xy_circle(c, r, 181)
-            a.fill(*roller.T, color="#b9e0b5", zorder=1)
+            a.add_artist(Polygon(roller, closed=True, color="#b9e0b5", zorder=1))
             a.plot(*roller.T, color="C2", lw=0.8, label="rollers" if k == 0 else None)
         a.plot([0, cam_c[0]], [0, cam_c[1]], color="C3", lw=1.5)
         a.plot([0], [0], "k+", ms=8)

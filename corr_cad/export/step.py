@@ -44,6 +44,8 @@ __all__ = [
     "StepPart",
     "mass_properties",
     "bounding_box",
+    "unplaced",
+    "transform_points",
     "read_step_curves",
 ]
 
@@ -469,6 +471,21 @@ def bounding_box(shape) -> np.ndarray:
     # The optimal box, not the plain one (enlarged by tolerances).
     _static(BRepBndLib, "AddOptimal")(shape, box, False, False)
     return np.array([_xyz(box.CornerMin()), _xyz(box.CornerMax())])
+
+
+def unplaced(shape):
+    """``shape`` without its location (an assembly instance's product shape)."""
+    from OCP.TopLoc import TopLoc_Location
+
+    return shape.Located(TopLoc_Location())
+
+
+def transform_points(shape, points: np.ndarray) -> np.ndarray:
+    """``points`` (n, 3) moved by ``shape``'s location, as Open CASCADE applies it."""
+    from OCP.gp import gp_Pnt
+
+    trsf = shape.Location().Transformation()
+    return np.array([_xyz(gp_Pnt(*map(float, q)).Transformed(trsf)) for q in points])
 
 
 def _read_one_shape(path: Path, heal: bool = True):
