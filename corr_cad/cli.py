@@ -290,6 +290,7 @@ def _schema(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     import signal
+    from concurrent.futures import BrokenExecutor
 
     from .memory import keep_freed_memory
 
@@ -313,6 +314,15 @@ def main(argv: list[str] | None = None) -> int:
         return _new(args)
     except CorrCadError as exc:
         print(f"corr-cad: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenExecutor:
+        # A pool worker died under us (killed, out of memory, a crash in a
+        # native library); the staging folder is already gone.
+        print(
+            "corr-cad: error: a worker process died (killed, or out of memory?); "
+            "previous outputs left as they were; --executor serial runs without workers",
+            file=sys.stderr,
+        )
         return 2
     except OSError as exc:
         where = f"{exc.filename}: " if exc.filename else ""

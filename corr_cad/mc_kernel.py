@@ -32,7 +32,20 @@ METRICS = ("peak_gear_force", "peak_pressure", "min_loaded_rollers", "lost_motio
 _KNEE = 0.99  # contact.VALIDITY_KNEE
 _LOADED_SHARE = 1e-9  # solver.LOADED_SHARE
 
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+def _jit(fn):
+    """Compile with numba, cached on disk when numba finds a writable place.
+
+    Without one (a read-only install, no writable home, no usable
+    ``NUMBA_CACHE_DIR``) numba refuses ``cache=True`` at decoration; the
+    kernel is then compiled in memory on every run (same machine code, same
+    bits, ~4 s more).
+    """
+    try:
+        return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)
+    except RuntimeError:  # "cannot cache function ...: no locator available"
+        return numba.njit(cache=False, nogil=True, error_model="numpy")(fn)
+
 
 # Rows of a position's per-roller table ``C`` (fields x rollers).
 A, H0, K0, CJ, CN, CS, WN, WS, K1, KG, UKJ, UKN, UKS = range(13)

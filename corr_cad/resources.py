@@ -166,7 +166,13 @@ def estimate(scene, workers: int | None = None) -> Estimate:
         lin["[montecarlo] samples"] = (n, BASE_BYTES + per_pos * pos, per_sample)
         if "montecarlo" in f:
             csv["[montecarlo] samples"] = MC_ROW_BYTES * mc["samples"]
-            secs["montecarlo"] = 3.0e-6 * mc["samples"] * pos * R / workers
+            from .tolerance import KERNEL_MIN_WORK
+
+            # numpy ~3e-6 s per sample-position-roller; the compiled kernel
+            # (used from KERNEL_MIN_WORK on) ~1.1e-7 plus ~1 s to load it.
+            kernel = mc["samples"] * pos >= KERNEL_MIN_WORK
+            per_cell = 1.1e-7 if kernel else 3.0e-6
+            secs["montecarlo"] = per_cell * mc["samples"] * pos * R / workers + kernel * 1.0
     if "sweeps" in f:
         lin["[sweeps] positions"] = (
             scene.sweeps["positions"],

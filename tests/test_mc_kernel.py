@@ -233,3 +233,41 @@ def test_linear_start_matches_the_numpy_linear_solution():
             C[K.A], C[K.H0], C[K.K0] = a[p], h0[p], comp.slope0[p]
             got = K._linear_tau(C, target, np.zeros(R, np.int64), np.zeros(R))
             assert got == pytest.approx(ref[p], rel=1e-12, abs=1e-18), (target, p)
+
+
+def test_kernel_compiles_without_a_cache_location():
+    """No writable cache anywhere (numba: "no locator available"): compiled in memory."""
+    from corr_cad import mc_kernel
+
+    ns: dict = {}
+    exec("def twice(x):\n    return 2.0 * x\n", ns)  # code without a file: numba cannot cache it
+    f = mc_kernel._jit(ns["twice"])
+    assert f(1.5) == 3.0
+
+
+def test_a_dead_worker_is_one_line_and_exit_2(tmp_path):
+    """A pool worker killed (out of memory, a crash) mid-run: one line, exit 2, folder kept."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        '[load]\ninput_torque = 1.1e5\n[export]\nformats = ["montecarlo"]\n'
+        "[tolerances]\ncam_radius = { uniform = 0.002 }\n"
+        "[montecarlo]\nsamples = 100\npositions = 36\n"
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep")
+    code = (
+        "import os, sys\n"
+        "import corr_cad.tolerance as t\n"
+        "def _chunk_task(*args):\n"
+        "    os._exit(9)\n"
+        "t._chunk_task = _chunk_task\n"
+        "from corr_cad.cli import main\n"
+        f"sys.exit(main(['run', {str(scene)!r}, '--out', {str(out)!r}, '--workers', '2']))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert lines[-1].startswith("corr-cad: error: a worker process died"), r.stderr
+    assert "Traceback" not in r.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]
