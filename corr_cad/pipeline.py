@@ -613,9 +613,37 @@ def plan(
     return order
 
 
+#: Distributions whose build can change an output's bytes: the numerical core
+#: (numpy, scipy, numba, llvmlite), the exporters and what they write with
+#: (Pillow encodes the PNGs, lxml and networkx the 3MF, jinja2 the report),
+#: and Open CASCADE under either of its wheel names.
+VERSIONED_PACKAGES = (
+    "numpy",
+    "scipy",
+    "numba",
+    "llvmlite",
+    "ezdxf",
+    "shapely",
+    "trimesh",
+    "manifold3d",
+    "matplotlib",
+    "pillow",
+    "lxml",
+    "networkx",
+    "jinja2",
+    "cadquery-ocp-novtk",
+    "cadquery-ocp",
+)
+
+
 def _versions() -> dict:
+    """Python, corr_cad and every package in ``VERSIONED_PACKAGES`` (None: absent).
+
+    The determinism promise is stated against this record: the same scene and
+    the same versions (on the same kind of processor) give the same bytes.
+    """
     out = {"corr_cad": __version__, "python": platform.python_version()}
-    for pkg in ("numpy", "scipy", "ezdxf", "shapely", "trimesh", "manifold3d", "matplotlib"):
+    for pkg in VERSIONED_PACKAGES:
         try:
             out[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:

@@ -96,7 +96,11 @@ def test_manifest_records_what_ran(tmp_path):
     acc = m["accuracy"]["working_profile"]
     assert acc["max_deviation_mm"] <= acc["tolerance_mm"] == 0.001
     assert m["undercut"]["undercut"] is False
-    assert {"numpy", "ezdxf", "scipy"} <= set(m["versions"])
+    assert {"numpy", "ezdxf", "scipy", "numba", "matplotlib", "pillow"} <= set(m["versions"])
+    from importlib import metadata
+
+    assert m["versions"]["numba"] == metadata.version("numba")
+    assert m["versions"]["numpy"] == metadata.version("numpy")
     assert [s["name"] for s in m["stages"]] == pipeline.plan(("dxf", "png", "forces"))
     summary = json.loads((out / "forces_summary.json").read_text())
     for key in (
