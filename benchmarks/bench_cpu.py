@@ -13,9 +13,9 @@ import numpy as np
 
 import corr_cad
 from corr_cad import GearDesign
-from corr_cad.deviations import ManufacturingErrors
-from corr_cad.solver import solve_forces
-from corr_cad.tolerance import Distribution, SerialExecutor, monte_carlo
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.solver import solve_forces
+from corr_cad.tolerance.montecarlo import Distribution, SerialExecutor, monte_carlo
 
 
 def best(fn, repeat):
@@ -49,7 +49,7 @@ def main() -> None:
     t = best(lambda: monte_carlo(d, 1.1e5, tol, n, 1, 360, executor=SerialExecutor()), 3)
     print(f"Monte Carlo, 360 positions, 4 tolerances: {n / t:.0f} samples/s per core (best of 3)")
     try:
-        from corr_cad.clearance import clearance
+        from corr_cad.geometry.clearance import clearance
     except ImportError:
         return
     ang = 2 * np.pi * np.arange(3600) / 3600

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad import GearDesign, approximate, working_profile
-from corr_cad.parts import part_outlines
-from corr_cad.placement import assembly_placements
+from corr_cad.geometry.parts import part_outlines
+from corr_cad.geometry.placement import assembly_placements
 
 NAMES = {"ring": "inner_gear", "cam": "disk_cam", "roller": "roller", "frame": "teeth_frame"}
 DESIGNS = {

@@ -24,10 +24,8 @@ first use, so ``import corr_cad`` and a DXF-only run stay quick.
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
-
-from .design import GearDesign, Material
-from .errors import (
+from corr_cad._version import __version__
+from corr_cad.errors import (
     CorrCadError,
     DesignError,
     ExportError,
@@ -36,7 +34,8 @@ from .errors import (
     SolverError,
     UndercutError,
 )
-from .profile import (
+from corr_cad.geometry.design import GearDesign, Material
+from corr_cad.geometry.profile import (
     ProfileCurve,
     UndercutInfo,
     admissible_roller_radius,
@@ -44,23 +43,23 @@ from .profile import (
     undercut_analysis,
     working_profile,
 )
-from .sampling import ProfileApproximation, approximate
+from corr_cad.geometry.sampling import ProfileApproximation, approximate
 
 #: Public names loaded on first access: name -> module.
 _LAZY = {
-    "load_scene": "scene",
-    "parse_scene": "scene",
-    "Scene": "scene",
-    "run_scene": "pipeline",
-    "solve_forces": "solver",
-    "ForceResult": "solver",
-    "ManufacturingErrors": "deviations",
-    "monte_carlo": "tolerance",
-    "allocate": "tolerance",
-    "Distribution": "tolerance",
-    "Checks": "tolerance",
-    "MonteCarloResult": "tolerance",
-    "scene_json_schema": "schema_json",
+    "load_scene": "run.scene",
+    "parse_scene": "run.scene",
+    "Scene": "run.scene",
+    "run_scene": "run.pipeline",
+    "solve_forces": "mechanics.solver",
+    "ForceResult": "mechanics.solver",
+    "ManufacturingErrors": "geometry.deviations",
+    "monte_carlo": "tolerance.montecarlo",
+    "allocate": "tolerance.montecarlo",
+    "Distribution": "tolerance.montecarlo",
+    "Checks": "tolerance.montecarlo",
+    "MonteCarloResult": "tolerance.montecarlo",
+    "scene_json_schema": "run.schema_json",
 }
 
 __all__ = [

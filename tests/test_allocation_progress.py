@@ -1,8 +1,8 @@
 """Allocation reports progress (rate, expected total) and honours the scene's errors."""
 
 from corr_cad import GearDesign
-from corr_cad.deviations import ManufacturingErrors
-from corr_cad.tolerance import Checks, allocate
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.tolerance.montecarlo import Checks, allocate
 
 M0 = 1.1e5
 KW = {"percentile": 90.0, "samples": 20, "seed": 2, "positions": 36}

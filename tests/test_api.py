@@ -20,14 +20,14 @@ ROOT = Path(__file__).resolve().parents[1]
 #: Modules whose docstring examples are executed.
 DOCTEST_MODULES = [
     "corr_cad",
-    "corr_cad.profile",
-    "corr_cad.sampling",
-    "corr_cad.solver",
-    "corr_cad.tolerance",
-    "corr_cad.scene",
-    "corr_cad.pipeline",
-    "corr_cad.sweeps",
-    "corr_cad.schema_json",
+    "corr_cad.geometry.profile",
+    "corr_cad.geometry.sampling",
+    "corr_cad.mechanics.solver",
+    "corr_cad.tolerance.montecarlo",
+    "corr_cad.run.scene",
+    "corr_cad.run.pipeline",
+    "corr_cad.tolerance.sweeps",
+    "corr_cad.run.schema_json",
     "corr_cad.export.plots",
 ]
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
@@ -63,9 +63,9 @@ def test_top_level_exports():
 def test_import_is_lazy_and_the_solver_loads_on_first_use():
     code = (
         "import sys, corr_cad; "
-        "assert 'corr_cad.tolerance' not in sys.modules and 'jinja2' not in sys.modules "
+        "assert 'corr_cad.tolerance.montecarlo' not in sys.modules and 'jinja2' not in sys.modules "
         "and 'matplotlib' not in sys.modules; "
-        "corr_cad.monte_carlo; assert 'corr_cad.tolerance' in sys.modules; print('ok')"
+        "corr_cad.monte_carlo; assert 'corr_cad.tolerance.montecarlo' in sys.modules; print('ok')"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "ok"

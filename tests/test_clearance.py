@@ -18,9 +18,9 @@ import sys
 import numpy as np
 import pytest
 
-from corr_cad.clearance import clearance, distance_to_working_profile
-from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
-from corr_cad.solver import roller_geometry
+from corr_cad.geometry.clearance import clearance, distance_to_working_profile
+from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
+from corr_cad.mechanics.solver import roller_geometry
 
 R = 26
 

@@ -5,7 +5,7 @@ from decimal import Decimal, getcontext
 import numpy as np
 import pytest
 
-from corr_cad import contact
+from corr_cad.mechanics import contact
 
 
 def exact(u, k1, k2):

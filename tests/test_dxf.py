@@ -8,7 +8,7 @@ import pytest
 
 from corr_cad import GearDesign, approximate, theoretical_profile, working_profile
 from corr_cad.export import dxf
-from corr_cad.sampling import distance_to_curve
+from corr_cad.geometry.sampling import distance_to_curve
 
 from .test_dxf_accuracy import read_layer
 

@@ -24,7 +24,7 @@ from scipy.spatial import cKDTree
 
 from corr_cad import GearDesign, approximate, theoretical_profile, working_profile
 from corr_cad.export import dxf
-from corr_cad.profile import admissible_roller_radius
+from corr_cad.geometry.profile import admissible_roller_radius
 
 TOL = 1e-3
 FLATTEN = 2e-6  # ezdxf flattening sagitta of arcs, mm: 0.2 % of what is measured
@@ -306,7 +306,8 @@ def test_z39_near_undercut_reports_true_deviation_through_cli(tmp_path, rep):
 
 def test_tolerance_not_reached_exits_1_naming_file_and_figure(tmp_path, monkeypatch, capsys):
     """A node budget too small for the tolerance: exit 1, the files state the truth."""
-    from corr_cad import cli, sampling
+    from corr_cad.geometry import sampling
+    from corr_cad.run import cli
 
     monkeypatch.setattr(sampling, "_MAX_VERTICES", 1500)  # the prototype needs ~2,500
     scene = tmp_path / "s.toml"

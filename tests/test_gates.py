@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from corr_cad.errors import SceneError
-from corr_cad.scene import SCHEMA, parse_scene
+from corr_cad.run.scene import SCHEMA, parse_scene
 
 
 def run(scene_text, tmp_path, *extra, name="s"):
@@ -257,7 +257,7 @@ import builtins, io, os, signal, sys
 from pathlib import Path
 from corr_cad import GearDesign
 from corr_cad.export import dxf
-from corr_cad.outputs import write_json
+from corr_cad.export.files import write_json
 
 target = Path(sys.argv[2])
 which = sys.argv[1]
@@ -305,7 +305,7 @@ d = GearDesign(roller_radius=7.0)
 def test_writer_killed_inside_the_write_leaves_the_previous_file(tmp_path, which):
     from corr_cad import GearDesign
     from corr_cad.export import dxf
-    from corr_cad.outputs import write_json
+    from corr_cad.export.files import write_json
 
     target = tmp_path / ("x.json" if which == "json" else f"{which}.dxf")
     d = GearDesign()

@@ -14,10 +14,16 @@ import numpy as np
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from corr_cad import DesignError, GearDesign, admissible_roller_radius, approximate, working_profile
-from corr_cad import kinematics as kin
-from corr_cad.deviations import ManufacturingErrors
-from corr_cad.solver import solve_forces
+from corr_cad import (
+    DesignError,
+    GearDesign,
+    admissible_roller_radius,
+    approximate,
+    working_profile,
+)
+from corr_cad.geometry import kinematics as kin
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.solver import solve_forces
 
 
 @st.composite

@@ -2,7 +2,7 @@
 
 The bad-input suite is generated from the scene schema: for every key,
 wrong type, NaN, inf, 1e300, negative, empty list and wrong list length
-where they apply. All of it runs through ``corr_cad.cli.main`` in-process
+where they apply. All of it runs through ``corr_cad.run.cli.main`` in-process
 (each case writes a real scene file into a folder holding another file and
 runs the real argument parsing and error handling); a representative subset
 of 20 runs as true subprocesses (``python -m corr_cad``), plus the
@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from corr_cad.cli import main
-from corr_cad.scene import SCHEMA
+from corr_cad.run.cli import main
+from corr_cad.run.scene import SCHEMA
 
 Z, RJ, E, R = 25, 135.0, 3.5, 8.0  # the prototype (Table 1)
 
@@ -314,7 +314,7 @@ WARN_CASES = [
 
 def test_assembly_angles_not_warned_for_step_alone():
     """STEP writes assembly_<angle>deg.step at each angle: the key has an effect."""
-    from corr_cad.scene import parse_scene
+    from corr_cad.run.scene import parse_scene
 
     s = parse_scene({"export": {"formats": ["step"], "assembly_angles_deg": [5.0]}})
     assert s.warnings == ()
@@ -324,7 +324,7 @@ def test_assembly_angles_not_warned_for_step_alone():
 def test_no_effect_is_warned(extra, needle):
     import tomllib
 
-    from corr_cad.scene import parse_scene
+    from corr_cad.run.scene import parse_scene
 
     data = tomllib.loads('[export]\nformats = ["png"]\n' + extra.replace("[export]\n", ""))
     if extra.startswith("[export]"):
@@ -344,7 +344,7 @@ def test_warning_printed_even_with_quiet(folder):
 
 
 def test_a_used_section_is_not_warned():
-    from corr_cad.scene import parse_scene
+    from corr_cad.run.scene import parse_scene
 
     s = parse_scene(
         {
@@ -366,9 +366,9 @@ def test_polyline_estimate_bounds_the_real_count():
     node-budget sampler 800/2525; the estimate, 1460/4617, bounds both.)
     """
     from corr_cad import GearDesign, working_profile
-    from corr_cad.resources import estimate
-    from corr_cad.sampling import approximate
-    from corr_cad.scene import parse_scene
+    from corr_cad.geometry.sampling import approximate
+    from corr_cad.run.resources import estimate
+    from corr_cad.run.scene import parse_scene
 
     w = working_profile(GearDesign())
     for tol in (1e-2, 1e-3):
@@ -404,7 +404,7 @@ def test_huge_positions_refused_up_front_with_a_value_that_works(folder):
     assert rss < 400  # refused before any array was made
     ok = int(line.split("; ")[-1].split()[0])
     # The suggested value is accepted by the loader.
-    from corr_cad.scene import parse_scene
+    from corr_cad.run.scene import parse_scene
 
     parse_scene({"export": {"formats": ["forces"]}, "load": {"input_torque": 1.1e5},
                  "solver": {"positions": ok}})  # fmt: skip
@@ -412,8 +412,8 @@ def test_huge_positions_refused_up_front_with_a_value_that_works(folder):
 
 def test_large_positions_run_within_the_estimate(folder):
     """A legitimate large run stays under its own memory estimate (child peak RSS)."""
-    from corr_cad.resources import estimate
-    from corr_cad.scene import load_scene
+    from corr_cad.run.resources import estimate
+    from corr_cad.run.scene import load_scene
 
     scene = (
         '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
@@ -506,7 +506,7 @@ def test_measured_circle_is_not_this_gear(folder):
 
 def test_measured_points_checked_tooth_by_tooth(folder):
     from corr_cad import ProfileError, working_profile
-    from corr_cad.measured import validate_points
+    from corr_cad.tolerance.measured import validate_points
 
     pts = _working_points(2600)  # 104 per tooth
     ang = np.mod(np.arctan2(pts[:, 0], pts[:, 1]), 2 * np.pi)
@@ -546,7 +546,7 @@ def test_measured_profile_not_a_regular_file(folder, kind):
 def test_progress_lines_with_rate_and_time_left(capsys):
     import io
 
-    from corr_cad import progress
+    from corr_cad.run import progress
 
     buf = io.StringIO()
     with progress.progress(4, "work", "items", stream=buf, interval=0.0, tty=False) as p:
@@ -571,7 +571,7 @@ def test_peak_rss_helper_measures_children_only():
 
 
 def test_readme_bounds_table_is_generated_from_the_schema():
-    from corr_cad.scene import bounds_table
+    from corr_cad.run.scene import bounds_table
 
     text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
     block = text.split("<!-- bounds-table -->\n")[1].split("<!-- /bounds-table -->")[0]
@@ -580,6 +580,7 @@ def test_readme_bounds_table_is_generated_from_the_schema():
 
 def test_dxf_vertex_limit_is_the_approximators_budget():
     """A tolerance the approximator cannot reach is refused up front, not after the work."""
-    from corr_cad import resources, sampling
+    from corr_cad.geometry import sampling
+    from corr_cad.run import resources
 
     assert resources.MAX_PROFILE_VERTICES == sampling._MAX_VERTICES

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from corr_cad import kinematics as kin
+from corr_cad.geometry import kinematics as kin
 
 
 def printed_eq1_radius(psi, e, L):

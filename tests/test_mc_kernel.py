@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign
-from corr_cad import tolerance as tolmod
-from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
-from corr_cad.tolerance import Distribution, monte_carlo
+from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
+from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
+from corr_cad.tolerance import montecarlo as tolmod
 
 FOUR = {
     "roller_radius": Distribution("normal", 0.001),
@@ -144,7 +144,7 @@ def test_runs_without_monte_carlo_do_not_import_numba(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text('[load]\ninput_torque = 1.1e5\n[export]\nformats = ["dxf", "forces"]\n')
     code = (
-        "import sys; from corr_cad.cli import main; "
+        "import sys; from corr_cad.run.cli import main; "
         f"rc = main(['run', {str(scene)!r}, '--out', {str(tmp_path / 'out')!r}, '--quiet']); "
         "print(rc, 'numba' in sys.modules)"
     )
@@ -160,8 +160,8 @@ def test_nested_fallback_matches_the_numpy_nested_solver(undersized):
     undersized rollers, at zero rotation where no roller touches (flat
     moment: only bisection can move).
     """
-    from corr_cad import mc_kernel
-    from corr_cad import solver as S
+    from corr_cad.mechanics import mc_kernel
+    from corr_cad.mechanics import solver as S
 
     d = GearDesign()
     err = ManufacturingErrors(
@@ -212,8 +212,8 @@ def test_a_roller_at_the_edge_of_the_loaded_zone_is_not_counted():
 
 def test_linear_start_matches_the_numpy_linear_solution():
     """The exact linear-contact rotation (the Newton start) against solver._linear_tau."""
-    from corr_cad import mc_kernel as K
-    from corr_cad import solver as S
+    from corr_cad.mechanics import mc_kernel as K
+    from corr_cad.mechanics import solver as S
 
     d = GearDesign()
     err = ManufacturingErrors(
@@ -237,7 +237,7 @@ def test_linear_start_matches_the_numpy_linear_solution():
 
 def test_kernel_compiles_without_a_cache_location():
     """No writable cache anywhere (numba: "no locator available"): compiled in memory."""
-    from corr_cad import mc_kernel
+    from corr_cad.mechanics import mc_kernel
 
     ns: dict = {}
     exec("def twice(x):\n    return 2.0 * x\n", ns)  # code without a file: numba cannot cache it
@@ -258,11 +258,11 @@ def test_a_dead_worker_is_one_line_and_exit_2(tmp_path):
     (out / "mine.txt").write_text("keep")
     code = (
         "import os, sys\n"
-        "import corr_cad.tolerance as t\n"
+        "import corr_cad.tolerance.montecarlo as t\n"
         "def _chunk_task(*args):\n"
         "    os._exit(9)\n"
         "t._chunk_task = _chunk_task\n"
-        "from corr_cad.cli import main\n"
+        "from corr_cad.run.cli import main\n"
         f"sys.exit(main(['run', {str(scene)!r}, '--out', {str(out)!r}, '--workers', '2']))\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

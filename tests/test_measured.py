@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign, ProfileError, working_profile
-from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.export.measured_io import read_measured_points
-from corr_cad.measured import register, validate_points
-from corr_cad.outputs import StagingDir
-from corr_cad.pipeline import run_scene
-from corr_cad.scene import load_scene
-from corr_cad.solver import solve_forces
+from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
+from corr_cad.mechanics.solver import solve_forces
+from corr_cad.run.outputs import StagingDir
+from corr_cad.run.pipeline import run_scene
+from corr_cad.run.scene import load_scene
+from corr_cad.tolerance.measured import register, validate_points
 
 DEV = harmonic_deviation([(3, 0.004, 20.0), (25, 0.002, 0.0)])
 ROT, SHIFT = 0.3 * math.pi / 180.0, np.array([0.05, -0.02])

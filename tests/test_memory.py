@@ -1,4 +1,4 @@
-"""The CLI keeps freed memory for reuse (corr_cad/memory.py): no page faults per solve.
+"""The CLI keeps freed memory for reuse (corr_cad/run/memory.py): no page faults per solve.
 
 Counted, not timed: ``ru_minflt`` of a second full-cycle solve in a fresh
 process, with and without what ``corr-cad`` sets at start.
@@ -33,7 +33,7 @@ def _faults(setup: str) -> float:
 def test_cli_start_removes_the_page_faults_of_a_solve():
     plain = _faults("")
     after_cli = _faults(
-        "import contextlib, io\nfrom corr_cad.cli import main\n"
+        "import contextlib, io\nfrom corr_cad.run.cli import main\n"
         "with contextlib.redirect_stdout(io.StringIO()):\n    main(['schema'])"
     )
     assert after_cli < 20, (plain, after_cli)

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign
-from corr_cad.deviations import ManufacturingErrors
-from corr_cad.tolerance import Distribution, monte_carlo
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 
 #: Relative tolerance against the golden file, scaled by the metric's largest value.
 RTOL = 1e-12

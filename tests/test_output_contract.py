@@ -2,7 +2,7 @@
 
 Every test starts ``python -m corr_cad`` in its own process on a real folder
 that holds other files. The checks read ``manifest.json`` with ``json`` and
-hash with ``hashlib``; they share no code with ``corr_cad/outputs.py``.
+hash with ``hashlib``; they share no code with ``corr_cad/run/outputs.py``.
 """
 
 from __future__ import annotations
@@ -414,7 +414,7 @@ def replace(src, dst, *a, **k):
         if n[0] == K:
             os.kill(os.getpid(), signal.SIGKILL)
 os.replace = replace
-from corr_cad.cli import main
+from corr_cad.run.cli import main
 sys.exit(main(["run", *sys.argv[2:]]))
 """
 
@@ -513,7 +513,7 @@ from corr_cad.export import step
 def broken(*a, **k):
     raise ExportError("inner_gear.step: broken on purpose")
 step.write_step = broken
-from corr_cad.cli import main
+from corr_cad.run.cli import main
 sys.exit(main(["run", *sys.argv[1:]]))
 """
 

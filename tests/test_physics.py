@@ -2,7 +2,7 @@
 
 Each test compares the package with something that shares no code with it:
 hand-computed values, the closed form written out here, ``mpmath``, brute
-force, or :mod:`corr_cad.reference` (which imports nothing from the package).
+force, or :mod:`corr_cad.mechanics.reference` (which imports nothing from the package).
 ``tests/README.md`` lists the deliberate mistakes each one catches.
 """
 
@@ -14,13 +14,14 @@ import mpmath
 import numpy as np
 import pytest
 
-from corr_cad import GearDesign, contact
-from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
+from corr_cad import GearDesign
 from corr_cad.errors import DesignError
-from corr_cad.profile import undercut_analysis
-from corr_cad.reference import reference_geometry, reference_position
-from corr_cad.solver import cycle_angles, solve_forces
-from corr_cad.tolerance import (
+from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
+from corr_cad.geometry.profile import undercut_analysis
+from corr_cad.mechanics import contact
+from corr_cad.mechanics.reference import reference_geometry, reference_position
+from corr_cad.mechanics.solver import cycle_angles, solve_forces
+from corr_cad.tolerance.montecarlo import (
     Checks,
     Distribution,
     allocate,
@@ -44,7 +45,7 @@ def test_harmonic_phase_is_in_degrees():
 
 
 def test_scene_angles_are_degrees():
-    from corr_cad.scene import parse_scene
+    from corr_cad.run.scene import parse_scene
 
     sc = parse_scene(
         {
@@ -352,7 +353,7 @@ def test_reference_imports_nothing_from_the_package():
     import ast
     import inspect
 
-    import corr_cad.reference as ref
+    import corr_cad.mechanics.reference as ref
 
     tree = ast.parse(inspect.getsource(ref))
     mods = {
@@ -380,7 +381,7 @@ def test_undercut_threshold_is_where_the_working_radius_vanishes():
     # tip (psi = pi) is infinite: 1 + r k_locus = 0 there.
     d = GearDesign(tooth_count=39, cam_radius=150.0, eccentricity=3.0, roller_radius=5.0)
     r_adm = undercut_analysis(d).admissible_roller_radius
-    from corr_cad.reference import locus_frame
+    from corr_cad.mechanics.reference import locus_frame
 
     k = locus_frame(math.pi / 39, 39, 3.0, 150.0 + r_adm)["curvature"]
     assert 1 + r_adm * k == pytest.approx(0.0, abs=1e-9)

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from corr_cad import pipeline
-from corr_cad.outputs import StagingDir
-from corr_cad.scene import parse_scene
+from corr_cad.run import pipeline
+from corr_cad.run.outputs import StagingDir
+from corr_cad.run.scene import parse_scene
 
 PROTO = {
     "export": {"formats": ["dxf", "png", "forces"], "representation": "arcs"},
@@ -30,7 +30,7 @@ def test_plan_is_minimal_and_ordered():
     assert pipeline.plan(("png",)) == ["undercut", "profiles", "preview_png"]
     assert pipeline.plan(("stl", "glb")) == ["undercut", "profiles", "solids", "mesh_files"]
     assert pipeline.plan(("step",)) == ["undercut", "profiles", "step_files"]
-    from corr_cad.scene import FORMATS
+    from corr_cad.run.scene import FORMATS
 
     full = pipeline.plan(FORMATS, checks=True, measured=True, interference_method="both")
     assert len(full) == len(set(full)) == len(pipeline.STAGES)
@@ -159,7 +159,7 @@ def test_staging_replaces_previous(tmp_path):
 
 
 def test_worker_stages_only_beside_other_work():
-    from corr_cad.pipeline_concurrent import worker_stages
+    from corr_cad.run.concurrent import worker_stages
 
     assert worker_stages(pipeline.plan(("step",))) == ()  # nothing to overlap it with
     assert worker_stages(pipeline.plan(("dxf", "forces"))) == ()
@@ -172,10 +172,10 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 import psutil
-from corr_cad import pipeline
-from corr_cad.cli import _worker_init
+from corr_cad.run import pipeline
+from corr_cad.run.cli import _worker_init
 from corr_cad.errors import SolverError
-from corr_cad.scene import parse_scene
+from corr_cad.run.scene import parse_scene
 
 def boom(ctx):
     # Fail once the worker has begun writing STEP files (four more to come).

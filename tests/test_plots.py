@@ -11,8 +11,8 @@ import pytest
 
 from corr_cad import GearDesign, solve_forces
 from corr_cad.export import plots
-from corr_cad.profile import theoretical_profile, working_profile
-from corr_cad.tolerance import Checks
+from corr_cad.geometry.profile import theoretical_profile, working_profile
+from corr_cad.tolerance.montecarlo import Checks
 
 M0 = 1.1e5
 
@@ -223,7 +223,7 @@ def test_sweep_png_states_range_and_clipping(figures, tmp_path):
 def test_bench_point_labels_never_overprint():
     import matplotlib.pyplot as plt
 
-    from corr_cad.bench import _place_labels
+    from corr_cad.run.bench import _place_labels
 
     fig, ax = plt.subplots(figsize=(8, 5))
     # Points as in the solver-fidelity study: three nearly on top of each other.

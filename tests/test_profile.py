@@ -17,8 +17,8 @@ from corr_cad import (
     undercut_analysis,
     working_profile,
 )
-from corr_cad.kinematics import centre_distance_derivatives, locus_points
-from corr_cad.sampling import distance_to_curve
+from corr_cad.geometry.kinematics import centre_distance_derivatives, locus_points
+from corr_cad.geometry.sampling import distance_to_curve
 
 from .strategies import designs
 
@@ -95,7 +95,7 @@ def test_admissible_radius_matches_tip_closed_form(z, e, Rj):
 def _self_intersects(design) -> bool:
     # Two teeth of the raw (untrimmed) offset, densely sampled around a tip.
     w = dataclasses.replace(working_profile(dataclasses.replace(design, allow_undercut=True)))
-    from corr_cad.profile import ProfileCurve
+    from corr_cad.geometry.profile import ProfileCurve
 
     raw = ProfileCurve(w.tooth_count, w.eccentricity, w.link_length, w.offset)
     t = np.linspace(0.0, 2 * 2 * np.pi / design.tooth_count, 200001)

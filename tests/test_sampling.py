@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from corr_cad import ProfileError, approximate, theoretical_profile, working_profile
-from corr_cad.sampling import biarc, bulge_arc_points, distance_to_curve
+from corr_cad.geometry.sampling import biarc, bulge_arc_points, distance_to_curve
 
 from .strategies import designs
 
@@ -83,7 +83,7 @@ def test_projection_converges_at_a_sharp_tip():
     at the tip is 0.4 % of its mean. Points on chords and on both sides of the curve
     project to the true distance (brute force on 2 million parameters)."""
     from corr_cad import GearDesign
-    from corr_cad.sampling import project_to_curve
+    from corr_cad.geometry.sampling import project_to_curve
 
     d = GearDesign(tooth_count=39, cam_radius=150.0, eccentricity=3.0, roller_radius=5.35)
     w = working_profile(d)
@@ -121,7 +121,7 @@ def test_projection_converges_at_a_sharp_tip():
 
 def test_approximate_reports_failure_instead_of_raising(prototype, monkeypatch):
     """A tolerance the node budget cannot reach: the true measured value, flagged."""
-    from corr_cad import sampling
+    from corr_cad.geometry import sampling
 
     monkeypatch.setattr(sampling, "_MAX_VERTICES", 500)
     for rep in ("polyline", "arcs", "spline"):

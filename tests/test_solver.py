@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from corr_cad import SolverError, admissible_roller_radius
-from corr_cad import kinematics as kin
-from corr_cad.deviations import ManufacturingErrors, harmonic_deviation
-from corr_cad.reference import reference_position
-from corr_cad.solver import VARIANTS, solve_forces
+from corr_cad.geometry import kinematics as kin
+from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
+from corr_cad.mechanics.reference import reference_position
+from corr_cad.mechanics.solver import VARIANTS, solve_forces
 
 M0 = 1.1e5  # N*mm
 
@@ -93,7 +93,7 @@ def test_output_torque_is_ratio_times_cam_moment(prototype, cycle):
 
 
 def test_linear_contact_limit_closed_form(prototype):
-    from corr_cad.contact import linear_compliance
+    from corr_cad.mechanics.contact import linear_compliance
 
     angles = np.radians([0.0, 3.3, 11.0])
     res = solve_forces(prototype, M0, angles, contact_model="linear")
@@ -288,7 +288,7 @@ def test_nominal_fast_path_equals_general_path(prototype, monkeypatch, case):
     Same model, other arithmetic: closed-form geometry, a window of rollers,
     the linear start without sorting. Agreement to round-off, every field.
     """
-    from corr_cad import solver
+    from corr_cad.mechanics import solver
 
     case = dict(case)
     torque = case.pop("input_torque", M0)
@@ -314,7 +314,7 @@ def test_nominal_fast_path_equals_general_path(prototype, monkeypatch, case):
 
 def test_blocks_change_no_bit(prototype, monkeypatch):
     """Blocks are written into outputs allocated once: the same bits as one block."""
-    from corr_cad import solver
+    from corr_cad.mechanics import solver
 
     err = ManufacturingErrors(eccentricity_error=0.02)
     blocks = solve_forces(prototype, M0, positions=720, errors=err)

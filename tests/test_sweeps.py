@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign
-from corr_cad.deviations import ManufacturingErrors
-from corr_cad.solver import solve_forces
-from corr_cad.sweeps import PAPER_SWEEPS, comparison_rows, run_sweeps, sweep_point
-from corr_cad.tolerance import SerialExecutor
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.solver import solve_forces
+from corr_cad.tolerance.montecarlo import SerialExecutor
+from corr_cad.tolerance.sweeps import PAPER_SWEEPS, comparison_rows, run_sweeps, sweep_point
 
 M0 = 1.1e5
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign, SceneError
-from corr_cad.scene import parse_scene
-from corr_cad.tolerance import (
+from corr_cad.run.scene import parse_scene
+from corr_cad.tolerance.montecarlo import (
     CHECK_METRICS,
     Checks,
     Distribution,
@@ -97,9 +97,9 @@ def test_monte_carlo_on_a_local_dask_cluster():
 
 
 def test_monte_carlo_metrics_match_a_direct_solve():
-    from corr_cad.deviations import ManufacturingErrors
-    from corr_cad.solver import cycle_angles, solve_forces
-    from corr_cad.tolerance import draw_samples
+    from corr_cad.geometry.deviations import ManufacturingErrors
+    from corr_cad.mechanics.solver import cycle_angles, solve_forces
+    from corr_cad.tolerance.montecarlo import draw_samples
 
     mc = _mc(SerialExecutor(), n=8)
     units = draw_samples(TOL, 8, 3, 26)

@@ -15,11 +15,15 @@ from pathlib import Path
 import ezdxf
 import numpy as np
 
-from .. import __version__
-from ..design import SLOT_END_CLEARANCE, GearDesign
-from ..errors import ExportError
-from ..parts import frame_slot_outline
-from ..sampling import ProfileApproximation, bulge_arc_points, spline_tooth_pieces
+from corr_cad._version import __version__
+from corr_cad.errors import ExportError
+from corr_cad.geometry.design import SLOT_END_CLEARANCE, GearDesign
+from corr_cad.geometry.parts import frame_slot_outline
+from corr_cad.geometry.sampling import (
+    ProfileApproximation,
+    bulge_arc_points,
+    spline_tooth_pieces,
+)
 
 __all__ = [
     "PART_FILES",

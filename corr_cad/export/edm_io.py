@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from ..design import GearDesign
-from ..edm import EdmProgram, Move
-from ..outputs import _atomic_text
-from . import dxf
+from corr_cad._version import __version__
+from corr_cad.geometry.design import GearDesign
+from corr_cad.shop.edm import EdmProgram, Move
+from corr_cad.export.files import _atomic_text
+from corr_cad.export import dxf
 
 __all__ = ["write_edm_dxf", "write_gcode", "EDM_FILES"]
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..inspection import InspectionResult
-from ..outputs import write_csv, write_json
+from corr_cad.export.files import write_csv, write_json
+from corr_cad.tolerance.inspection import InspectionResult
 
 __all__ = ["CSV_COLUMNS", "write_nominal_csv", "write_inspection", "inspection_png"]
 
@@ -48,7 +48,7 @@ def write_inspection(res: InspectionResult, summary: dict, out: Path) -> list[st
 
 def inspection_png(res: InspectionResult, limits: dict, verdicts: dict, path: Path) -> Path:
     """Gear-lab chart: profile deviation against angle per tooth with the band; pitch; runout."""
-    from .plots import _save, plt
+    from corr_cad.export.plots import _save, plt
 
     z = len(res.teeth)
     fail_teeth = set()

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from ..errors import ProfileError
-from ..profile import ProfileCurve
-from ..sampling import approximate
-from . import dxf
+from corr_cad.errors import ProfileError
+from corr_cad.export import dxf
+from corr_cad.geometry.profile import ProfileCurve
+from corr_cad.geometry.sampling import approximate
 
 __all__ = [
     "read_measured_points",
@@ -54,7 +54,7 @@ def read_measured_points(path: Path) -> np.ndarray:
     a regular file of at most ``MAX_MEASURED_BYTES`` is read. A
     self-intersecting contour is refused.
     """
-    from ..inputfiles import read_regular_file
+    from corr_cad.export.inputfiles import read_regular_file
 
     path = Path(path)
     raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)

@@ -1,6 +1,6 @@
 """Watertight solids with manifold3d, files with trimesh (the only module importing them).
 
-Every part is an extrusion of its :mod:`corr_cad.parts` outline. Meshes are
+Every part is an extrusion of its :mod:`corr_cad.geometry.parts` outline. Meshes are
 checked watertight, consistently wound and of positive volume before they
 are written; the measured volume error against the exact volume goes into
 the manifest.
@@ -22,10 +22,10 @@ import manifold3d as m3d
 import numpy as np
 import trimesh
 
-from ..design import GearDesign
-from ..errors import ExportError
-from ..kinematics import centre_distance, unit_radial
-from ..parts import PartOutline
+from corr_cad.errors import ExportError
+from corr_cad.geometry.design import GearDesign
+from corr_cad.geometry.kinematics import centre_distance, unit_radial
+from corr_cad.geometry.parts import PartOutline
 
 __all__ = [
     "MESH_FORMATS",
@@ -110,7 +110,7 @@ class Assembly:
 
 
 def frame_stack(design: GearDesign, plate: m3d.Manifold) -> m3d.Manifold:
-    """The three frame plates in frame coordinates (see :mod:`corr_cad.parts`)."""
+    """The three frame plates in frame coordinates (see :mod:`corr_cad.geometry.parts`)."""
     w, t = design.face_width, design.frame_thickness
     return m3d.Manifold.batch_boolean(
         [

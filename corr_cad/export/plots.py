@@ -18,9 +18,9 @@ from matplotlib.patches import PathPatch, Polygon  # noqa: E402
 from matplotlib.path import Path as MplPath  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
-from ..design import GearDesign  # noqa: E402
-from ..kinematics import centre_distance, unit_radial  # noqa: E402
-from ..profile import ProfileCurve  # noqa: E402
+from corr_cad.geometry.design import GearDesign  # noqa: E402
+from corr_cad.geometry.kinematics import centre_distance, unit_radial  # noqa: E402
+from corr_cad.geometry.profile import ProfileCurve  # noqa: E402
 
 __all__ = [
     "design_caption",
@@ -115,7 +115,7 @@ def preview_png(
     cam (minus its bore). The slotted frame plate, which lies in its own
     plane beside the gear and cam, is drawn in outline.
     """
-    from ..parts import slot_polygon
+    from corr_cad.geometry.parts import slot_polygon
 
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 7))
     wp = working.sample(max(400, 40 * design.tooth_count))

@@ -328,7 +328,7 @@ def _flat(d: dict, prefix: str = "") -> list[tuple[str, str]]:
 
 
 def _version() -> str:
-    from .. import __version__
+    from corr_cad._version import __version__
 
     return __version__
 

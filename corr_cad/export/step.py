@@ -29,11 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..design import GearDesign
-from ..errors import ExportError
-from ..parts import frame_slot_outline
-from ..placement import Placement
-from ..sampling import ProfileApproximation, spline_bezier_spans
+from corr_cad.errors import ExportError
+from corr_cad.geometry.design import GearDesign
+from corr_cad.geometry.parts import frame_slot_outline
+from corr_cad.geometry.placement import Placement
+from corr_cad.geometry.sampling import ProfileApproximation, spline_bezier_spans
 
 __all__ = [
     "require_ocp",

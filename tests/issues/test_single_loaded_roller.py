@@ -9,8 +9,8 @@ clearance of the others.
 import numpy as np
 
 from corr_cad import GearDesign
-from corr_cad.deviations import ManufacturingErrors
-from corr_cad.solver import solve_forces
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.solver import solve_forces
 
 
 def test_all_but_one_roller_in_clearance():

@@ -1,0 +1,102 @@
+"""Writing one file: atomically, deterministically, with the user's umask.
+
+The text writers every exporter and stage uses (JSON, CSV, column-formatted
+CSV), the sha256 the output folder's manifest records, and the file-name tag
+of a crank angle. The output folder itself (staging, commit, recovery) is
+:mod:`corr_cad.run.outputs`; this module knows nothing of it.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import itertools
+import json
+import os
+import tempfile
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+__all__ = [
+    "write_json",
+    "write_csv",
+    "write_columns",
+    "format_columns",
+    "sha256_of",
+    "angle_tag",
+]
+
+
+def sha256_of(path: Path, sync: bool = False) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+        if sync:
+            os.fsync(f.fileno())
+    return h.hexdigest()
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _atomic_text(path: Path, text: str) -> Path:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".part")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_json(path: Path, data: object) -> Path:
+    """Write ``data`` as indented, key-sorted JSON (deterministic)."""
+    return _atomic_text(path, json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n")
+
+
+def write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> Path:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    w.writerows(rows)
+    return _atomic_text(path, buf.getvalue())
+
+
+def format_columns(columns: Sequence[object], fmts: Sequence[str]) -> str:
+    """CSV body (no header) from equal-length columns and ``%``-formats, one per column.
+
+    Vectorised: one ``%`` operation over all rows, in C. The text is the same,
+    byte for byte, as formatting each value with ``format(v, spec)`` and
+    writing rows with :func:`write_csv` (numbers never need quoting).
+    """
+    lists = [c.tolist() if hasattr(c, "tolist") else list(c) for c in columns]
+    n = len(lists[0]) if lists else 0
+    if n == 0:
+        return ""
+    row = ",".join(fmts) + "\n"
+    # chain.from_iterable flattens in C (10-15 % faster than a nested generator).
+    return (row * n) % tuple(itertools.chain.from_iterable(zip(*lists, strict=True)))
+
+
+def write_columns(
+    path: Path, header: Sequence[str], columns: Sequence[object], fmts: Sequence[str]
+) -> Path:
+    """Write a CSV from columns with :func:`format_columns`."""
+    return _atomic_text(path, ",".join(header) + "\n" + format_columns(columns, fmts))
+
+
+def angle_tag(angle_deg: float) -> str:
+    """File-name tag of a crank angle: 0 -> 000deg, 7.5 -> 007p5deg, -10 -> m010deg."""
+    text = f"{abs(angle_deg):07.3f}".rstrip("0").rstrip(".").replace(".", "p")
+    return ("m" if angle_deg < 0 else "") + f"{text}deg"

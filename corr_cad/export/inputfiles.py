@@ -1,0 +1,48 @@
+"""Reading input files (scenes, measured profiles) safely.
+
+Only regular files of a bounded size are read; everything else gets one
+line naming the file and why.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+from corr_cad.bounds import show
+from corr_cad.errors import SceneError
+
+__all__ = ["read_regular_file"]
+
+
+def read_regular_file(path: Path, what: str, max_bytes: int, error=SceneError) -> bytes:
+    """The bytes of ``path`` if it is a regular file of at most ``max_bytes``.
+
+    ``os.stat`` comes first: a FIFO, a device or a folder is refused without
+    being opened (opening a FIFO would block, /dev/zero never ends).
+    """
+    shown = show(str(path), 120)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError as exc:
+        raise error(f"{what} {shown} does not exist") from exc
+    except OSError as exc:
+        raise error(f"{what} {shown} cannot be read: {exc.strerror or exc}") from exc
+    if stat.S_ISDIR(st.st_mode):
+        raise error(f"{what} {shown} is a folder, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        raise error(f"{what} {shown} is not a regular file (a pipe, device or socket)")
+    if st.st_size > max_bytes:
+        raise error(
+            f"{what} {shown} has {st.st_size} bytes; at most {max_bytes} "
+            f"({max_bytes // (1024 * 1024)} MB) are read"
+        )
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(max_bytes + 1)
+    except OSError as exc:
+        raise error(f"{what} {shown} cannot be read: {exc.strerror or exc}") from exc
+    if len(data) > max_bytes:  # it grew since the stat
+        raise error(f"{what} {shown} has more than {max_bytes} bytes")
+    return data

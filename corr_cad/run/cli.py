@@ -1,0 +1,350 @@
+"""Command line: ``corr-cad run SCENE``, ``corr-cad new SCENE``, ``corr-cad schema``.
+
+Exit codes: 0 success; 1 a ``[checks]`` limit (or the Monte Carlo gate)
+failed, or an exported file misses its tolerance; 2 bad input, a refused
+design, an unusable output folder or a full disk (one line on stderr, no
+traceback, previous outputs left as they were); 130 SIGINT, 143 SIGTERM.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import sys
+import threading
+from pathlib import Path
+
+from corr_cad._version import __version__
+from corr_cad.errors import CorrCadError
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="corr-cad",
+        description=(
+            "Profiles, machining files and mesh forces for compound oscillatory roller "
+            "reducers. Units: mm, N, N*mm, MPa."
+        ),
+    )
+    p.add_argument("--version", action="version", version=f"corr-cad {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    run = sub.add_parser("run", help="build what a scene file asks for")
+    run.add_argument("scene", type=Path, help="scene file (TOML)")
+    run.add_argument(
+        "--out", type=Path, default=None, help="output folder (default outputs/<scene name>)"
+    )
+    run.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    run.add_argument(
+        "--executor",
+        choices=("process", "serial", "dask"),
+        default="process",
+        help="where Monte Carlo and allocation samples run (default: a process pool)",
+    )
+    run.add_argument(
+        "--scheduler", default=None, help="Dask scheduler address (with --executor dask)"
+    )
+    run.add_argument(
+        "--workers", type=int, default=None, help="process pool size (default: all cores)"
+    )
+    bench = sub.add_parser("bench", help="measure what accuracy costs in time (tables, CSV, PNG)")
+    bench.add_argument(
+        "--out", type=Path, default=Path("outputs") / "bench", help="default outputs/bench"
+    )
+    bench.add_argument(
+        "--study",
+        action="append",
+        choices=(
+            "profile",
+            "solids",
+            "solver",
+            "speed",
+            "montecarlo",
+            "throughput",
+            "kernel",
+            "interference",
+            "coldstart",
+        ),
+        help="run only this study (repeatable); default all",
+    )
+    bench.add_argument("--quick", action="store_true", help="fewer settings and repeats")
+    schema = sub.add_parser(
+        "schema", help="print the JSON Schema of scene files (for TOML editors)"
+    )
+    schema.add_argument(
+        "--out", type=Path, default=None, help="write it to this file instead of printing"
+    )
+    new = sub.add_parser("new", help="write a commented scene template")
+    new.add_argument("scene", type=Path, help="file to create (refuses to overwrite)")
+    return p
+
+
+def _check_workers(args: argparse.Namespace) -> None:
+    from corr_cad.errors import SceneError
+
+    cores = os.cpu_count() or 1
+    if args.workers is not None and not 1 <= args.workers <= cores:
+        raise SceneError(
+            f"--workers {args.workers}: allowed range is 1..{cores} (the number of cores)"
+        )
+
+
+def _run(args: argparse.Namespace, state: dict) -> int:
+    from corr_cad.run.outputs import StagingDir, check_out_dir, safe_folder_name
+    from corr_cad.run.pipeline import run_scene
+    from corr_cad.run.scene import load_scene
+
+    _check_workers(args)
+    scene = load_scene(args.scene)
+    if args.quiet:
+        from corr_cad.run import progress
+
+        progress.set_enabled(False)
+    out = args.out if args.out is not None else Path("outputs") / safe_folder_name(scene.name)
+    check_out_dir(out)  # refuse before anything is created or started
+    say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
+    say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
+    staging = StagingDir(out)
+    state["staging"] = staging
+    concurrent = _concurrent_stages(args, scene)
+    with _executor(args, scene, concurrent) as executor, staging as stage:
+        # Printed with --quiet too (the user must know), once the run is
+        # accepted: a refused run prints only its one error line.
+        for warning in scene.warnings:
+            print(f"corr-cad: warning: {warning}", file=sys.stderr)
+        manifest = run_scene(
+            scene, stage, progress=say, executor=executor, concurrent_stages=concurrent
+        )
+    from corr_cad.run.console import failed_checks, summary_lines
+
+    if not args.quiet:
+        print("\n".join(summary_lines(manifest, out)), flush=True)
+    status = 0
+    for acc in manifest.get("accuracy", {}).values():
+        if not acc.get("within_tolerance", True):
+            print(
+                f"corr-cad: {acc['file']}: {acc['layer']} measured max deviation "
+                f"{acc['max_deviation_mm']:.4g} mm exceeds the tolerance "
+                f"{acc['tolerance_mm']:g} mm "
+                f"({acc['representation']}, {acc['vertex_count']} vertices)",
+                file=sys.stderr,
+            )
+            status = 1
+    failed = failed_checks(manifest)
+    if failed:
+        print(f"corr-cad: check failed: {'; '.join(failed)}", file=sys.stderr)
+    bad = manifest.get("inspection", {}).get("failed")
+    if bad:
+        print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
+    if failed or bad:
+        return 1
+    return status
+
+
+#: Seconds to wait for a Dask scheduler before giving up.
+SCHEDULER_TIMEOUT_S = 5.0
+
+
+def _worker_init(parent_pid: int) -> None:
+    """Process-pool worker start: die with the main process, leave Ctrl-C to it.
+
+    On Linux the kernel sends SIGKILL when the parent dies (PR_SET_PDEATHSIG);
+    a daemon thread polling ``os.getppid()`` covers other platforms and the
+    instant before the ``prctl`` call.
+    """
+    import signal
+    import threading
+    import time
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent_pid:
+                os._exit(1)
+            time.sleep(0.2)
+
+    threading.Thread(target=watch, name="corr-cad-parent-watch", daemon=True).start()
+
+
+def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
+    """Run the STEP export in a pool worker beside the other stages?
+
+    With the process executor and two or more workers (``--workers``, default
+    all cores), when the scene has other work to overlap it with
+    (:mod:`corr_cad.run.concurrent`).
+    """
+    from corr_cad.run.concurrent import worker_stages
+    from corr_cad.run.pipeline import plan
+
+    if args.executor != "process" or (args.workers or os.cpu_count() or 1) < 2:
+        return False
+    stages = plan(
+        scene.formats,
+        checks=bool(scene.checks.active()),
+        measured=scene.measured_profile is not None,
+        interference_method=scene.interference_method,
+    )
+    return bool(worker_stages(stages))
+
+
+@contextlib.contextmanager
+def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
+    """The executor for sample work and worker stages; only started (or contacted) when needed."""
+    from corr_cad.errors import SceneError
+
+    needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
+    if args.executor == "dask":
+        if not args.scheduler:
+            raise SceneError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")
+        if not needs:
+            yield None
+            return
+        try:
+            from dask.distributed import Client
+        except ImportError as exc:
+            raise SceneError(
+                "--executor dask needs the 'dask' extra: pip install -e '.[dask]'"
+            ) from exc
+        try:
+            client = Client(args.scheduler, timeout=SCHEDULER_TIMEOUT_S)
+        except Exception as exc:
+            raise SceneError(
+                f"--scheduler {args.scheduler!r}: no Dask scheduler answered within "
+                f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}); give a running one's "
+                "address, e.g. tcp://host:8786"
+            ) from exc
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    if args.executor == "serial" or not (needs or concurrent_stages):
+        yield None
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    from corr_cad.run.concurrent import kill_pool
+
+    pool = ProcessPoolExecutor(
+        max_workers=args.workers, initializer=_worker_init, initargs=(os.getpid(),)
+    )
+    try:
+        yield pool
+    except BaseException:
+        kill_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _new(args: argparse.Namespace) -> int:
+    from corr_cad.errors import SceneError
+    from corr_cad.run.scene import template_text
+
+    path: Path = args.scene
+    if path.exists():
+        raise SceneError(f"{path} exists; choose another name")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(template_text(), encoding="utf-8")
+    tmp.replace(path)
+    print(f"wrote {path}")
+    return 0
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C (exit 143 instead of 130)."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
+def _schema(args: argparse.Namespace) -> int:
+    from corr_cad.run.schema_json import schema_text
+
+    text = schema_text()
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(args.out.name + ".part")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    import signal
+    from concurrent.futures import BrokenExecutor
+
+    from corr_cad.run.memory import keep_freed_memory
+
+    args = _parser().parse_args(argv)
+    keep_freed_memory()  # fresh pages fault at every new array otherwise: see memory.py
+    state: dict = {}
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        if args.command == "run":
+            return _run(args, state)
+        if args.command == "bench":
+            from corr_cad.run.bench import STUDIES, run
+
+            run(args.out, args.study or list(STUDIES), quick=args.quick)
+            print(f"wrote the benchmark tables and plots to {args.out}")
+            return 0
+        if args.command == "schema":
+            return _schema(args)
+        return _new(args)
+    except CorrCadError as exc:
+        print(f"corr-cad: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenExecutor:
+        # A pool worker died under us (killed, out of memory, a crash in a
+        # native library); the staging folder is already gone.
+        print(
+            "corr-cad: error: a worker process died (killed, or out of memory?); "
+            "previous outputs left as they were; --executor serial runs without workers",
+            file=sys.stderr,
+        )
+        return 2
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(
+            f"corr-cad: error: {where}{exc.strerror or exc}; previous outputs left as they were",
+            file=sys.stderr,
+        )
+        return 2
+    except KeyboardInterrupt as exc:
+        name, code = ("SIGTERM", 143) if isinstance(exc, _Terminated) else ("SIGINT", 130)
+        staging = state.get("staging")
+        left = (
+            "the new outputs were already in place"
+            if staging is not None and staging.committed
+            else "previous outputs left as they were"
+        )
+        print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
+        return code
+    finally:
+        if previous is not None:  # called in-process (tests, notebooks): leave no handler behind
+            signal.signal(signal.SIGTERM, previous)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,535 @@
+"""The output folder contract: never touch what corr-cad did not write.
+
+A run writes into a hidden staging folder *inside* the target
+(``<out>/.corr-cad-staging-<pid>-<random>/``, so every move is a rename on
+one file system) and commits file by file:
+
+1. every staged file is hashed (and synced); a file of the new set whose name
+   exists in the folder may be replaced only if the previous ``manifest.json``
+   lists it with the sha256 it still has (it is corr-cad's own); a symlink,
+   folder or foreign file of that name refuses the run before anything moves;
+2. ``manifest.json`` is replaced atomically by a journal version:
+   ``"complete": false``, the new file list with sha256, and a ``"commit"``
+   record (staging folder, the hashes of the files it replaces, the previous
+   run's files to remove);
+3. each new file is moved into place with ``os.replace``;
+4. files of the previous run that the new one no longer writes are removed
+   if they still have their recorded sha256 (an edited one is left, with a
+   warning);
+5. ``manifest.json`` is replaced atomically by the final ``"complete": true``
+   version; the empty staging folder is removed.
+
+SIGINT and SIGTERM arriving during steps 2-5 are held until step 5 is done.
+A run that finds ``"complete": false`` (a SIGKILL or power loss between
+2 and 5) finishes the moves from the staging folder it names, or, if that
+cannot be done, removes that set's files (those still matching their sha256)
+and its manifest; then it removes staging leftovers. All of this happens
+under an exclusive ``flock`` on ``<out>/.corr-cad.lock``, a file that exists
+only while a run holds it. A run that fails before its commit removes the
+folders it created (a refused run leaves nothing).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import json
+import os
+import re
+import shutil
+import signal
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from corr_cad.errors import ExportError, OutputError
+from corr_cad.export.files import _umask, sha256_of, write_json
+
+__all__ = [
+    "StagingDir",
+    "safe_folder_name",
+    "check_out_dir",
+    "read_manifest",
+    "MANIFEST_NAME",
+    "LOCK_NAME",
+    "STAGING_PREFIX",
+]
+
+MANIFEST_NAME = "manifest.json"
+LOCK_NAME = ".corr-cad.lock"
+STAGING_PREFIX = ".corr-cad-staging-"
+#: Written into every staging folder on creation: only folders holding it are
+#: ever removed as leftovers (a user's folder that merely has the name is not).
+STAGING_MARK = ".corr-cad-staging"
+#: The lock file's content: a file of that name with other content is the user's.
+LOCK_MARK = b"corr-cad lock\n"
+GENERATOR = "corr-cad"
+#: How long a run waits for another run into the same folder before refusing
+#: (environment variable ``CORR_CAD_LOCK_WAIT_S`` overrides it, 0..3600 s).
+LOCK_WAIT_S = 10.0
+
+
+def _lock_wait_s() -> float:
+    raw = os.environ.get("CORR_CAD_LOCK_WAIT_S")
+    try:
+        value = float(raw) if raw is not None else LOCK_WAIT_S
+    except ValueError:
+        raise OutputError(
+            f"CORR_CAD_LOCK_WAIT_S = {raw!r}: must be a number of seconds in 0..3600"
+        ) from None
+    if not 0 <= value <= 3600:
+        raise OutputError(f"CORR_CAD_LOCK_WAIT_S = {raw!r}: allowed range is 0..3600 s")
+    return value
+
+
+_JOURNAL_TMP = ".manifest.journal.json"
+
+
+# --- the output folder -----------------------------------------------------
+
+
+def safe_folder_name(stem: str) -> str:
+    """A folder name from a scene file's stem: never ``.``, ``..``, hidden or nested.
+
+    Runs of characters other than letters, digits, ``.``, ``_``, ``+``, ``-``
+    (separators, spaces, control characters) become one ``_``; leading and
+    trailing dots are dropped; the name is cut to 100 bytes; an empty result
+    is ``scene``.
+
+    >>> [safe_folder_name(s) for s in (".", "..", "my scene", "a\\\\b", ".hidden")]
+    ['scene', 'scene', 'my_scene', 'a_b', 'hidden']
+    """
+    name = re.sub(r"[^\w.+-]+", "_", stem).strip(".")
+    while len(name.encode("utf-8")) > 100:
+        name = name[:-1]
+    name = name.strip(".")
+    return name or "scene"
+
+
+def check_out_dir(out: Path) -> Path:
+    """The output folder, resolved, if it can be used; creates nothing.
+
+    Refused (:class:`OutputError`): an existing file, ``/``, a mount point, a
+    path below an existing file, a folder that is not writable or whose
+    nearest existing parent is not writable.
+    """
+    given = str(out)
+    try:
+        real = Path(out).expanduser().resolve()
+    except (OSError, RuntimeError) as exc:  # symlink loops
+        raise OutputError(f"--out {given!r}: cannot be resolved ({exc})") from exc
+    if real == Path(real.anchor):
+        raise OutputError(f"--out {given!r}: resolves to {real}; give a folder below it")
+    if any(len(part.encode("utf-8", "surrogateescape")) > 255 for part in real.parts):
+        raise OutputError(f"--out: a folder name is longer than 255 bytes ({given[:60]!r}...)")
+    if os.path.lexists(real):
+        if not real.is_dir():
+            raise OutputError(f"--out {given!r}: is an existing file; give a folder")
+        if os.path.ismount(real):
+            raise OutputError(
+                f"--out {given!r}: is a mount point; give a folder inside it (e.g. {real}/out)"
+            )
+        if not os.access(real, os.W_OK | os.X_OK):
+            raise OutputError(f"--out {given!r}: folder is not writable")
+        return real
+    parent = real.parent
+    while not os.path.lexists(parent):
+        parent = parent.parent
+    if not parent.is_dir():
+        raise OutputError(f"--out {given!r}: lies below {parent}, which is a file, not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"--out {given!r}: cannot be created, {parent} is not writable")
+    return real
+
+
+def _is_ours(data: object) -> bool:
+    if not isinstance(data, dict) or not isinstance(data.get("files"), dict):
+        return False
+    versions = data.get("versions")
+    return data.get("generator") == GENERATOR or (
+        isinstance(versions, dict) and "corr_cad" in versions
+    )
+
+
+def read_manifest(folder: Path) -> dict | None:
+    """The corr-cad manifest in ``folder``, None if there is none.
+
+    A ``manifest.json`` that is a symlink, not a regular file or not
+    corr-cad's refuses the run: it is the user's, and corr-cad would have to
+    overwrite it.
+    """
+    p = Path(folder) / MANIFEST_NAME
+    if not os.path.lexists(p):
+        return None
+    if p.is_symlink() or not p.is_file():
+        raise OutputError(
+            f"{p}: is a symlink or not a regular file; corr-cad leaves it alone - "
+            "move it away or choose another --out"
+        )
+    try:
+        with open(p, "rb") as f:
+            data = json.loads(f.read(64 << 20))
+    except (ValueError, UnicodeDecodeError):
+        data = None
+    if not _is_ours(data):
+        raise OutputError(
+            f"{p}: exists and was not written by corr-cad; it is left alone - "
+            "move it away or choose another --out"
+        )
+    return data
+
+
+def _valid_name(name: object) -> bool:
+    return (
+        isinstance(name, str)
+        and name not in ("", ".", "..", MANIFEST_NAME, LOCK_NAME)
+        and "/" not in name
+        and "\0" not in name
+        and not name.startswith(STAGING_PREFIX)
+    )
+
+
+def _regular(p: Path) -> bool:
+    return not p.is_symlink() and p.is_file()
+
+
+def _matches(p: Path, sha: str | None) -> bool:
+    return sha is not None and _regular(p) and sha256_of(p) == sha
+
+
+def _remove_stale(folder: Path, stale: dict, say: Callable[[str], None]) -> None:
+    """Remove files of a previous run that still carry their recorded sha256."""
+    for name, sha in sorted(stale.items()):
+        if not _valid_name(name):
+            continue
+        p = folder / name
+        if not os.path.lexists(p):
+            continue
+        if _matches(p, sha):
+            p.unlink()
+        else:
+            say(f"corr-cad: warning: {p} is from an earlier run but was changed; left in place")
+
+
+def _fsync_dir(folder: Path) -> None:
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _roll_forward(folder: Path, journal: dict, say: Callable[[str], None]) -> None:
+    """Finish (or undo) a commit that was interrupted after its journal was written."""
+    files = journal.get("files", {})
+    commit = journal.get("commit") if isinstance(journal.get("commit"), dict) else {}
+    stage_name = commit.get("staging")
+    stage = folder / stage_name if isinstance(stage_name, str) and _staging(stage_name) else None
+    replaces = commit.get("replaces", {}) if isinstance(commit.get("replaces"), dict) else {}
+    missing = []
+    moved = 0
+    for name, meta in sorted(files.items()):
+        sha = meta.get("sha256") if isinstance(meta, dict) else None
+        dst = folder / name
+        if not _valid_name(name) or _matches(dst, sha):
+            continue
+        src = stage / name if stage is not None else None
+        may_replace = not os.path.lexists(dst) or _matches(dst, replaces.get(name))
+        if src is not None and may_replace and _matches(src, sha):
+            os.replace(src, dst)
+            moved += 1
+        else:
+            missing.append(name)
+    if missing:
+        # Cannot finish: remove every file of either set that is still corr-cad's
+        # (new sha256, the sha256 it replaced, or a stale file of the previous run).
+        stale = commit.get("remove", {}) if isinstance(commit.get("remove"), dict) else {}
+        removed = 0
+        for name in set(files) | set(stale):
+            p = folder / name
+            meta = files.get(name)
+            shas = {meta.get("sha256") if isinstance(meta, dict) else None}
+            shas |= {replaces.get(name), stale.get(name)}
+            if _valid_name(name) and _regular(p) and sha256_of(p) in shas - {None}:
+                p.unlink()
+                removed += 1
+        (folder / MANIFEST_NAME).unlink()
+        say(
+            f"corr-cad: warning: {folder}: an interrupted run's output set could not be "
+            f"completed ({len(missing)} files missing, e.g. {missing[0]}); removed the "
+            f"{removed} files it and the run before had written, and the manifest"
+        )
+        return
+    stale = commit.get("remove", {}) if isinstance(commit.get("remove"), dict) else {}
+    _remove_stale(folder, stale, say)
+    final = {k: v for k, v in journal.items() if k != "commit"}
+    final["complete"] = True
+    write_json(folder / MANIFEST_NAME, final)
+    _fsync_dir(folder)
+    say(
+        f"corr-cad: note: {folder}: finished moving an interrupted run's outputs into place "
+        f"({moved} files moved); manifest.json is complete again"
+    )
+
+
+def _staging(name: str) -> bool:
+    return name.startswith(STAGING_PREFIX) and "/" not in name
+
+
+def recover(folder: Path, say: Callable[[str], None]) -> None:
+    """Repair an interrupted commit and remove staging leftovers (under the lock)."""
+    m = read_manifest(folder)
+    if m is not None and m.get("complete") is False:
+        _roll_forward(folder, m, say)
+    for entry in sorted(os.scandir(folder), key=lambda e: e.name):
+        if _staging(entry.name) and entry.is_dir(follow_symlinks=False):
+            mark = Path(entry.path) / STAGING_MARK
+            if not (mark.is_file() and not mark.is_symlink()):
+                say(f"corr-cad: warning: {entry.name} is not a corr-cad staging folder; left alone")
+                continue
+            shutil.rmtree(entry.path)
+            say(f"corr-cad: note: removed {entry.name}, left by an interrupted run")
+        elif entry.name.startswith(MANIFEST_NAME + ".") and entry.name.endswith(".part"):
+            if entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)  # our own atomic-write temporary
+
+
+@contextlib.contextmanager
+def _held_signals():
+    """Hold SIGINT/SIGTERM while the commit runs; deliver them afterwards."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    sigs = (signal.SIGINT, signal.SIGTERM)
+    old = {s: signal.signal(s, lambda n, f: got.append(n)) for s in sigs}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        if got:
+            handler = old[got[0]]
+            if callable(handler):
+                handler(got[0], None)
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), got[0])
+
+
+def _lock(folder: Path, wait_s: float) -> tuple[int, Path]:
+    """Hold an exclusive flock on ``<folder>/.corr-cad.lock`` (waits up to ``wait_s``).
+
+    The file is removed when the run ends; a waiting run that then holds a
+    lock on the removed file sees another inode at the path and starts over.
+    """
+    path = folder / LOCK_NAME
+    deadline = time.monotonic() + wait_s
+    while True:
+        if os.path.lexists(path) and not _regular(path):
+            raise OutputError(
+                f"{path}: is a symlink or not a regular file; corr-cad leaves it alone"
+            )
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)
+        except OSError as exc:
+            raise OutputError(f"{path}: cannot open the lock file ({exc.strerror})") from exc
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except OSError as exc:
+                if exc.errno not in (errno.EAGAIN, errno.EACCES):
+                    os.close(fd)
+                    raise
+            if time.monotonic() >= deadline:
+                os.close(fd)
+                raise OutputError(
+                    f"--out {str(folder)!r}: another corr-cad run is writing into this folder "
+                    f"(waited {wait_s:g} s); try again when it has finished"
+                )
+            time.sleep(0.05)
+        try:
+            same = os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            content = os.pread(fd, 64, 0)
+            if content not in (b"", LOCK_MARK):  # a file of the user's with our name
+                os.close(fd)
+                raise OutputError(
+                    f"{path}: is not corr-cad's lock file; corr-cad leaves it alone - move it "
+                    "away or choose another --out"
+                )
+            if not content:
+                os.pwrite(fd, LOCK_MARK, 0)
+            return fd, path
+        os.close(fd)  # the holder removed it as we waited: lock the new one
+
+
+def _unlock(fd: int, path: Path) -> None:
+    try:
+        if os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino:
+            os.unlink(path)
+    except FileNotFoundError:
+        pass
+    finally:
+        os.close(fd)  # closing the descriptor releases the flock
+
+
+def _stderr(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+class StagingDir:
+    """Context manager: stage inside the target folder, commit file by file on success.
+
+    >>> with StagingDir(Path("outputs/x")) as stage:   # doctest: +SKIP
+    ...     (stage / "a.txt").write_text("...")
+
+    ``committed`` tells afterwards whether the new set is in place. Warnings
+    and repair notes go to ``say`` (default: stderr).
+    """
+
+    def __init__(
+        self,
+        target: Path,
+        lock_wait_s: float | None = None,
+        say: Callable[[str], None] | None = None,
+    ):
+        self.given = Path(target)
+        self.target: Path | None = None
+        self.path: Path | None = None
+        self.lock_wait_s = lock_wait_s
+        self.say = say or _stderr
+        self.committed = False
+        self._fd: int | None = None
+        self._lock_path: Path | None = None
+        self._created: list[Path] = []
+
+    def __enter__(self) -> Path:
+        wait = self.lock_wait_s if self.lock_wait_s is not None else _lock_wait_s()
+        self.target = check_out_dir(self.given)
+        created = []
+        p = self.target
+        while not os.path.lexists(p):
+            created.append(p)
+            p = p.parent
+        self._created = created  # deepest first: removed again if the run fails
+        try:
+            self.target.mkdir(parents=True, exist_ok=True)
+            self._fd, self._lock_path = _lock(self.target, wait)
+            recover(self.target, self.say)
+            read_manifest(self.target)  # a foreign manifest.json refuses before the work
+            self.path = Path(
+                tempfile.mkdtemp(dir=self.target, prefix=f"{STAGING_PREFIX}{os.getpid()}-")
+            )
+            os.chmod(self.path, 0o777 & ~_umask())
+            (self.path / STAGING_MARK).write_bytes(b"")
+        except BaseException:
+            self._unlock()
+            raise
+        return self.path
+
+    def _unlock(self) -> None:
+        if self._fd is not None:
+            _unlock(self._fd, self._lock_path)
+            self._fd = None
+        if not self.committed:
+            for p in self._created:  # a failed run leaves no folder behind
+                try:
+                    p.rmdir()
+                except OSError:
+                    break
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        assert self.path is not None and self.target is not None
+        keep_stage = False
+        try:
+            if exc_type is None:
+                keep_stage = True
+                self._commit()
+                keep_stage = False
+        except _PastNoReturn:
+            raise
+        except BaseException:
+            keep_stage = False
+            raise
+        finally:
+            if not keep_stage:
+                shutil.rmtree(self.path, ignore_errors=True)
+            self._unlock()
+
+    def _commit(self) -> None:
+        target, stage = self.target, self.path
+        prev = read_manifest(target)
+        prev_files = prev["files"] if prev else {}
+        new: dict[str, dict] = {}
+        for entry in sorted(os.scandir(stage), key=lambda e: e.name):
+            if entry.name in (MANIFEST_NAME, STAGING_MARK):
+                continue
+            if not entry.is_file(follow_symlinks=False) or not _valid_name(entry.name):
+                raise ExportError(f"staged output {entry.name!r} is not a regular file")
+            new[entry.name] = {
+                "sha256": sha256_of(Path(entry.path), sync=True),
+                "bytes": entry.stat(follow_symlinks=False).st_size,
+            }
+        replaces: dict[str, str | None] = {}
+        for name in new:
+            dst = target / name
+            if not os.path.lexists(dst):
+                replaces[name] = None
+                continue
+            if dst.is_symlink() or not dst.is_file():
+                raise OutputError(
+                    f"{dst}: is a symlink or folder that corr-cad did not write; it is left "
+                    "alone - move it away or choose another --out"
+                )
+            old = prev_files.get(name, {}).get("sha256") if isinstance(prev_files, dict) else None
+            if not _matches(dst, old):
+                raise OutputError(
+                    f"{dst}: was not written by corr-cad (or was changed since); it is left "
+                    "alone - move it away or choose another --out"
+                )
+            replaces[name] = old
+        stale = {
+            n: m.get("sha256")
+            for n, m in prev_files.items()
+            if n not in new and isinstance(m, dict)
+        }
+        manifest: dict = {}
+        if (stage / MANIFEST_NAME).is_file():
+            with open(stage / MANIFEST_NAME, encoding="utf-8") as f:
+                manifest = json.load(f)
+        manifest.update({"generator": GENERATOR, "complete": True, "files": new})
+        write_json(stage / MANIFEST_NAME, manifest)
+        journal = {
+            **manifest,
+            "complete": False,
+            "commit": {"staging": stage.name, "replaces": replaces, "remove": stale},
+        }
+        write_json(stage / _JOURNAL_TMP, journal)
+        _fsync_dir(stage)
+        with _held_signals():
+            os.replace(stage / _JOURNAL_TMP, target / MANIFEST_NAME)
+            try:
+                _fsync_dir(target)
+                for name in new:
+                    os.replace(stage / name, target / name)
+                _remove_stale(target, stale, self.say)
+                os.replace(stage / MANIFEST_NAME, target / MANIFEST_NAME)
+                _fsync_dir(target)
+                self.committed = True
+            except BaseException as exc:
+                # The journal names the staging folder: keep it, the next run finishes.
+                raise _PastNoReturn(
+                    f"{target}: interrupted while moving outputs into place ({exc}); "
+                    "the next run into this folder finishes the move"
+                ) from exc
+
+
+class _PastNoReturn(OutputError):
+    """The commit failed after its journal was written; the staging folder is kept."""

@@ -1,0 +1,176 @@
+"""Scene text: the no-effect warnings, the README's bounds table and the template.
+
+All three are generated from :data:`corr_cad.run.scene_schema.SCHEMA`.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from typing import Any
+
+from corr_cad.run.scene_schema import MAX_LIST, MAX_STR, SCHEMA, key_range
+
+#: Which formats make each section, or key, have an effect. ``None`` for a
+#: section means "see the keys"; a key not listed follows its section.
+_SOLVER_FORMATS = {"forces", "montecarlo", "allocation", "sweeps"}
+_MESH = {"stl", "3mf", "glb", "ply"}
+
+
+def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tuple[str, ...]:
+    """One line for each given section or key that does nothing in this scene."""
+    f = set(formats)
+    forces = "forces" in f or checks  # the checks run the force solver
+    mc = bool({"montecarlo", "allocation"} & f)
+    solver = forces or bool(_SOLVER_FORMATS & f)
+    measured = "measured_profile" in data.get("errors", {})
+    out: list[str] = []
+
+    def warn(what: str, why: str) -> None:
+        out.append(f"{what} has no effect in this scene: {why}")
+
+    if "montecarlo" in data and not mc:
+        warn("[montecarlo]", 'formats lists neither "montecarlo" nor "allocation"')
+    elif mc:
+        mcd = data.get("montecarlo", {})
+        if "samples" in mcd and "montecarlo" not in f:
+            warn("[montecarlo] samples", 'formats does not list "montecarlo"')
+        for k in ("percentile", "allocation_samples"):
+            if k in mcd and "allocation" not in f:
+                warn(f"[montecarlo] {k}", 'formats does not list "allocation"')
+    if "tolerances" in data and not mc:
+        warn("[tolerances]", 'formats lists neither "montecarlo" nor "allocation"')
+    if "sweeps" in data and "sweeps" not in f:
+        warn("[sweeps]", 'formats does not list "sweeps"')
+    if "load" in data and not solver:
+        warn("[load]", "no format needs the mesh forces (forces, montecarlo, allocation, sweeps)")
+    if "material" in data and not solver:
+        warn("[material]", "only the force solver uses it and no format needs it")
+    sv = data.get("solver", {})
+    if "solver" in data and not solver:
+        warn("[solver]", "no format runs the force solver (forces, montecarlo, allocation, sweeps)")
+    elif not forces:
+        for k in ("positions", "crank_angles_deg", "variants"):
+            if k in sv:
+                warn(f"[solver] {k}", 'only "forces" and [checks] use it')
+    ex = data.get("export", {})
+    if "representation" in ex and "dxf" not in f:
+        warn("[export] representation", 'formats does not list "dxf"')
+    geometry = bool((_MESH | {"step", "interference"}) & f)
+    if "tolerance" in ex and "dxf" not in f and ("chord_tolerance" in ex or not geometry):
+        warn("[export] tolerance", 'formats lists no "dxf" (and no mesh/STEP takes it over)')
+    if "chord_tolerance" in ex and not geometry:
+        warn("[export] chord_tolerance", "formats lists no mesh, step or interference")
+    if "assembly_angles_deg" in ex and not (_MESH | {"step"}) & f:  # STEP writes assemblies too
+        warn("[export] assembly_angles_deg", "formats lists no mesh (stl, 3mf, glb, ply) or step")
+    if "interference_positions" in ex and "interference" not in f:
+        warn("[export] interference_positions", 'formats does not list "interference"')
+    if "interference_method" in ex and "interference" not in f:
+        warn("[export] interference_method", 'formats does not list "interference"')
+    if "edm" in data and "edm" not in f:
+        warn("[edm]", 'formats does not list "edm"')
+    insp = data.get("inspection", {})
+    if "inspection" in data and not {"cmm", "inspection"} & f:
+        warn("[inspection]", 'formats lists neither "cmm" nor "inspection"')
+    else:
+        if "point_spacing" in insp and "cmm" not in f:
+            warn("[inspection] point_spacing", 'only "cmm" uses it')
+        for k in insp:
+            if k != "point_spacing" and "inspection" not in f:
+                warn(f"[inspection] {k}", 'formats does not list "inspection"')
+    er = data.get("errors", {})
+    if "measured_exaggeration" in er and not (measured and "dxf" in f):
+        warn("[errors] measured_exaggeration", 'it scales measured_profile.dxf (needs "dxf")')
+    physical = [k for k in er if k not in ("measured_profile", "measured_exaggeration")]
+    # The exact clearance takes every error kind, the mesh sweep only roller radii.
+    exact = "interference" in f and ex.get("interference_method", "exact") != "mesh"
+    roller_only = "interference" in f
+    for k in physical:  # the sweeps vary the nominal design: they ignore [errors]
+        if not (
+            forces
+            or mc
+            or exact
+            or (roller_only and k in ("roller_radius_error", "roller_radius_errors"))
+        ):
+            warn(f"[errors] {k}", "only forces, checks, montecarlo, allocation, interference")
+    return tuple(out)
+
+
+def bounds_table() -> str:
+    """The README's table of every scene key's allowed range (from :data:`SCHEMA`)."""
+    rows = ["| key | type | allowed | also, against the design |", "| --- | --- | --- | --- |"]
+    for section, keys in SCHEMA.items():
+        for k, spec in keys.items():
+            if spec.kind in ("int", "float"):
+                allowed = "finite" if spec.low is None and spec.high is None else key_range(spec)
+            elif spec.kind == "bool":
+                allowed = "true, false"
+            elif spec.kind == "str":
+                allowed = (
+                    ", ".join(spec.choices) if spec.choices else f"a path, <= {MAX_STR} characters"
+                )
+            elif spec.kind == "distribution":
+                allowed = "{ normal = sigma } or { uniform = half width }, scale >= 0"
+            elif spec.kind == "list[str]":
+                allowed = f"each of {', '.join(spec.choices or ())}, once"
+            else:
+                item = key_range(spec) if spec.low is not None else "finite numbers"
+                if spec.kind == "list[list[float]]":
+                    item = "rows [order, amplitude, phase]"
+                n = "z + 1" if spec.max_len is None and "per-" in spec.help else None
+                allowed = f"{item}; {n or f'1 to {spec.max_len or MAX_LIST}'} entries"
+            rows.append(f"| `[{section}] {k}` | {spec.kind} | {allowed} | {spec.note} |")
+    return "\n".join(rows) + "\n"
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def template_text() -> str:
+    """A commented scene with every section and key (optional ones commented out).
+
+    Sections and keys that would have no effect with the template's own
+    formats are written commented out too, so that a fresh scene runs without
+    a single "has no effect" warning; uncomment them with the format they need.
+    """
+    quiet: set[str] = set()
+    for _ in range(2):  # pass 1 finds what would warn, pass 2 writes it commented
+        lines = [
+            "# corr_cad scene. Units: mm, N, N*mm, MPa; angles in degrees.",
+            "# Run it with:  corr-cad run THIS_FILE --out outputs/NAME",
+            "# Commented sections and keys take effect with the formats they name.",
+            "",
+        ]
+        for section, keys in SCHEMA.items():
+            off = f"[{section}]" in quiet
+            lines.append(f"{'# ' if off else ''}[{section}]")
+            for k, spec in keys.items():
+                choices = f" (one of: {', '.join(spec.choices)})" if spec.choices else ""
+                lines.append(f"# {spec.help}{choices}")
+                commented = (
+                    off
+                    or f"[{section}] {k}" in quiet
+                    or spec.default is None
+                    or section == "errors"
+                    or (section == "solver" and k == "variants")
+                )
+                value = spec.example if spec.default is None else spec.default
+                lines.append(f"{'# ' if commented else ''}{k} = {_toml_value(value)}")
+            lines.append("")
+        data = tomllib.loads("\n".join(lines))
+        formats = tuple(data.get("export", {}).get("formats", SCHEMA["export"]["formats"].default))
+        found = {w.split(" has no effect")[0] for w in no_effect_warnings(data, formats, False)}
+        if not found - quiet:
+            break
+        quiet |= found
+    return "\n".join(lines)

@@ -1,0 +1,159 @@
+"""Pipeline stages for the shop floor and the inspection lab (issue 12).
+
+``edm_files`` (format ``edm``), ``cmm_points`` (``cmm``) and ``inspection``
+(``inspection``, needs ``[errors] measured_profile``). Registered in
+``pipeline.STAGES``; kept here so that the stage graph stays readable.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["edm_files", "cmm_points", "inspection"]
+
+
+def edm_files(ctx) -> None:
+    from corr_cad.export.edm_io import write_edm_dxf, write_gcode
+    from corr_cad.shop.edm import EdmSpec, plan_cut
+
+    s = ctx.scene
+    spec = EdmSpec(**s.edm)
+    prog, _ = plan_cut(ctx.results["working"], spec, s.tolerance, ctx.results.get("forces"))
+    write_edm_dxf(s.design, prog, ctx.out / "inner_gear_edm.dxf")
+    write_gcode(s.design, prog, s.name, ctx.out / "inner_gear_edm.nc")
+    ctx.files.extend(["inner_gear_edm.dxf", "inner_gear_edm.nc"])
+    ctx.manifest["edm"] = prog.as_dict()
+    ctx.progress(
+        f"      wire path: offset {spec.offset:g} mm into the opening, {len(prog.contour)} moves, "
+        f"measured deviation {prog.written_deviation:.3g} mm; lead-in at the "
+        f"{prog.lead_in_point['where']}"
+    )
+
+
+def cmm_points(ctx) -> None:
+    from corr_cad.export.inspection_io import write_nominal_csv
+    from corr_cad.geometry import kinematics as kin
+    from corr_cad.geometry.projection import arc_length_parameters
+
+    s = ctx.scene
+    w = ctx.results["working"]
+    z = w.tooth_count
+    pitch = 2 * math.pi / z
+    t0, step, length = arc_length_parameters(
+        w, -0.5 * pitch, 0.5 * pitch, s.inspection["point_spacing"]
+    )
+    t = np.concatenate([t0 + k * pitch for k in range(z)])
+    tooth = np.repeat(np.arange(1, z + 1), len(t0))
+    pts = w.points(t)
+    normals = -kin.locus_normals(t, z, w.eccentricity, w.link_length)
+    write_nominal_csv(tooth, t, pts, normals, ctx.out / "inner_gear_nominal.csv")
+    ctx.files.append("inner_gear_nominal.csv")
+    ctx.manifest["cmm"] = {
+        "points": int(len(t)),
+        "points_per_tooth": int(len(t0)),
+        "point_spacing_mm": step,
+        "requested_spacing_mm": s.inspection["point_spacing"],
+        "tooth_length_mm": length,
+        "normal": "unit, from the ring material into the opening",
+        "tooth": "tooth space k centred at polar angle (k - 1) 360/z deg, from tip to tip",
+    }
+
+
+def _force_comparison(ctx) -> dict:
+    from corr_cad.geometry.deviations import ManufacturingErrors
+    from corr_cad.mechanics.solver import solve_forces
+
+    s = ctx.scene
+    if s.load is None:
+        return {"computed": False, "reason": "no [load] input_torque"}
+    angles = (
+        np.radians(np.asarray(s.solver.crank_angles_deg, dtype=float))
+        if s.solver.crank_angles_deg is not None
+        else None
+    )
+    kw = {"positions": s.solver.positions, "load_share": s.solver.load_share}
+    nom = solve_forces(s.design, s.load.input_torque, angles, errors=ManufacturingErrors(), **kw)
+    mea = ctx.results.get("forces") or solve_forces(
+        s.design, s.load.input_torque, angles, errors=ctx.results["errors"], **kw
+    )
+    a, b = nom.summary(), mea.summary()
+    rows = {}
+    for key in ("F_j_mean", "F_j_peak", "F_n_peak", "p_max", "loaded_rollers_min"):
+        rows[key] = {
+            "nominal": a[key],
+            "measured": b[key],
+            "change_percent": 100.0 * (b[key] - a[key]) / a[key] if a[key] else None,
+        }
+    rows["F_n_peak_any_roller"] = {
+        "nominal": float(nom.F_n.max()),
+        "measured": float(mea.F_n.max()),
+        "change_percent": 100.0 * (float(mea.F_n.max()) / float(nom.F_n.max()) - 1.0),
+    }
+    return {
+        "computed": True,
+        "input_torque_Nmm": s.load.input_torque,
+        "positions": int(nom.F_j.shape[0]),
+        "measured_includes": "the measured profile as a gear-contact gap, with the scene's "
+        "other [errors]",
+        "roller_1_and_all": rows,
+    }
+
+
+def inspection(ctx) -> None:
+    from corr_cad.export.inspection_io import inspection_png, write_inspection
+    from corr_cad.geometry import kinematics as kin
+    from corr_cad.tolerance.inspection import (
+        LIMITS,
+        evaluate_limits,
+        fit_design_family,
+        inspect_teeth,
+    )
+
+    s = ctx.scene
+    w = ctx.results["working"]
+    reg = ctx.results["registration"]
+    raw = ctx.results["measured_points"]
+    datum = kin.rotate_by_polar_angle(raw, -math.radians(reg.rotation_deg))
+    res = inspect_teeth(w, reg.placed, datum, s.inspection["evaluation_psi_deg"])
+    limits = {k: s.inspection[k] for k in LIMITS}
+    verdicts = evaluate_limits(res, limits)
+    ctx.progress("      fitting e, L, phase and centre to the measured profile")
+    fit = fit_design_family(w, raw)
+    summary = {
+        "teeth": len(res.teeth),
+        "registration": reg.as_dict(),
+        "evaluation_psi_deg": s.inspection["evaluation_psi_deg"],
+        "profile_deviation_max_mm": float(res.column("profile_deviation_mm").max()),
+        "form_deviation_max_mm": float(res.column("form_deviation_mm").max()),
+        "position_max_abs_arcsec": float(np.abs(res.column("position_arcsec")).max()),
+        "single_pitch_max_abs_arcsec": float(np.abs(res.column("single_pitch_arcsec")).max()),
+        "cumulative_pitch_total_arcsec": res.cumulative_pitch_total_arcsec,
+        "cumulative_pitch_span_teeth": list(res.cumulative_pitch_span),
+        "runout_mm": res.runout_mm,
+        "limits": verdicts,
+        "passed": all(v["passed"] for v in verdicts.values()),
+        "design_fit": fit,
+        "forces": _force_comparison(ctx),
+        "definitions": "see README 'Inspection report' (ISO 1328-1 adapted)",
+    }
+    files = write_inspection(res, summary, ctx.out)
+    inspection_png(res, limits, verdicts, ctx.out / "inspection.png")
+    ctx.files.extend(files + ["inspection.png"])
+    ctx.manifest["inspection"] = {
+        k: summary[k]
+        for k in ("passed", "limits", "profile_deviation_max_mm", "runout_mm")
+        + ("cumulative_pitch_total_arcsec",)
+    }
+    ctx.manifest["inspection"]["failed"] = [
+        f"{k} tooth {v['tooth']} value {v['value']:.6g} {v['unit']} > {v['limit']:g}"
+        for k, v in verdicts.items()
+        if not v["passed"]
+    ]
+    for k, v in verdicts.items():
+        state = "pass" if v["passed"] else "FAIL"
+        ctx.progress(
+            f"      inspection {k}: {state} (tooth {v['tooth']}, value {v['value']:.4g} "
+            f"{v['unit']}, limit {v['limit']:g})"
+        )

@@ -1,0 +1,189 @@
+"""The package's layout: layers import downwards only, and nothing imports in a cycle.
+
+Walks every module's ``import`` statements with :mod:`ast` (at module level,
+inside functions and under ``TYPE_CHECKING`` alike: an import that only
+dodges a cycle at run time still counts). Imports nothing from the package.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[1] / "corr_cad"
+
+#: Each top-level module or subpackage and its layer, lowest first. A module
+#: may import from its own layer or any lower one, never from a higher one.
+LAYERS = {
+    "_version": 0,
+    "errors": 0,
+    "bounds": 0,
+    "geometry": 1,
+    "mechanics": 2,
+    "tolerance": 3,
+    "shop": 3,
+    "export": 4,
+    "run": 5,
+    "": 6,  # corr_cad/__init__.py: the public API gathers every layer
+    "__main__": 6,
+}
+
+#: Third-party packages only the exporters may import (file formats, drawing).
+EXPORT_ONLY = ("ezdxf", "trimesh", "manifold3d", "OCP", "matplotlib", "jinja2")
+
+MAX_LINES = 620
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for p in sorted(PKG.rglob("*.py")):
+        parts = list(p.relative_to(PKG.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = p
+    return out
+
+
+MODULES = _modules()
+
+
+def _imports(name: str, path: Path) -> tuple[set[str], set[str]]:
+    """(package modules, third-party top-level names) that ``name`` imports."""
+    tree = ast.parse(path.read_text())
+    base = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    inner, outer = set(), set()
+    for node in ast.walk(tree):
+        targets: list[str] = []
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                b = base[: len(base) - (node.level - 1)]
+                mod = ".".join(b + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            targets = [f"{mod}.{a.name}" for a in node.names] + [mod]
+        elif isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif (
+            isinstance(node, ast.Call)
+            and getattr(node.func, "attr", getattr(node.func, "id", None)) == "import_module"
+            and node.args
+            and isinstance(node.args[0], ast.Constant)
+        ):
+            arg = node.args[0].value
+            targets = [f"corr_cad{arg}" if arg.startswith(".") else arg]
+        for t in targets:
+            if t.split(".")[0] != "corr_cad":
+                outer.add(t.split(".")[0])
+                continue
+            # the longest prefix that is a module of the package
+            parts = t.split(".")
+            for k in range(len(parts), 0, -1):
+                cand = ".".join(parts[:k])
+                if cand in MODULES:
+                    if cand != name:
+                        inner.add(cand)
+                    break
+    return inner, outer
+
+
+GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
+
+
+def _layer(mod: str) -> int:
+    parts = mod.split(".")
+    top = parts[1] if len(parts) > 1 else ""
+    return LAYERS[top]
+
+
+def test_every_module_has_a_layer():
+    unknown = sorted({m.split(".")[1] for m in MODULES if "." in m} - set(LAYERS))
+    assert not unknown, f"modules outside any layer: {unknown}"
+
+
+def test_no_upward_import():
+    bad = [
+        f"{a} (layer {_layer(a)}) imports {b} (layer {_layer(b)})"
+        for a, (deps, _) in GRAPH.items()
+        for b in sorted(deps)
+        if _layer(b) > _layer(a)
+    ]
+    assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def _cycle() -> list[str] | None:
+    """One import cycle among the package's modules, or None."""
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(m: str) -> list[str] | None:
+        state[m] = 1
+        stack.append(m)
+        for d in sorted(GRAPH[m][0]):
+            if d.count(".") and d.rsplit(".", 1)[0] == m:
+                continue  # a package's __init__ naming its own submodule
+            if state.get(d) == 1:
+                return stack[stack.index(d) :] + [d]
+            if d not in state:
+                found = visit(d)
+                if found:
+                    return found
+        stack.pop()
+        state[m] = 2
+        return None
+
+    for m in sorted(GRAPH):
+        if m not in state:
+            found = visit(m)
+            if found:
+                return found
+    return None
+
+
+def test_no_import_cycle():
+    cycle = _cycle()
+    assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_the_cycle_finder_finds_a_cycle(monkeypatch):
+    """The walk sees a cycle closed by one added edge (design -> profile -> design)."""
+    a, b = "corr_cad.geometry.design", "corr_cad.geometry.profile"
+    assert a in GRAPH[b][0]
+    monkeypatch.setitem(GRAPH, a, (GRAPH[a][0] | {b}, GRAPH[a][1]))
+    assert _cycle() == [a, b, a]
+
+
+def test_only_the_exporters_touch_file_formats():
+    bad = [
+        f"{m} imports {lib}"
+        for m, (_, outer) in GRAPH.items()
+        for lib in sorted(outer & set(EXPORT_ONLY))
+        if not m.startswith("corr_cad.export")
+    ]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_numerical_core_is_numpy_and_scipy():
+    allowed = {"numpy", "scipy", "numba", "shapely", "__future__", "typing"}
+    core = ("corr_cad.geometry", "corr_cad.mechanics", "corr_cad.tolerance", "corr_cad.shop")
+    bad = []
+    for m, (_, outer) in GRAPH.items():
+        if m.startswith(core):
+            import sys
+
+            third = {o for o in outer if o not in sys.stdlib_module_names}
+            bad += [f"{m} imports {o}" for o in sorted(third - allowed)]
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_module_is_too_long(name):
+    lines = len(MODULES[name].read_text().splitlines())
+    assert lines <= MAX_LINES, f"{name}: {lines} lines (split it by concept)"
+
+
+def test_each_subpackage_says_what_it_holds_and_may_import():
+    for sub in ("geometry", "mechanics", "tolerance", "shop", "export", "run"):
+        doc = ast.get_docstring(ast.parse((PKG / sub / "__init__.py").read_text())) or ""
+        assert "May import" in doc and len(doc.splitlines()) >= 3, sub
