@@ -55,9 +55,9 @@ _LAZY = {
     "ForceResult": "mechanics.solver",
     "ManufacturingErrors": "geometry.deviations",
     "monte_carlo": "tolerance.montecarlo",
-    "allocate": "tolerance.montecarlo",
+    "allocate": "tolerance.allocation",
     "Distribution": "tolerance.montecarlo",
-    "Checks": "tolerance.montecarlo",
+    "Checks": "tolerance.checks",
     "MonteCarloResult": "tolerance.montecarlo",
     "scene_json_schema": "run.schema_json",
 }

@@ -2,7 +2,8 @@
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.tolerance.montecarlo import Checks, allocate
+from corr_cad.tolerance.allocation import allocate
+from corr_cad.tolerance.checks import Checks
 
 M0 = 1.1e5
 KW = {"percentile": 90.0, "samples": 20, "seed": 2, "positions": 36}

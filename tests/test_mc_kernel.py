@@ -18,8 +18,8 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
-from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 from corr_cad.tolerance import montecarlo as tolmod
+from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 
 FOUR = {
     "roller_radius": Distribution("normal", 0.001),

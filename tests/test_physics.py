@@ -21,13 +21,9 @@ from corr_cad.geometry.profile import undercut_analysis
 from corr_cad.mechanics import contact
 from corr_cad.mechanics.reference import reference_geometry, reference_position
 from corr_cad.mechanics.solver import cycle_angles, solve_forces
-from corr_cad.tolerance.montecarlo import (
-    Checks,
-    Distribution,
-    allocate,
-    draw_samples,
-    monte_carlo,
-)
+from corr_cad.tolerance.allocation import allocate
+from corr_cad.tolerance.checks import Checks
+from corr_cad.tolerance.montecarlo import Distribution, draw_samples, monte_carlo
 
 M0 = 1.1e5
 DEG = math.pi / 180.0  # written out: the tests never use the package's conversions

@@ -12,7 +12,7 @@ import pytest
 from corr_cad import GearDesign, solve_forces
 from corr_cad.export import plots
 from corr_cad.geometry.profile import theoretical_profile, working_profile
-from corr_cad.tolerance.montecarlo import Checks
+from corr_cad.tolerance.checks import Checks
 
 M0 = 1.1e5
 

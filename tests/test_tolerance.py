@@ -9,15 +9,9 @@ import pytest
 
 from corr_cad import GearDesign, SceneError
 from corr_cad.run.scene import parse_scene
-from corr_cad.tolerance.montecarlo import (
-    CHECK_METRICS,
-    Checks,
-    Distribution,
-    SerialExecutor,
-    allocate,
-    evaluate_checks,
-    monte_carlo,
-)
+from corr_cad.tolerance.allocation import allocate
+from corr_cad.tolerance.checks import CHECK_METRICS, Checks, evaluate_checks
+from corr_cad.tolerance.montecarlo import Distribution, SerialExecutor, monte_carlo
 
 M0 = 1.1e5
 TOL = {"roller_radius": Distribution("normal", 0.001), "cam_radius": Distribution("uniform", 0.002)}

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad._version import __version__
+from corr_cad.export import dxf
+from corr_cad.export.files import _atomic_text
 from corr_cad.geometry.design import GearDesign
 from corr_cad.shop.edm import EdmProgram, Move
-from corr_cad.export.files import _atomic_text
-from corr_cad.export import dxf
 
 __all__ = ["write_edm_dxf", "write_gcode", "EDM_FILES"]
 

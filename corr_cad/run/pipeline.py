@@ -258,7 +258,7 @@ def _force_files(ctx: RunContext) -> None:
 
 
 def _checks(ctx: RunContext) -> None:
-    from corr_cad.tolerance.montecarlo import ARCMIN_PER_RAD, evaluate_checks
+    from corr_cad.tolerance.checks import ARCMIN_PER_RAD, evaluate_checks
 
     res = ctx.results["forces"]
     values = {
@@ -279,7 +279,8 @@ def _montecarlo(ctx: RunContext) -> None:
     from corr_cad.export import plots
     from corr_cad.export.files import write_columns, write_json
     from corr_cad.run.progress import Progress
-    from corr_cad.tolerance.montecarlo import evaluate_failure_probability, monte_carlo
+    from corr_cad.tolerance.checks import evaluate_failure_probability
+    from corr_cad.tolerance.montecarlo import monte_carlo
 
     s = ctx.scene
     mc_cfg = s.montecarlo
@@ -346,7 +347,7 @@ def _montecarlo(ctx: RunContext) -> None:
 def _nominal_metrics(ctx: RunContext, positions: int) -> dict:
     """The Monte Carlo metrics of the scene's own design and errors (no tolerance drawn)."""
     from corr_cad.mechanics.solver import cycle_angles
-    from corr_cad.tolerance.montecarlo import sample_metrics
+    from corr_cad.tolerance.checks import sample_metrics
 
     s = ctx.scene
     res = solve_forces(
@@ -361,7 +362,7 @@ def _nominal_metrics(ctx: RunContext, positions: int) -> dict:
 
 def _allocation(ctx: RunContext) -> None:
     from corr_cad.export.files import write_csv, write_json
-    from corr_cad.tolerance.montecarlo import allocate
+    from corr_cad.tolerance.allocation import allocate
 
     s = ctx.scene
     cfg = s.montecarlo

@@ -36,7 +36,8 @@ from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema 
     key_range,
 )
 from corr_cad.run.scene_text import bounds_table, no_effect_warnings, template_text  # noqa: F401
-from corr_cad.tolerance.montecarlo import TOLERANCE_KINDS, Checks, Distribution
+from corr_cad.tolerance.checks import Checks
+from corr_cad.tolerance.montecarlo import TOLERANCE_KINDS, Distribution
 from corr_cad.tolerance.sweeps import PAPER_SWEEPS
 
 __all__ = [

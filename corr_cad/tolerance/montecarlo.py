@@ -1,4 +1,4 @@
-"""Tolerance checks, Monte Carlo over tolerances, and tolerance allocation.
+"""Monte Carlo over tolerances: seeded draws, solved in chunks on any executor.
 
 Pure numpy: no files. A tolerance is a distribution of one error kind; each
 Monte Carlo sample draws every kind, perturbs the design's geometry and is
@@ -20,24 +20,16 @@ import numpy as np
 from corr_cad.errors import SceneError, SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import (
-    _RTOL,
-    BatchSolver,
-    cycle_angles,
-    loaded_mask,
-    roller_geometry,
-)
+from corr_cad.mechanics.batch import BatchSolver
+from corr_cad.mechanics.solver import _RTOL, cycle_angles, roller_geometry
+from corr_cad.tolerance.checks import ARCMIN_PER_RAD, CHECK_METRICS, Checks, sample_metrics
 
 __all__ = [
     "TOLERANCE_KINDS",
     "Distribution",
-    "Checks",
-    "sample_metrics",
-    "evaluate_checks",
-    "evaluate_failure_probability",
+    "MonteCarloResult",
     "draw_samples",
     "monte_carlo",
-    "allocate",
     "SerialExecutor",
 ]
 
@@ -50,8 +42,6 @@ TOLERANCE_KINDS = {
     "slot_angle": (True, "deg"),
 }
 
-ARCMIN_PER_RAD = 180.0 * 60.0 / math.pi
-
 
 @dataclass(frozen=True)
 class Distribution:
@@ -63,77 +53,6 @@ class Distribution:
     def draw(self, unit: np.ndarray) -> np.ndarray:
         """Map standard draws (normal N(0,1) or uniform U(-1,1) as ``unit``) to this one."""
         return self.scale * unit
-
-
-@dataclass(frozen=True)
-class Checks:
-    """Limits a design must meet; ``None`` means not checked."""
-
-    max_contact_pressure: float | None = None  # MPa
-    max_gear_force: float | None = None  # N
-    min_loaded_rollers: int | None = None
-    max_lost_motion_arcmin: float | None = None
-    #: Largest allowed Monte Carlo failure probability per limit; ``None``:
-    #: the Monte Carlo is reported but only the nominal design is gated.
-    max_failure_probability: float | None = None
-
-    def active(self) -> dict[str, float]:
-        """The limits that are set (not the failure-probability gate)."""
-        return {k: v for k, v in self.__dict__.items() if v is not None and k in CHECK_METRICS}
-
-
-#: check -> (metric, sense): "max" limits bound the metric from above.
-CHECK_METRICS = {
-    "max_contact_pressure": ("peak_pressure", "max"),
-    "max_gear_force": ("peak_gear_force", "max"),
-    "min_loaded_rollers": ("min_loaded_rollers", "min"),
-    "max_lost_motion_arcmin": ("lost_motion_arcmin", "max"),
-}
-
-
-def sample_metrics(res, n_samples: int) -> dict[str, np.ndarray]:
-    """Per-sample metrics from a (sample-major) :class:`ForceResult`, each (n,)."""
-    P = res.F_j.shape[0] // n_samples
-    R = res.F_j.shape[1]
-
-    def per(x):
-        return x.reshape(n_samples, P, -1) if x.ndim == 2 else x.reshape(n_samples, P)
-
-    p = np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear)
-    loaded = per(loaded_mask(res.F_j)).sum(axis=2)
-    return {
-        "peak_gear_force": per(res.F_n).reshape(n_samples, P * R).max(axis=1),
-        "peak_pressure": per(p).reshape(n_samples, P * R).max(axis=1),
-        "min_loaded_rollers": loaded.min(axis=1).astype(float),
-        "lost_motion_arcmin": per(res.lost_motion).max(axis=1) * ARCMIN_PER_RAD,
-    }
-
-
-def evaluate_checks(values: dict[str, float], checks: Checks) -> dict[str, dict]:
-    """Pass/fail and margin of every active check against metric ``values``."""
-    out = {}
-    for name, limit in checks.active().items():
-        metric, sense = CHECK_METRICS[name]
-        v = float(values[metric])
-        margin = (limit - v) if sense == "max" else (v - limit)
-        out[name] = {"limit": limit, "value": v, "margin": margin, "passed": bool(margin >= 0)}
-    return out
-
-
-def evaluate_failure_probability(failure_probability: dict[str, float], checks: Checks) -> dict:
-    """The Monte Carlo gate: each limit's failure probability against the allowed one.
-
-    Empty when ``checks.max_failure_probability`` is not set (then only the
-    nominal design is gated). A limit passes when its probability of being
-    broken is at most the allowed probability.
-    """
-    allowed = checks.max_failure_probability
-    if allowed is None:
-        return {}
-    return {
-        name: {"probability": float(p), "allowed": allowed, "passed": bool(p <= allowed)}
-        for name, p in failure_probability.items()
-    }
 
 
 def draw_samples(
@@ -442,163 +361,3 @@ def monte_carlo(
             progress(bounds[i][1], samples)
     metrics = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return MonteCarloResult(metrics, _magnitudes(units, tolerances), ok)
-
-
-def allocate(
-    design: GearDesign,
-    input_torque: float,
-    tolerances: dict[str, Distribution],
-    checks: Checks,
-    kind: str,
-    *,
-    percentile: float = 95.0,
-    samples: int = 200,
-    seed: int = 1,
-    positions: int = 72,
-    load_share: float = 0.55,
-    executor=None,
-    rel_precision: float = 0.02,
-    base_errors: ManufacturingErrors | None = None,
-    psi_contact_limit: float = math.pi,
-    progress: Callable[[int, int, float], None] | None = None,
-    distribution: str | None = None,
-) -> dict:
-    """Largest symmetric tolerance ``T`` of ``kind`` that keeps the checks.
-
-    ``T`` is in the terms the tolerance was given in: a sigma when
-    ``tolerances[kind]`` is normal, a uniform half-width (+-T) when it is
-    uniform or not given; ``distribution`` ("normal" or "uniform")
-    overrides. The result says which (``distribution``, ``meaning``).
-    The other kinds keep their given distributions. The same standard draws
-    are reused for every ``T`` (common random numbers), so the metrics move
-    monotonically with ``T`` and a bracketing search applies: double ``T``
-    until a check fails, then bisect (geometrically) to ``rel_precision``.
-    Returns ``{"kind", "tolerance", "unit", "failing_at", "evaluations"}``;
-    ``tolerance`` is 0 when even a perfect part fails.
-
-    ``progress(done, expected, samples_per_s)`` is called after each Monte
-    Carlo: evaluations done, the expected total (the bisection's remaining
-    steps are known once the root is bracketed; before that, a doubling
-    more), and the measured sample rate.
-
-    Returns ``{"kind", "tolerance", "unit", "distribution", "meaning",
-    "failing_at", "evaluations"}``; ``tolerance`` is 0 when even a perfect
-    part fails.
-
-    >>> from corr_cad import GearDesign, allocate, Checks
-    >>> a = allocate(GearDesign(), 1.1e5, {}, Checks(max_gear_force=8000.0), "roller_radius",
-    ...              samples=20, positions=36)
-    >>> a["meaning"], round(a["tolerance"] * 1000, 2), a["unit"]   # +-2.16 um keeps p95 < 8 kN
-    ('uniform half-width', 2.16, 'mm')
-    """
-    import time
-
-    t_start = time.perf_counter()
-    state = {"lo": 0.0, "hi": None}
-
-    def expected_total() -> int:
-        lo, hi = state["lo"], state["hi"]
-        bisect = 0
-        width = (hi - lo) if hi is not None else None
-        if width is not None:
-            while width > rel_precision * hi:
-                width *= 0.5
-                bisect += 1
-            return evals + bisect
-        return evals + 1 + max(1, math.ceil(math.log2(1.0 / rel_precision)))
-
-    if not checks.active():
-        raise SceneError("tolerance allocation needs at least one limit in [checks]")
-    evals = 0
-
-    if kind not in TOLERANCE_KINDS:
-        raise SceneError(
-            f"tolerance {kind!r} is unknown; valid kinds: {', '.join(TOLERANCE_KINDS)}"
-        )
-
-    if distribution is None:
-        distribution = tolerances[kind].kind if kind in tolerances else "uniform"
-    if distribution not in ("normal", "uniform"):
-        raise SceneError(f"distribution {distribution!r} must be normal or uniform")
-    meaning = "sigma" if distribution == "normal" else "uniform half-width"
-    # The kernel pays for itself on the whole allocation's work (all its Monte
-    # Carlos), decided once so that every evaluation takes the same path.
-    kernel = samples * positions * expected_total() >= KERNEL_MIN_WORK
-
-    def passes(T: float) -> bool:
-        nonlocal evals
-        evals += 1
-        tol = dict(tolerances)
-        tol[kind] = Distribution(distribution, T)
-        mc = monte_carlo(
-            design,
-            input_torque,
-            tol,
-            samples,
-            seed,
-            positions,
-            load_share=load_share,
-            executor=executor,
-            base_errors=base_errors,
-            psi_contact_limit=psi_contact_limit,
-            kernel=kernel,
-        )
-        ok = True
-        for name in checks.active():
-            metric, sense = CHECK_METRICS[name]
-            q = percentile if sense == "max" else 100.0 - percentile
-            value = float(np.percentile(mc.metrics[metric], q))
-            if not evaluate_checks({metric: value}, replace_checks(checks, name))[name]["passed"]:
-                ok = False
-                break
-        if ok:
-            state["lo"] = T
-        elif T > 0:
-            state["hi"] = T
-        if progress:
-            rate = evals * samples / max(time.perf_counter() - t_start, 1e-9)
-            done = not ok and T == 0
-            progress(evals, evals if done else max(expected_total(), evals), rate)
-        return ok
-
-    unit = TOLERANCE_KINDS[kind][1]
-    if not passes(0.0):
-        return {
-            "kind": kind,
-            "tolerance": 0.0,
-            "unit": unit,
-            "distribution": distribution,
-            "meaning": meaning,
-            "failing_at": 0.0,
-            "evaluations": evals,
-        }
-
-    def answer(tolerance: float, failing_at: float | None) -> dict:
-        return {
-            "kind": kind,
-            "tolerance": tolerance,
-            "unit": unit,
-            "distribution": distribution,
-            "meaning": meaning,
-            "failing_at": failing_at,
-            "evaluations": evals,
-        }
-
-    lo, hi = 0.0, (1e-3 if unit == "mm" else 1e-2)
-    cap = 0.5 * design.roller_radius if unit == "mm" else 5.0
-    while passes(hi):
-        lo, hi = hi, 2.0 * hi
-        if hi > cap:
-            return answer(lo, None)
-    while hi - lo > rel_precision * hi:
-        mid = math.sqrt(lo * hi) if lo > 0 else 0.5 * hi
-        if passes(mid):
-            lo = mid
-        else:
-            hi = mid
-    return answer(lo, hi)
-
-
-def replace_checks(checks: Checks, keep: str) -> Checks:
-    """Only the check ``keep`` active."""
-    return Checks(**{k: (v if k == keep else None) for k, v in checks.__dict__.items()})
