@@ -223,7 +223,7 @@ def test_sweep_png_states_range_and_clipping(figures, tmp_path):
 def test_bench_point_labels_never_overprint():
     import matplotlib.pyplot as plt
 
-    from corr_cad.run.bench import _place_labels
+    from corr_cad.export.bench_plots import place_labels as _place_labels
 
     fig, ax = plt.subplots(figsize=(8, 5))
     # Points as in the solver-fidelity study: three nearly on top of each other.

@@ -126,8 +126,12 @@ def _accuracy_of(name: str, manifest: dict) -> str:
     return "computed data (no geometry approximation)"
 
 
-def report_context(scene, manifest: dict, results: dict, files: list[str], out: Path) -> dict:
-    """Everything the template shows, as plain values (numbers formatted)."""
+def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -> dict:
+    """Everything the template shows, as plain values (numbers formatted).
+
+    ``forces`` is the run's force solution (a ``ForceResult``), or None when
+    the scene solved none.
+    """
     d = scene.design
     design_rows = [
         ("tooth count z", d.tooth_count, ""),
@@ -187,7 +191,7 @@ def report_context(scene, manifest: dict, results: dict, files: list[str], out: 
             for k, r in checks.items()
         ]
         ctx["checks_passed"] = all(r["passed"] for r in checks.values())
-    res = results.get("forces")
+    res = forces
     if res is not None:
         f = manifest.get("forces", {})
         ctx["forces"] = {
@@ -348,9 +352,9 @@ def render_report(context: dict) -> str:
     return env.get_template("report.html.j2").render(**context)
 
 
-def write_report(scene, manifest: dict, results: dict, files: list[str], out: Path) -> Path:
+def write_report(scene, manifest: dict, forces, files: list[str], out: Path) -> Path:
     """Write ``report.html`` into ``out``; returns its path."""
-    html = render_report(report_context(scene, manifest, results, files, out))
+    html = render_report(report_context(scene, manifest, forces, files, out))
     path = Path(out) / "report.html"
     tmp = path.with_name(path.name + ".part")
     tmp.write_text(html, encoding="utf-8")

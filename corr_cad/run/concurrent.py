@@ -32,6 +32,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from corr_cad.run.context import RunContext
+from corr_cad.run.stages import STAGES
+
 __all__ = ["WORKER_STAGES", "worker_stages", "run_stage_in_worker", "kill_pool"]
 
 #: Stages that may run in a pool worker: heavy, and independent of every other
@@ -42,8 +45,6 @@ WORKER_STAGES = ("step_files",)
 
 def _closure(name: str) -> list[str]:
     """``name`` and what it needs, in dependency order."""
-    from corr_cad.run.pipeline import STAGES
-
     order: list[str] = []
 
     def visit(n: str) -> None:
@@ -76,8 +77,6 @@ def run_stage_in_worker(scene, out: str, name: str) -> tuple[dict, list[str], fl
     Returns the manifest sections the stage itself wrote, the files it wrote
     and its time in seconds.
     """
-    from corr_cad.run.pipeline import STAGES, RunContext
-
     ctx = RunContext(scene=scene, out=Path(out))
     *deps, _ = _closure(name)
     for dep in deps:

@@ -1,20 +1,17 @@
 """Pipeline stages for the solids: meshes, STEP, the mesh interference sweep
-and the exact clearance (registered in ``pipeline.STAGES``, kept here by concept).
+and the exact clearance (registered in :data:`corr_cad.run.stages.STAGES`).
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from corr_cad.errors import ExportError
 from corr_cad.export.files import angle_tag
 from corr_cad.geometry.sampling import approximate
-
-if TYPE_CHECKING:
-    from corr_cad.run.pipeline import RunContext
+from corr_cad.run.context import RunContext, scene_errors
 
 #: Part names of the files, the same for DXF, meshes and STEP.
 PART_NAMES = {"ring": "inner_gear", "cam": "disk_cam", "roller": "roller", "frame": "teeth_frame"}
@@ -27,7 +24,7 @@ def _solids(ctx: RunContext) -> None:
 
     s = ctx.scene
     tol = s.chord_tolerance
-    outlines = part_outlines(s.design, ctx.results["working"], tol)
+    outlines = part_outlines(s.design, ctx.results.working, tol)
     solids, meshes, report = {}, {}, {}
     for name, outline in outlines.items():
         solid = mesh.solid(outline)
@@ -43,9 +40,9 @@ def _solids(ctx: RunContext) -> None:
             }
         )
         solids[name], meshes[name], report[PART_NAMES[name]] = solid, tm, facts
-    ctx.results["outlines"] = outlines
-    ctx.results["solids"] = solids
-    ctx.results["meshes"] = meshes
+    ctx.results.outlines = outlines
+    ctx.results.solids = solids
+    ctx.results.meshes = meshes
     ctx.manifest["solids"] = report
 
 
@@ -54,9 +51,9 @@ def _mesh_files(ctx: RunContext) -> None:
 
     s = ctx.scene
     fmts = [f for f in MESH_FORMATS if f in s.formats]
-    solids = ctx.results["solids"]
+    solids = ctx.results.solids
     stack = mesh.frame_stack(s.design, solids["frame"])
-    for name, tm in ctx.results["meshes"].items():
+    for name, tm in ctx.results.meshes.items():
         for fmt in fmts:
             fname = f"{PART_NAMES[name]}.{fmt}"
             mesh.write_mesh(tm, ctx.out / fname, fmt)
@@ -80,9 +77,9 @@ def _step_files(ctx: RunContext) -> None:
     step.require_ocp()
     s = ctx.scene
     tol = s.chord_tolerance
-    spline = approximate(ctx.results["working"], "spline", tol)
+    spline = approximate(ctx.results.working, "spline", tol)
     shapes = step.part_shapes(s.design, spline)
-    outlines = ctx.results.get("outlines") or part_outlines(s.design, ctx.results["working"], tol)
+    outlines = ctx.results.outlines or part_outlines(s.design, ctx.results.working, tol)
     report = {}
     volumes = {}
     for name, shape in shapes.items():
@@ -185,7 +182,7 @@ def _interference(ctx: RunContext) -> None:
     s = ctx.scene
     d = s.design
     tol = s.chord_tolerance
-    solids = ctx.results["solids"]
+    solids = ctx.results.solids
     stack = mesh.frame_stack(d, solids["frame"])
     pieces = mesh.frame_pieces(d, stack)
     errs = s.errors.roller_errors(d.roller_count)
@@ -245,21 +242,20 @@ def _interference(ctx: RunContext) -> None:
     )
     ctx.files.extend(["interference.csv", "interference.png"])
     ctx.manifest["interference"] = summary
-    ctx.results["interference"] = summary
+    ctx.results.interference = summary
 
 
 def _clearance(ctx: RunContext) -> None:
     from corr_cad.export import plots
     from corr_cad.export.files import write_columns
     from corr_cad.geometry.clearance import COLUMNS, clearance
-    from corr_cad.run.pipeline import _errors
 
     s = ctx.scene
-    info = ctx.results["undercut"]
+    info = ctx.results.undercut
     psi_end = math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else None
     n = s.positions_for("exact")
     angles = 2.0 * np.pi * np.arange(n) / n
-    clr = clearance(s.design, angles, _errors(ctx), psi_end)
+    clr = clearance(s.design, angles, scene_errors(ctx), psi_end)
     cols = clr.columns()
     write_columns(
         ctx.out / "clearance.csv",
@@ -271,7 +267,7 @@ def _clearance(ctx: RunContext) -> None:
     ctx.files.extend(["clearance.csv", "clearance.png"])
     summary = {"method": "exact", **clr.summary()}
     ctx.manifest["clearance"] = summary
-    ctx.results["clearance"] = clr
+    ctx.results.clearance = clr
 
 
 def _agreement(ctx: RunContext, angles_deg, rows, allowance, tol: float) -> dict:

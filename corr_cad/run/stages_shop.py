@@ -2,7 +2,7 @@
 
 ``edm_files`` (format ``edm``), ``cmm_points`` (``cmm``) and ``inspection``
 (``inspection``, needs ``[errors] measured_profile``). Registered in
-``pipeline.STAGES``; kept here so that the stage graph stays readable.
+``corr_cad.run.stages.STAGES``; kept here so that the stage graph stays readable.
 """
 
 from __future__ import annotations
@@ -11,16 +11,18 @@ import math
 
 import numpy as np
 
+from corr_cad.run.context import RunContext, scene_errors
+
 __all__ = ["edm_files", "cmm_points", "inspection"]
 
 
-def edm_files(ctx) -> None:
+def edm_files(ctx: RunContext) -> None:
     from corr_cad.export.edm_io import write_edm_dxf, write_gcode
     from corr_cad.shop.edm import EdmSpec, plan_cut
 
     s = ctx.scene
     spec = EdmSpec(**s.edm)
-    prog, _ = plan_cut(ctx.results["working"], spec, s.tolerance, ctx.results.get("forces"))
+    prog, _ = plan_cut(ctx.results.working, spec, s.tolerance, ctx.results.forces)
     write_edm_dxf(s.design, prog, ctx.out / "inner_gear_edm.dxf")
     write_gcode(s.design, prog, s.name, ctx.out / "inner_gear_edm.nc")
     ctx.files.extend(["inner_gear_edm.dxf", "inner_gear_edm.nc"])
@@ -32,13 +34,13 @@ def edm_files(ctx) -> None:
     )
 
 
-def cmm_points(ctx) -> None:
+def cmm_points(ctx: RunContext) -> None:
     from corr_cad.export.inspection_io import write_nominal_csv
     from corr_cad.geometry import kinematics as kin
     from corr_cad.geometry.projection import arc_length_parameters
 
     s = ctx.scene
-    w = ctx.results["working"]
+    w = ctx.results.working
     z = w.tooth_count
     pitch = 2 * math.pi / z
     t0, step, length = arc_length_parameters(
@@ -61,7 +63,7 @@ def cmm_points(ctx) -> None:
     }
 
 
-def _force_comparison(ctx) -> dict:
+def _force_comparison(ctx: RunContext) -> dict:
     from corr_cad.geometry.deviations import ManufacturingErrors
     from corr_cad.mechanics.solver import solve_forces
 
@@ -75,8 +77,8 @@ def _force_comparison(ctx) -> dict:
     )
     kw = {"positions": s.solver.positions, "load_share": s.solver.load_share}
     nom = solve_forces(s.design, s.load.input_torque, angles, errors=ManufacturingErrors(), **kw)
-    mea = ctx.results.get("forces") or solve_forces(
-        s.design, s.load.input_torque, angles, errors=ctx.results["errors"], **kw
+    mea = ctx.results.forces or solve_forces(
+        s.design, s.load.input_torque, angles, errors=scene_errors(ctx), **kw
     )
     a, b = nom.summary(), mea.summary()
     rows = {}
@@ -101,7 +103,7 @@ def _force_comparison(ctx) -> dict:
     }
 
 
-def inspection(ctx) -> None:
+def inspection(ctx: RunContext) -> None:
     from corr_cad.export.inspection_io import inspection_png, write_inspection
     from corr_cad.geometry import kinematics as kin
     from corr_cad.tolerance.inspection import (
@@ -112,9 +114,9 @@ def inspection(ctx) -> None:
     )
 
     s = ctx.scene
-    w = ctx.results["working"]
-    reg = ctx.results["registration"]
-    raw = ctx.results["measured_points"]
+    w = ctx.results.working
+    reg = ctx.results.registration
+    raw = ctx.results.measured_points
     datum = kin.rotate_by_polar_angle(raw, -math.radians(reg.rotation_deg))
     res = inspect_teeth(w, reg.placed, datum, s.inspection["evaluation_psi_deg"])
     limits = {k: s.inspection[k] for k in LIMITS}

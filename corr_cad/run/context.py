@@ -1,0 +1,88 @@
+"""What the stages share: the scene, the staging folder, typed results and the manifest.
+
+:class:`Results` holds every stage's output as a typed field (``None`` until
+the stage that makes it has run); :class:`Stage` is one node of the stage
+graph in :mod:`corr_cad.run.stages`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from corr_cad.geometry.clearance import Clearance
+    from corr_cad.geometry.deviations import ManufacturingErrors
+    from corr_cad.geometry.profile import ProfileCurve, UndercutInfo
+    from corr_cad.geometry.sampling import ProfileApproximation
+    from corr_cad.mechanics.solver import ForceResult
+    from corr_cad.run.scene import Scene
+    from corr_cad.tolerance.measured import Registration
+
+__all__ = ["Results", "RunContext", "Stage", "scene_errors", "psi_contact_limit"]
+
+
+@dataclass
+class Results:
+    """Stage outputs, one typed field each; ``None`` until its stage has run."""
+
+    #: ``undercut``: the closed-form undercut test.
+    undercut: UndercutInfo | None = None
+    #: ``profiles``: the exact working (trimmed) and theoretical profiles.
+    working: ProfileCurve | None = None
+    theoretical: ProfileCurve | None = None
+    #: ``dxf_geometry``: both profiles approximated to ``[export] tolerance``.
+    working_approx: ProfileApproximation | None = None
+    theoretical_approx: ProfileApproximation | None = None
+    #: ``measured_profile``: the registration, the raw points, and the scene's
+    #: errors with the measured profile as a gear-profile deviation.
+    registration: Registration | None = None
+    measured_points: np.ndarray | None = None
+    errors: ManufacturingErrors | None = None
+    #: ``forces``: the mesh-force solution over the cycle.
+    forces: ForceResult | None = None
+    #: ``solids``: part outlines, manifold solids and their meshes, by part name.
+    outlines: dict[str, Any] | None = None
+    solids: dict[str, Any] | None = None
+    meshes: dict[str, Any] | None = None
+    #: ``interference``: the mesh-boolean sweep's summary.
+    interference: dict[str, Any] | None = None
+    #: ``clearance``: the exact clearance of every roller over the cycle.
+    clearance: Clearance | None = None
+
+
+@dataclass
+class RunContext:
+    """What the stages share: the scene, the staging folder and results."""
+
+    scene: Scene
+    out: Path
+    results: Results = field(default_factory=Results)
+    files: list[str] = field(default_factory=list)
+    manifest: dict = field(default_factory=dict)
+    progress: Callable[[str], None] = lambda msg: None
+    executor: object = None
+
+
+@dataclass(frozen=True)
+class Stage:
+    name: str
+    requires: tuple[str, ...]
+    run: Callable[[RunContext], None]
+    doc: str
+
+
+def scene_errors(ctx: RunContext) -> ManufacturingErrors:
+    """The scene's errors, with a registered measured profile if there is one."""
+    return ctx.results.errors if ctx.results.errors is not None else ctx.scene.errors
+
+
+def psi_contact_limit(ctx: RunContext) -> float:
+    """Rollers beyond the trimmed tooth tips of an allowed undercut find no flank."""
+    info = ctx.results.undercut
+    return math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else math.pi

@@ -1,0 +1,104 @@
+"""Pipeline stages for the profile: undercut, exact profiles, DXF, preview, measured profile.
+
+Registered in :data:`corr_cad.run.stages.STAGES`.
+"""
+
+from __future__ import annotations
+
+from corr_cad.geometry.profile import theoretical_profile, undercut_analysis, working_profile
+from corr_cad.geometry.sampling import approximate
+from corr_cad.run.context import RunContext
+
+
+def _undercut(ctx: RunContext) -> None:
+    info = undercut_analysis(ctx.scene.design)
+    ctx.results.undercut = info
+    ctx.manifest["undercut"] = info.as_dict()
+
+
+def _profiles(ctx: RunContext) -> None:
+    d = ctx.scene.design
+    ctx.results.working = working_profile(d, ctx.results.undercut)
+    ctx.results.theoretical = theoretical_profile(d)
+    ctx.manifest["profile"] = {
+        "working_area_mm2": ctx.results.working.area(),
+        "theoretical_area_mm2": ctx.results.theoretical.area(),
+        "tooth_tip_trimmed": ctx.results.working.has_corners,
+    }
+
+
+def _dxf_geometry(ctx: RunContext) -> None:
+    from corr_cad.run.progress import Progress
+
+    s = ctx.scene
+    # A fine tolerance takes seconds per profile: a line with rate and time left.
+    bar = Progress(2, f"      dxf profiles ({s.representation}, {s.tolerance:g} mm)", "profiles")
+    w = approximate(ctx.results.working, s.representation, s.tolerance)
+    bar.update(1)
+    t = approximate(ctx.results.theoretical, s.representation, s.tolerance)
+    bar.update(1)
+    bar.close()
+    ctx.results.working_approx = w
+    ctx.results.theoretical_approx = t
+    # Where each figure goes: the run fails (exit 1) naming them if the
+    # measured deviation exceeds the tolerance (the files still state the
+    # measured value, never the tolerance).
+    where = {"file": "inner_gear.dxf"}
+    ctx.manifest["accuracy"] = {
+        "working_profile": {**w.as_dict(), **where, "layer": "WORKING_PROFILE"},
+        "theoretical_profile": {**t.as_dict(), **where, "layer": "THEORETICAL_PROFILE"},
+    }
+
+
+def _dxf_files(ctx: RunContext) -> None:
+    from corr_cad.export import dxf
+
+    paths = dxf.write_all(
+        ctx.scene.design, ctx.results.working_approx, ctx.results.theoretical_approx, ctx.out
+    )
+    ctx.files.extend(p.name for p in paths.values())
+
+
+def _preview_png(ctx: RunContext) -> None:
+    from corr_cad.export import plots
+
+    p = plots.preview_png(
+        ctx.scene.design,
+        ctx.results.working,
+        ctx.results.theoretical,
+        ctx.out / "preview.png",
+    )
+    ctx.files.append(p.name)
+
+
+def _measured(ctx: RunContext) -> None:
+    from dataclasses import replace
+
+    from corr_cad.export.measured_io import read_measured_points, write_deviation_dxf
+    from corr_cad.tolerance.measured import check_fit, register, validate_points
+
+    s = ctx.scene
+    w = ctx.results.working
+    src = str(s.measured_profile)
+    pts = validate_points(read_measured_points(s.measured_profile), w, src)
+    reg = register(w, pts)
+    check_fit(reg, s.design.eccentricity, src)
+    ctx.results.registration, ctx.results.measured_points = reg, pts
+    ctx.results.errors = replace(s.errors, profile_deviation=reg.deviation)
+    ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
+    ctx.progress(
+        f"      registered: rotation {reg.rotation_deg:.4g} deg, centre "
+        f"({reg.centre_mm[0]:.4g}, {reg.centre_mm[1]:.4g}) mm, rms {reg.rms_mm:.3g} mm"
+    )
+    if "dxf" in s.formats:
+        write_deviation_dxf(
+            s.design,
+            w,
+            reg.placed,
+            reg.point_deviation,
+            reg.point_t,
+            s.measured_exaggeration,
+            ctx.out / "measured_profile.dxf",
+            s.tolerance,
+        )
+        ctx.files.append("measured_profile.dxf")

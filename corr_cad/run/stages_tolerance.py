@@ -1,0 +1,252 @@
+"""Pipeline stages under tolerances: Monte Carlo, allocation and parameter sweeps.
+
+Registered in :data:`corr_cad.run.stages.STAGES`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from corr_cad.errors import SceneError, SolverError
+from corr_cad.mechanics.solver import solve_forces
+from corr_cad.run.context import RunContext, psi_contact_limit, scene_errors
+
+
+def _montecarlo(ctx: RunContext) -> None:
+    from corr_cad.export import plots
+    from corr_cad.export.files import write_columns, write_json
+    from corr_cad.run.progress import Progress
+    from corr_cad.tolerance.checks import evaluate_failure_probability
+    from corr_cad.tolerance.montecarlo import monte_carlo
+
+    s = ctx.scene
+    mc_cfg = s.montecarlo
+    n = mc_cfg["samples"]
+    bar = Progress(n, "      montecarlo", "samples")
+
+    def tick(done: int, total: int) -> None:
+        bar.update(done - bar.done)
+
+    res = monte_carlo(
+        s.design,
+        s.load.input_torque,
+        s.tolerances,
+        n,
+        mc_cfg["seed"],
+        mc_cfg["positions"],
+        load_share=s.solver.load_share,
+        base_errors=scene_errors(ctx),
+        executor=ctx.executor,
+        progress=tick,
+        psi_contact_limit=psi_contact_limit(ctx),
+    )
+    bar.close()
+    if not res.success:
+        raise SolverError("Monte Carlo: the force solver did not converge for some samples")
+    names = list(res.metrics)
+    kinds = list(res.magnitudes)
+    header = ["sample"] + [f"{k}_magnitude" for k in kinds] + names
+    cols = [np.arange(n)] + [res.magnitudes[k] for k in kinds] + [res.metrics[m] for m in names]
+    fmts = ["%d"] + ["%.9g"] * (len(cols) - 1)
+    write_columns(ctx.out / "montecarlo.csv", header, cols, fmts)
+    summary = res.summary(s.checks)
+    summary.update({"seed": mc_cfg["seed"], "positions": mc_cfg["positions"]})
+    summary["tolerances"] = {k: d.__dict__ for k, d in s.tolerances.items()}
+    nominal = _nominal_metrics(ctx, mc_cfg["positions"])
+    summary["nominal"] = nominal
+    write_json(ctx.out / "montecarlo_summary.json", summary)
+    plots.montecarlo_png(
+        res.metrics,
+        s.checks,
+        ctx.out / "montecarlo.png",
+        summary,
+        nominal,
+        s.design,
+        s.load.input_torque,
+        s.tolerances,
+    )
+    ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
+    ctx.manifest["montecarlo"] = {
+        k: summary[k]
+        for k in ("samples", "failure_probability", "percentiles", "nominal", "sensitivity")
+    }
+    gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
+    if gate:
+        ctx.manifest.setdefault("checks", {})["montecarlo"] = gate
+        for name, g in gate.items():
+            state = "pass" if g["passed"] else "FAIL"
+            ctx.progress(
+                f"      check montecarlo {name}: {state} (failure probability "
+                f"{g['probability']:.4g}, allowed {g['allowed']:.4g})"
+            )
+
+
+def _nominal_metrics(ctx: RunContext, positions: int) -> dict:
+    """The Monte Carlo metrics of the scene's own design and errors (no tolerance drawn)."""
+    from corr_cad.mechanics.solver import cycle_angles
+    from corr_cad.tolerance.checks import sample_metrics
+
+    s = ctx.scene
+    res = solve_forces(
+        s.design,
+        s.load.input_torque,
+        cycle_angles(positions),
+        load_share=s.solver.load_share,
+        errors=scene_errors(ctx),
+    )
+    return {k: float(v[0]) for k, v in sample_metrics(res, 1).items()}
+
+
+def _allocation(ctx: RunContext) -> None:
+    from corr_cad.export.files import write_csv, write_json
+    from corr_cad.tolerance.allocation import allocate
+
+    s = ctx.scene
+    cfg = s.montecarlo
+    kw = {
+        "percentile": cfg["percentile"],
+        "samples": cfg["allocation_samples"],
+        "seed": cfg["seed"],
+        "positions": min(cfg["positions"], 72),
+        "load_share": s.solver.load_share,
+        "executor": ctx.executor,
+        "base_errors": scene_errors(ctx),
+        "psi_contact_limit": psi_contact_limit(ctx),
+    }
+    d, m0 = s.design, s.load.input_torque
+    rows = []
+    from corr_cad.run.progress import Progress
+
+    bar = Progress(2 * len(s.tolerances), "      allocation", "searches")
+    for kind in s.tolerances:
+        # Jointly: the other tolerances as given; alone: the others perfect.
+        joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
+        bar.update(1)
+        dist = s.tolerances[kind].kind
+        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, distribution=dist, **kw)[
+            "tolerance"
+        ]
+        bar.update(1)
+        rows.append(joint)
+    bar.close()
+
+    def fmt(x):
+        return "" if x is None else f"{x:.6g}"
+
+    header = ["tolerance", "largest_symmetric_tolerance", "largest_if_others_perfect"]
+    header += ["unit", "meaning", "fails_at", "evaluations"]
+    table = (
+        [r["kind"], fmt(r["tolerance"]), fmt(r["tolerance_alone"]), r["unit"], r["meaning"]]
+        + [fmt(r["failing_at"]), str(r["evaluations"])]
+        for r in rows
+    )
+    write_csv(ctx.out / "allocation.csv", header, table)
+    write_json(ctx.out / "allocation.json", {"percentile": cfg["percentile"], "rows": rows})
+    ctx.files.extend(["allocation.csv", "allocation.json"])
+    ctx.manifest["allocation"] = rows
+    for r in rows:
+        t = "sigma " if r["distribution"] == "normal" else "+- "
+        ctx.progress(
+            f"      {r['kind']:14s} {t}{r['tolerance']:.4g} {r['unit']} with the others as given, "
+            f"{t}{r['tolerance_alone']:.4g} {r['unit']} if the others were perfect"
+        )
+
+
+def _sweeps(ctx: RunContext) -> None:
+    from corr_cad.export import plots
+    from corr_cad.export.files import write_csv, write_json
+    from corr_cad.tolerance.sweeps import (
+        METRICS,
+        PAPER_SWEEPS,
+        comparison_rows,
+        is_paper_design,
+        run_sweeps,
+        sweep_range,
+    )
+
+    s = ctx.scene
+    ranges = {
+        name: sweep_range(s.design, name, s.sweeps.get(name), scene_errors(ctx))
+        for name in PAPER_SWEEPS
+    }
+    from corr_cad.run.progress import Progress
+
+    for name, rng in ranges.items():  # a range the user gave with no valid point is an error
+        given = s.sweeps.get(name)
+        if given is not None and rng["swept"] is None:
+            why = rng.get("clipped_low") or rng.get("clipped_high") or "outside the design space"
+            raise SceneError(
+                f"[sweeps] {name} = {given!r}: no point of this range is a valid design ({why})"
+            )
+    total = sum(s.sweeps["points"] for r in ranges.values() if r["swept"] is not None)
+    bar = Progress(total, "      sweeps", "points")
+    results = run_sweeps(
+        s.design,
+        s.load.input_torque,
+        s.sweeps["points"],
+        s.sweeps["positions"],
+        s.solver.load_share,
+        executor=ctx.executor,
+        ranges=ranges,
+        progress=bar.update,
+    )
+    bar.close()
+    header = ["value", "status", *METRICS, "loaded_rollers_min", "loaded_rollers_max"]
+    header += ["range_source", "requested_min", "requested_max", "clipped_low", "clipped_high"]
+    for name, pts in results.items():
+        rng = ranges[name]
+        limits = [rng["source"], *(f"{v:.6g}" for v in rng["requested"])]
+        limits += [rng["clipped_low"] or "", rng["clipped_high"] or ""]
+        write_csv(
+            ctx.out / f"sweep_{name}.csv",
+            header,
+            (
+                [f"{p['value']:.6g}", p["status"]]
+                + [f"{p[k]:.6g}" if k in p else "" for k in header[2:-5]]
+                + limits
+                for p in pts
+            ),
+        )
+        plots.sweep_png(
+            name, pts, ctx.out / f"sweep_{name}.png", rng, s.design, s.load.input_torque
+        )
+        ctx.files.extend([f"sweep_{name}.csv", f"sweep_{name}.png"])
+        lim = "; ".join(
+            f"{side} end clipped at {v:.5g} mm ({why})"
+            for side, v, why in (
+                ("low", (rng["swept"] or [None])[0], rng["clipped_low"]),
+                ("high", (rng["swept"] or [None, None])[-1], rng["clipped_high"]),
+            )
+            if why and v is not None
+        )
+        ctx.progress(
+            f"      sweep {name} {rng['requested'][0]:g}..{rng['requested'][1]:g} mm "
+            f"({rng['source']}): {sum(p['status'] == 'ok' for p in pts)}/{len(pts)} points solved"
+            + (f"; {lim}" if lim else "")
+            + ("; no valid value in the range" if rng["swept"] is None else "")
+        )
+    out = {"ranges": ranges, "points": results}
+    if is_paper_design(s.design):
+        rows = comparison_rows(results, ranges)
+        cols = list(rows[0]) if rows else []
+        write_csv(
+            ctx.out / "sweeps_vs_paper.csv", cols, ([_cell(r[c]) for c in cols] for r in rows)
+        )
+        ctx.files.append("sweeps_vs_paper.csv")
+        out["vs_paper"] = rows
+    write_json(ctx.out / "sweeps.json", out)
+    ctx.files.append("sweeps.json")
+    ctx.manifest["sweeps"] = {
+        n: {
+            "range": ranges[n],
+            "points": len(pts),
+            "solved": sum(p["status"] == "ok" for p in pts),
+        }
+        for n, pts in results.items()
+    }
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
