@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import resource
 import stat
 import subprocess
@@ -570,12 +571,36 @@ def test_peak_rss_helper_measures_children_only():
     assert resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss >= 0
 
 
-def test_readme_bounds_table_is_generated_from_the_schema():
+def test_published_bounds_are_the_schemas():
+    """The docs' key reference is built from the schema, row for row the bounds table.
+
+    ``docs/scenes.md`` includes the file ``docs/conf.py`` generates at every
+    build; each generated row carries the type, range and design bound that
+    :func:`bounds_table` prints for that key (tests/test_docs.py builds the
+    site and finds every key on the rendered page).
+    """
+    import importlib.util
+
     from corr_cad.run.scene import bounds_table
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = text.split("<!-- bounds-table -->\n")[1].split("<!-- /bounds-table -->")[0]
-    assert block == bounds_table()
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    assert "```{include} _generated/scene_keys.md" in (docs / "scenes.md").read_text()
+    spec = importlib.util.spec_from_file_location("docs_conf", docs / "conf.py")
+    conf = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conf)
+    generated = conf.scene_keys_markdown()
+    sections = dict(re.findall(r"### `\[(\w+)\]`\n(.*?)(?=\n### |\Z)", generated, re.S))
+    rows = bounds_table().splitlines()[2:]
+    assert len(rows) == sum(len(keys) for keys in SCHEMA.values())
+    for row in rows:
+        cells = [c.strip() for c in row.strip().strip("|").split(" | ")] + [""]
+        section, key = re.fullmatch(r"`\[(\w+)\] (\w+)`", cells[0]).groups()
+        kind, allowed, note = cells[1], cells[2], cells[3]
+        line = re.search(rf"^\| `{key}` \| (.*)$", sections[section], re.M)
+        assert line, f"[{section}] {key} missing from the key reference"
+        got = [c.strip() for c in line.group(1).split(" | ")]
+        assert got[0].split(",")[0] == kind, (section, key, got)
+        assert got[2] == conf._cell(conf.allowed_cell(allowed, note)), (section, key, got)
 
 
 def test_dxf_vertex_limit_is_the_approximators_budget():

@@ -51,13 +51,29 @@ def _run(scene, out):
         return pipeline.run_scene(scene, stage)
 
 
+def _patch_everywhere(monkeypatch, name: str, fn) -> None:
+    """Replace ``name`` in every stage module that binds it (and where it is defined)."""
+    import importlib
+    import pkgutil
+
+    import corr_cad.run
+
+    hits = 0
+    for info in pkgutil.iter_modules(corr_cad.run.__path__):
+        mod = importlib.import_module(f"corr_cad.run.{info.name}")
+        if hasattr(mod, name):
+            monkeypatch.setattr(mod, name, fn)
+            hits += 1
+    assert hits, name
+
+
 def test_dxf_only_never_touches_the_solver_or_the_mesher(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise AssertionError("solver or mesher called for a DXF-only scene")
 
     from corr_cad.export import mesh
 
-    monkeypatch.setattr(pipeline, "solve_forces", boom)
+    _patch_everywhere(monkeypatch, "solve_forces", boom)
     monkeypatch.setattr(mesh, "solid", boom)
     m = _run(_scene(export={"formats": ["dxf"]}), tmp_path / "o")
     assert [s["name"] for s in m["stages"]] == pipeline.plan(("dxf",))
@@ -68,7 +84,7 @@ def test_forces_only_never_approximates_the_profile(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise AssertionError("profile approximated for a forces-only scene")
 
-    monkeypatch.setattr(pipeline, "approximate", boom)
+    _patch_everywhere(monkeypatch, "approximate", boom)
     m = _run(_scene(export={"formats": ["forces"]}), tmp_path / "o")
     assert "forces" in m and "accuracy" not in m
 

@@ -46,3 +46,22 @@ def test_constraints_pin_every_dependency():
             pins[name.strip().lower()] = version.split(";")[0].strip()
     missing = sorted(n for n in wanted if not pins.get(n))
     assert not missing, f"not pinned in constraints.txt: {missing}"
+
+
+def test_readme_formats_are_the_schemas_and_the_docs_list_their_files():
+    """The README's short table names every format once; docs/outputs.md holds each file name."""
+    from corr_cad.run.scene_schema import FORMATS
+
+    text = (ROOT / "README.md").read_text()
+    table = text.split("## What it makes", 1)[1].split("\n\n", 2)[1]
+    rows = [r.split("|")[1:3] for r in table.splitlines()[2:]]
+    named = [f for cell, _ in rows for f in re.findall(r"`([\w-]+)`", cell)]
+    assert sorted(named) == sorted(FORMATS), named
+    outputs = (ROOT / "docs" / "outputs.md").read_text()
+    files = {f for _, cell in rows for f in re.findall(r"`([^`]+)`", cell)}
+    missing = sorted(f for f in files if f not in outputs)
+    assert not missing, f"README names files docs/outputs.md does not: {missing}"
+
+
+def test_readme_is_short():
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 150

@@ -26,7 +26,7 @@ def test_every_schema_key_is_in_the_template():
 @pytest.mark.parametrize(
     "data,pattern",
     [
-        ({"desing": {}}, r"unknown section \[desing\]; valid sections: design, material"),
+        ({"desing": {}}, r"unknown section \[desing\] \(did you mean 'design'\?\); valid"),
         ({"design": {"teeth": 25}}, r"unknown key 'teeth' in \[design\]; valid keys: tooth_count"),
         ({"design": {"tooth_count": 25.5}}, r"\[design\] tooth_count = 25.5: must be an integer"),
         ({"design": {"tooth_count": "25"}}, r"must be an integer"),

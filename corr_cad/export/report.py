@@ -187,6 +187,11 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
                 "margin": _fmt(r["margin"]),
                 "unit": _CHECK_UNITS.get(k, ""),
                 "passed": r["passed"],
+                "passes_with": " or ".join(
+                    f"{m['parameter']} {m['sense']} {m['value']:.6g} {m['unit']}"
+                    for m in r.get("passes_with") or []
+                )
+                or ("none found" if "passes_with" in r else ""),
             }
             for k, r in checks.items()
         ]

@@ -140,6 +140,15 @@ def warnings(manifest: dict) -> list[str]:
     return out
 
 
+def passes_with_text(remedies: list[dict]) -> str:
+    """``passes with a >= 1 mm or b <= 2 mm`` from a check's recorded remedies."""
+    if not remedies:
+        return "no single change of eccentricity, radii, roller length or load passes"
+    return "passes with " + " or ".join(
+        f"{r['parameter']} {r['sense']} {r['value']:.6g} {r['unit']}" for r in remedies
+    )
+
+
 def failed_checks(manifest: dict) -> list[str]:
     """Names of the failing checks: ``limit`` (nominal) or ``montecarlo <limit> (p = ..)``."""
     out = []
@@ -152,7 +161,10 @@ def failed_checks(manifest: dict) -> list[str]:
                         f"allowed {g['allowed']:.4g})"
                     )
         elif not r["passed"]:
-            out.append(f"{name} (value {r['value']:.4g}, limit {r['limit']:.4g})")
+            line = f"{name} (value {r['value']:.4g}, limit {r['limit']:.4g})"
+            if "passes_with" in r:
+                line += "; " + passes_with_text(r["passes_with"])
+            out.append(line)
     return out
 
 
@@ -215,6 +227,14 @@ def summary_lines(manifest: dict, out) -> list[str]:
     if i:
         state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"
         lines.append(f"interference over {i['positions']} crank positions: {state}")
+    for row in manifest.get("allocation") or []:
+        for key in ("why_zero", "why_zero_alone"):
+            if key in row:
+                lines.append(f"allocation {row['kind']}: 0, because {row[key]}")
+    for row in manifest.get("allocation") or []:
+        for key in ("why_zero", "why_zero_alone"):
+            if key in row:
+                lines.append(f"allocation {row['kind']}: 0, because {row[key]}")
     for name, r in (manifest.get("checks") or {}).items():
         if name == "montecarlo":
             for lim, g in r.items():
@@ -225,7 +245,10 @@ def summary_lines(manifest: dict, out) -> list[str]:
                 )
         else:
             state = "pass" if r["passed"] else "FAIL"
-            lines.append(f"check {name}: {state} (value {r['value']:.4g}, limit {r['limit']:.4g})")
+            line = f"check {name}: {state} (value {r['value']:.4g}, limit {r['limit']:.4g})"
+            if "passes_with" in r:
+                line += "; " + passes_with_text(r["passes_with"])
+            lines.append(line)
     lines.extend(f"warning: {w}" for w in warnings(manifest))
     lines.append(f"wrote {len(manifest['files']) + 1} files to {out}")
     return lines

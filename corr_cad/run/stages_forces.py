@@ -12,24 +12,29 @@ from corr_cad.mechanics.solver import solve_forces
 from corr_cad.run.context import RunContext, psi_contact_limit, scene_errors
 
 
-def _forces(ctx: RunContext) -> None:
+def _solve(ctx: RunContext, design, input_torque: float, psi_limit: float):
+    """One force solve with the scene's solver settings and errors."""
     s = ctx.scene
-    limit = psi_contact_limit(ctx)
     angles = (
         np.radians(np.asarray(s.solver.crank_angles_deg, dtype=float))
         if s.solver.crank_angles_deg is not None
         else None
     )
-    res = solve_forces(
-        s.design,
-        s.load.input_torque,
+    return solve_forces(
+        design,
+        input_torque,
         angles,
         positions=s.solver.positions,
         load_share=s.solver.load_share,
         errors=scene_errors(ctx),
         variants=s.solver.variants,
-        psi_contact_limit=limit,
+        psi_contact_limit=psi_limit,
     )
+
+
+def _forces(ctx: RunContext) -> None:
+    s = ctx.scene
+    res = _solve(ctx, s.design, s.load.input_torque, psi_contact_limit(ctx))
     if not res.success:
         raise SolverError(f"force solver: {res.message}")
     ctx.results.forces = res
@@ -104,19 +109,75 @@ def _force_files(ctx: RunContext) -> None:
     ctx.manifest["forces"] = {k: v for k, v in summary.items() if k != "solver"}
 
 
-def _checks(ctx: RunContext) -> None:
-    from corr_cad.tolerance.checks import ARCMIN_PER_RAD, evaluate_checks
+def check_values(res) -> dict[str, float]:
+    """The check metrics of one force solution (the names of ``CHECK_METRICS``)."""
+    from corr_cad.tolerance.checks import ARCMIN_PER_RAD
 
-    res = ctx.results.forces
-    values = {
+    return {
         "peak_gear_force": float(res.F_n.max()),
         "peak_pressure": float(np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear).max()),
         "min_loaded_rollers": float(res.loaded_count.min()),
         "lost_motion_arcmin": float(res.lost_motion.max() * ARCMIN_PER_RAD),
     }
+
+
+def _checks(ctx: RunContext) -> None:
+    from corr_cad.tolerance.checks import evaluate_checks
+
+    values = check_values(ctx.results.forces)
     report = evaluate_checks(values, ctx.scene.checks)
     ctx.manifest.setdefault("checks", {}).update(report)
     for name, r in report.items():
         state = "pass" if r["passed"] else "FAIL"
         nums = f"value {r['value']:.4g}, limit {r['limit']:.4g}, margin {r['margin']:.4g}"
         ctx.progress(f"      check {name}: {state} ({nums})")
+    failed = [name for name, r in report.items() if not r["passed"]]
+    if failed:
+        _what_passes(ctx, failed)
+
+
+#: The design inputs a scene built without a source (the API) is rebuilt from.
+_DESIGN_INPUTS = (
+    "tooth_count",
+    "cam_radius",
+    "roller_radius",
+    "roller_length",
+    "eccentricity",
+    "allow_undercut",
+)
+
+
+def _what_passes(ctx: RunContext, failed: list[str]) -> None:
+    """Record and show, per failed check, the nearest single-parameter change that passes."""
+    import math
+
+    from corr_cad.geometry.profile import undercut_analysis
+    from corr_cad.tolerance.remedy import check_remedies
+
+    s = ctx.scene
+
+    def metrics(design, input_torque: float) -> dict[str, float]:
+        info = undercut_analysis(design)
+        trimmed = info.undercut and info.trimmed_psi_deg
+        limit = math.radians(info.trimmed_psi_deg) if trimmed else math.pi
+        res = _solve(ctx, design, input_torque, limit)
+        if not res.success:
+            return {k: math.nan for k in ("peak_gear_force", "peak_pressure")} | {
+                "min_loaded_rollers": -1.0,
+                "lost_motion_arcmin": math.inf,
+            }
+        return check_values(res)
+
+    remedies = check_remedies(
+        s.design,
+        dict(s.source.get("design") or {k: getattr(s.design, k) for k in _DESIGN_INPUTS}),
+        s.load.input_torque,
+        s.checks,
+        failed,
+        metrics,
+        progress=ctx.progress,
+    )
+    for name, found in remedies.items():
+        ctx.manifest["checks"][name]["passes_with"] = [r.as_dict() for r in found]
+        text = " or ".join(r.text() for r in found) if found else "no single change found"
+        ctx.progress(f"      {name} passes with {text}")

@@ -123,9 +123,10 @@ def _allocation(ctx: RunContext) -> None:
         joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
         bar.update(1)
         dist = s.tolerances[kind].kind
-        joint["tolerance_alone"] = allocate(d, m0, {}, s.checks, kind, distribution=dist, **kw)[
-            "tolerance"
-        ]
+        alone = allocate(d, m0, {}, s.checks, kind, distribution=dist, **kw)
+        joint["tolerance_alone"] = alone["tolerance"]
+        if "why_zero" in alone and alone["why_zero"] != joint.get("why_zero"):
+            joint["why_zero_alone"] = alone["why_zero"]
         bar.update(1)
         rows.append(joint)
     bar.close()
@@ -150,6 +151,9 @@ def _allocation(ctx: RunContext) -> None:
             f"      {r['kind']:14s} {t}{r['tolerance']:.4g} {r['unit']} with the others as given, "
             f"{t}{r['tolerance_alone']:.4g} {r['unit']} if the others were perfect"
         )
+        for key in ("why_zero", "why_zero_alone"):
+            if key in r:
+                ctx.progress(f"      {r['kind']:14s} 0: {r[key]}")
 
 
 def _sweeps(ctx: RunContext) -> None:

@@ -122,14 +122,17 @@ def allocate(
             psi_contact_limit=psi_contact_limit,
             kernel=kernel,
         )
-        ok = True
+        failing = []
         for name in checks.active():
             metric, sense = CHECK_METRICS[name]
             q = percentile if sense == "max" else 100.0 - percentile
             value = float(np.percentile(mc.metrics[metric], q))
             if not evaluate_checks({metric: value}, replace_checks(checks, name))[name]["passed"]:
-                ok = False
-                break
+                failing.append(name)
+                if T > 0:  # at T = 0 every failing check is named (the zero explained)
+                    break
+        ok = not failing
+        state["failing"] = failing
         if ok:
             state["lo"] = T
         elif T > 0:
@@ -142,6 +145,15 @@ def allocate(
 
     unit = TOLERANCE_KINDS[kind][1]
     if not passes(0.0):
+        names = ", ".join(state["failing"])
+        others = sorted(k for k in tolerances if k != kind)
+        if others:
+            why = (
+                f"with {', '.join(others)} as given and {kind} perfect, {names} already "
+                f"fail(s) at the {percentile:g}th percentile; no {kind} tolerance can pass"
+            )
+        else:
+            why = f"the nominal design already fails {names}; no tolerance can pass"
         return {
             "kind": kind,
             "tolerance": 0.0,
@@ -150,6 +162,7 @@ def allocate(
             "meaning": meaning,
             "failing_at": 0.0,
             "evaluations": evals,
+            "why_zero": why,
         }
 
     def answer(tolerance: float, failing_at: float | None) -> dict:
