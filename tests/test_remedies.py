@@ -143,3 +143,15 @@ def test_allocation_says_nothing_of_zero_when_it_is_not(tmp_path):
     assert r.returncode == 0, r.stderr
     rows = json.loads((tmp_path / "a" / "allocation.json").read_text())["rows"]
     assert rows[0]["tolerance"] > 0 and "why_zero" not in rows[0]
+
+
+def test_the_report_names_the_same_changes(tmp_path):
+    text = _scene().replace('formats = ["forces"]', 'formats = ["forces", "report"]')
+    r = _run(tmp_path, "rep", text, "--quiet")
+    assert r.returncode == 1
+    m = json.loads((tmp_path / "rep" / "manifest.json").read_text())
+    html = (tmp_path / "rep" / "report.html").read_text()
+    para = re.search(r'<p class="remedy">max_contact_pressure passes with (.*?) \(', html)[1]
+    for x in m["checks"]["max_contact_pressure"]["passes_with"]:
+        sense = {">=": "&gt;=", "<=": "&lt;="}[x["sense"]]
+        assert f"{x['parameter']} {sense} {x['value']:.6g} {x['unit']}" in para
