@@ -1,4 +1,5 @@
 import os
+import signal
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -13,6 +14,12 @@ settings.register_profile(
     derandomize=True,
 )
 settings.load_profile("ci")
+
+# A suite started as a background job (``&``, nohup, some CI runners) inherits
+# SIGINT ignored, and every CLI process a test starts would inherit that too:
+# the tests that press Ctrl-C on a run would then see it ignored. Python's own
+# handler here means children start with the default disposition again.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
