@@ -18,11 +18,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from pygcode import Line
 
 from corr_cad import SceneError, load_scene, run_scene
 from corr_cad.run.scene import parse_scene
-from tests.test_edm import TOL, D, R, arc_points, distance
+from tests.test_edm import TOL, D, R, arc_points, distance, edm_run  # noqa: F401 (fixture)
 
 DIALECTS = ("iso", "fanuc", "linuxcnc")
 COMPS = ("path", "G41", "G42")
@@ -284,6 +286,29 @@ def test_slug_stop_leaves_the_stated_length(programs, dia):
     assert "slug" in lines[k].lower() and "1 mm" in lines[k].lower()
     tail = [m for m in trace(text)["contour"] if m["line"] > k]
     assert sum(length(m) for m in tail) == pytest.approx(1.0, abs=0.01)
+
+
+def test_the_program_with_forces_reads_strictly(edm_run):  # noqa: F811 (the fixture)
+    """tests/test_edm.py's run: lead-in on a flank, chosen by the solver (the old nested text)."""
+    out, _ = edm_run
+    text = (out / "inner_gear_edm.nc").read_text()
+    lines = check_program(text, "iso")
+    read_pygcode(text)
+    notes = [n for _, n in lines if n]
+    assert "chosen by solver: least peak gear force over the cycle, 720 bins of psi" in notes
+
+
+@given(st.sampled_from(DIALECTS), st.text(max_size=300), st.sampled_from(["", "msg, ", " Debug"]))
+def test_any_text_becomes_flat_comments(dia, text, lead):
+    from corr_cad.export.gcode import DIALECTS as WRITER
+    from corr_cad.export.gcode import comment_lines
+
+    lines = comment_lines(lead + text, WRITER[dia])
+    for ln in lines:
+        (note,) = re.fullmatch(r"\(([^()]*)\)", ln).groups()
+        assert len(ln) <= 80 and note == note.strip() and COMMENT[dia].fullmatch(note), ln
+        assert not ACTIVE.match(note), ln
+    assert ";" not in "".join(lines) and "%" not in "".join(lines)
 
 
 # --- hostile scene names -----------------------------------------------------
