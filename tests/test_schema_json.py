@@ -100,7 +100,7 @@ LOCAL = {
     "tolerances": None,
     "export": {
         "representation",
-        "tolerance",
+        # not "tolerance": the DXF vertex budget (the resource check) depends on the design
         "chord_tolerance",
         "assembly_angles_deg",
         "interference_positions",

@@ -16,6 +16,7 @@ from typing import Any
 
 from corr_cad.bounds import out_of_range, range_text, show
 from corr_cad.errors import CorrCadError, SceneError
+from corr_cad.export.gcode import check_edm_scene
 from corr_cad.export.inputfiles import read_regular_file
 from corr_cad.geometry.design import GearDesign, Material
 from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
@@ -418,6 +419,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         raise SceneError(
             "[export] formats lists 'inspection' but [errors] measured_profile is not set"
         )
+    if "edm" in formats:  # the dialect against tolerance, design size and its M-codes
+        check_edm_scene(values["edm"], ex["tolerance"], design)
     spacing = values["inspection"]["point_spacing"]
     if (
         "cmm" in formats

@@ -56,8 +56,11 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     if "representation" in ex and "dxf" not in f:
         warn("[export] representation", 'formats does not list "dxf"')
     geometry = bool((_MESH | {"step", "interference"}) & f)
-    if "tolerance" in ex and "dxf" not in f and ("chord_tolerance" in ex or not geometry):
-        warn("[export] tolerance", 'formats lists no "dxf" (and no mesh/STEP takes it over)')
+    uses_tolerance = "dxf" in f or "edm" in f  # edm: the wire path and its decimals
+    if "tolerance" in ex and not uses_tolerance and ("chord_tolerance" in ex or not geometry):
+        warn(
+            "[export] tolerance", 'formats lists no "dxf" or "edm" (and no mesh/STEP takes it over)'
+        )
     if "chord_tolerance" in ex and not geometry:
         warn("[export] chord_tolerance", "formats lists no mesh, step or interference")
     if "assembly_angles_deg" in ex and not (_MESH | {"step"}) & f:  # STEP writes assemblies too
@@ -66,8 +69,14 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         warn("[export] interference_positions", 'formats does not list "interference"')
     if "interference_method" in ex and "interference" not in f:
         warn("[export] interference_method", 'formats does not list "interference"')
+    edm = data.get("edm", {})
     if "edm" in data and "edm" not in f:
         warn("[edm]", 'formats does not list "edm"')
+    else:
+        if "d_register" in edm and edm.get("compensation", "path") == "path":
+            warn("[edm] d_register", 'compensation = "path" puts the offset in the path')
+        if "program_number" in edm and edm.get("dialect", "iso") != "fanuc":
+            warn("[edm] program_number", 'only dialect = "fanuc" writes an O number')
     insp = data.get("inspection", {})
     if "inspection" in data and not {"cmm", "inspection"} & f:
         warn("[inspection]", 'formats lists neither "cmm" nor "inspection"')

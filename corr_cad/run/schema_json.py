@@ -30,9 +30,9 @@ _NON_EMPTY = {
 def _number(kind: str, spec) -> dict:
     out: dict[str, Any] = {"type": "integer" if kind == "int" else "number"}
     if spec.low is not None:
-        out["exclusiveMinimum"] = spec.low
+        out["exclusiveMinimum" if spec.low_open else "minimum"] = spec.low
     if spec.high is not None:
-        out["maximum"] = spec.high
+        out["exclusiveMaximum" if spec.high_open else "maximum"] = spec.high
     return out
 
 

@@ -17,20 +17,50 @@ __all__ = ["edm_files", "cmm_points", "inspection"]
 
 
 def edm_files(ctx: RunContext) -> None:
-    from corr_cad.export.edm_io import write_edm_dxf, write_gcode
+    from corr_cad.export.edm_io import write_edm_dxf
+    from corr_cad.export.gcode import DIALECTS, GcodeOptions, write_gcode
     from corr_cad.shop.edm import EdmSpec, plan_cut
 
     s = ctx.scene
-    spec = EdmSpec(**s.edm)
-    prog, _ = plan_cut(ctx.results.working, spec, s.tolerance, ctx.results.forces)
+    e = s.edm
+    dialect = DIALECTS[e["dialect"]]
+    slug = e["slug_stop_mm"] if e["slug_stop_mm"] is not None else dialect.slug_stop_mm
+    spec = EdmSpec(
+        wire_diameter=e["wire_diameter"],
+        spark_gap=e["spark_gap"],
+        start_hole_diameter=e["start_hole_diameter"],
+        lead_in_length=e["lead_in_length"],
+        feed_mm_per_min=e["feed_mm_per_min"],
+        compensation=e["compensation"],
+        slug_stop_mm=slug,
+    )
+    options = GcodeOptions(
+        dialect=dialect.name,
+        d_register=e["d_register"],
+        program_number=e["program_number"],
+        wire_thread_mcode=e["wire_thread_mcode"],
+        wire_cut_mcode=e["wire_cut_mcode"],
+    )
+    # I and J words beyond the control's range: nearly straight arcs, written as lines.
+    reach = dialect.max_abs - 10.0 ** (1 - dialect.max_decimals)
+    prog, _ = plan_cut(ctx.results.working, spec, s.tolerance, ctx.results.forces, reach)
     write_edm_dxf(s.design, prog, ctx.out / "inner_gear_edm.dxf")
-    write_gcode(s.design, prog, s.name, ctx.out / "inner_gear_edm.nc")
+    write_gcode(s.design, prog, s.name, ctx.out / "inner_gear_edm.nc", options)
     ctx.files.extend(["inner_gear_edm.dxf", "inner_gear_edm.nc"])
     ctx.manifest["edm"] = prog.as_dict()
+    ctx.manifest["edm"]["gcode"] = {
+        "dialect": dialect.name,
+        "coordinate_decimals": prog.decimals,
+        **({"d_register": options.d_register} if spec.compensation != "path" else {}),
+        **({"program_number": options.program_number} if dialect.program_number else {}),
+        "wire_thread_mcode": options.wire_thread_mcode,
+        "wire_cut_mcode": options.wire_cut_mcode,
+    }
+    where = "into the opening" if spec.compensation == "path" else f"by {spec.compensation}"
     ctx.progress(
-        f"      wire path: offset {spec.offset:g} mm into the opening, {len(prog.contour)} moves, "
-        f"measured deviation {prog.written_deviation:.3g} mm; lead-in at the "
-        f"{prog.lead_in_point['where']}"
+        f"      wire path ({dialect.name}): offset {spec.offset:g} mm {where}, "
+        f"{len(prog.contour)} moves, measured deviation {prog.written_deviation:.3g} mm; "
+        f"lead-in at the {prog.lead_in_point['where']}"
     )
 
 

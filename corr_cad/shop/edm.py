@@ -34,6 +34,27 @@ mirror quarter arc, then a straight line back to ``H``. ``Q`` is where the
 rollers carry least over the cycle (largest gear force seen at that profile
 point, from the solver when forces were computed), ties broken towards the
 tooth tip; without forces it is the tooth tip. Pure numpy/scipy.
+
+Cutter compensation and direction
+---------------------------------
+With ``compensation = "path"`` the offset ``d`` is in the path, as above,
+and the cut runs clockwise seen from +Z. With ``"G41"`` or ``"G42"`` the
+path is the working profile itself and the control offsets the wire by its
+D register. Going round the opening clockwise, the opening (the scrap) lies
+to the right of the path: G42 (wire right of the path in the direction of
+travel) keeps the wire in the scrap. G41 keeps it on the left, so with G41
+the whole program runs counterclockwise. Either way the straight part of the
+lead-in (and of the lead-out) is ``lead_in_length / 2`` long, which must
+exceed twice the offset: LinuxCNC wants the move after G40 longer than the
+wire diameter, and every control needs the lead-in arc (radius
+``lead_in_length / 2``) larger than the offset.
+
+Slug stop
+---------
+With ``slug_stop_mm > 0`` the contour is split (on the same arc or line, so
+tangency is kept) that far before it closes; :attr:`EdmProgram.slug_stop_index`
+is the first move after the stop. The writer puts the program stop there,
+so the slug is still held by that much uncut material.
 """
 
 from __future__ import annotations
@@ -49,8 +70,21 @@ from corr_cad.geometry import kinematics as kin
 from corr_cad.geometry.profile import ProfileCurve
 from corr_cad.geometry.projection import signed_normal_distance
 from corr_cad.geometry.sampling import approximate
+from corr_cad.shop.bulge import bulge_centre, reverse, seg_length, split_at, split_tail
 
-__all__ = ["EdmSpec", "Move", "EdmProgram", "smallest_concave_radius", "lead_in_psi", "plan_cut"]
+__all__ = [
+    "COMPENSATIONS",
+    "EdmSpec",
+    "Move",
+    "EdmProgram",
+    "smallest_concave_radius",
+    "lead_in_psi",
+    "check_lead_in",
+    "plan_cut",
+]
+
+#: ``[edm] compensation``: offset in the path, or by the control to the left/right.
+COMPENSATIONS = ("path", "G41", "G42")
 
 
 @dataclass(frozen=True)
@@ -62,11 +96,18 @@ class EdmSpec:
     start_hole_diameter: float = 3.0
     lead_in_length: float = 2.0
     feed_mm_per_min: float = 2.0
+    compensation: str = "path"
+    slug_stop_mm: float = 0.0
 
     @property
     def offset(self) -> float:
         """Wire-centre offset from the finished profile: wire radius plus spark gap, mm."""
         return 0.5 * self.wire_diameter + self.spark_gap
+
+    @property
+    def clockwise(self) -> bool:
+        """Cut direction seen from +Z: clockwise but with G41 (see the module text)."""
+        return self.compensation != "G41"
 
 
 @dataclass(frozen=True)
@@ -142,14 +183,24 @@ class EdmProgram:
     lead_in_point: dict = field(default_factory=dict)
     start_hole_clearance: float = 0.0
     lead_in_kink_deg: float = 0.0
+    slug_stop_index: int | None = None
 
     def as_dict(self) -> dict:
+        comp = self.spec.compensation
+        side = (
+            "into the opening (the scrap slug); wire centre path = locus offset "
+            "by roller_radius - wire_offset"
+            if comp == "path"
+            else f"into the opening (the scrap slug), by the control: {comp} keeps the wire "
+            f"{'left' if comp == 'G41' else 'right'} of the programmed working profile"
+        )
         return {
             "wire_diameter_mm": self.spec.wire_diameter,
             "spark_gap_mm": self.spec.spark_gap,
             "wire_offset_mm": self.spec.offset,
-            "offset_side": "into the opening (the scrap slug); wire centre path = locus offset "
-            "by roller_radius - wire_offset",
+            "compensation": comp,
+            "cut_direction": "clockwise" if self.spec.clockwise else "counterclockwise",
+            "offset_side": side,
             "start_hole_diameter_mm": self.spec.start_hole_diameter,
             "start_hole_centre_mm": list(self.start_hole_centre),
             "start_hole_edge_to_profile_mm": self.start_hole_clearance,
@@ -164,6 +215,7 @@ class EdmProgram:
             "smallest_concave_radius_psi_deg": self.smallest_concave_psi_deg,
             "lead_in_point": self.lead_in_point,
             "lead_in_kink_deg": self.lead_in_kink_deg,
+            "slug_stop_mm": self.spec.slug_stop_mm if self.slug_stop_index is not None else 0.0,
         }
 
 
@@ -260,61 +312,6 @@ def _arc_move(a, b, centre, clockwise: bool, dec: int) -> Move:
     return Move("arc", a_r, b_r, c, bool(clockwise))
 
 
-def _bulge_centre(a: np.ndarray, b: np.ndarray, bulge: float) -> np.ndarray:
-    chord = b - a
-    ln = float(np.hypot(*chord))
-    left = np.array([-chord[1], chord[0]]) / ln
-    return 0.5 * (a + b) + left * ((1.0 - bulge * bulge) / (4.0 * bulge)) * ln
-
-
-def _split_at(verts: np.ndarray, bulges: np.ndarray, q: np.ndarray):
-    """Re-start the closed bulge polyline at the point of its arc nearest ``q``.
-
-    Returns ``(verts, bulges, q_on_path)`` beginning at that point; the arc
-    that held it is split in two arcs of the same circle (tangency kept).
-    """
-    n = len(verts)
-    j = int(np.argmin(np.linalg.norm(0.5 * (verts + np.roll(verts, -1, axis=0)) - q, axis=1)))
-    # the nearest arc is j or a neighbour: pick the one whose circle point is closest
-    best = None
-    for i in (j - 1, j, j + 1):
-        i %= n
-        a, b, bu = verts[i], verts[(i + 1) % n], bulges[i]
-        if bu == 0.0:
-            d = b - a
-            u = float(np.clip(np.dot(q - a, d) / np.dot(d, d), 0, 1))
-            p, frac = a + u * d, u
-        else:
-            c = _bulge_centre(a, b, bu)
-            rad = np.linalg.norm(a - c)
-            sweep = 4.0 * math.atan(bu)
-            a0 = math.atan2(*(a - c)[::-1])
-            aq = math.atan2(*(q - c)[::-1])
-            rel = (aq - a0) % (2 * math.pi) if sweep > 0 else -((a0 - aq) % (2 * math.pi))
-            frac = float(np.clip(rel / sweep, 0.0, 1.0))
-            ang = a0 + frac * sweep
-            p = c + rad * np.array([math.cos(ang), math.sin(ang)])
-        dist = float(np.linalg.norm(p - q))
-        if best is None or dist < best[0]:
-            best = (dist, i, frac, p)
-    _, i, frac, p = best
-    sweep = 4.0 * math.atan(bulges[i])
-    b1, b2 = math.tan(frac * sweep / 4.0), math.tan((1 - frac) * sweep / 4.0)
-    eps = 1e-12
-    if frac < eps:  # already a vertex
-        order = np.r_[np.arange(i, n), np.arange(0, i)]
-        return verts[order], bulges[order], verts[i]
-    if frac > 1 - eps:
-        i = (i + 1) % n
-        order = np.r_[np.arange(i, n), np.arange(0, i)]
-        return verts[order], bulges[order], verts[i]
-    order = np.r_[np.arange(i + 1, n), np.arange(0, i + 1)]
-    v = np.vstack([p, verts[order]])
-    bl = np.r_[b2, bulges[order]]
-    bl[-1] = b1
-    return v, bl, p
-
-
 def _measure(curve: ProfileCurve, moves: tuple[Move, ...], samples: int = 17) -> float:
     """Largest distance of the written moves from the exact curve (sampled, then refined).
 
@@ -354,18 +351,52 @@ def _measure_at(curve: ProfileCurve, moves: tuple[Move, ...], samples: int, ra: 
     return float(max(d.max(), np.max(np.maximum(f1, f2))))
 
 
-def plan_cut(
-    working: ProfileCurve, spec: EdmSpec, tolerance: float, forces=None
-) -> tuple[EdmProgram, ProfileCurve]:
-    """The wire path for the opening of ``working``; returns it and the exact offset curve.
+def check_lead_in(spec: EdmSpec) -> None:
+    """With G41/G42 the straight lead-in and lead-out must be longer than twice the offset.
 
-    Raises :class:`SceneError` when the wire cannot reach the tooth spaces or
-    the start hole does not fit in the opening.
+    The control ramps the offset on along the straight lead-in and off along
+    the straight lead-out (LinuxCNC: the move after G40 must be longer than
+    the tool diameter), and the lead-in arc of radius ``lead_in_length / 2``
+    must stay larger than the offset. Raises :class:`SceneError`.
+    """
+    if spec.compensation == "path":
+        return
+    rho, d = 0.5 * spec.lead_in_length, spec.offset
+    if rho <= 2.0 * d:
+        raise SceneError(
+            f"[edm] lead_in_length = {spec.lead_in_length:g}: with compensation = "
+            f'"{spec.compensation}" the straight lead-in and lead-out (lead_in_length / 2) must '
+            f"be longer than twice the wire offset {d:g} mm (the control ramps the offset on and "
+            f"off there); allowed range is ({4.0 * d:g}, 50], e.g. lead_in_length = "
+            f"{max(2.0, math.ceil(8.0 * d)):g}"
+        )
+
+
+def plan_cut(
+    working: ProfileCurve,
+    spec: EdmSpec,
+    tolerance: float,
+    forces=None,
+    max_centre_offset: float = math.inf,
+) -> tuple[EdmProgram, ProfileCurve]:
+    """The wire path for the opening of ``working``; returns it and the exact path curve.
+
+    The path curve is the offset curve (``compensation = "path"``) or the
+    working profile itself (G41/G42). An arc whose centre lies more than
+    ``max_centre_offset`` from its start in X or Y (an I or J word the
+    control cannot take; nearly straight) is written as a line; the measured
+    deviation includes that. Raises :class:`SceneError` when the wire cannot
+    reach the tooth spaces, the start hole does not fit in the opening, the
+    lead-in is too short for the compensation or the slug stop too long.
     """
     if working.has_corners:
         raise SceneError(
             "[export] formats 'edm': the working profile is trimmed (allow_undercut = true); "
             "a wire path around its sharp tooth tips is not supported"
+        )
+    if spec.compensation not in COMPENSATIONS:
+        raise SceneError(
+            f"[edm] compensation = {spec.compensation!r}: must be one of {', '.join(COMPENSATIONS)}"
         )
     d = spec.offset
     r_min, psi_min = smallest_concave_radius(working)
@@ -375,26 +406,42 @@ def plan_cut(
             f"wire offset {d:g} mm must be below the smallest concave radius of the profile seen "
             f"from the scrap side, {r_min:.6g} mm (tooth space, psi {psi_min:.4g} deg)"
         )
+    check_lead_in(spec)
     z, e, L, r = working.tooth_count, working.eccentricity, working.link_length, working.offset
-    path = ProfileCurve(z, e, L, r - d)
+    path = ProfileCurve(z, e, L, r - (d if spec.compensation == "path" else 0.0))
     decimals = max(4, math.ceil(-math.log10(tolerance / 10.0) - 1e-9))
     quantum = 10.0**-decimals
     approx = approximate(path, "arcs", tolerance - 3.0 * quantum)
+    verts, bulges = approx.vertices, approx.bulges
+    if not spec.clockwise:
+        verts, bulges = reverse(verts, bulges)
 
     choice = lead_in_psi(z, forces)
     t_q = math.radians(choice["psi_deg"]) / z
     q = path.points(np.array([t_q]))[0]
-    verts, bulges, q_on = _split_at(approx.vertices, approx.bulges, q)
+    min_len = 10.0 * quantum
+    verts, bulges, q_on = split_at(verts, bulges, q, min_len)
+    slug_index = None
+    if spec.slug_stop_mm > 0.0:
+        n = len(verts)
+        total = sum(seg_length(verts[i], verts[(i + 1) % n], bulges[i]) for i in range(n))
+        if spec.slug_stop_mm >= 0.5 * total:
+            raise SceneError(
+                f"[edm] slug_stop_mm = {spec.slug_stop_mm:g}: the contour is {total:.4g} mm "
+                f"long; allowed range is 0 or [0.1, {0.5 * total:.4g}), e.g. slug_stop_mm = 1"
+            )
+        verts, bulges, slug_index = split_tail(verts, bulges, spec.slug_stop_mm, min_len)
 
     dec = decimals
     contour = []
     n = len(verts)
     for i in range(n):
         a, b, bu = verts[i], verts[(i + 1) % n], bulges[i]
-        if bu == 0.0:
+        centre = bulge_centre(a, b, bu) if bu != 0.0 else None
+        if centre is None or np.max(np.abs(centre - a)) > max_centre_offset:
             contour.append(Move("line", _round_pt(a, dec), _round_pt(b, dec)))
         else:
-            contour.append(_arc_move(a, b, _bulge_centre(a, b, bu), bu < 0, dec))
+            contour.append(_arc_move(a, b, centre, bu < 0, dec))
     contour = tuple(contour)
     # Lead-in at the written start point, tangent to the first written move.
     q_w = np.asarray(contour[0].start)
@@ -461,5 +508,6 @@ def plan_cut(
         info,
         clearance,
         kink,
+        slug_index,
     )
     return prog, path
