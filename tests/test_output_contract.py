@@ -12,6 +12,7 @@ import hashlib
 import json
 import os
 import random
+import re
 import shutil
 import signal
 import subprocess
@@ -348,6 +349,12 @@ def reference_runs(tmp_path_factory):
     return [base / "a", other / "b", base / "outputs" / "scene"]
 
 
+def _without_seconds(out: Path) -> bytes:
+    """manifest.json's bytes with every stage's time set to 0."""
+    text = (out / "manifest.json").read_text()
+    return re.sub(r'"seconds": [0-9.e+-]+', '"seconds": 0', text).encode()
+
+
 def test_same_bytes_any_hash_seed_folder_and_executor(reference_runs):
     first, *rest = reference_runs
     m0 = assert_complete(first)
@@ -358,14 +365,9 @@ def test_same_bytes_any_hash_seed_folder_and_executor(reference_runs):
         assert m["files"] == m0["files"], other  # every file's sha256 and size
         for name in m0["files"]:
             assert (first / name).read_bytes() == (other / name).read_bytes(), name
-        assert {k: v for k, v in m.items() if k != "stages"} == {
-            k: v for k, v in m0.items() if k != "stages"
-        }
-    # The pool runs exported STEP in a worker beside the other stages; serial did not.
-    workers = [[s["name"] for s in assert_complete(o)["stages"] if s.get("worker")] for o in rest]
-    assert workers == [["step_files"], ["step_files"]]
-    assert not [s for s in m0["stages"] if s.get("worker")]
-    assert [s["name"] for s in m0["stages"]] == [s["name"] for s in m["stages"]]
+        # The same bytes but for the seconds: nothing records where a stage ran
+        # (the pool ran the STEP export in a worker, serial in the main process).
+        assert _without_seconds(other) == _without_seconds(first)
     for out in reference_runs:
         text = (out / "manifest.json").read_text()
         assert str(out) not in text and str(out.parent) not in text

@@ -17,6 +17,7 @@ import numpy as np
 
 from corr_cad._version import __version__
 from corr_cad.errors import ExportError
+from corr_cad.export.files import writing
 from corr_cad.geometry.design import SLOT_END_CLEARANCE, GearDesign
 from corr_cad.geometry.parts import frame_slot_outline
 from corr_cad.geometry.sampling import (
@@ -147,11 +148,9 @@ def _save(doc: ezdxf.document.Drawing, path: Path) -> Path:
     in its custom properties and in manifest.json).
     """
     path = Path(path)
-    tmp = path.with_name(path.name + ".part")
     _pin_class_order(doc)
-    with _fixed_metadata():
+    with _fixed_metadata(), writing(path) as tmp:
         doc.saveas(tmp)
-    tmp.replace(path)
     return path
 
 

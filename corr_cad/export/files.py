@@ -8,18 +8,24 @@ of a crank angle. The output folder itself (staging, commit, recovery) is
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import errno
 import hashlib
 import io
 import itertools
 import json
 import os
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+
+from corr_cad.errors import CorrCadError
 
 __all__ = [
     "write_json",
+    "write_new_text",
+    "writing",
     "write_csv",
     "write_columns",
     "format_columns",
@@ -44,9 +50,46 @@ def _umask() -> int:
     return mask
 
 
+def _named(exc: OSError, path: Path) -> OSError:
+    """``exc`` naming ``path`` if it names no file (library writers often raise so)."""
+    if exc.filename or isinstance(exc, CorrCadError):
+        return exc
+    return OSError(exc.errno, exc.strerror or str(exc), str(path))
+
+
+@contextlib.contextmanager
+def writing(path: Path, suffix: str = ".part") -> Iterator[Path]:
+    """Write ``path`` through a temporary beside it, renamed into place on success.
+
+    Yields the temporary's path (``<name><suffix>``) for a library writer
+    to write to. On any error the temporary is removed; an ``OSError`` that
+    names no file (a full disk inside a library's writer) is raised again
+    naming ``path``, so the user learns which file could not be written.
+    """
+    path = Path(path)
+    tmp = path.with_name(path.name + suffix)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        named = _named(exc, path)
+        if named is exc:
+            raise
+        raise named from exc
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
 def _atomic_text(path: Path, text: str) -> Path:
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".part")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".part")
+    except OSError as exc:
+        raise _named(exc, path) from exc
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
             f.write(text)
@@ -54,9 +97,46 @@ def _atomic_text(path: Path, text: str) -> Path:
             os.fsync(f.fileno())
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        named = _named(exc, path)
+        if named is exc:
+            raise
+        raise named from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    return path
+
+
+def write_new_text(path: Path, text: str) -> Path:
+    """Create ``path`` with ``text``, atomically, never replacing anything.
+
+    The text goes to a temporary of a fresh random name beside ``path`` (so
+    no file of the user's is ever written over, whatever it is called); it
+    is then linked to ``path``, which fails with :class:`FileExistsError`
+    if ``path`` exists by then. A file system without hard links gets an
+    exclusive create (``O_EXCL``) instead.
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        try:
+            os.link(tmp, path, follow_symlinks=False)
+        except FileExistsError:
+            raise
+        except OSError as exc:
+            if exc.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV):
+                raise
+            with open(path, "x", encoding="utf-8", newline="") as out:
+                out.write(text)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
     return path
 
 

@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 
 from corr_cad.errors import ExportError
+from corr_cad.export.files import writing
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.kinematics import centre_distance, unit_radial
 from corr_cad.geometry.parts import PartOutline
@@ -285,9 +286,8 @@ def write_mesh(meshes: dict[str, trimesh.Trimesh] | trimesh.Trimesh, path: Path,
     data = obj.export(file_type=fmt)
     if fmt == "3mf":
         data = stable_3mf(data)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
-    tmp.replace(path)
+    with writing(path) as tmp:
+        tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
     return path
 
 

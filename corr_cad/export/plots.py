@@ -18,6 +18,7 @@ from matplotlib.patches import PathPatch, Polygon  # noqa: E402
 from matplotlib.path import Path as MplPath  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
+from corr_cad.export.files import writing  # noqa: E402
 from corr_cad.geometry.design import GearDesign  # noqa: E402
 from corr_cad.geometry.kinematics import centre_distance, unit_radial  # noqa: E402
 from corr_cad.geometry.profile import ProfileCurve  # noqa: E402
@@ -36,10 +37,11 @@ __all__ = [
 
 def _save(fig, path: Path) -> Path:
     path = Path(path)
-    tmp = path.with_name(path.name + ".part")
-    fig.savefig(tmp, dpi=130, format="png", metadata={"Software": None})
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        with writing(path) as tmp:
+            fig.savefig(tmp, dpi=130, format="png", metadata={"Software": None})
+    finally:
+        plt.close(fig)
     return path
 
 

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from corr_cad.export.files import writing
+
 __all__ = ["report_context", "render_report", "write_report"]
 
 _CHECK_UNITS = {
@@ -361,7 +363,6 @@ def write_report(scene, manifest: dict, forces, files: list[str], out: Path) -> 
     """Write ``report.html`` into ``out``; returns its path."""
     html = render_report(report_context(scene, manifest, forces, files, out))
     path = Path(out) / "report.html"
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(html, encoding="utf-8")
-    tmp.replace(path)
+    with writing(path) as tmp:
+        tmp.write_text(html, encoding="utf-8")
     return path

@@ -21,6 +21,7 @@ of those products.
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import re
@@ -30,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad.errors import ExportError
+from corr_cad.export.files import writing
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.parts import frame_slot_outline
 from corr_cad.geometry.placement import Placement
@@ -285,11 +287,10 @@ def _write_document(doc, path: Path, what: str) -> Path:
     writer.SetLayerMode(False)
     if not writer.Transfer(doc, STEPControl_AsIs):
         raise ExportError(f"STEP: could not transfer {what}")
-    tmp = path.with_name(path.name + ".part.step")
-    if writer.Write(str(tmp)) != IFSelect_RetDone:
-        raise ExportError(f"STEP: could not write {path}")
-    _pin_timestamp(tmp)
-    tmp.replace(path)
+    with writing(path, ".part.step") as tmp:
+        if writer.Write(str(tmp)) != IFSelect_RetDone:
+            raise OSError(errno.EIO, "Open CASCADE could not write the STEP file (disk full?)")
+        _pin_timestamp(tmp)
     return path
 
 

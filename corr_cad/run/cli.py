@@ -21,6 +21,26 @@ from corr_cad.errors import CorrCadError
 __all__ = ["main"]
 
 
+def _out_arg(text: str) -> Path | str:
+    """A path argument; an empty one stays ``""`` and is refused in :func:`main`.
+
+    ``Path("")`` is ``Path(".")``, the working folder; an empty argument is
+    almost always an unset shell variable, never a request to write there.
+    """
+    return text if text == "" else Path(text)
+
+
+def _refuse_empty(args: argparse.Namespace) -> None:
+    from corr_cad.errors import OutputError
+
+    for attr, flag in (("out", "--out"), ("scene", "SCENE")):
+        if getattr(args, attr, None) == "":
+            raise OutputError(
+                f"{flag} '': an empty path (an unset variable?); give one, e.g. "
+                + ("--out outputs/NAME" if attr == "out" else "corr-cad new my_scene.toml")
+            )
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="corr-cad",
@@ -34,7 +54,7 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="build what a scene file asks for")
     run.add_argument("scene", type=Path, help="scene file (TOML)")
     run.add_argument(
-        "--out", type=Path, default=None, help="output folder (default outputs/<scene name>)"
+        "--out", type=_out_arg, default=None, help="output folder (default outputs/<scene name>)"
     )
     run.add_argument("--quiet", action="store_true", help="print nothing but errors")
     run.add_argument(
@@ -51,7 +71,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     bench = sub.add_parser("bench", help="measure what accuracy costs in time (tables, CSV, PNG)")
     bench.add_argument(
-        "--out", type=Path, default=Path("outputs") / "bench", help="default outputs/bench"
+        "--out", type=_out_arg, default=Path("outputs") / "bench", help="default outputs/bench"
     )
     bench.add_argument(
         "--study",
@@ -74,10 +94,13 @@ def _parser() -> argparse.ArgumentParser:
         "schema", help="print the JSON Schema of scene files (for TOML editors)"
     )
     schema.add_argument(
-        "--out", type=Path, default=None, help="write it to this file instead of printing"
+        "--out",
+        type=_out_arg,
+        default=None,
+        help="write it to this new file instead of printing (refuses to overwrite)",
     )
     new = sub.add_parser("new", help="write a commented scene template")
-    new.add_argument("scene", type=Path, help="file to create (refuses to overwrite)")
+    new.add_argument("scene", type=_out_arg, help="file to create (refuses to overwrite)")
     return p
 
 
@@ -106,7 +129,7 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     check_out_dir(out)  # refuse before anything is created or started
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
-    staging = StagingDir(out)
+    staging = StagingDir(out, formats=scene.formats)
     state["staging"] = staging
     concurrent = _concurrent_stages(args, scene)
     with _executor(args, scene, concurrent) as executor, staging as stage:
@@ -157,9 +180,17 @@ def _worker_init(parent_pid: int) -> None:
     import signal
     import threading
     import time
+    import warnings
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+    def one_line(message, category, filename, lineno, file=None, line=None) -> None:
+        where = f"{Path(filename).name}:{lineno}"
+        text = f"corr-cad: warning: {category.__name__} in {where}: {message}"
+        print(_line(text), file=sys.stderr)
+
+    warnings.showwarning = one_line  # never a raw two-line warning from a worker
     if sys.platform.startswith("linux"):
         try:
             import ctypes
@@ -250,18 +281,27 @@ def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
     pool.shutdown(wait=True)
 
 
-def _new(args: argparse.Namespace) -> int:
+def _create(path: Path, text: str) -> None:
+    """Write a new file; one that exists (or appears meanwhile) is never replaced."""
+    from corr_cad.bounds import show
     from corr_cad.errors import SceneError
+    from corr_cad.export.files import write_new_text
+
+    shown = show(str(path), 120)
+    if os.path.lexists(path):
+        raise SceneError(f"{shown} exists; choose another name (it is never overwritten)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        write_new_text(path, text)
+    except FileExistsError as exc:
+        raise SceneError(f"{shown} exists; choose another name (it is never overwritten)") from exc
+    print(f"wrote {path}")
+
+
+def _new(args: argparse.Namespace) -> int:
     from corr_cad.run.scene import template_text
 
-    path: Path = args.scene
-    if path.exists():
-        raise SceneError(f"{path} exists; choose another name")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(template_text(), encoding="utf-8")
-    tmp.replace(path)
-    print(f"wrote {path}")
+    _create(args.scene, template_text())
     return 0
 
 
@@ -280,16 +320,63 @@ def _schema(args: argparse.Namespace) -> int:
     if args.out is None:
         sys.stdout.write(text)
         return 0
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_name(args.out.name + ".part")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(args.out)
-    print(f"wrote {args.out}")
+    _create(args.out, text)  # the rule of 'corr-cad new': never overwrite
     return 0
+
+
+#: Longest error or warning line printed (a message quoting a file is cut).
+MAX_LINE = 300
+
+
+def _line(text: str, limit: int = MAX_LINE) -> str:
+    """``text`` on one line of at most ``limit`` characters (the middle cut out)."""
+    text = " ".join(str(text).split())
+    if len(text) <= limit:
+        return text
+    tail = limit // 3
+    return f"{text[: limit - tail - 5]} ... {text[-tail:]}"
+
+
+def _error(msg: str) -> None:
+    print(_line(f"corr-cad: error: {msg}"), file=sys.stderr)
+
+
+def _show_warnings(caught: list) -> None:
+    """Warnings from numpy, matplotlib & co. as bounded one-line notes, never raw.
+
+    Only a run that succeeds shows them (a failed run prints its one error
+    line). Known causes are refused up front with the key that caused them;
+    this is the net for the rest.
+    """
+    seen: dict[tuple[str, str], object] = {}
+    for w in caught:
+        seen.setdefault((w.category.__name__, str(w.message)), w)
+    for i, ((cat, msg), w) in enumerate(seen.items()):
+        if i == 3:
+            print(f"corr-cad: warning: {len(seen) - 3} more numerical warnings", file=sys.stderr)
+            break
+        where = f"{Path(w.filename).name}:{w.lineno}"
+        print(_line(f"corr-cad: warning: {cat} in {where}: {msg}"), file=sys.stderr)
+
+
+def _dispatch(args: argparse.Namespace, state: dict) -> int:
+    _refuse_empty(args)
+    if args.command == "run":
+        return _run(args, state)
+    if args.command == "bench":
+        from corr_cad.run.bench import STUDIES, run
+
+        run(args.out, args.study or list(STUDIES), quick=args.quick)
+        print(f"wrote the benchmark tables and plots to {args.out}")
+        return 0
+    if args.command == "schema":
+        return _schema(args)
+    return _new(args)
 
 
 def main(argv: list[str] | None = None) -> int:
     import signal
+    import warnings
     from concurrent.futures import BrokenExecutor
 
     from corr_cad.run.memory import keep_freed_memory
@@ -301,35 +388,24 @@ def main(argv: list[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        if args.command == "run":
-            return _run(args, state)
-        if args.command == "bench":
-            from corr_cad.run.bench import STUDIES, run
-
-            run(args.out, args.study or list(STUDIES), quick=args.quick)
-            print(f"wrote the benchmark tables and plots to {args.out}")
-            return 0
-        if args.command == "schema":
-            return _schema(args)
-        return _new(args)
+        with warnings.catch_warnings(record=True) as caught:
+            code = _dispatch(args, state)
+        _show_warnings(caught)
+        return code
     except CorrCadError as exc:
-        print(f"corr-cad: error: {exc}", file=sys.stderr)
+        _error(str(exc))
         return 2
     except BrokenExecutor:
         # A pool worker died under us (killed, out of memory, a crash in a
         # native library); the staging folder is already gone.
-        print(
-            "corr-cad: error: a worker process died (killed, or out of memory?); "
-            "previous outputs left as they were; --executor serial runs without workers",
-            file=sys.stderr,
+        _error(
+            "a worker process died (killed, or out of memory?); "
+            "previous outputs left as they were; --executor serial runs without workers"
         )
         return 2
     except OSError as exc:
-        where = f"{exc.filename}: " if exc.filename else ""
-        print(
-            f"corr-cad: error: {where}{exc.strerror or exc}; previous outputs left as they were",
-            file=sys.stderr,
-        )
+        where = f"{_shown_path(exc.filename)}: " if exc.filename else ""
+        _error(f"{where}{exc.strerror or exc}; previous outputs left as they were")
         return 2
     except KeyboardInterrupt as exc:
         name, code = ("SIGTERM", 143) if isinstance(exc, _Terminated) else ("SIGINT", 130)
@@ -344,6 +420,12 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:  # called in-process (tests, notebooks): leave no handler behind
             signal.signal(signal.SIGTERM, previous)
+
+
+def _shown_path(name: object) -> str:
+    """A file name for an error line: the path as given, its start cut if very long."""
+    text = os.fsdecode(name) if isinstance(name, (str, bytes)) else str(name)
+    return text if len(text) <= 160 else "..." + text[-157:]
 
 
 if __name__ == "__main__":  # pragma: no cover

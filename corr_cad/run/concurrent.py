@@ -12,9 +12,10 @@ What stays as in a serial run:
 
 * the bytes of every file (the worker runs the same stage function on the
   same scene; nothing in it depends on the process);
-* ``manifest.json`` (written key-sorted): the worker returns the manifest
-  sections its stage wrote; ``stages`` lists every stage in plan order, the
-  worker's with ``"worker": true`` and its own time;
+* ``manifest.json`` (written key-sorted), byte for byte but for the
+  ``seconds`` of each stage: the worker returns the manifest sections its
+  stage wrote; ``stages`` lists every stage in plan order with its time and
+  nothing else (where it ran is shown on the progress line only);
 * errors: an error in the worker is raised in the main process, where the
   CLI reports it as it would have;
 * interruption: if the main process fails or is interrupted (SIGINT,

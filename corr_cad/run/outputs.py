@@ -26,7 +26,17 @@ cannot be done, removes that set's files (those still matching their sha256)
 and its manifest; then it removes staging leftovers. All of this happens
 under an exclusive ``flock`` on ``<out>/.corr-cad.lock``, a file that exists
 only while a run holds it. A run that fails before its commit removes the
-folders it created (a refused run leaves nothing).
+folders, staging folder and lock file it created (a refused run, a full disk
+included, leaves nothing).
+
+What a run may replace or remove is fixed by the code, never widened by a
+manifest: a file whose name some format writes (:mod:`corr_cad.run.names`)
+and whose sha256 the manifest records, ``manifest.json`` itself, its own
+lock file (content ``corr-cad lock``) and staging folders that carry the
+staging mark. ``manifest.json`` is checked in full before any of it is used
+(:mod:`corr_cad.run.manifest_file`); a foreign or malformed one refuses the
+run. No temporary file is ever made in the output folder itself: every
+temporary lies in a marked staging folder.
 """
 
 from __future__ import annotations
@@ -43,11 +53,19 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from corr_cad.errors import ExportError, OutputError
+from corr_cad.errors import CorrCadError, ExportError, OutputError
 from corr_cad.export.files import _umask, sha256_of, write_json
+from corr_cad.run.manifest_file import (
+    GENERATOR,
+    MANIFEST_NAME,
+    STAGING_NAME,
+    STAGING_PREFIX,
+    read_manifest,
+)
+from corr_cad.run.names import is_output_name
 
 __all__ = [
     "StagingDir",
@@ -59,15 +77,12 @@ __all__ = [
     "STAGING_PREFIX",
 ]
 
-MANIFEST_NAME = "manifest.json"
 LOCK_NAME = ".corr-cad.lock"
-STAGING_PREFIX = ".corr-cad-staging-"
 #: Written into every staging folder on creation: only folders holding it are
 #: ever removed as leftovers (a user's folder that merely has the name is not).
 STAGING_MARK = ".corr-cad-staging"
 #: The lock file's content: a file of that name with other content is the user's.
 LOCK_MARK = b"corr-cad lock\n"
-GENERATOR = "corr-cad"
 #: How long a run waits for another run into the same folder before refusing
 #: (environment variable ``CORR_CAD_LOCK_WAIT_S`` overrides it, 0..3600 s).
 LOCK_WAIT_S = 10.0
@@ -146,53 +161,6 @@ def check_out_dir(out: Path) -> Path:
     return real
 
 
-def _is_ours(data: object) -> bool:
-    if not isinstance(data, dict) or not isinstance(data.get("files"), dict):
-        return False
-    versions = data.get("versions")
-    return data.get("generator") == GENERATOR or (
-        isinstance(versions, dict) and "corr_cad" in versions
-    )
-
-
-def read_manifest(folder: Path) -> dict | None:
-    """The corr-cad manifest in ``folder``, None if there is none.
-
-    A ``manifest.json`` that is a symlink, not a regular file or not
-    corr-cad's refuses the run: it is the user's, and corr-cad would have to
-    overwrite it.
-    """
-    p = Path(folder) / MANIFEST_NAME
-    if not os.path.lexists(p):
-        return None
-    if p.is_symlink() or not p.is_file():
-        raise OutputError(
-            f"{p}: is a symlink or not a regular file; corr-cad leaves it alone - "
-            "move it away or choose another --out"
-        )
-    try:
-        with open(p, "rb") as f:
-            data = json.loads(f.read(64 << 20))
-    except (ValueError, UnicodeDecodeError):
-        data = None
-    if not _is_ours(data):
-        raise OutputError(
-            f"{p}: exists and was not written by corr-cad; it is left alone - "
-            "move it away or choose another --out"
-        )
-    return data
-
-
-def _valid_name(name: object) -> bool:
-    return (
-        isinstance(name, str)
-        and name not in ("", ".", "..", MANIFEST_NAME, LOCK_NAME)
-        and "/" not in name
-        and "\0" not in name
-        and not name.startswith(STAGING_PREFIX)
-    )
-
-
 def _regular(p: Path) -> bool:
     return not p.is_symlink() and p.is_file()
 
@@ -204,7 +172,7 @@ def _matches(p: Path, sha: str | None) -> bool:
 def _remove_stale(folder: Path, stale: dict, say: Callable[[str], None]) -> None:
     """Remove files of a previous run that still carry their recorded sha256."""
     for name, sha in sorted(stale.items()):
-        if not _valid_name(name):
+        if not is_output_name(name):  # never a user's name, whatever a manifest says
             continue
         p = folder / name
         if not os.path.lexists(p):
@@ -223,19 +191,64 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+def _is_stage(p: Path) -> bool:
+    """A staging folder corr-cad made: our name pattern, a real folder, our mark inside."""
+    mark = p / STAGING_MARK
+    return (
+        STAGING_NAME.fullmatch(p.name) is not None
+        and not p.is_symlink()
+        and p.is_dir()
+        and mark.is_file()
+        and not mark.is_symlink()
+    )
+
+
+def _make_stage(folder: Path) -> Path:
+    """A new, marked staging folder in ``folder`` (removed again if marking it fails)."""
+    path = Path(tempfile.mkdtemp(dir=folder, prefix=f"{STAGING_PREFIX}{os.getpid()}-"))
+    try:
+        os.chmod(path, 0o777 & ~_umask())
+        (path / STAGING_MARK).write_bytes(b"")
+    except BaseException:
+        shutil.rmtree(path, ignore_errors=True)
+        raise
+    return path
+
+
+def _write_manifest(folder: Path, data: dict) -> None:
+    """Replace ``folder/manifest.json`` atomically, its temporary in a marked staging folder.
+
+    No temporary ever lies in the output folder itself under a name a user
+    could have: a leftover is a marked staging folder, removed by the next run.
+    """
+    stage = _make_stage(folder)
+    try:
+        write_json(stage / MANIFEST_NAME, data)
+        os.replace(stage / MANIFEST_NAME, folder / MANIFEST_NAME)
+        _fsync_dir(folder)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
 def _roll_forward(folder: Path, journal: dict, say: Callable[[str], None]) -> None:
-    """Finish (or undo) a commit that was interrupted after its journal was written."""
-    files = journal.get("files", {})
-    commit = journal.get("commit") if isinstance(journal.get("commit"), dict) else {}
-    stage_name = commit.get("staging")
-    stage = folder / stage_name if isinstance(stage_name, str) and _staging(stage_name) else None
-    replaces = commit.get("replaces", {}) if isinstance(commit.get("replaces"), dict) else {}
+    """Finish (or undo) a commit that was interrupted after its journal was written.
+
+    ``journal`` has passed :func:`read_manifest`: every name in it is an
+    output name, every sha256 well formed, the staging name ours.
+    """
+    files: dict[str, dict] = journal["files"]
+    commit: dict = journal["commit"]
+    stage = folder / commit["staging"]
+    if not _is_stage(stage):
+        stage = None  # gone, or not ours: nothing is moved out of it
+    replaces: dict = commit["replaces"]
+    stale: dict = commit["remove"]
     missing = []
     moved = 0
     for name, meta in sorted(files.items()):
-        sha = meta.get("sha256") if isinstance(meta, dict) else None
+        sha = meta["sha256"]
         dst = folder / name
-        if not _valid_name(name) or _matches(dst, sha):
+        if _matches(dst, sha):
             continue
         src = stage / name if stage is not None else None
         may_replace = not os.path.lexists(dst) or _matches(dst, replaces.get(name))
@@ -247,14 +260,12 @@ def _roll_forward(folder: Path, journal: dict, say: Callable[[str], None]) -> No
     if missing:
         # Cannot finish: remove every file of either set that is still corr-cad's
         # (new sha256, the sha256 it replaced, or a stale file of the previous run).
-        stale = commit.get("remove", {}) if isinstance(commit.get("remove"), dict) else {}
         removed = 0
-        for name in set(files) | set(stale):
+        for name in sorted(set(files) | set(stale)):
             p = folder / name
-            meta = files.get(name)
-            shas = {meta.get("sha256") if isinstance(meta, dict) else None}
+            shas = {files[name]["sha256"] if name in files else None}
             shas |= {replaces.get(name), stale.get(name)}
-            if _valid_name(name) and _regular(p) and sha256_of(p) in shas - {None}:
+            if _regular(p) and sha256_of(p) in shas - {None}:
                 p.unlink()
                 removed += 1
         (folder / MANIFEST_NAME).unlink()
@@ -264,38 +275,33 @@ def _roll_forward(folder: Path, journal: dict, say: Callable[[str], None]) -> No
             f"{removed} files it and the run before had written, and the manifest"
         )
         return
-    stale = commit.get("remove", {}) if isinstance(commit.get("remove"), dict) else {}
     _remove_stale(folder, stale, say)
     final = {k: v for k, v in journal.items() if k != "commit"}
     final["complete"] = True
-    write_json(folder / MANIFEST_NAME, final)
-    _fsync_dir(folder)
+    _write_manifest(folder, final)
     say(
         f"corr-cad: note: {folder}: finished moving an interrupted run's outputs into place "
         f"({moved} files moved); manifest.json is complete again"
     )
 
 
-def _staging(name: str) -> bool:
-    return name.startswith(STAGING_PREFIX) and "/" not in name
-
-
 def recover(folder: Path, say: Callable[[str], None]) -> None:
-    """Repair an interrupted commit and remove staging leftovers (under the lock)."""
+    """Repair an interrupted commit and remove staging leftovers (under the lock).
+
+    Only corr-cad's own staging folders are removed (:func:`_is_stage`); any
+    other entry, whatever its name, is left alone.
+    """
     m = read_manifest(folder)
     if m is not None and m.get("complete") is False:
         _roll_forward(folder, m, say)
     for entry in sorted(os.scandir(folder), key=lambda e: e.name):
-        if _staging(entry.name) and entry.is_dir(follow_symlinks=False):
-            mark = Path(entry.path) / STAGING_MARK
-            if not (mark.is_file() and not mark.is_symlink()):
-                say(f"corr-cad: warning: {entry.name} is not a corr-cad staging folder; left alone")
-                continue
+        if not entry.name.startswith(STAGING_PREFIX):
+            continue
+        if _is_stage(Path(entry.path)):
             shutil.rmtree(entry.path)
             say(f"corr-cad: note: removed {entry.name}, left by an interrupted run")
-        elif entry.name.startswith(MANIFEST_NAME + ".") and entry.name.endswith(".part"):
-            if entry.is_file(follow_symlinks=False):
-                os.unlink(entry.path)  # our own atomic-write temporary
+        elif entry.is_dir(follow_symlinks=False):
+            say(f"corr-cad: warning: {entry.name} is not a corr-cad staging folder; left alone")
 
 
 @contextlib.contextmanager
@@ -365,7 +371,14 @@ def _lock(folder: Path, wait_s: float) -> tuple[int, Path]:
                     "away or choose another --out"
                 )
             if not content:
-                os.pwrite(fd, LOCK_MARK, 0)
+                try:
+                    os.pwrite(fd, LOCK_MARK, 0)
+                except OSError as exc:  # a full disk: leave no empty lock file behind
+                    _unlock(fd, path)
+                    raise OutputError(
+                        f"{path}: {exc.strerror or exc} (writing the lock file); nothing was "
+                        "left behind"
+                    ) from exc
             return fd, path
         os.close(fd)  # the holder removed it as we waited: lock the new one
 
@@ -399,8 +412,11 @@ class StagingDir:
         target: Path,
         lock_wait_s: float | None = None,
         say: Callable[[str], None] | None = None,
+        formats: Iterable[str] | None = None,
     ):
         self.given = Path(target)
+        #: The scene's formats: a staged file must have a name one of them writes.
+        self.formats = tuple(formats) if formats is not None else None
         self.target: Path | None = None
         self.path: Path | None = None
         self.lock_wait_s = lock_wait_s
@@ -424,15 +440,29 @@ class StagingDir:
             self._fd, self._lock_path = _lock(self.target, wait)
             recover(self.target, self.say)
             read_manifest(self.target)  # a foreign manifest.json refuses before the work
-            self.path = Path(
-                tempfile.mkdtemp(dir=self.target, prefix=f"{STAGING_PREFIX}{os.getpid()}-")
-            )
-            os.chmod(self.path, 0o777 & ~_umask())
-            (self.path / STAGING_MARK).write_bytes(b"")
-        except BaseException:
+            self.path = _make_stage(self.target)
+        except BaseException as exc:
             self._unlock()
-            raise
+            named = self._named(exc)
+            if named is exc:
+                raise
+            raise named from exc
         return self.path
+
+    def _named(self, exc: BaseException) -> BaseException:
+        """An OSError naming a file in the staging folder, renamed to that file in the target.
+
+        The staging folder is gone when the user reads the message; the file
+        it could not write is the output name (``<out>/roller.stl``).
+        """
+        if not isinstance(exc, OSError) or isinstance(exc, CorrCadError) or not exc.filename:
+            return exc
+        name = os.fsdecode(exc.filename)
+        if self.path is not None and self.target is not None:
+            stage = str(self.path) + os.sep
+            if name.startswith(stage):
+                name = str(self.target / name[len(stage) :].split(os.sep)[0])
+        return OSError(exc.errno, exc.strerror or str(exc), name)
 
     def _unlock(self) -> None:
         if self._fd is not None:
@@ -455,13 +485,18 @@ class StagingDir:
                 keep_stage = False
         except _PastNoReturn:
             raise
-        except BaseException:
+        except BaseException as err:
             keep_stage = False
+            exc = err
             raise
         finally:
             if not keep_stage:
                 shutil.rmtree(self.path, ignore_errors=True)
             self._unlock()
+            if exc is not None and not isinstance(exc, _PastNoReturn):
+                named = self._named(exc)
+                if named is not exc:
+                    raise named from exc
 
     def _commit(self) -> None:
         target, stage = self.target, self.path
@@ -471,8 +506,14 @@ class StagingDir:
         for entry in sorted(os.scandir(stage), key=lambda e: e.name):
             if entry.name in (MANIFEST_NAME, STAGING_MARK):
                 continue
-            if not entry.is_file(follow_symlinks=False) or not _valid_name(entry.name):
+            if not entry.is_file(follow_symlinks=False):
                 raise ExportError(f"staged output {entry.name!r} is not a regular file")
+            if not is_output_name(entry.name, self.formats):
+                # A stage wrote a name corr_cad.run.names does not declare: a bug,
+                # refused before anything moves (the name could be a user's).
+                raise ExportError(
+                    f"staged output {entry.name!r} is not a name the scene's formats declare"
+                )
             new[entry.name] = {
                 "sha256": sha256_of(Path(entry.path), sync=True),
                 "bytes": entry.stat(follow_symlinks=False).st_size,
@@ -488,18 +529,14 @@ class StagingDir:
                     f"{dst}: is a symlink or folder that corr-cad did not write; it is left "
                     "alone - move it away or choose another --out"
                 )
-            old = prev_files.get(name, {}).get("sha256") if isinstance(prev_files, dict) else None
+            old = prev_files[name]["sha256"] if name in prev_files else None
             if not _matches(dst, old):
                 raise OutputError(
                     f"{dst}: was not written by corr-cad (or was changed since); it is left "
                     "alone - move it away or choose another --out"
                 )
             replaces[name] = old
-        stale = {
-            n: m.get("sha256")
-            for n, m in prev_files.items()
-            if n not in new and isinstance(m, dict)
-        }
+        stale = {n: m["sha256"] for n, m in prev_files.items() if n not in new}
         manifest: dict = {}
         if (stage / MANIFEST_NAME).is_file():
             with open(stage / MANIFEST_NAME, encoding="utf-8") as f:
