@@ -311,6 +311,50 @@ def test_scheduler_contacted_only_when_needed(tmp_path):
     assert not (tmp_path / "mc").exists()
 
 
+@pytest.mark.parametrize("mask", [0o022, 0o027, 0o002], ids=oct)
+def test_writers_give_the_umask_s_mode(tmp_path, mask):
+    """JSON, CSV and column CSV files get ``0666 & ~umask``, not mkstemp's 0600."""
+    from corr_cad.export.files import write_columns, write_csv, write_json
+
+    old = os.umask(mask)
+    try:
+        paths = [
+            write_json(tmp_path / "a.json", {"x": 1}),
+            write_csv(tmp_path / "b.csv", ["x"], [[1]]),
+            write_columns(tmp_path / "c.csv", ["x"], [[1.0]], ["%g"]),
+        ]
+        write_json(tmp_path / "a.json", {"x": 2})  # replacing a file: the same
+    finally:
+        os.umask(old)
+    want = {0o022: 0o644, 0o027: 0o640, 0o002: 0o664}[mask]  # by hand
+    assert {p.name: oct(p.stat().st_mode & 0o777) for p in paths} == dict.fromkeys(
+        ["a.json", "b.csv", "c.csv"], oct(want)
+    )
+
+
+def test_every_output_of_a_run_has_the_umask_s_mode(tmp_path):
+    """The CLI under umask 027: every file 0640 and the new folder 0750, whoever wrote them."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        DESIGN + '[export]\nformats = ["dxf", "forces"]\ntolerance = 0.01\n'
+        "[load]\ninput_torque = 1e4\n[solver]\npositions = 36\n"
+    )
+    out = tmp_path / "new" / "o"
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+        umask=0o027,
+        timeout=120,
+    )
+    assert r.returncode == 0, r.stderr
+    modes = {p.name: oct(p.stat().st_mode & 0o777) for p in out.iterdir()}
+    assert {"manifest.json", "forces.csv", "forces_summary.json", "disk_cam.dxf"} <= set(modes)
+    assert modes == dict.fromkeys(modes, oct(0o640))
+    assert oct(out.stat().st_mode & 0o777) == oct(0o750)
+    assert oct(out.parent.stat().st_mode & 0o777) == oct(0o750)
+
+
 # --- 2. interrupted runs --------------------------------------------------------
 
 
