@@ -4,7 +4,7 @@
 Run from the repository root:  python tests/mutation_campaign.py [INDEX ...]
 Each mutation is applied to the source, the named tests run in a subprocess,
 and the file is restored (also on Ctrl-C). Prints one row per mutation:
-index | CAUGHT or MISSED | file | mistake | tests | first failing test.
+index | CAUGHT or MISSED | file | mistake | tests | first failing test (its full id).
 Not collected by pytest (the file name does not start with test_).
 """
 
@@ -391,6 +391,7 @@ for i, (f, old, new, what, tests) in enumerate(M):
         last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
         state = "CAUGHT" if r.returncode != 0 else "MISSED"
         failed = [x for x in r.stdout.splitlines() if x.startswith("FAILED")]
-        print(f"{i}|{state}|{f}|{what}|{tests}|{failed[0][7:90] if failed else last}", flush=True)
+        first = failed[0][7:].split(" - ", 1)[0] if failed else last  # the full test id
+        print(f"{i}|{state}|{f}|{what}|{tests}|{first}", flush=True)
     finally:
         p.write_text(src)
