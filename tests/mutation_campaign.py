@@ -4,7 +4,7 @@
 Run from the repository root:  python tests/mutation_campaign.py [INDEX ...]
 Each mutation is applied to the source, the named tests run in a subprocess,
 and the file is restored (also on Ctrl-C). Prints one row per mutation:
-index | CAUGHT or MISSED | file | mistake | tests | first failing test.
+index | CAUGHT or MISSED | file | mistake | tests | first failing test (its full id).
 Not collected by pytest (the file name does not start with test_).
 """
 
@@ -274,6 +274,91 @@ M = [
         "exaggerated deviation drawn on the wrong side",
         "tests/test_measured.py -k round_trip",
     ),
+    # --- issue 21, item 5: kinds the suite missed, or caught only elsewhere or by chance
+    (
+        "geometry/clearance.py",
+        "neighbour = np.minimum(nxt, np.roll(nxt, 1, axis=1))",
+        "neighbour = np.maximum(nxt, np.roll(nxt, 1, axis=1))",
+        "neighbour clearance taken from the farther neighbour",
+        "tests/test_clearance.py -k nearer",
+    ),
+    (
+        "tolerance/sweeps.py",
+        "positions=positions, load_share=load_share, errors=errors",
+        "positions=positions, errors=errors",
+        "sweep point ignores the scene's load_share (solver default 0.55)",
+        "tests/test_sweeps.py -k load_share",
+    ),
+    (
+        "run/stages_tolerance.py",
+        '        s.sweeps["positions"],\n        s.solver.load_share,\n',
+        '        s.sweeps["positions"],\n',
+        "sweeps stage does not pass the scene's load_share on",
+        "tests/test_sweeps.py -k load_share",
+    ),
+    (
+        "export/files.py",
+        "        os.chmod(tmp, 0o666 & ~_umask())\n",
+        "",
+        "atomic writer leaves files at mkstemp's 0600, not the umask's mode",
+        "tests/test_output_contract.py -k umask",
+    ),
+    (
+        "export/report.py",
+        '("F_j", "cam force F_j", "N"),',
+        '("F_n", "cam force F_j", "N"),',
+        "report: peak F_j cell filled from F_n",
+        "tests/test_report.py -k own_column",
+    ),
+    (
+        "export/report.py",
+        '("peak F_n", _fmt(f.get("F_n_peak")), "N"),',
+        '("peak F_n", _fmt(f.get("F_j_peak")), "N"),',
+        "report: roller 1's peak F_n cell filled from F_j_peak",
+        "tests/test_report.py -k own_column",
+    ),
+    (
+        "export/measured_io.py",
+        "8: 25.4e-6,  # microinches",
+        "8: 25.4e-3,  # microinches",
+        "measured DXF: $INSUNITS 8 (microinches) scaled as mils",
+        "tests/test_measured.py -k insunits",
+    ),
+    (
+        "shop/edm.py",
+        '"t_deg": math.degrees(t_q),',
+        '"t_deg": t_q,',
+        "EDM manifest: lead-in polar angle in radians, labelled degrees",
+        "tests/test_edm.py -k degrees",
+    ),
+    (
+        "geometry/biarcs.py",
+        "    w = (d1 / (d1 + d2))[:, None]",
+        "    w = 0.5",
+        "biarc joint at the middle of the legs: arcs not tangent to each other (EDM cut kinks 0.23 deg)",
+        "tests/test_edm.py -k tangent_continuous",
+    ),
+    (
+        "tolerance/montecarlo.py",
+        "    for kind in TOLERANCE_KINDS:  # fixed order: same draws whatever the dict order",
+        "    for kind in [k for k in TOLERANCE_KINDS if k in tolerances]:",
+        "MC draws of one kind change when another kind is added",
+        "tests/test_tolerance.py -k another_is_added",
+    ),
+    (
+        "tolerance/inspection.py",
+        'prof = np.maximum(np.abs(res.column("profile_min_mm")), np.abs(res.column("profile_max_mm")))',
+        'prof = res.column("profile_deviation_mm")',
+        "inspection: profile tolerance as a full band (range), not a half-band",
+        "tests/test_inspection.py -k half_band",
+    ),
+    (
+        "run/cli.py",
+        "previous = signal.signal(signal.SIGTERM, _on_sigterm)",
+        "previous = signal.getsignal(signal.SIGTERM)",
+        "SIGTERM handler not installed (the run dies with no message, staging left)",
+        "tests/test_output_contract.py -k sigint_sigterm",
+    ),
 ]
 only = [int(x) for x in sys.argv[1:]]
 env = dict(os.environ, PYTHONPATH=str(WT))
@@ -306,6 +391,7 @@ for i, (f, old, new, what, tests) in enumerate(M):
         last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
         state = "CAUGHT" if r.returncode != 0 else "MISSED"
         failed = [x for x in r.stdout.splitlines() if x.startswith("FAILED")]
-        print(f"{i}|{state}|{f}|{what}|{tests}|{failed[0][7:90] if failed else last}", flush=True)
+        first = failed[0][7:].split(" - ", 1)[0] if failed else last  # the full test id
+        print(f"{i}|{state}|{f}|{what}|{tests}|{first}", flush=True)
     finally:
         p.write_text(src)

@@ -296,3 +296,28 @@ def test_cmm_points_on_exact_curve_with_inward_normals(edm_run):
     gaps = np.linalg.norm(np.diff(xy, axis=0), axis=1)
     assert gaps.max() <= SPACING + 1e-9
     assert man["cmm"]["point_spacing_mm"] <= SPACING
+
+
+def test_lead_in_polar_angle_in_the_manifest_is_in_degrees(edm_run):
+    """``t_deg`` is the lead-in point's roller-centre polar angle, in degrees: ``psi / z``."""
+    _, man = edm_run
+    li = man["edm"]["lead_in_point"]
+    assert li["t_deg"] == pytest.approx(li["psi_deg"] / Z, abs=1e-9)
+    assert 180.0 / Z - 1.0 < abs(li["t_deg"]) < 180.0 / Z + 1e-9  # near the tooth tip
+    # the point written is the wire path's point at that angle
+    q = curve(np.array([li["t_deg"] * math.pi / 180.0]), R - D)[0][0]
+    assert np.linalg.norm(np.array(li["point_mm"]) - q) < TOL
+
+
+def test_wire_contour_is_tangent_continuous(edm_run):
+    """G1 at every vertex of the cut (and where it closes), as the G-code programs it."""
+    out, _ = edm_run
+    moves, _, _ = trace(out / "inner_gear_edm.nc")
+    contour = [m for m in moves if m["section"] == "contour"]
+    kinks = [
+        math.acos(min(1.0, float(np.dot(direction(a, True), direction(b, False)))))
+        for a, b in zip(contour, contour[1:] + contour[:1], strict=True)
+    ]
+    # a 1e-4 mm number format turns a tangent by ~1e-4 / radius; 0.6 deg is 1e-2 rad
+    assert max(kinks) < 1e-3, math.degrees(max(kinks))
+    assert sum(m["kind"] != 1 for m in contour) > 0.9 * len(contour)  # arcs, not chords

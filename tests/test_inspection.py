@@ -221,3 +221,36 @@ def test_design_fit_recovers_known_parameter_errors(tmp_path):
     assert fit["rms_nominal_mm"] > 5 * fit["rms_residual_mm"]
     # runout is about the CMM origin (the datum axis): teeth 5 um off-centre -> 2 x 5 um
     assert summary["runout_mm"] == pytest.approx(2 * np.hypot(*c), rel=0.05)
+
+
+def test_profile_tolerance_is_a_half_band(tmp_path):
+    """``profile_tolerance = 0.003`` is a half-band: every ``|f| <= 3 um`` passes.
+
+    Every tooth space carries ``f = 2.5 um cos(2 psi)`` (scaled so that its
+    sampled extremes are exactly -2.5 and +2.5 um: a range of 5 um, inside the
+    +-3 um band, so it passes); tooth space SUNK also sits 1 um low (-3.5 to
+    +1.5 um: a range of 5 um as well, but outside the band, so it fails). The
+    pattern is the same on every tooth and symmetric in psi, so the whole-gear
+    registration has nothing to take out but SUNK's 1/z share.
+    """
+    sunk = 7
+    t_loc = (np.arange(M) + 0.5) / M * PITCH - PITCH / 2
+    c = np.cos(2 * Z * t_loc)
+    pattern = 2.5e-3 * c / np.abs(c).max()
+    assert (pattern.min(), pattern.max()) == (-2.5e-3, 2.5e-3)
+    out = []
+    for k in range(Z):
+        p, n = working(t_loc + k * PITCH)
+        f = pattern - (1e-3 if k + 1 == sunk else 0.0)
+        out.append(p - f[:, None] * n)  # + = material added = into the opening
+    r, table, summary = run(tmp_path / "band", np.vstack(out))
+    lo, hi = table["profile_min_mm"], table["profile_max_mm"]
+    rest = np.arange(Z) != sunk - 1
+    assert np.abs(lo[rest] + 2.5e-3).max() < 0.1e-3 and np.abs(hi[rest] - 2.5e-3).max() < 0.1e-3
+    assert lo[sunk - 1] == pytest.approx(-3.5e-3, abs=0.1e-3)
+    # the band rule by hand: a tooth passes when max(|min|, |max|) <= the half-band
+    by_hand = [k + 1 for k in range(Z) if max(abs(lo[k]), abs(hi[k])) > 0.003]
+    assert by_hand == [sunk]
+    lim = summary["limits"]["profile_tolerance"]
+    assert lim["failing_teeth"] == [sunk] and not lim["passed"]
+    assert r.returncode == 1 and f"profile_tolerance tooth {sunk} " in r.stderr

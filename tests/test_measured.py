@@ -189,3 +189,52 @@ def test_bad_measured_data(measured, tmp_path):
         read_measured_points(f)
     with pytest.raises(ProfileError, match="does not exist"):
         read_measured_points(tmp_path / "nope.csv")
+
+
+#: DXF ``$INSUNITS`` code -> mm per drawing unit, from the DXF reference (written
+#: here by hand: exact definitions of the inch, foot, yard, mil and microinch).
+INSUNITS_BY_HAND = {
+    0: 1.0,  # unitless: read as mm
+    1: 25.4,  # inch
+    2: 12 * 25.4,  # foot
+    3: 5280 * 12 * 25.4,  # mile
+    4: 1.0,  # millimetre
+    5: 10.0,  # centimetre
+    6: 1000.0,  # metre
+    7: 1e6,  # kilometre
+    8: 25.4 / 1e6,  # microinch
+    9: 25.4 / 1000,  # mil (thousandth of an inch)
+    10: 3 * 12 * 25.4,  # yard
+    11: 1e-7,  # angstrom
+    12: 1e-6,  # nanometre
+    13: 1e-3,  # micrometre
+    14: 100.0,  # decimetre
+    15: 1e4,  # decametre
+    16: 1e5,  # hectometre
+    17: 1e12,  # gigametre
+}
+#: Codes a measurement can come in: they must be read, not refused.
+INSUNITS_READ = {0, 1, 2, 4, 5, 6, 8, 9, 10, 13, 14}
+
+
+@pytest.mark.parametrize("code", sorted(INSUNITS_BY_HAND))
+def test_measured_dxf_scaled_by_every_insunits_code(tmp_path, code):
+    """The same numbers under each ``$INSUNITS``: read as those numbers times the unit in mm,
+    or refused in one ProfileError naming the code (never read in another unit)."""
+    t = np.arange(12) * 2 * np.pi / 12
+    numbers = np.stack([(3 + np.cos(3 * t)) * np.sin(t), (3 + np.cos(3 * t)) * np.cos(t)], 1)
+    doc = ezdxf.new("R2018")
+    doc.header["$INSUNITS"] = code
+    doc.modelspace().add_lwpolyline(
+        numbers.tolist(), close=True, dxfattribs={"layer": "MEASURED_PROFILE"}
+    )
+    doc.saveas(tmp_path / "m.dxf")
+    if code not in INSUNITS_READ:
+        try:
+            got = read_measured_points(tmp_path / "m.dxf")
+        except ProfileError as exc:
+            assert f"$INSUNITS = {code} " in str(exc)
+            return
+    else:
+        got = read_measured_points(tmp_path / "m.dxf")
+    np.testing.assert_allclose(got, numbers * INSUNITS_BY_HAND[code], rtol=1e-12, atol=0)

@@ -312,6 +312,50 @@ def test_scheduler_contacted_only_when_needed(tmp_path):
     assert not (tmp_path / "mc").exists()
 
 
+@pytest.mark.parametrize("mask", [0o022, 0o027, 0o002], ids=oct)
+def test_writers_give_the_umask_s_mode(tmp_path, mask):
+    """JSON, CSV and column CSV files get ``0666 & ~umask``, not mkstemp's 0600."""
+    from corr_cad.export.files import write_columns, write_csv, write_json
+
+    old = os.umask(mask)
+    try:
+        paths = [
+            write_json(tmp_path / "a.json", {"x": 1}),
+            write_csv(tmp_path / "b.csv", ["x"], [[1]]),
+            write_columns(tmp_path / "c.csv", ["x"], [[1.0]], ["%g"]),
+        ]
+        write_json(tmp_path / "a.json", {"x": 2})  # replacing a file: the same
+    finally:
+        os.umask(old)
+    want = {0o022: 0o644, 0o027: 0o640, 0o002: 0o664}[mask]  # by hand
+    assert {p.name: oct(p.stat().st_mode & 0o777) for p in paths} == dict.fromkeys(
+        ["a.json", "b.csv", "c.csv"], oct(want)
+    )
+
+
+def test_every_output_of_a_run_has_the_umask_s_mode(tmp_path):
+    """The CLI under umask 027: every file 0640 and the new folder 0750, whoever wrote them."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        DESIGN + '[export]\nformats = ["dxf", "forces"]\ntolerance = 0.01\n'
+        "[load]\ninput_torque = 1e4\n[solver]\npositions = 36\n"
+    )
+    out = tmp_path / "new" / "o"
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+        umask=0o027,
+        timeout=120,
+    )
+    assert r.returncode == 0, r.stderr
+    modes = {p.name: oct(p.stat().st_mode & 0o777) for p in out.iterdir()}
+    assert {"manifest.json", "forces.csv", "forces_summary.json", "disk_cam.dxf"} <= set(modes)
+    assert modes == dict.fromkeys(modes, oct(0o640))
+    assert oct(out.stat().st_mode & 0o777) == oct(0o750)
+    assert oct(out.parent.stat().st_mode & 0o777) == oct(0o750)
+
+
 # --- 2. interrupted runs --------------------------------------------------------
 
 
@@ -455,6 +499,62 @@ def test_sigkill_inside_the_commit_is_repaired(tmp_path):
     assert {p.name for p in out.iterdir()} == set(m["files"]) | {"manifest.json", "notes.txt"}
 
 
+def staged(p: subprocess.Popen, out: Path, name: str, timeout: float = 120) -> Path:
+    """Wait until run ``p`` has staged ``name`` in its own staging folder; return the folder.
+
+    The readiness marker is the run's own work, no test-only code path: the
+    staging folder (named with the run's pid) is created after the CLI has
+    installed its SIGTERM handler (SIGINT is Python's own from the start), and
+    ``name`` is written there by the main process after the process pool has
+    forked its workers. A signal sent then lands in the run proper, never
+    before the handlers exist nor inside a fork (a KeyboardInterrupt raised in
+    logging's after-fork hook is printed as "Exception ignored" and lost).
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if p.poll() is not None:
+            pytest.fail(f"the run ended (exit {p.returncode}) before it staged {name}")
+        for stage in out.glob(f"{STAGING}{p.pid}-*"):
+            if (stage / name).is_file():
+                return stage
+        time.sleep(0.005)
+    p.kill()
+    pytest.fail(f"the run staged no {name} within {timeout:g} s")
+
+
+def printed(p: subprocess.Popen, pattern: str, timeout: float = 120) -> list[str]:
+    """Read the run's stdout until a line matches ``pattern``; the rest is drained in a thread."""
+    import queue
+    import re
+    import threading
+
+    lines: queue.Queue = queue.Queue()
+
+    def drain() -> None:
+        for line in p.stdout:
+            lines.put(line.rstrip("\n"))
+        lines.put(None)
+
+    threading.Thread(target=drain, daemon=True).start()
+    seen: list[str] = []
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            line = lines.get(timeout=max(deadline - time.monotonic(), 0.01))
+        except queue.Empty:
+            p.kill()
+            pytest.fail(f"no line matching {pattern!r} within {timeout:g} s: {seen}")
+        if line is None:
+            pytest.fail(f"the run ended (exit {p.wait()}) before printing {pattern!r}: {seen}")
+        seen.append(line)
+        if re.match(pattern, line):
+            return seen
+
+
+#: The interrupted run: MC samples enough that it cannot finish near the signal.
+LONG_SCENE = ALL_SCENE.replace("samples = 8", "samples = 2000")
+
+
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_sigint_sigterm_leave_previous_outputs(reference_runs, tmp_path, sig, code):
     out = tmp_path / "o"
@@ -462,12 +562,10 @@ def test_sigint_sigterm_leave_previous_outputs(reference_runs, tmp_path, sig, co
     (out / "notes.txt").write_text("mine\n")
     before = snapshot(out)
     scene = tmp_path / "s.toml"
-    scene.write_text(ALL_SCENE.replace("samples = 8", "samples = 9"))
-    p = start(scene, "--out", out, "--quiet")
-    deadline = time.monotonic() + 60
-    while not leftovers(out) and time.monotonic() < deadline:
-        time.sleep(0.01)
-    time.sleep(0.3)
+    scene.write_text(LONG_SCENE)
+    # --workers 2: the STEP stage is submitted (the pool forks) before the DXF stage.
+    p = start(scene, "--out", out, "--quiet", "--workers", "2")
+    staged(p, out, "disk_cam.dxf")
     p.send_signal(sig)
     _, err = p.communicate(timeout=60)
     assert p.returncode == code, err
@@ -489,17 +587,16 @@ def test_sigterm_while_the_step_worker_runs(reference_runs, tmp_path):
     before = snapshot(out)
     scene = tmp_path / "s.toml"
     scene.write_text(STEP_SCENE)
-    p = start(scene, "--out", out, "--quiet")
-    main = psutil.Process(p.pid)
-    deadline = time.monotonic() + 60
-    workers = []
-    while not workers and time.monotonic() < deadline and p.poll() is None:
-        workers = main.children(recursive=True)
-        time.sleep(0.01)
-    assert workers, "the STEP worker never started"
-    time.sleep(0.5)  # inside Open CASCADE's import or the export
+    p = start(scene, "--out", out, "--workers", "2")  # not --quiet: the progress is the marker
+    # "[1/4] undercut" is printed after the STEP stage went to the pool (both
+    # workers forked) and before any stage of the main process: the worker has
+    # Open CASCADE's import and the whole export ahead of it.
+    printed(p, r"\[1/\d+\] ")
+    workers = psutil.Process(p.pid).children(recursive=True)
+    assert len(workers) == 2, workers
     p.send_signal(signal.SIGTERM)
-    _, err = p.communicate(timeout=60)
+    p.wait(timeout=60)
+    err = p.stderr.read()
     assert p.returncode == 143, err
     assert err.strip().splitlines() == [
         "corr-cad: interrupted (SIGTERM); previous outputs left as they were"

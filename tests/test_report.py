@@ -174,6 +174,46 @@ def test_report_numbers_are_the_run_s_numbers(run):
     assert f"measured max deviation {acc:.3g} mm" in row
 
 
+def test_every_force_cell_is_its_own_column_s_peak(run):
+    """Each row of the peaks table, and roller 1's table, recomputed from forces.csv.
+
+    The old test checked the F_n row only, so a cell filled from the
+    neighbouring field (peak F_j shown as peak F_n) passed. Value, roller and
+    crank angle of every row are checked.
+    """
+    out, _, page = run
+    cells = page.cells
+    with open(out / "forces.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for label, col in (
+        ("cam force F_j", "F_j"),
+        ("gear force F_n", "F_n"),
+        ("slot force |F_s|", "F_s"),
+        ("contact pressure, cam", "p_cam"),
+        ("contact pressure, gear", "p_gear"),
+        ("contact pressure, slot", "p_slot"),
+    ):
+        best = max(rows, key=lambda r: abs(float(r[col])))
+        assert _cell_after(cells, label) == f"{abs(float(best[col])):,.4g}", label
+        assert _cell_after(cells, label, 3) == best["roller"], label
+        angle = float(_cell_after(cells, label, 4).replace(",", ""))
+        assert angle == pytest.approx(float(best["crank_angle_deg"]), abs=1e-9), label
+    one = [r for r in rows if r["roller"] == "1"]
+    loaded = [r for r in one if float(r["F_j"]) > 0]
+
+    def mean(col):
+        return sum(float(r[col]) for r in loaded) / len(loaded)
+
+    fs = [float(r["F_s"]) for r in one]
+    for label, value in (
+        ("mean F_j (loaded part)", mean("F_j")),
+        ("mean F_n (loaded part)", mean("F_n")),
+        ("peak F_n", max(float(r["F_n"]) for r in one)),
+        ("F_s peak to peak", max(fs) - min(fs)),
+    ):
+        assert _cell_after(cells, label) == f"{value:,.4g}", label
+
+
 @pytest.mark.skipif(not shutil.which("chromium"), reason="no headless Chromium here")
 def test_report_opens_in_headless_chromium(run, tmp_path):
     out, _, page = run

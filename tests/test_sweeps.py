@@ -167,3 +167,28 @@ def test_bad_sweep_ranges_exit_2_with_one_line(tmp_path, line, msg):
     p, out = _run(tmp_path, Z39.replace("points = 3", f"points = 3\n{line}"), "bad")
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and msg in p.stderr
     assert not out.exists()
+
+
+def test_sweeps_use_the_scene_s_load_share(tmp_path):
+    """Every other sweep test runs at the default 0.55: here the scene says 0.8.
+
+    At zero error the three error sweeps solve the nominal design; its forces
+    must be the solver's at the scene's load share, which for this design are
+    the 0.55 forces scaled by 0.8 / 0.55 (the cam carries ``load_share * M0``).
+    """
+    p, out = _run(tmp_path, Z39 + "[solver]\nload_share = 0.8\n", "share")
+    assert p.returncode == 0, p.stderr
+    js = json.loads((out / "sweeps.json").read_text())
+    d = GearDesign(tooth_count=39, roller_radius=6.0, eccentricity=2.0)
+    at_08 = solve_forces(d, 1.1e5, positions=40, load_share=0.8).summary()
+    at_055 = solve_forces(d, 1.1e5, positions=40, load_share=0.55).summary()
+    for name in ("cam_radius_error", "eccentricity_error", "roller_radius_error"):
+        (zero,) = [q for q in js["points"][name] if q["value"] == 0.0]
+        for k in ("F_j_mean", "F_n_mean", "F_j_peak", "F_n_peak"):
+            assert zero[k] == pytest.approx(at_08[k], rel=1e-9), (name, k)
+            assert zero[k] == pytest.approx(at_055[k] * 0.8 / 0.55, rel=1e-4), (name, k)
+    # A design point too: roller radius at the low end of its range (4.8 mm).
+    low = js["points"]["roller_radius"][0]
+    assert low["value"] == pytest.approx(4.8)
+    ref = solve_forces(replace(d, roller_radius=4.8), 1.1e5, positions=40, load_share=0.8)
+    assert low["F_j_peak"] == pytest.approx(ref.summary()["F_j_peak"], rel=1e-9)

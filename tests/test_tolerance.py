@@ -107,6 +107,43 @@ def test_monte_carlo_metrics_match_a_direct_solve():
     assert mc.metrics["min_loaded_rollers"][k] == res.loaded_count.min()
 
 
+ALL_KINDS = {
+    "cam_radius": Distribution("uniform", 0.002),
+    "eccentricity": Distribution("normal", 0.001),
+    "cam_phase": Distribution("normal", 0.01),
+    "roller_radius": Distribution("normal", 0.001),
+    "slot_angle": Distribution("uniform", 0.005),
+}
+
+
+def test_draws_of_one_kind_do_not_change_when_another_is_added():
+    """A tolerance's draws depend on the seed and its own kind only.
+
+    Adding, removing or reordering the other tolerances of a scene must not
+    move a kind's samples (else a sensitivity study that adds one tolerance
+    compares different samples of the others).
+    """
+    from corr_cad.tolerance.montecarlo import draw_samples
+
+    alone = {k: draw_samples({k: d}, 7, 11, 26)[k] for k, d in ALL_KINDS.items()}
+    together = draw_samples(ALL_KINDS, 7, 11, 26)
+    backwards = draw_samples(dict(reversed(list(ALL_KINDS.items()))), 7, 11, 26)
+    pairs = {
+        k: draw_samples({"roller_radius": ALL_KINDS["roller_radius"], k: d}, 7, 11, 26)[k]
+        for k, d in ALL_KINDS.items()
+    }
+    for k in ALL_KINDS:
+        assert np.array_equal(together[k], alone[k]), k
+        assert np.array_equal(backwards[k], alone[k]), k
+        assert np.array_equal(pairs[k], alone[k]), k
+    # and what the Monte Carlo solves: the roller radius errors' magnitudes per sample
+    one = {"roller_radius": ALL_KINDS["roller_radius"]}
+    two = {**one, "cam_radius": ALL_KINDS["cam_radius"]}
+    a = monte_carlo(GearDesign(), M0, one, 5, 11, 12, kernel=False)
+    b = monte_carlo(GearDesign(), M0, two, 5, 11, 12, kernel=False)
+    assert np.array_equal(a.magnitudes["roller_radius"], b.magnitudes["roller_radius"])
+
+
 def test_summary_has_percentiles_failures_and_ranking():
     mc = _mc(SerialExecutor(), n=40)
     s = mc.summary(Checks(max_contact_pressure=2000.0))
