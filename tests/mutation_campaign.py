@@ -226,7 +226,7 @@ M = [
         "tests/test_solver.py -k independent",
     ),
     (
-        "run/console.py",
+        "mechanics/contact.py",
         "PRESSURE_BOUND_MPA = 4000.0",
         "PRESSURE_BOUND_MPA = 40000.0",
         "material bound 40 GPa: no warning for 18-38 GPa",
