@@ -145,3 +145,37 @@ def test_all_prints_one_note_and_records_what_it_left_out(tmp_path):
     m = json.loads((tmp_path / "o" / "manifest.json").read_text())
     assert m["formats_left_out"]["forces"] == "no [load] torque"
     assert "report.html" in m["files"] and "inner_gear_edm.nc" in m["files"]
+
+
+# --- the template documents every derived default ----------------------------------
+DERIVED = {  # the prototype's values, each from the formula written next to it
+    "ring_outer_radius": 180.0,  # 5 ceil((3.5 + 135 + 16 + max(10, 24)) / 5) = 5 ceil(35.7)
+    "face_width": 12.0,  # roller_length
+    "cam_bore_radius": 47.2,  # min(47.25, 65.75) = 47.25, to 0.1 mm, half to even
+    "frame_inner_radius": 122.5,  # max(135 - 3.5 - 1 - 8, (135 - 3.5 - 1) / 2)
+    "frame_outer_radius": 163.5,  # 135 + 3.5 + 16 + 1 + 8
+    "frame_thickness": 8.0,  # max(5, 8)
+}
+
+
+def test_template_states_each_derived_default_and_its_formula():
+    text = template_text()
+    for key, value in DERIVED.items():
+        (line,) = [ln for ln in text.splitlines() if ln.startswith(f"# {key} = ")]
+        assert line.startswith(f"# {key} = {value!r}   # the default here: "), line
+        assert line.rstrip().endswith(f"{value:g}"), line
+        (help_,) = [
+            p for p, n in zip(text.splitlines(), text.splitlines()[1:], strict=False) if n == line
+        ]
+        assert "default: " in help_, help_
+    assert "47.25, rounded to 47.2" in text and "half to the even digit" in text
+    # what the template says is what the run uses: uncommented, the design is the same
+    data = tomllib.loads(text)
+    uncommented = tomllib.loads(
+        "\n".join(
+            ln.split("   #")[0][2:] if ln[2:].split(" = ")[0] in DERIVED else ln
+            for ln in text.splitlines()
+        )
+    )
+    assert all(k in uncommented["design"] for k in DERIVED)
+    assert parse_scene(uncommented).design == parse_scene(data).design

@@ -102,7 +102,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "ring_outer_radius": Key(
             "float",
             None,
-            "gear ring outer radius, mm (default: rim of max(10, 3r))",
+            "gear ring outer radius, mm (default: e + Rj + 2r + max(10, 3r), rounded up to 5 mm)",
             **_dk("ring_outer_radius"),
             note="[e + Rj + 2r + 1, 10 (e + Rj + 2r)]",
             example=180.0,
@@ -117,7 +117,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "cam_bore_radius": Key(
             "float",
             None,
-            "cam eccentric bore radius, mm (default: min(0.35 Rj, (Rj - e)/2))",
+            "cam eccentric bore radius, mm (default: min(0.35 Rj, (Rj - e)/2) rounded to "
+            "0.1 mm, a half to the even digit)",
             **_dk("cam_bore_radius"),
             note="(0, Rj - e - 1]",
             example=47.2,
@@ -125,7 +126,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_inner_radius": Key(
             "float",
             None,
-            "slotted frame plate inner radius, mm",
+            "slotted frame plate inner radius, mm (default: max(Rj - e - 1 - max(5, r), "
+            "(Rj - e - 1)/2), max(5, r) inside the slot ends)",
             **_dk("frame_inner_radius"),
             example=122.5,
             note="(0, Rj - e - 2]: 1 mm inside the slot ends",
@@ -133,7 +135,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_outer_radius": Key(
             "float",
             None,
-            "slotted frame plate outer radius, mm",
+            "slotted frame plate outer radius, mm (default: Rj + e + 2r + 1 + max(5, r), "
+            "max(5, r) beyond the slot ends)",
             **_dk("frame_outer_radius"),
             example=163.5,
             note="1 mm beyond the slot ends to 10 times their radius",
@@ -141,7 +144,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_thickness": Key(
             "float",
             None,
-            "thickness of each slotted frame plate, mm",
+            "thickness of each slotted frame plate, mm (default: max(5, r))",
             **_dk("frame_thickness"),
             example=8.0,
         ),
@@ -246,7 +249,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "crank_angles_deg": Key(
             "list[float]",
             None,
-            "solve only at these crank angles, deg",
+            "solve only at these crank angles, deg (default: positions over a full cycle)",
             low=-MAX_ANGLE_DEG,
             low_open=False,
             high=MAX_ANGLE_DEG,
