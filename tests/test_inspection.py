@@ -71,7 +71,7 @@ runout_tolerance = 0.005
 """
 
 
-def run(folder, pts, extra=""):
+def run(folder, pts, extra="", limits=LIMITS):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "readme.txt").write_text("other file\n")
     (folder / "cmm.csv").write_text(
@@ -79,7 +79,7 @@ def run(folder, pts, extra=""):
     )
     (folder / "s.toml").write_text(
         '[export]\nformats = ["inspection"]\n[errors]\nmeasured_profile = "cmm.csv"\n'
-        + LIMITS
+        + limits
         + extra
     )
     r = subprocess.run(
@@ -91,7 +91,14 @@ def run(folder, pts, extra=""):
     out = folder / "out"
     with open(out / "inspection.csv") as f:
         rows = list(csv.DictReader(f))
-    table = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    table = {
+        k: (
+            np.array([float(r[k]) for r in rows])
+            if not k.endswith("pass")
+            else [r[k] for r in rows]
+        )
+        for k in rows[0]
+    }
     return r, table, json.loads((out / "inspection.json").read_text())
 
 
@@ -254,3 +261,103 @@ def test_profile_tolerance_is_a_half_band(tmp_path):
     lim = summary["limits"]["profile_tolerance"]
     assert lim["failing_teeth"] == [sunk] and not lim["passed"]
     assert r.returncode == 1 and f"profile_tolerance tooth {sunk} " in r.stderr
+
+
+LIMIT_OF_COLUMN = {
+    "profile_pass": "profile_tolerance",
+    "position_pass": "position_tolerance_arcsec",
+    "single_pitch_pass": "single_pitch_tolerance_arcsec",
+    "cumulative_pitch_pass": "cumulative_pitch_tolerance_arcsec",
+    "runout_pass": "runout_tolerance",
+}
+
+
+def test_pass_columns_agree_with_json_and_console(clean):
+    """One verdict per tooth and limit: the CSV's pass columns, the JSON's failing teeth
+    and the console lines name the same teeth."""
+    r, table, summary = clean
+    assert list(table)[-6:] == [*LIMIT_OF_COLUMN, "tooth_pass"]
+    for col, key in LIMIT_OF_COLUMN.items():
+        assert set(table[col]) <= {"true", "false"}
+        failing = [k + 1 for k, v in enumerate(table[col]) if v == "false"]
+        assert failing == summary["limits"][key]["failing_teeth"], key
+    bad = [k + 1 for k, v in enumerate(table["tooth_pass"]) if v == "false"]
+    assert bad == [TURNED, TURNED + 1, BUMPED]
+    # the failure line names every failing tooth, not only the worst one
+    assert "(failing teeth 5, 12)" in r.stderr and "(failing teeth 5, 6)" in r.stderr
+
+
+def test_cumulative_pitch_and_runout_name_their_failing_teeth(tmp_path):
+    """The whole-gear limits are judged per tooth too: the teeth outside the band (as wide
+    as the limit) that holds the most of them fail; the gear fails exactly when one does."""
+    strict = LIMITS.replace("pitch_tolerance_arcsec = 30.0", "pitch_tolerance_arcsec = 6.0")
+    pts = synthetic(bump=False) + np.array([0.004, -0.003])  # teeth 5 um off the CMM origin
+    _, table, summary = run(tmp_path, pts, "", limits=strict)
+    lim = summary["limits"]
+    # one turned tooth: it alone leaves the band, not every tooth it spans with
+    assert lim["cumulative_pitch_tolerance_arcsec"]["failing_teeth"] == [TURNED]
+    assert not lim["cumulative_pitch_tolerance_arcsec"]["passed"]
+    # runout 10 um against 5 um: the teeth that fit no 5 um band with the most others
+    rr = table["runout_mm"]
+    ok = np.array([v == "true" for v in table["runout_pass"]])
+    most = max(np.count_nonzero((rr >= a) & (rr <= a + 0.005)) for a in rr)
+    assert 0 < np.count_nonzero(~ok) < Z and np.count_nonzero(ok) == most
+    assert np.ptp(rr[ok]) <= 0.005 + 1e-9
+    assert lim["runout_tolerance"]["failing_teeth"] == [k + 1 for k in np.flatnonzero(~ok)]
+
+
+def test_inspection_png_marks_the_same_teeth_as_the_csv(tmp_path, monkeypatch):
+    """inspection.png, drawn in the same run: red curves in the profile panel are the teeth
+    failing the profile limit; shaded teeth in the pitch panel those failing a pitch limit;
+    the verdict lines are the console's; the pitch panel has a legend and an x label; the
+    design line is in the title."""
+    import matplotlib.pyplot as plt
+
+    from corr_cad.export import plots
+    from corr_cad.run.outputs import StagingDir
+    from corr_cad.run.pipeline import run_scene
+    from corr_cad.run.scene import load_scene
+
+    figs = []
+
+    def record(fig, path):
+        figs.append(fig)
+        path.write_bytes(b"")  # the run lists the file; the figure is what is read here
+        return path
+
+    monkeypatch.setattr(plots, "_save", record)
+    folder = tmp_path / "png"
+    folder.mkdir()
+    (folder / "cmm.csv").write_text(
+        "x,y\n" + "\n".join(f"{x:.10f},{y:.10f}" for x, y in synthetic()) + "\n"
+    )
+    (folder / "s.toml").write_text(
+        '[export]\nformats = ["inspection"]\n[errors]\nmeasured_profile = "cmm.csv"\n' + LIMITS
+    )
+    said = []
+    with StagingDir(folder / "out") as stage:
+        run_scene(load_scene(folder / "s.toml"), stage, progress=said.append)
+    with open(folder / "out" / "inspection.csv") as f:
+        rows = list(csv.DictReader(f))
+    (fig,) = figs
+    top, pitch, runout = fig.axes
+    red = set()
+    for ln in top.get_lines():
+        if ln.get_color() == "tab:red" and len(ln.get_xdata()) > 3:
+            red.add(int(round(np.mean(ln.get_xdata()) / (360 / Z))) + 1)
+    assert red == {int(x["tooth"]) for x in rows if x["profile_pass"] == "false"}
+    shaded = {
+        int(round(p.get_x() + p.get_width() / 2))
+        for p in pitch.patches
+        if p.get_facecolor()[:3] == pytest.approx((0.839, 0.153, 0.157), abs=1e-3)
+    }
+    cols = ("position_pass", "single_pitch_pass", "cumulative_pitch_pass")
+    assert shaded == {int(x["tooth"]) for x in rows if "false" in (x[c] for c in cols)}
+    assert pitch.get_xlabel() == "tooth space" and pitch.get_legend() is not None
+    verdicts = [t.get_text() for t in fig.texts if t is not fig._suptitle]
+    console = [ln.strip().removeprefix("inspection ") for ln in said if "inspection " in ln]
+    console = [c for c in console if c.split(":")[0] in LIMIT_OF_COLUMN.values()]
+    assert len(console) == 5 and verdicts == console
+    assert "profile_tolerance: FAIL teeth 5, 12 (worst tooth" in console[0]
+    assert "z = 25, Rj = 135 mm" in fig._suptitle.get_text()
+    plt.close(fig)

@@ -88,7 +88,7 @@ def test_assembly_round_trip_keeps_named_parts(built, tmp_path):
     design, _, solids = built
     asm = mesh.assembly(design, solids, 0.0)
     parts = {k: mesh.to_trimesh(v) for k, v in asm.all_solids().items()}
-    assert len(parts) == 5 + 2 * design.roller_count
+    assert len(parts) == 7 + 2 * design.roller_count
     for fmt in ("glb", "3mf"):
         path = mesh.write_mesh(parts, tmp_path / f"a.{fmt}", fmt)
         scene = trimesh.load(path)
@@ -175,3 +175,44 @@ def test_undersized_rollers_open_gaps(tmp_path):
     summary, _ = _interference(tmp_path, roller_radius_error=-0.02)
     assert not summary["ok"]
     assert summary["max_gap_mm"]["ring"] >= 0.02
+
+
+#: The STEP assembly's instance names (docs/outputs.md): every part its own node.
+STEP_NAMES = ["ring_a", "ring_b", "cam_a", "cam_b", "frame_1", "frame_2", "frame_3"] + [
+    f"roller_{row}_{i:02d}" for row in "ab" for i in range(1, 27)
+]
+
+
+def _glb_nodes(path):
+    """Node names from the GLB's own JSON chunk (header, then a JSON chunk; glTF 2.0)."""
+    import struct
+
+    data = path.read_bytes()
+    length, kind = struct.unpack_from("<II", data, 12)
+    assert kind == 0x4E4F534A  # "JSON"
+    gltf = json.loads(data[20 : 20 + length])
+    return [n["name"] for n in gltf["nodes"] if "mesh" in n], gltf
+
+
+def test_assembly_files_have_one_named_node_per_frame_plate(tmp_path):
+    """GLB and 3MF: each of the three frame plates is its own node, named as in STEP."""
+    data = {"export": {"formats": ["glb", "3mf"], "chord_tolerance": 0.01}}
+    out = tmp_path / "o"
+    with StagingDir(out) as stage:
+        run_scene(parse_scene(data, "a"), stage)
+    names, _ = _glb_nodes(out / "assembly_000deg.glb")
+    assert sorted(names) == sorted(STEP_NAMES)
+    threemf = trimesh.load(out / "assembly_000deg.3mf")
+    assert sorted(threemf.geometry) == sorted(STEP_NAMES)
+    glb = trimesh.load(out / "assembly_000deg.glb")
+    d = GearDesign()
+    w, t = d.face_width, d.frame_thickness
+    plate = trimesh.load(out / "teeth_frame.3mf", force="mesh")
+    for k, z0 in ((1, -t), (2, w), (3, 2 * w + t)):
+        one = threemf.geometry[f"frame_{k}"]
+        # one plate each, where the layout puts it (mm in 3MF, metres in GLB)
+        assert one.volume == pytest.approx(plate.volume, rel=1e-9)
+        np.testing.assert_allclose(one.bounds[:, 2], [z0, z0 + t], atol=1e-9)
+        placed = glb.graph.get(f"frame_{k}")[0] @ np.r_[0.0, 0.0, 0.0, 1.0]
+        bounds = glb.geometry[glb.graph.get(f"frame_{k}")[1]].bounds
+        np.testing.assert_allclose((bounds[:, 2] + placed[2]) * 1000.0, [z0, z0 + t], atol=1e-6)

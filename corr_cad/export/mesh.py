@@ -175,15 +175,11 @@ def assembly(
     cam_centred = solids["cam"].translate((0.0, e, 0.0))
     parts["cam_a"] = _placed(cam_centred, phi)
     parts["cam_b"] = _placed(cam_centred, phi + math.pi, z0=w + t)
-    plate = solids["frame"]
-    parts["frame"] = m3d.Manifold.batch_boolean(
-        [
-            _placed(plate, theta0, z0=-t),
-            _placed(plate, theta0, z0=w),
-            _placed(plate, theta0, z0=2 * w + t),
-        ],
-        m3d.OpType.Add,
-    )
+    # One solid per frame plate, named as the STEP assembly's instances
+    # (corr_cad.geometry.placement): frame_1 below row A, frame_2 between the
+    # rows, frame_3 above row B.
+    for k, z0 in enumerate((-t, w, 2 * w + t), 1):
+        parts[f"frame_{k}"] = _placed(solids["frame"], theta0, z0=z0)
     rollers = {}
     for row, dphi, zbase in (("a", 0.0, -t), ("b", math.pi, w)):
         placed = []
@@ -201,13 +197,18 @@ def assembly(
 def interference_at(asm: Assembly, search_length: float) -> list[dict]:
     """Intersection volume and minimum gap of every roller with ring, cam and frame."""
     rows = []
+    plates = None
+    if not asm.frame_pieces:
+        plates = m3d.Manifold.batch_boolean(
+            [asm.parts[f"frame_{k}"] for k in (1, 2, 3)], m3d.OpType.Add
+        )
     for row, rollers in (("a", asm.rollers_a), ("b", asm.rollers_b)):
         for i, roller in enumerate(rollers):
             rec = {"row": row, "roller": i + 1}
             others = {
                 "ring": asm.parts[f"ring_{row}"],
                 "cam": asm.parts[f"cam_{row}"],
-                "frame": asm.frame_pieces[i] if asm.frame_pieces else asm.parts["frame"],
+                "frame": asm.frame_pieces[i] if asm.frame_pieces else plates,
             }
             for name, other in others.items():
                 inter = m3d.Manifold.batch_boolean([roller, other], m3d.OpType.Intersect)

@@ -1,8 +1,10 @@
-"""Matplotlib figures (PNG). The only module importing matplotlib.
+"""Matplotlib figures (PNG): preview, forces, load distribution, interference, clearance.
 
-Every figure states the design (z, Rj, r, e, l), the load and the units, so
-a picture taken out of its folder still says what it shows. Figures are
-byte-deterministic (no time stamps, no software tag).
+Sets matplotlib's Agg backend; :mod:`corr_cad.export.plots_tolerance` and the
+inspection chart (:mod:`corr_cad.export.inspection_io`) draw through it (its
+``_save`` and ``_title``). Every figure states the design (z, Rj, r, e, l), the load and the
+units, so a picture taken out of its folder still says what it shows. Figures
+are byte-deterministic (no time stamps, no software tag).
 """
 
 from __future__ import annotations
@@ -16,7 +18,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import PathPatch, Polygon  # noqa: E402
 from matplotlib.path import Path as MplPath  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from corr_cad.export.files import writing  # noqa: E402
 from corr_cad.geometry.design import GearDesign  # noqa: E402
@@ -30,8 +31,6 @@ __all__ = [
     "load_distribution_png",
     "interference_png",
     "clearance_png",
-    "montecarlo_png",
-    "sweep_png",
 ]
 
 
@@ -247,6 +246,33 @@ def forces_png(
     return _save(fig, path)
 
 
+#: Smallest angle (rad) between the eccentric arrow and the radial scale's ray:
+#: the scale's innermost label, near the centre, spans about this much.
+_SCALE_CLEARANCE = np.radians(40.0)
+
+
+def _scale_gap(pitch: float, ecc: float, F_j, F_n, F_s) -> float:
+    """Angle (rad) of the gap between two rollers where the radial scale goes.
+
+    The gap between rollers 1 and 2 when neither carries load and the
+    eccentric is at least ``_SCALE_CLEARANCE`` away; otherwise the gap
+    farthest from both the eccentric arrow and every loaded roller's bars
+    (load above 2 % of the largest), the middle of the widest free sector.
+    """
+    load = np.maximum(np.maximum(np.asarray(F_j), np.asarray(F_n)), np.abs(np.asarray(F_s)))
+    n = len(load)
+    gaps = (np.arange(n) + 0.5) * pitch
+
+    def apart(a, b):
+        return np.abs(np.mod(a - b + np.pi, 2 * np.pi) - np.pi)
+
+    if max(load[0], load[1 % n]) <= 0.0 and apart(gaps[0], ecc) >= _SCALE_CLEARANCE:
+        return float(gaps[0])
+    busy = np.r_[np.flatnonzero(load > 0.02 * max(float(load.max()), 1e-300)) * pitch, ecc]
+    room = apart(gaps[:, None], busy[None, :]).min(axis=1)
+    return float(gaps[int(np.argmax(room))])
+
+
 def load_distribution_png(
     design: GearDesign,
     crank_angle_deg: float,
@@ -278,8 +304,10 @@ def load_distribution_png(
     fmax = float(max(np.max(F_j), np.max(F_n), np.max(np.abs(F_s)), 1e-300))
     top = 1.18 * fmax
     ax.set_ylim(0, top)
-    # Radial scale in the gap between rollers 1 and 2, on a white ground.
-    ax.set_rlabel_position(np.degrees(0.5 * pitch))
+    # Radial scale on a white ground, in a gap between two rollers, clear of the
+    # eccentric arrow and of the loaded rollers' bars (rollers 1 and 2 when free).
+    ecc = np.radians(crank_angle_deg)
+    ax.set_rlabel_position(np.degrees(_scale_gap(pitch, ecc, F_j, F_n, F_s)))
     for t in ax.get_yticklabels():
         t.set_fontsize(7)
         t.set_bbox(dict(facecolor="white", edgecolor="none", alpha=0.8, pad=0.5))
@@ -288,14 +316,29 @@ def load_distribution_png(
     ax.set_xticklabels(
         [str(k + 1) if k % step == 0 else "" for k in range(design.roller_count)], fontsize=7
     )
-    ecc = np.radians(crank_angle_deg)
     ax.annotate(
         "",
         xy=(ecc, 0.95 * top),
         xytext=(ecc, 0.0),
         arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.8),
     )
-    ax.text(ecc, 1.0 * top, "eccentric", color="C3", fontsize=8, ha="center", va="bottom")
+    # The label runs along the arrow's shaft, inside the rim: clear of the roller
+    # numbers outside it, and of the radial scale (another gap, see _scale_gap).
+    rot = 90.0 - np.degrees(ecc)
+    flip = np.mod(rot + 90.0, 360.0) > 180.0  # pointing left: turn the text upright
+    normal = np.radians(rot + 90.0)
+    ax.annotate(
+        "eccentric",
+        xy=(ecc, 0.62 * top),
+        xytext=(7.0 * np.cos(normal), 7.0 * np.sin(normal)),
+        textcoords="offset points",
+        rotation=rot + (180.0 if flip else 0.0),
+        rotation_mode="anchor",
+        color="C3",
+        fontsize=8,
+        ha="center",
+        va="center",
+    )
     loaded = int(np.count_nonzero(F_j > 0))
     ax.set_title(
         f"roller numbers around the rim; radial scale in N; {loaded} of "
@@ -385,233 +428,80 @@ def _envelope(ang, values, bins: int = 720):
     return ang[starts], np.minimum.reduceat(lo, starts), np.maximum.reduceat(hi, starts)
 
 
-def clearance_png(clr, path: Path) -> Path:
-    """Exact clearances over the cycle: smallest and largest over the rollers, um.
+_CONTACT_NAMES = (
+    ("cam", "roller vs cam"),
+    ("ring", "roller vs ring, working profile"),
+    ("slot", "roller vs slot walls"),
+)
 
-    Values within 1e-9 mm of zero (the closed forms' round-off) are drawn as 0.
+
+def clearance_png(clr, path: Path, design: GearDesign | None = None) -> Path:
+    """Exact clearances over the cycle, one panel per contact (um), neighbours (mm).
+
+    Each panel shows the band over all rollers at each crank angle: its lower
+    edge (smallest clearance, solid: interference when negative) and its upper
+    edge (largest clearance, dashed: the backlash side, free play of the
+    loosest roller). Values within 1e-9 mm of zero (the closed forms'
+    round-off) are drawn as 0; a contact that is exact everywhere says so in
+    words instead of drawing three lines on the zero line.
     """
     ang = np.degrees(clr.crank_angles)
     order = np.argsort(ang)
     ang = ang[order]
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
-    span = 1.0
-    for i, name in enumerate(("cam", "ring", "slot")):
-        a = getattr(clr, name)[order]
-        a = np.where(np.abs(a) < 1e-9, 0.0, a) * 1e3
+    fig, axes = plt.subplots(4, 1, figsize=(9, 10.5), sharex=True)
+    for ax, (i, (name, what)) in zip(axes, enumerate(_CONTACT_NAMES), strict=False):
+        raw = getattr(clr, name)[order]
+        a = np.where(np.abs(raw) < 1e-9, 0.0, raw) * 1e3
         x, lo, hi = _envelope(ang, a)
-        span = max(span, float(np.abs(lo).max()), float(np.abs(hi).max()))
-        ax1.fill_between(x, lo, hi, color=f"C{i}", alpha=0.15, lw=0)
-        ax1.plot(x, lo, color=f"C{i}", lw=1.2, label=f"roller vs {name}: smallest")
-    ax1.axhline(0.0, color="k", lw=0.8)
-    ax1.set_ylim(-1.1 * span, 1.1 * span)
-    ax1.set_ylabel("clearance [um] (negative: interference)")
-    ax1.set_title("exact clearance over the cycle (band: all rollers)")
-    ax1.legend(fontsize=8)
-    x, lo, hi = _envelope(ang, clr.neighbour[order])
-    ax2.plot(x, lo, color="C3", lw=1.2, label="roller vs neighbours: smallest")
-    ax2.plot(x, hi, color="C3", lw=0.8, ls="--", label="largest")
-    ax2.set_ylabel("clearance [mm]")
-    ax2.set_xlabel("crank angle relative to the frame [deg]")
-    ax2.legend(fontsize=8)
-    return _save(fig, path)
-
-
-_LIMIT_OF = {
-    "peak_pressure": "max_contact_pressure",
-    "peak_gear_force": "max_gear_force",
-    "min_loaded_rollers": "min_loaded_rollers",
-    "lost_motion_arcmin": "max_lost_motion_arcmin",
-}
-_LABEL = {
-    "peak_pressure": "peak contact pressure [MPa]",
-    "peak_gear_force": "peak gear force $F_n$ [N]",
-    "min_loaded_rollers": "fewest loaded rollers [-]",
-    "lost_motion_arcmin": "output lost motion [arcmin]",
-}
-_SHORT = {
-    "peak_pressure": "pressure",
-    "peak_gear_force": "$F_n$",
-    "min_loaded_rollers": "loaded rollers",
-    "lost_motion_arcmin": "lost motion",
-}
-
-
-def _bins(values: np.ndarray, integer: bool):
-    lo, hi = float(values.min()), float(values.max())
-    if integer:
-        return np.arange(np.floor(lo) - 0.5, np.ceil(hi) + 1.5)
-    return np.histogram_bin_edges(values, bins=min(40, max(10, int(np.sqrt(len(values))))))
-
-
-def montecarlo_png(
-    metrics: dict,
-    checks,
-    path: Path,
-    summary: dict | None = None,
-    nominal: dict | None = None,
-    design: GearDesign | None = None,
-    input_torque: float | None = None,
-    tolerances: dict | None = None,
-) -> Path:
-    """Histograms of the per-sample metrics with percentiles, limits and the nominal
-    design's value, the failure probability, and the sensitivity ranking."""
-    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
-    flat = axes.ravel()
-    n = len(next(iter(metrics.values())))
-    for ax, (name, values) in zip(flat[[0, 1, 3, 4]], metrics.items(), strict=False):
-        values = np.asarray(values, dtype=float)
-        lim_key = _LIMIT_OF[name]
-        limit = getattr(checks, lim_key)
-        scale = max(abs(float(values.max())), abs(float(values.min())), abs(limit or 0.0), 1.0)
-        if float(values.max() - values.min()) <= 1e-6 * scale:
-            # One value for every sample: a histogram would be a one-pixel spike.
-            ax.axvline(
-                values[0], color="C0", lw=8, alpha=0.6, label=f"all samples: {values[0]:.4g}"
-            )
-            ax.set_ylim(0, n * 1.1)
+        ax.axhline(0.0, color="k", lw=0.8)
+        if not np.any(a):
+            ax.plot(x, lo, color=f"C{i}", lw=1.2, label="every roller: 0 (no play)")
+            ax.set_ylim(-1.0, 1.0)
             ax.text(
                 0.5,
-                0.55,
-                f"all {n} samples: {values[0]:.4g}\n(spread below {1e-6 * scale:.1g})",
+                0.72,
+                f"exact contact: every roller at every position within "
+                f"{float(np.abs(raw).max()):.2g} mm (round-off)",
                 transform=ax.transAxes,
                 ha="center",
-                fontsize=10,
+                fontsize=8,
                 bbox=dict(facecolor="white", edgecolor="0.7"),
             )
         else:
-            marks = [v for v in (limit, (nominal or {}).get(name)) if v is not None]
-            lo = min(float(values.min()), *marks) if marks else float(values.min())
-            hi = max(float(values.max()), *marks) if marks else float(values.max())
-            if name != "min_loaded_rollers" and np.ptp(values) < 0.05 * (hi - lo):
-                # Samples bunched far from the limit: bins over the whole axis, so
-                # the bunch is a visible bar, not a one-pixel spike.
-                bins = np.linspace(lo, hi, 41)
-            else:
-                bins = _bins(values, name == "min_loaded_rollers")
-            ax.hist(values, bins=bins, color="C0", alpha=0.75)
-            for q, ls in ((5, ":"), (50, "-"), (95, "--"), (99, "-.")):
-                v = float(np.percentile(values, q))
-                ax.axvline(v, color="0.25", ls=ls, lw=1.0, label=f"p{q} = {v:.4g}")
-        if nominal and name in nominal:
-            ax.axvline(nominal[name], color="C2", lw=2.0, label=f"nominal = {nominal[name]:.4g}")
-        if limit is not None:
-            ax.axvline(limit, color="C3", lw=2.0, label=f"limit = {limit:g}")
-            pf = (summary or {}).get("failure_probability", {}).get(lim_key)
-            if pf is not None:
-                ax.set_title(
-                    f"P(fail) = {100 * pf:.1f} %", fontsize=10, color="C3" if pf > 0 else "C2"
-                )
-        else:
-            ax.set_title("no limit set in [checks]", fontsize=9, color="0.4")
-        ax.set_xlabel(_LABEL[name])
-        ax.set_ylabel("samples")
-        ax.xaxis.set_major_locator(MaxNLocator(6))
-        ax.legend(fontsize=7, loc="upper right")
-        ax.margins(x=0.08)
-    ax = flat[2]
-    sens = (summary or {}).get("sensitivity") or []
-    if sens:
-        kinds = [s["tolerance"] for s in sens]
-        ms = list(metrics)
-        y = np.arange(len(kinds))
-        h = 0.8 / len(ms)
-        for j, m in enumerate(ms):
-            ax.barh(
-                y + (j - (len(ms) - 1) / 2) * h,
-                [s["spearman"][m] for s in sens],
-                height=h,
-                label=_SHORT[m],
-                color=f"C{j}",
+            k_lo = np.unravel_index(np.argmin(a), a.shape)
+            k_hi = np.unravel_index(np.argmax(a), a.shape)
+            ax.fill_between(x, lo, hi, color=f"C{i}", alpha=0.2, lw=0, label="band: all rollers")
+            ax.plot(
+                x,
+                lo,
+                color=f"C{i}",
+                lw=1.2,
+                label=f"smallest {a[k_lo]:.4g} um (roller {k_lo[1] + 1}, {ang[k_lo[0]]:g} deg)",
             )
-        ax.set_yticks(y)
-        ax.set_yticklabels([k.replace("_", " ") for k in kinds], fontsize=8)
-        ax.invert_yaxis()
-        ax.axvline(0, color="k", lw=0.6)
-        ax.set_xlim(-1, 1)
-        ax.set_xlabel("Spearman rank correlation with |drawn error| [-]")
-        ax.legend(fontsize=7, loc="lower right")
-    ax.set_title("sensitivity (most influential first)", fontsize=10)
-    ax = flat[5]
-    ax.axis("off")
-    lines = ["Tolerances (centred on the [errors] values):"]
-    for k, d in (tolerances or {}).items():
-        kind, scale = (d.kind, d.scale) if hasattr(d, "kind") else (d["kind"], d["scale"])
-        what = "sigma" if kind == "normal" else "uniform +-"
-        unit = "deg" if k in ("cam_phase", "slot_angle") else "mm"
-        lines.append(f"  {k.replace('_', ' ')}: {what} {scale:g} {unit}")
-    lines.append("")
-    lines.append("Lines: p5 dotted, p50 solid, p95 dashed, p99 dash-dot;")
-    lines.append("green = nominal design, red = limit from [checks].")
-    ax.text(0.0, 1.0, "\n".join(lines), va="top", fontsize=9, family="monospace")
-    _title(fig, f"Monte Carlo over the tolerances, {n} samples", design, input_torque)
-    fig.subplots_adjust(left=0.05, right=0.98, top=0.9, bottom=0.07, hspace=0.35, wspace=0.28)
-    return _save(fig, path)
-
-
-def sweep_png(
-    name: str,
-    points: list[dict],
-    path: Path,
-    rng: dict | None = None,
-    design: GearDesign | None = None,
-    input_torque: float | None = None,
-) -> Path:
-    """Means and peaks of roller 1's forces against the swept value (Figs. 11-16 style)."""
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 5))
-    ok = [p for p in points if p["status"] == "ok"]
-    x = [p["value"] for p in ok]
-    for key, label in (("F_j_mean", "$F_j$"), ("F_n_mean", "$F_n$"), ("F_s_mean", "$F_s$")):
-        ax1.plot(x, [p[key] for p in ok], "o-", label=f"mean {label}")
-    for key, label in (
-        ("F_j_peak", "peak $F_j$"),
-        ("F_n_peak", "peak $F_n$"),
-        ("F_s_peak_to_peak", "p-p $F_s$"),
-    ):
-        ax2.plot(x, [p[key] for p in ok], "o-", label=label)
-    skipped = [p["value"] for p in points if p["status"] != "ok"]
-    label = name.replace("_", " ")
-    for ax in (ax1, ax2):
-        for v in skipped:
-            ax.axvline(v, color="0.7", ls=":", lw=1)
-        ax.set_xlabel(label + " [mm]")
-        ax.set_ylabel("force on roller 1 [N]")
-        ax.xaxis.set_major_locator(MaxNLocator(5))
-        ax.grid(alpha=0.3)
-        if ok:
-            ax.legend(fontsize=8)
-    if design is not None and name in ("eccentricity", "roller_radius", "cam_radius"):
-        v0 = getattr(design, name)
-        for ax in (ax1, ax2):
-            ax.axvline(v0, color="C3", lw=0.8, ls="--")
-        ax1.annotate(
-            "design",
-            (v0, 1.0),
-            xycoords=("data", "axes fraction"),
-            color="C3",
-            fontsize=8,
-            ha="center",
-            va="bottom",
-        )
-    notes = []
-    if rng is not None:
-        src = {"scene": "[sweeps] range", "paper": "the paper's range", "default": "default range"}
-        notes.append(
-            f"{src.get(rng['source'], rng['source'])} {rng['requested'][0]:g} .. "
-            f"{rng['requested'][1]:g} mm"
-        )
-        if rng["swept"] is None:
-            notes.append("no valid value in the range")
-        else:
-            for side, i in (("low", 0), ("high", 1)):
-                why = rng[f"clipped_{side}"]
-                if why:
-                    notes.append(f"{side} end clipped at {rng['swept'][i]:.5g} mm ({why})")
-    if skipped:
-        notes.append(f"dotted: {len(skipped)} points not computed - undercut or invalid")
-    if not ok:
-        for ax in (ax1, ax2):
-            ax.text(0.5, 0.5, "no valid point", transform=ax.transAxes, ha="center")
-    fig.text(0.5, 0.01, "; ".join(notes), ha="center", fontsize=8)
-    _title(fig, f"Sweep of the {label}", design, input_torque)
-    fig.subplots_adjust(left=0.07, right=0.98, top=0.86, bottom=0.16, wspace=0.25)
+            ax.plot(
+                x,
+                hi,
+                color=f"C{i}",
+                lw=1.0,
+                ls="--",
+                label=f"largest {a[k_hi]:.4g} um (roller {k_hi[1] + 1}),\nbacklash side",
+            )
+            span = max(float(np.abs(a).max()), 1e-3)
+            ax.set_ylim(
+                min(float(lo.min()), 0.0) - 0.15 * span, max(float(hi.max()), 0.0) + 0.3 * span
+            )
+        ax.set_ylabel("clearance [um]")
+        ax.set_title(f"{what} (negative: interference)", fontsize=9)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    ax = axes[3]
+    x, lo, hi = _envelope(ang, clr.neighbour[order])
+    ax.fill_between(x, lo, hi, color="C3", alpha=0.2, lw=0, label="band: all rollers")
+    ax.plot(x, lo, color="C3", lw=1.2, label=f"smallest {float(lo.min()):.4g} mm")
+    ax.plot(x, hi, color="C3", lw=0.8, ls="--", label=f"largest {float(hi.max()):.4g} mm")
+    ax.set_title("roller vs its neighbours", fontsize=9)
+    ax.set_ylabel("clearance [mm]")
+    ax.set_xlabel("crank angle relative to the frame [deg]")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    _title(fig, f"Exact clearance over {len(ang)} crank positions (row A)", design, None)
+    fig.subplots_adjust(left=0.1, right=0.7, top=0.9, bottom=0.06, hspace=0.35)
     return _save(fig, path)

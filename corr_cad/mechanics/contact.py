@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "PRESSURE_BOUND_MPA",
     "VALIDITY_KNEE",
     "half_width_sq_per_force",
     "knee",
@@ -39,6 +40,12 @@ __all__ = [
     "max_pressure",
     "is_valid",
 ]
+
+#: Contact pressure beyond which the numbers are flagged: 4000 MPa is above
+#: the static load capacity of through-hardened bearing steel (ISO 76 takes
+#: 4000 MPa as the limit for line contact of rollers), and far beyond the
+#: elastic range the Hertz model assumes.
+PRESSURE_BOUND_MPA = 4000.0
 
 #: Share of the validity limit ``b = R_min`` (in ``b^2``) up to which the
 #: exact overlap formula is used; beyond it the tangent continuation.

@@ -137,6 +137,9 @@ def _run(args: argparse.Namespace, state: dict) -> int:
         # accepted: a refused run prints only its one error line.
         for warning in scene.warnings:
             print(f"corr-cad: warning: {warning}", file=sys.stderr)
+        if scene.formats_left_out:
+            why = "; ".join(f"{f} ({w})" for f, w in scene.formats_left_out)
+            print(f'corr-cad: note: formats = ["all"] leaves out {why}', file=sys.stderr)
         manifest = run_scene(
             scene, stage, progress=say, executor=executor, concurrent_stages=concurrent
         )

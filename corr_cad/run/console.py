@@ -27,11 +27,9 @@ __all__ = [
     "summary_lines",
 ]
 
-#: Contact pressure beyond which the numbers are flagged: 4000 MPa is above
-#: the static load capacity of through-hardened bearing steel (ISO 76 takes
-#: 4000 MPa as the limit for line contact of rollers), and far beyond the
-#: elastic range the Hertz model assumes.
-PRESSURE_BOUND_MPA = 4000.0
+#: Contact pressure beyond which the numbers are flagged (defined with the
+#: contact model; the Monte Carlo plot draws it too).
+PRESSURE_BOUND_MPA = contact.PRESSURE_BOUND_MPA
 
 #: A tooth tip radius below this is a geometry warning (hard to make, and
 #: the contact half-width soon exceeds it).

@@ -185,6 +185,7 @@ def run_scene(
         "inputs": scene.source,
         "design": scene.design.as_dict(),
         "formats": list(scene.formats),
+        **({"formats_left_out": dict(scene.formats_left_out)} if scene.formats_left_out else {}),
         "versions": _versions(),
         "units": {
             "length": "mm",

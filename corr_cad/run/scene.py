@@ -24,6 +24,7 @@ from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
+    ALL,
     FORMATS,
     INTERFERENCE_METHODS,
     MAX_ANGLE_DEG,
@@ -34,6 +35,7 @@ from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema 
     MESH_POSITIONS_MAX,
     SCHEMA,
     Key,
+    every_format,
     key_range,
 )
 from corr_cad.run.scene_text import bounds_table, no_effect_warnings, template_text  # noqa: F401
@@ -104,6 +106,8 @@ class Scene:
     source: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
+    #: ``formats = ["all"]``: the formats it left out, each with the reason.
+    formats_left_out: tuple[tuple[str, str], ...] = ()
 
 
 def _where(section: str, key: str) -> str:
@@ -283,6 +287,11 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         raise SceneError("[export] assembly_angles_deg is empty; give at least one crank angle")
     if not formats:
         raise SceneError(f"[export] formats is empty; choose from {', '.join(FORMATS)}")
+    left_out: tuple[tuple[str, str], ...] = ()
+    if ALL in formats:
+        if len(formats) > 1:
+            raise SceneError(f'[export] formats = {show(list(formats))}: "all" stands alone')
+        formats, left_out = every_format(values)
 
     ld = values["load"]
     load = None
@@ -466,6 +475,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for s, vals in values.items()
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active())),
+        formats_left_out=left_out,
     )
     from corr_cad.run.resources import check_scene
 

@@ -39,6 +39,10 @@ FORMATS = (
     "report",
 )
 
+#: ``formats = ["all"]``: every format the scene can make (those that need an
+#: input the scene lacks are left out, and the run says which and why).
+ALL = "all"
+
 #: ``[export] interference_method``: exact 2D clearances, mesh booleans, or both.
 INTERFERENCE_METHODS = ("exact", "mesh", "both")
 #: Upper bound of the mesh-boolean sweep (each position costs ~0.8 s).
@@ -100,7 +104,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "ring_outer_radius": Key(
             "float",
             None,
-            "gear ring outer radius, mm (default: rim of max(10, 3r))",
+            "gear ring outer radius, mm (default: e + Rj + 2r + max(10, 3r), rounded up to 5 mm)",
             **_dk("ring_outer_radius"),
             note="[e + Rj + 2r + 1, 10 (e + Rj + 2r)]",
             example=180.0,
@@ -115,7 +119,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "cam_bore_radius": Key(
             "float",
             None,
-            "cam eccentric bore radius, mm (default: min(0.35 Rj, (Rj - e)/2))",
+            "cam eccentric bore radius, mm (default: min(0.35 Rj, (Rj - e)/2) rounded to "
+            "0.1 mm, a half to the even digit)",
             **_dk("cam_bore_radius"),
             note="(0, Rj - e - 1]",
             example=47.2,
@@ -123,7 +128,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_inner_radius": Key(
             "float",
             None,
-            "slotted frame plate inner radius, mm",
+            "slotted frame plate inner radius, mm (default: max(Rj - e - 1 - max(5, r), "
+            "(Rj - e - 1)/2), max(5, r) inside the slot ends)",
             **_dk("frame_inner_radius"),
             example=122.5,
             note="(0, Rj - e - 2]: 1 mm inside the slot ends",
@@ -131,7 +137,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_outer_radius": Key(
             "float",
             None,
-            "slotted frame plate outer radius, mm",
+            "slotted frame plate outer radius, mm (default: Rj + e + 2r + 1 + max(5, r), "
+            "max(5, r) beyond the slot ends)",
             **_dk("frame_outer_radius"),
             example=163.5,
             note="1 mm beyond the slot ends to 10 times their radius",
@@ -139,7 +146,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_thickness": Key(
             "float",
             None,
-            "thickness of each slotted frame plate, mm",
+            "thickness of each slotted frame plate, mm (default: max(5, r))",
             **_dk("frame_thickness"),
             example=8.0,
         ),
@@ -152,7 +159,12 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "poisson_ratio": Key("float", 0.3, "Poisson's ratio", low=-1, high=0.5, high_open=True),
     },
     "export": {
-        "formats": Key("list[str]", ["dxf", "png"], "outputs to produce", choices=FORMATS),
+        "formats": Key(
+            "list[str]",
+            ["dxf", "png"],
+            'outputs to produce; ["all"]: every format this scene can make',
+            choices=(*FORMATS, ALL),
+        ),
         "representation": Key(
             "str", "polyline", "DXF profile representation", choices=REPRESENTATIONS
         ),
@@ -239,7 +251,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "crank_angles_deg": Key(
             "list[float]",
             None,
-            "solve only at these crank angles, deg",
+            "solve only at these crank angles, deg (default: positions over a full cycle)",
             low=-MAX_ANGLE_DEG,
             low_open=False,
             high=MAX_ANGLE_DEG,
@@ -492,6 +504,40 @@ SCHEMA: dict[str, dict[str, Key]] = {
         ),
     },
 }
+
+
+def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], ...]]:
+    """``formats = ["all"]``: every format this scene can make, and why each other is left out.
+
+    Left out: what needs an input the scene lacks (a torque for the forces
+    and the studies built on them, tolerances, a limit for the allocation, a
+    measured profile for the inspection) and ``step`` without Open CASCADE.
+    """
+    import importlib.util
+
+    ld, chk = values["load"], values["checks"]
+    load = (ld["input_torque"] is not None or ld["pinion_torque"] is not None, "no [load] torque")
+    tol = (any(v is not None for v in values["tolerances"].values()), "no [tolerances]")
+    limit = (
+        any(v is not None for k, v in chk.items() if k != "max_failure_probability"),
+        "no limit in [checks]",
+    )
+    measured = (values["errors"]["measured_profile"] is not None, "no [errors] measured_profile")
+    ocp = (
+        importlib.util.find_spec("OCP") is not None,
+        "Open CASCADE is not installed (the step extra: pip install -e '.[step]')",
+    )
+    needs = {
+        "forces": (load,),
+        "montecarlo": (load, tol),
+        "allocation": (load, tol, limit),
+        "sweeps": (load,),
+        "inspection": (measured,),
+        "step": (ocp,),
+    }
+    why = {f: next((w for ok, w in needs.get(f, ()) if not ok), None) for f in FORMATS}
+    made = tuple(f for f in FORMATS if why.get(f) is None)
+    return made, tuple((f, why[f]) for f in FORMATS if why.get(f) is not None)
 
 
 def key_range(spec: Key) -> str:

@@ -21,7 +21,9 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     f = set(formats)
     forces = "forces" in f or checks  # the checks run the force solver
     mc = bool({"montecarlo", "allocation"} & f)
-    solver = forces or bool(_SOLVER_FORMATS & f)
+    # inspection solves the forces, nominal and measured, when [load] gives a torque
+    inspected = "inspection" in f and "load" in data
+    solver = forces or bool(_SOLVER_FORMATS & f) or inspected
     measured = "measured_profile" in data.get("errors", {})
     out: list[str] = []
 
@@ -42,22 +44,29 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     if "sweeps" in data and "sweeps" not in f:
         warn("[sweeps]", 'formats does not list "sweeps"')
     if "load" in data and not solver:
-        warn("[load]", "no format needs the mesh forces (forces, montecarlo, allocation, sweeps)")
+        warn(
+            "[load]",
+            "no format needs the mesh forces (forces, montecarlo, allocation, sweeps, inspection)",
+        )
     if "material" in data and not solver:
         warn("[material]", "only the force solver uses it and no format needs it")
     sv = data.get("solver", {})
     if "solver" in data and not solver:
-        warn("[solver]", "no format runs the force solver (forces, montecarlo, allocation, sweeps)")
+        warn(
+            "[solver]",
+            "no format runs the force solver (forces, montecarlo, allocation, sweeps, inspection)",
+        )
     elif not forces:
-        for k in ("positions", "crank_angles_deg", "variants"):
+        # inspection solves with positions and crank_angles_deg, never with the variants
+        for k in ("variants",) if inspected else ("positions", "crank_angles_deg", "variants"):
             if k in sv:
                 warn(f"[solver] {k}", 'only "forces" and [checks] use it')
     ex = data.get("export", {})
     if "representation" in ex and "dxf" not in f:
         warn("[export] representation", 'formats does not list "dxf"')
     geometry = bool((_MESH | {"step", "interference"}) & f)
-    uses_tolerance = "dxf" in f or "edm" in f  # edm: the wire path and its decimals
-    if "tolerance" in ex and not uses_tolerance and ("chord_tolerance" in ex or not geometry):
+    # edm: the wire path and its decimals take the tolerance too
+    if "tolerance" in ex and not {"dxf", "edm"} & f and ("chord_tolerance" in ex or not geometry):
         warn(
             "[export] tolerance", 'formats lists no "dxf" or "edm" (and no mesh/STEP takes it over)'
         )
@@ -98,9 +107,13 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
             forces
             or mc
             or exact
+            or inspected
             or (roller_only and k in ("roller_radius_error", "roller_radius_errors"))
         ):
-            warn(f"[errors] {k}", "only forces, checks, montecarlo, allocation, interference")
+            warn(
+                f"[errors] {k}",
+                "only forces, checks, montecarlo, allocation, interference, inspection with [load]",
+            )
     return tuple(out)
 
 
@@ -145,6 +158,41 @@ def _toml_value(v: Any) -> str:
     return str(v)
 
 
+def _derived_defaults() -> dict[str, tuple[float, str]]:
+    """The template design's derived radii: each default's value and its formula, evaluated."""
+    import math
+
+    from corr_cad.geometry.design import SLOT_END_CLEARANCE, GearDesign
+
+    d = GearDesign(**{k: s.default for k, s in SCHEMA["design"].items() if s.default is not None})
+    e, Rj, r, c = d.eccentricity, d.cam_radius, d.roller_radius, SLOT_END_CLEARANCE
+    m = max(5.0, r)
+    ring = e + Rj + 2 * r + max(10.0, 3 * r)
+    bore = min(0.35 * Rj, 0.5 * (Rj - e))
+    inner = Rj - e - c
+    return {
+        "ring_outer_radius": (
+            d.ring_outer_radius,
+            f"{e:g} + {Rj:g} + 2 x {r:g} + max(10, 3 x {r:g}) = {ring:g}, "
+            f"up to {5 * math.ceil(ring / 5):g}",
+        ),
+        "face_width": (d.face_width, f"roller_length = {d.roller_length:g}"),
+        "cam_bore_radius": (
+            d.cam_bore_radius,
+            f"min(0.35 x {Rj:g}, ({Rj:g} - {e:g})/2) = {bore:g}, rounded to {d.cam_bore_radius:g}",
+        ),
+        "frame_inner_radius": (
+            d.frame_inner_radius,
+            f"max({inner:g} - {m:g}, {inner:g}/2) = {d.frame_inner_radius:g}",
+        ),
+        "frame_outer_radius": (
+            d.frame_outer_radius,
+            f"{Rj:g} + {e:g} + 2 x {r:g} + {c:g} + {m:g} = {d.frame_outer_radius:g}",
+        ),
+        "frame_thickness": (d.frame_thickness, f"max(5, {r:g}) = {d.frame_thickness:g}"),
+    }
+
+
 def template_text() -> str:
     """A commented scene with every section and key (optional ones commented out).
 
@@ -152,6 +200,7 @@ def template_text() -> str:
     formats are written commented out too, so that a fresh scene runs without
     a single "has no effect" warning; uncomment them with the format they need.
     """
+    derived = _derived_defaults()
     quiet: set[str] = set()
     for _ in range(2):  # pass 1 finds what would warn, pass 2 writes it commented
         lines = [
@@ -174,7 +223,11 @@ def template_text() -> str:
                     or (section == "solver" and k == "variants")
                 )
                 value = spec.example if spec.default is None else spec.default
-                lines.append(f"{'# ' if commented else ''}{k} = {_toml_value(value)}")
+                line = f"{'# ' if commented else ''}{k} = {_toml_value(value)}"
+                if section == "design" and k in derived:
+                    value, how = derived[k]
+                    line = f"# {k} = {_toml_value(value)}   # the default here: {how}"
+                lines.append(line)
             lines.append("")
         data = tomllib.loads("\n".join(lines))
         formats = tuple(data.get("export", {}).get("formats", SCHEMA["export"]["formats"].default))

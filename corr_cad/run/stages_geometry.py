@@ -263,7 +263,7 @@ def _clearance(ctx: RunContext) -> None:
         [cols[c] for c in COLUMNS],
         ("%.6f", "%d") + ("%.9g",) * 4,
     )
-    plots.clearance_png(clr, ctx.out / "clearance.png")
+    plots.clearance_png(clr, ctx.out / "clearance.png", s.design)
     ctx.files.extend(["clearance.csv", "clearance.png"])
     summary = {"method": "exact", **clr.summary()}
     ctx.manifest["clearance"] = summary

@@ -134,7 +134,7 @@ def _force_comparison(ctx: RunContext) -> dict:
 
 
 def inspection(ctx: RunContext) -> None:
-    from corr_cad.export.inspection_io import inspection_png, write_inspection
+    from corr_cad.export.inspection_io import inspection_png, verdict_line, write_inspection
     from corr_cad.geometry import kinematics as kin
     from corr_cad.tolerance.inspection import (
         LIMITS,
@@ -171,7 +171,7 @@ def inspection(ctx: RunContext) -> None:
         "definitions": "see README 'Inspection report' (ISO 1328-1 adapted)",
     }
     files = write_inspection(res, summary, ctx.out)
-    inspection_png(res, limits, verdicts, ctx.out / "inspection.png")
+    inspection_png(res, limits, verdicts, ctx.out / "inspection.png", s.design)
     ctx.files.extend(files + ["inspection.png"])
     ctx.manifest["inspection"] = {
         k: summary[k]
@@ -179,13 +179,10 @@ def inspection(ctx: RunContext) -> None:
         + ("cumulative_pitch_total_arcsec",)
     }
     ctx.manifest["inspection"]["failed"] = [
-        f"{k} tooth {v['tooth']} value {v['value']:.6g} {v['unit']} > {v['limit']:g}"
+        f"{k} tooth {v['tooth']} value {v['value']:.6g} {v['unit']} > {v['limit']:g} "
+        f"(failing teeth {', '.join(str(j) for j in v['failing_teeth'])})"
         for k, v in verdicts.items()
         if not v["passed"]
     ]
     for k, v in verdicts.items():
-        state = "pass" if v["passed"] else "FAIL"
-        ctx.progress(
-            f"      inspection {k}: {state} (tooth {v['tooth']}, value {v['value']:.4g} "
-            f"{v['unit']}, limit {v['limit']:g})"
-        )
+        ctx.progress(f"      inspection {verdict_line(k, v)}")

@@ -13,7 +13,7 @@ from corr_cad.run.context import RunContext, psi_contact_limit, scene_errors
 
 
 def _montecarlo(ctx: RunContext) -> None:
-    from corr_cad.export import plots
+    from corr_cad.export import plots_tolerance
     from corr_cad.export.files import write_columns, write_json
     from corr_cad.run.progress import Progress
     from corr_cad.tolerance.checks import evaluate_failure_probability
@@ -55,7 +55,7 @@ def _montecarlo(ctx: RunContext) -> None:
     nominal = _nominal_metrics(ctx, mc_cfg["positions"])
     summary["nominal"] = nominal
     write_json(ctx.out / "montecarlo_summary.json", summary)
-    plots.montecarlo_png(
+    plots_tolerance.montecarlo_png(
         res.metrics,
         s.checks,
         ctx.out / "montecarlo.png",
@@ -157,7 +157,7 @@ def _allocation(ctx: RunContext) -> None:
 
 
 def _sweeps(ctx: RunContext) -> None:
-    from corr_cad.export import plots
+    from corr_cad.export import plots_tolerance
     from corr_cad.export.files import write_csv, write_json
     from corr_cad.tolerance.sweeps import (
         METRICS,
@@ -211,8 +211,10 @@ def _sweeps(ctx: RunContext) -> None:
                 for p in pts
             ),
         )
-        plots.sweep_png(
-            name, pts, ctx.out / f"sweep_{name}.png", rng, s.design, s.load.input_torque
+        where = PAPER_SWEEPS[name][0]
+        centre = getattr(s.design if where == "design" else scene_errors(ctx), name)
+        plots_tolerance.sweep_png(
+            name, pts, ctx.out / f"sweep_{name}.png", rng, s.design, s.load.input_torque, centre
         )
         ctx.files.extend([f"sweep_{name}.csv", f"sweep_{name}.png"])
         lim = "; ".join(

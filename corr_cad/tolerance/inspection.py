@@ -52,6 +52,7 @@ __all__ = [
     "ToothReport",
     "InspectionResult",
     "inspect_teeth",
+    "tooth_verdicts",
     "evaluate_limits",
     "fit_design_family",
 ]
@@ -189,8 +190,59 @@ def inspect_teeth(
     )
 
 
+def _within_best_band(values: np.ndarray, width: float) -> np.ndarray:
+    """Which values lie in the band ``[a, a + width]`` that holds the most of them.
+
+    Ties go to the band whose centre is nearest the mean. All values pass
+    exactly when ``max - min <= width`` (the band starting at the minimum).
+    """
+    order = np.argsort(values, kind="stable")
+    v = values[order]
+    best, best_key = 0, None
+    for i in range(len(v)):
+        j = int(np.searchsorted(v - v[i], width, side="right"))  # v[j-1] - v[i] <= width
+        key = (-(j - i), abs(v[i] + 0.5 * width - float(values.mean())))
+        if best_key is None or key < best_key:
+            best, best_key = i, key
+    inside = np.zeros(len(v), dtype=bool)
+    inside[order[(v - v[best] >= 0.0) & (v - v[best] <= width)]] = True
+    return inside
+
+
+def tooth_verdicts(res: InspectionResult, limits: dict) -> dict[str, np.ndarray]:
+    """Pass (True) or fail of every tooth space for each limit that is set, (z,) bool.
+
+    The one place a tooth is judged: ``inspection.csv``, ``inspection.json``
+    (``failing_teeth``), the console and ``inspection.png`` all read it.
+
+    * ``profile_tolerance``: every ``|f|`` of the tooth within the half-band;
+    * ``position_tolerance_arcsec``, ``single_pitch_tolerance_arcsec``: the
+      tooth's ``|position|``, ``|single pitch|`` within the limit;
+    * ``cumulative_pitch_tolerance_arcsec``: the tooth's position lies in the
+      band, as wide as the limit, that holds the most tooth positions (the
+      teeth outside it are the ones to rework);
+    * ``runout_tolerance``: likewise for the radial positions.
+
+    The gear passes a limit exactly when every tooth passes it: the band holds
+    all positions (radial positions) exactly when their span, the cumulative
+    pitch (runout), is within the limit.
+    """
+    pos = res.column("position_arcsec")
+    prof = np.maximum(np.abs(res.column("profile_min_mm")), np.abs(res.column("profile_max_mm")))
+    judge = {
+        "profile_tolerance": lambda lim: prof <= lim,
+        "position_tolerance_arcsec": lambda lim: np.abs(pos) <= lim,
+        "single_pitch_tolerance_arcsec": lambda lim: (
+            np.abs(res.column("single_pitch_arcsec")) <= lim
+        ),
+        "cumulative_pitch_tolerance_arcsec": lambda lim: _within_best_band(pos, lim),
+        "runout_tolerance": lambda lim: _within_best_band(res.column("radial_shift_mm"), lim),
+    }
+    return {k: judge[k](limits[k]) for k in LIMITS if limits.get(k) is not None}
+
+
 def evaluate_limits(res: InspectionResult, limits: dict) -> dict:
-    """Pass/fail per given limit, with the worst tooth and its value."""
+    """Pass/fail per given limit, with the worst tooth, its value and the failing teeth."""
     out = {}
     prof = np.maximum(np.abs(res.column("profile_min_mm")), np.abs(res.column("profile_max_mm")))
     per_tooth = {
@@ -206,45 +258,40 @@ def evaluate_limits(res: InspectionResult, limits: dict) -> dict:
             "|single pitch deviation|",
         ),
     }
-    for key in LIMITS:
-        lim = limits.get(key)
-        if lim is None:
-            continue
+    passes = tooth_verdicts(res, limits)
+    for key, ok in passes.items():
+        lim = limits[key]
+        bad = [int(j + 1) for j in np.flatnonzero(~ok)]
         if key in per_tooth:
             vals, unit, what = per_tooth[key]
             i = int(np.argmax(vals))
-            bad = [int(j + 1) for j in np.flatnonzero(vals > lim)]
             out[key] = {
                 "limit": lim,
                 "value": float(vals[i]),
                 "tooth": i + 1,
                 "unit": unit,
                 "what": what,
-                "failing_teeth": bad,
-                "passed": not bad,
             }
         elif key == "cumulative_pitch_tolerance_arcsec":
-            v = res.cumulative_pitch_total_arcsec
             out[key] = {
                 "limit": lim,
-                "value": v,
+                "value": res.cumulative_pitch_total_arcsec,
                 "tooth": res.cumulative_pitch_span[1],
                 "span_teeth": list(res.cumulative_pitch_span),
                 "unit": "arcsec",
                 "what": "cumulative pitch over any span",
-                "passed": v <= lim,
             }
         else:
-            v = res.runout_mm
             rr = res.column("runout_mm")
             out[key] = {
                 "limit": lim,
-                "value": v,
+                "value": res.runout_mm,
                 "tooth": int(np.argmax(rr)) + 1,
                 "unit": "mm",
                 "what": "runout of the tooth spaces",
-                "passed": v <= lim,
             }
+        out[key]["failing_teeth"] = bad
+        out[key]["passed"] = not bad
     return out
 
 

@@ -31,7 +31,30 @@ __all__ = [
     "draw_samples",
     "monte_carlo",
     "SerialExecutor",
+    "COUNT_METRICS",
+    "metric_percentile",
 ]
+
+#: Metrics that count something (rollers): their percentiles are sample
+#: values, never a fraction between two counts.
+COUNT_METRICS = ("min_loaded_rollers",)
+
+
+def metric_percentile(values, q: float, metric: str) -> float:
+    """The ``q``-th percentile of a metric's samples, as ``montecarlo_summary.json`` gives it.
+
+    Linear interpolation between samples, except for a count
+    (:data:`COUNT_METRICS`): the smallest sample with at least ``q`` % of
+    the samples at or below it (``numpy`` ``inverted_cdf``), a whole number.
+
+    >>> metric_percentile([12, 12, 13, 21, 22], 99, "min_loaded_rollers")
+    22.0
+    >>> metric_percentile([12, 12, 13, 21, 22], 99, "peak_gear_force")
+    21.96
+    """
+    method = "inverted_cdf" if metric in COUNT_METRICS else "linear"
+    return float(np.percentile(np.asarray(values, dtype=float), q, method=method))
+
 
 #: Error kinds a tolerance can be given for: (per roller?, unit).
 TOLERANCE_KINDS = {
@@ -252,7 +275,7 @@ class MonteCarloResult:
             "solver_success": self.success,
         }
         out["percentiles"] = {
-            m: {f"p{q}": float(np.percentile(v, q)) for q in percentiles}
+            m: {f"p{q}": metric_percentile(v, q, m) for q in percentiles}
             for m, v in self.metrics.items()
         }
         fail = {}

@@ -1,0 +1,311 @@
+"""Matplotlib figures of the tolerance studies: ``montecarlo.png``, ``sweep_<name>.png``.
+
+Drawn as :mod:`corr_cad.export.plots` draws (its ``_save`` and ``_title``:
+the design line, byte-deterministic files).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.ticker import MaxNLocator
+
+from corr_cad.export import plots
+from corr_cad.geometry.design import GearDesign
+from corr_cad.mechanics.contact import PRESSURE_BOUND_MPA
+from corr_cad.tolerance.montecarlo import COUNT_METRICS, metric_percentile
+
+__all__ = ["montecarlo_png", "sweep_png"]
+
+plt = plots.plt
+
+_LIMIT_OF = {
+    "peak_pressure": "max_contact_pressure",
+    "peak_gear_force": "max_gear_force",
+    "min_loaded_rollers": "min_loaded_rollers",
+    "lost_motion_arcmin": "max_lost_motion_arcmin",
+}
+_LABEL = {
+    "peak_pressure": "peak contact pressure [MPa]",
+    "peak_gear_force": "peak gear force $F_n$ [N]",
+    "min_loaded_rollers": "fewest loaded rollers [-]",
+    "lost_motion_arcmin": "output lost motion [arcmin]",
+}
+_SHORT = {
+    "peak_pressure": "pressure",
+    "peak_gear_force": "$F_n$",
+    "min_loaded_rollers": "loaded rollers",
+    "lost_motion_arcmin": "lost motion",
+}
+
+
+def _bins(values: np.ndarray, integer: bool):
+    lo, hi = float(values.min()), float(values.max())
+    if integer:
+        return np.arange(np.floor(lo) - 0.5, np.ceil(hi) + 1.5)
+    return np.histogram_bin_edges(values, bins=min(40, max(10, int(np.sqrt(len(values))))))
+
+
+def _histogram(ax, name: str, values: np.ndarray, marks: list, pct: dict | None):
+    """Histogram with the p5/p50/p95/p99 lines; the x limits when the axis is capped.
+
+    The percentiles are the summary's (``montecarlo_summary.json``, whole
+    roller counts for ``min_loaded_rollers``), computed the same way when no
+    summary is given. Pressures beyond the Hertz validity bound are not
+    spread over the axis: above ``max(1.5 x bound, 1.1 x limit, 1.1 x
+    nominal)`` they are counted in one hatched bar, and the bound is drawn.
+    """
+    count = name in COUNT_METRICS
+    bound = PRESSURE_BOUND_MPA if name == "peak_pressure" else None
+    cap = None
+    if bound is not None and float(values.max()) > 1.5 * bound:
+        cap = max([1.5 * bound] + [1.1 * m for m in marks])
+        if float(values.max()) <= cap:
+            cap = None
+    shown = values if cap is None else values[values <= cap]
+    lo = min([float(shown.min())] if shown.size else [cap or float(values.min())] + marks)
+    lo = min([lo, *marks])
+    hi = cap if cap is not None else max([float(values.max()), *marks])
+    if cap is not None:
+        bins = np.linspace(lo, cap, 31)
+    elif not count and np.ptp(values) < 0.05 * (hi - lo):
+        # Samples bunched far from the limit: bins over the whole axis, so
+        # the bunch is a visible bar, not a one-pixel spike.
+        bins = np.linspace(lo, hi, 41)
+    else:
+        bins = _bins(values, count)
+    ax.hist(shown, bins=bins, color="C0", alpha=0.75)
+    xlim = None
+    if cap is not None:
+        w = bins[1] - bins[0]
+        over = int(np.count_nonzero(values > cap))
+        ax.bar(
+            cap + 2 * w,
+            over,
+            width=3 * w,
+            color="C3",
+            alpha=0.35,
+            hatch="//",
+            label=f"{over} samples above {cap:.0f} MPa (off scale)",
+        )
+        xlim = (lo - 2 * w, cap + 4 * w)
+    for q, ls in ((5, ":"), (50, "-"), (95, "--"), (99, "-.")):
+        v = float(pct[f"p{q}"]) if pct else metric_percentile(values, q, name)
+        off = " (off scale)" if cap is not None and v > cap else ""
+        ax.axvline(v, color="0.25", ls=ls, lw=1.0, label=f"p{q} = {v:.4g}{off}")
+    if bound is not None and float(values.max()) > bound:
+        ax.axvspan(bound, hi * 10, color="0.5", alpha=0.12, lw=0)
+        ax.axvline(
+            bound,
+            color="k",
+            ls=(0, (1, 1)),
+            lw=1.5,
+            zorder=3,
+            label=f"{bound:.0f} MPa: end of Hertz validity\n(beyond: read as a fail)",
+        )
+        if xlim is None:
+            lo_x, hi_x = min(lo, bound), max(hi, bound)
+            pad = 0.08 * (hi_x - lo_x)
+            xlim = (lo_x - pad, hi_x + pad)
+    return xlim
+
+
+def _legend_above_bars(ax, legend) -> None:
+    """Raise the y axis until the bars under the legend sit below it (it covers no data)."""
+    renderer = ax.figure.canvas.get_renderer()
+    box = legend.get_window_extent(renderer)
+    (x0, y0), (x1, _) = ax.transData.inverted().transform([(box.x0, box.y0), (box.x1, box.y1)])
+    tops = [
+        p.get_y() + p.get_height()
+        for p in ax.patches
+        if p.get_data_transform() == ax.transData  # bars, not the shaded spans
+        and p.get_height() > 0
+        and p.get_x() < x1
+        and p.get_x() + p.get_width() > x0
+    ]
+    lo, hi = ax.get_ylim()
+    if not tops or max(tops) < y0:
+        return
+    bottom = (y0 - lo) / (hi - lo)  # the legend's lower edge, axes fraction
+    ax.set_ylim(lo, lo + (max(tops) - lo) / max(bottom - 0.03, 0.1))
+
+
+def montecarlo_png(
+    metrics: dict,
+    checks,
+    path: Path,
+    summary: dict | None = None,
+    nominal: dict | None = None,
+    design: GearDesign | None = None,
+    input_torque: float | None = None,
+    tolerances: dict | None = None,
+) -> Path:
+    """Histograms of the per-sample metrics with percentiles, limits and the nominal
+    design's value, the failure probability, and the sensitivity ranking."""
+    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
+    # The layout first: the legends' room is measured against the final axes.
+    fig.subplots_adjust(left=0.05, right=0.98, top=0.9, bottom=0.07, hspace=0.35, wspace=0.28)
+    flat = axes.ravel()
+    n = len(next(iter(metrics.values())))
+    for ax, (name, values) in zip(flat[[0, 1, 3, 4]], metrics.items(), strict=False):
+        values = np.asarray(values, dtype=float)
+        lim_key = _LIMIT_OF[name]
+        limit = getattr(checks, lim_key)
+        scale = max(abs(float(values.max())), abs(float(values.min())), abs(limit or 0.0), 1.0)
+        xlim = None
+        if float(values.max() - values.min()) <= 1e-6 * scale:
+            # One value for every sample: a histogram would be a one-pixel spike.
+            ax.axvline(
+                values[0], color="C0", lw=8, alpha=0.6, label=f"all samples: {values[0]:.4g}"
+            )
+            ax.set_ylim(0, n * 1.1)
+            ax.text(
+                0.5,
+                0.55,
+                f"all {n} samples: {values[0]:.4g}\n(spread below {1e-6 * scale:.1g})",
+                transform=ax.transAxes,
+                ha="center",
+                fontsize=10,
+                bbox=dict(facecolor="white", edgecolor="0.7"),
+            )
+        else:
+            marks = [v for v in (limit, (nominal or {}).get(name)) if v is not None]
+            pct = ((summary or {}).get("percentiles") or {}).get(name)
+            xlim = _histogram(ax, name, values, marks, pct)
+        if nominal and name in nominal:
+            ax.axvline(nominal[name], color="C2", lw=2.0, label=f"nominal = {nominal[name]:.4g}")
+        if limit is not None:
+            ax.axvline(limit, color="C3", lw=2.0, label=f"limit = {limit:g}")
+            pf = (summary or {}).get("failure_probability", {}).get(lim_key)
+            if pf is not None:
+                ax.set_title(
+                    f"P(fail) = {100 * pf:.1f} %", fontsize=10, color="C3" if pf > 0 else "C2"
+                )
+        else:
+            ax.set_title("no limit set in [checks]", fontsize=9, color="0.4")
+        ax.set_xlabel(_LABEL[name])
+        ax.set_ylabel("samples")
+        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.margins(x=0.08)
+        if xlim is not None:
+            ax.set_xlim(*xlim)
+        _legend_above_bars(ax, ax.legend(fontsize=7, loc="upper right"))
+    ax = flat[2]
+    sens = (summary or {}).get("sensitivity") or []
+    if sens:
+        kinds = [s["tolerance"] for s in sens]
+        ms = list(metrics)
+        y = np.arange(len(kinds))
+        h = 0.8 / len(ms)
+        for j, m in enumerate(ms):
+            ax.barh(
+                y + (j - (len(ms) - 1) / 2) * h,
+                [s["spearman"][m] for s in sens],
+                height=h,
+                label=_SHORT[m],
+                color=f"C{j}",
+            )
+        ax.set_yticks(y)
+        ax.set_yticklabels([k.replace("_", " ") for k in kinds], fontsize=8)
+        ax.invert_yaxis()
+        ax.axvline(0, color="k", lw=0.6)
+        ax.set_xlim(-1, 1)
+        ax.set_xlabel("Spearman rank correlation with |drawn error| [-]")
+        ax.legend(fontsize=7, loc="lower right")
+    ax.set_title("sensitivity (most influential first)", fontsize=10)
+    ax = flat[5]
+    ax.axis("off")
+    lines = ["Tolerances (centred on the [errors] values):"]
+    for k, d in (tolerances or {}).items():
+        kind, scale = (d.kind, d.scale) if hasattr(d, "kind") else (d["kind"], d["scale"])
+        what = "sigma" if kind == "normal" else "uniform +-"
+        unit = "deg" if k in ("cam_phase", "slot_angle") else "mm"
+        lines.append(f"  {k.replace('_', ' ')}: {what} {scale:g} {unit}")
+    lines.append("")
+    lines.append("Lines: p5 dotted, p50 solid, p95 dashed, p99 dash-dot;")
+    lines.append("green = nominal design, red = limit from [checks].")
+    ax.text(0.0, 1.0, "\n".join(lines), va="top", fontsize=9, family="monospace")
+    plots._title(fig, f"Monte Carlo over the tolerances, {n} samples", design, input_torque)
+    return plots._save(fig, path)
+
+
+def sweep_png(
+    name: str,
+    points: list[dict],
+    path: Path,
+    rng: dict | None = None,
+    design: GearDesign | None = None,
+    input_torque: float | None = None,
+    design_value: float | None = None,
+) -> Path:
+    """Means and peaks of roller 1's forces against the swept value (Figs. 11-16 style).
+
+    The design's own value is marked (dashed red, in the legend):
+    ``design_value``, by default the design parameter of that name, or 0 (no
+    error) for an error sweep. The legends sit above the panels, off the data.
+    """
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 5.6))
+    ok = [p for p in points if p["status"] == "ok"]
+    x = [p["value"] for p in ok]
+    for key, label in (("F_j_mean", "$F_j$"), ("F_n_mean", "$F_n$"), ("F_s_mean", "$F_s$")):
+        ax1.plot(x, [p[key] for p in ok], "o-", label=f"mean {label}")
+    for key, label in (
+        ("F_j_peak", "peak $F_j$"),
+        ("F_n_peak", "peak $F_n$"),
+        ("F_s_peak_to_peak", "p-p $F_s$"),
+    ):
+        ax2.plot(x, [p[key] for p in ok], "o-", label=label)
+    skipped = [p["value"] for p in points if p["status"] != "ok"]
+    label = name.replace("_", " ")
+    is_error = name.endswith("_error")
+    if design_value is None and design is not None:
+        design_value = 0.0 if is_error else getattr(design, name, None)
+    if design_value is not None:
+        if not is_error:
+            mark = f"design {label} {design_value:g} mm"
+        elif design_value == 0:
+            mark = "design (no error)"
+        else:
+            mark = f"design: the scene's {label} {design_value:g} mm"
+        for ax in (ax1, ax2):
+            ax.axvline(design_value, color="C3", lw=0.9, ls="--", label=mark)
+    for ax in (ax1, ax2):
+        for v in skipped:
+            ax.axvline(v, color="0.7", ls=":", lw=1)
+        ax.set_xlabel(label + " [mm]")
+        ax.set_ylabel("force on roller 1 [N]")
+        ax.xaxis.set_major_locator(MaxNLocator(5))
+        ax.grid(alpha=0.3)
+        if ok or design_value is not None:
+            ax.legend(
+                fontsize=8,
+                ncol=2,
+                loc="lower left",
+                bbox_to_anchor=(0.0, 1.02, 1.0, 0.0),
+                mode="expand",
+                borderaxespad=0.0,
+            )
+    notes = []
+    if rng is not None:
+        src = {"scene": "[sweeps] range", "paper": "the paper's range", "default": "default range"}
+        notes.append(
+            f"{src.get(rng['source'], rng['source'])} {rng['requested'][0]:g} .. "
+            f"{rng['requested'][1]:g} mm"
+        )
+        if rng["swept"] is None:
+            notes.append("no valid value in the range")
+        else:
+            for side, i in (("low", 0), ("high", 1)):
+                why = rng[f"clipped_{side}"]
+                if why:
+                    notes.append(f"{side} end clipped at {rng['swept'][i]:.5g} mm ({why})")
+    if skipped:
+        notes.append(f"dotted: {len(skipped)} points not computed - undercut or invalid")
+    if not ok:
+        for ax in (ax1, ax2):
+            ax.text(0.5, 0.5, "no valid point", transform=ax.transAxes, ha="center")
+    fig.text(0.5, 0.01, "; ".join(notes), ha="center", fontsize=8)
+    plots._title(fig, f"Sweep of the {label}", design, input_torque)
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.78, bottom=0.15, wspace=0.25)
+    return plots._save(fig, path)
