@@ -160,13 +160,13 @@ def test_montecarlo_png_percentiles_limits_nominal_and_no_spike(figures, tmp_pat
         "peak_gear_force": rng.normal(5000, 500, n),
         "peak_pressure": rng.normal(2000, 100, n),
         "min_loaded_rollers": rng.integers(4, 12, n).astype(float),
-        "lost_motion_arcmin": np.zeros(n),
+        "backlash_arcmin": np.zeros(n),
     }
-    checks = Checks(max_gear_force=5500.0, max_lost_motion_arcmin=1.0)
+    checks = Checks(max_gear_force=5500.0, max_backlash_arcmin=1.0)
     summary = {
         "failure_probability": {
             "max_gear_force": float(np.mean(metrics["peak_gear_force"] > 5500)),
-            "max_lost_motion_arcmin": 0.0,
+            "max_backlash_arcmin": 0.0,
         },
         "sensitivity": [
             {"tolerance": "roller_radius", "spearman": dict.fromkeys(metrics, 0.5), "score": 0.5}
@@ -184,7 +184,7 @@ def test_montecarlo_png_percentiles_limits_nominal_and_no_spike(figures, tmp_pat
     pf = summary["failure_probability"]["max_gear_force"]
     assert ax.get_title() == f"P(fail) = {100 * pf:.1f} %"
     text = _texts(fig)
-    # Constant lost motion: said in words, not drawn as a one-pixel spike.
+    # Constant backlash: said in words, not drawn as a one-pixel spike.
     assert "all 200 samples: 0" in text
     # Sensitivity bar chart: one bar per metric for the tolerance.
     sens = fig.axes[2]

@@ -197,6 +197,7 @@ def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
         checks=bool(scene.checks.active()),
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
+        datasheet_checks=bool(scene.checks.datasheet_active()),
     )
     return bool(worker_stages(stages))
 
