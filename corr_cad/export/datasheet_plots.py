@@ -111,8 +111,8 @@ def hysteresis_png(
         )
         sec.set_ylabel("% of rated torque $T_R$")
     axes[0].set_title(
-        f"-$T_R$ .. +$T_R$ ($T_R$ = {T_R:.4g} N*m), {ds.windup.shape[1]} positions over "
-        f"{ds.span}; blue: largest lost motion",
+        f"-$T_R$ .. +$T_R$, $T_R$ = {T_R:.4g} N*m; grey: {ds.windup.shape[1]} positions over "
+        f"{ds.span.split(' (')[0]}\nblue: the position of the largest lost motion",
         fontsize=9,
     )
     y = 4.0 * b * T_R

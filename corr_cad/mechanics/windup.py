@@ -203,7 +203,7 @@ class Windup:
     >>> w = Windup(GearDesign(), np.radians([0.0, 0.1]))
     >>> theta = w.theta(2.86e6)                    # T_R = 2860 N*m, rad (P,)
     >>> np.round(theta * ARCMIN_PER_RAD, 4)        # arcmin
-    array([0.0967, 0.0967])
+    array([0.121, 0.121])
     >>> bool(np.all(w.backlash() == 0.0))          # the nominal drive has no free play
     True
     """

@@ -66,6 +66,7 @@ def _parser() -> argparse.ArgumentParser:
             "kernel",
             "interference",
             "coldstart",
+            "datasheet",
         ),
         help="run only this study (repeatable); default all",
     )
