@@ -625,3 +625,34 @@ def test_datasheet_needs_a_rated_torque_and_no_montecarlo_gate(tmp_path):
     assert (
         d["rated_torque_Nm"] == 1000.0 and d["rated_torque_source"] == "[datasheet] rated_torque_Nm"
     )
+
+
+def test_scenes_without_the_datasheet_are_unchanged_and_a_lone_section_warns():
+    from corr_cad.run.scene import parse_scene
+
+    forces = {"export": {"formats": ["forces"]}, "load": {"input_torque": M0}}
+    sc = parse_scene(forces)
+    assert "datasheet" not in sc.source  # manifest.json's inputs stay as they were
+    assert not sc.warnings
+    sc = parse_scene({**forces, "datasheet": {"positions_per_mesh": 4}})
+    assert any(w.startswith("[datasheet] has no effect") for w in sc.warnings)
+    sc = parse_scene({**forces, "checks": {"max_transmission_error_arcsec": 5.0}})
+    assert "datasheet" in sc.source and not sc.warnings  # the check runs the datasheet
+
+
+def test_rigidity_range_off_the_torque_grid(prototype):
+    spec = DatasheetSpec(
+        rated_torque=T_R,
+        rigidity_range=(1 / 3, 0.9),
+        lost_motion_band=0.04,
+        positions_per_mesh=2,
+        transmission_error_positions_per_turn=2,
+    )
+    ds = datasheet(prototype, spec)
+    th = ds.windup[:, 0]
+    T = ds.torques
+    i1 = np.argmin(np.abs(T - T_R / 3))
+    i2 = np.argmin(np.abs(T - 0.9 * T_R))
+    want = (T[i2] - T[i1]) / 1000.0 / ((th[i2] - th[i1]) * ARCMIN)
+    assert ds.rigidity()[0, 0] == pytest.approx(want, rel=1e-12)
+    assert np.count_nonzero(np.isclose(np.abs(T), 0.04 * T_R)) == 2

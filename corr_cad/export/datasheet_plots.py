@@ -16,7 +16,10 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.datasheet import Datasheet
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD, ARCSEC_PER_RAD, NMM_PER_NM
 
-__all__ = ["hysteresis_png", "transmission_error_png"]
+__all__ = ["MAX_CURVES", "hysteresis_png", "transmission_error_png"]
+
+#: Most grey curves drawn (evenly spread over the positions; the worst one always in blue).
+MAX_CURVES = 200
 
 
 def _curve(ds: Datasheet, j: int) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +98,8 @@ def hysteresis_png(
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.4))
     b = ds.spec.lost_motion_band
     for ax, zoom in zip(axes, (False, True), strict=True):
-        for i in range(ds.windup.shape[1]):
+        P = ds.windup.shape[1]
+        for i in np.unique(np.linspace(0, P - 1, min(P, MAX_CURVES)).round().astype(int)):
             x, y = _curve(ds, i)
             ax.plot(x, y, color="0.75", lw=0.6)
         x, y = _curve(ds, j)

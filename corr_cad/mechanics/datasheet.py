@@ -191,9 +191,9 @@ class Datasheet:
         """Windup (P,) rad at ``share`` of T_R (``-0.0``, ``+0.0`` for the ends at zero)."""
         w = self.contact_windup if contact_only else self.windup
         T = share * self.spec.rated_torque
-        hit = np.flatnonzero(
-            (self.torques == T) & (np.signbit(self.torques) == (math.copysign(1.0, T) < 0))
-        )
+        # The levels are shares rounded to 12 digits (spec.torques): match to 1e-9 of T_R.
+        near = np.abs(self.torques - T) <= 1e-9 * self.spec.rated_torque
+        hit = np.flatnonzero(near & (np.signbit(self.torques) == (math.copysign(1.0, T) < 0)))
         if hit.size == 0:
             raise KeyError(f"torque {T:g} N*mm is not a level of the curve")
         return w[hit[0]]
