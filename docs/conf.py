@@ -62,11 +62,14 @@ napoleon_numpy_docstring = True
 # ---------------------------------------------------------------- scene keys
 
 #: Units, as the schema's help texts state them (longest first).
-_UNITS = ("N*mm", "mm/min", "arcsec", "arcmin", "MPa", "deg", "mm", "N")
+_UNITS = ("N*m/arcmin", "N*mm", "N*m", "mm/min", "arcsec", "arcmin", "MPa", "deg", "mm", "N")
 
 
 def _unit(section: str, key: str, help_text: str) -> str:
     """The unit a key's help text states after a comma (``-`` for counts, names, ratios)."""
+    for suffix, unit in (("Nm_per_arcmin", "N*m/arcmin"), ("Nm", "N*m"), ("MPa", "MPa")):
+        if key.endswith("_" + suffix):
+            return unit
     for suffix in ("deg", "arcsec", "arcmin"):
         if key.endswith("_" + suffix):
             return suffix

@@ -23,6 +23,8 @@ DOCTEST_MODULES = [
     "corr_cad.geometry.profile",
     "corr_cad.geometry.sampling",
     "corr_cad.mechanics.solver",
+    "corr_cad.mechanics.windup",
+    "corr_cad.mechanics.datasheet",
     "corr_cad.tolerance.montecarlo",
     "corr_cad.run.scene",
     "corr_cad.run.pipeline",

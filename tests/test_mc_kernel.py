@@ -64,7 +64,7 @@ CASES = {
     # Zero tolerance: the nominal design, where a roller at psi = pi gets a
     # round-off force (~1e-13 N) that must not count as load.
     "zero_tolerance": dict(tolerances={"roller_radius": Distribution("normal", 0.0)}),
-    # Undersized rollers: play in both directions, so lost motion.
+    # Undersized rollers: play in both directions, so backlash.
     "undersized_rollers": dict(
         tolerances={"roller_radius": Distribution("normal", 0.001)},
         base_errors=ManufacturingErrors(roller_radius_error=-0.01),
@@ -112,7 +112,7 @@ def test_kernel_cases_are_hard():
     assert not over.valid.all()
     large = _run(CASES["large_errors"], kernel=True)
     assert large.metrics["min_loaded_rollers"].min() <= 5
-    assert _run(CASES["undersized_rollers"], kernel=True).metrics["lost_motion_arcmin"].min() > 0
+    assert _run(CASES["undersized_rollers"], kernel=True).metrics["backlash_arcmin"].min() > 0
     masked = _run(CASES["masked_tips"], kernel=True)
     free = _run(CASES["four_kinds"], kernel=True)
     assert not np.array_equal(masked.metrics["peak_gear_force"], free.metrics["peak_gear_force"])

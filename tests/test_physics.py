@@ -60,8 +60,8 @@ def test_scene_angles_are_degrees():
     )
 
 
-def _ref_lost_motion_arcmin(design, crank_angle, errors):
-    """Lost motion from the reference's own compatibility, by hand.
+def _ref_backlash_arcmin(design, crank_angle, errors):
+    """Backlash from the reference's own compatibility, by hand.
 
     With the crank held, the cam turns freely until a roller touches cam,
     gear and slot wall at zero load: per roller that happens at
@@ -91,7 +91,7 @@ def _ref_lost_motion_arcmin(design, crank_angle, errors):
 RADIUS_SCATTER = tuple(round(0.0015 * math.sin(1.7 * i), 6) for i in range(26))
 
 
-def test_lost_motion_in_arcmin_against_hand_calculation(prototype, tmp_path):
+def test_backlash_in_arcmin_against_hand_calculation(prototype, tmp_path):
     import json
     import subprocess
     import sys
@@ -103,7 +103,7 @@ def test_lost_motion_in_arcmin_against_hand_calculation(prototype, tmp_path):
         f"[solver]\ncrank_angles_deg = {angles}\n"
         "[errors]\nroller_radius_error = -0.004\n"
         f"roller_radius_errors = {list(RADIUS_SCATTER)}\n"
-        "[checks]\nmax_lost_motion_arcmin = 100.0\n"
+        "[checks]\nmax_backlash_arcmin = 100.0\n"
     )
     r = subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(tmp_path / "o")],
@@ -112,9 +112,9 @@ def test_lost_motion_in_arcmin_against_hand_calculation(prototype, tmp_path):
     )
     assert r.returncode == 0, r.stderr
     m = json.loads((tmp_path / "o" / "manifest.json").read_text())
-    got = m["checks"]["max_lost_motion_arcmin"]["value"]
+    got = m["checks"]["max_backlash_arcmin"]["value"]
     err = ManufacturingErrors(roller_radius_error=-0.004, roller_radius_errors=RADIUS_SCATTER)
-    want = max(_ref_lost_motion_arcmin(prototype, a * DEG, err) for a in angles)
+    want = max(_ref_backlash_arcmin(prototype, a * DEG, err) for a in angles)
     assert want > 0.1  # a real play, not a zero that any unit would match
     assert got == pytest.approx(want, rel=1e-6)
 
@@ -149,8 +149,8 @@ def test_montecarlo_metrics_equal_direct_solves(prototype):
         assert mc.metrics["peak_pressure"][k] == pytest.approx(p, rel=1e-9)
         assert mc.metrics["peak_gear_force"][k] == pytest.approx(res.F_n.max(), rel=1e-9)
         assert mc.metrics["min_loaded_rollers"][k] == np.count_nonzero(res.F_j > 0, axis=1).min()
-        lm = max(_ref_lost_motion_arcmin(prototype, a, err) for a in angles[:3])
-        assert mc.metrics["lost_motion_arcmin"][k] >= lm - 1e-9
+        lm = max(_ref_backlash_arcmin(prototype, a, err) for a in angles[:3])
+        assert mc.metrics["backlash_arcmin"][k] >= lm - 1e-9
     assert gear_top >= 1  # the gear contact decides the peak in some samples
 
 

@@ -195,13 +195,13 @@ def test_montecarlo_png_percentiles_limits_nominal_and_no_spike(figures, tmp_pat
         "peak_gear_force": rng.normal(5000, 500, n),
         "peak_pressure": rng.normal(2000, 100, n),
         "min_loaded_rollers": rng.integers(4, 12, n).astype(float),
-        "lost_motion_arcmin": np.zeros(n),
+        "backlash_arcmin": np.zeros(n),
     }
-    checks = Checks(max_gear_force=5500.0, max_lost_motion_arcmin=1.0)
+    checks = Checks(max_gear_force=5500.0, max_backlash_arcmin=1.0)
     summary = {
         "failure_probability": {
             "max_gear_force": float(np.mean(metrics["peak_gear_force"] > 5500)),
-            "max_lost_motion_arcmin": 0.0,
+            "max_backlash_arcmin": 0.0,
         },
         "sensitivity": [
             {"tolerance": "roller_radius", "spearman": dict.fromkeys(metrics, 0.5), "score": 0.5}
@@ -221,7 +221,7 @@ def test_montecarlo_png_percentiles_limits_nominal_and_no_spike(figures, tmp_pat
     pf = summary["failure_probability"]["max_gear_force"]
     assert ax.get_title() == f"P(fail) = {100 * pf:.1f} %"
     text = _texts(fig)
-    # Constant lost motion: said in words, not drawn as a one-pixel spike.
+    # Constant backlash: said in words, not drawn as a one-pixel spike.
     assert "all 200 samples: 0" in text
     # Sensitivity bar chart: one bar per metric for the tolerance.
     sens = fig.axes[2]
@@ -351,7 +351,7 @@ def test_montecarlo_png_pressure_axis_and_whole_roller_counts(figures, tmp_path,
             rng.normal(3000, 400, n - beyond), rng.uniform(13000, 26000, beyond)
         ],
         "min_loaded_rollers": rng.integers(4, 28, n).astype(float),
-        "lost_motion_arcmin": np.zeros(n),
+        "backlash_arcmin": np.zeros(n),
     }
     checks = Checks(max_contact_pressure=4000.0, min_loaded_rollers=4)
     nominal = {"peak_pressure": 2642.0}
@@ -436,7 +436,7 @@ def test_montecarlo_roller_counts_are_whole_in_the_summary_and_the_plot(figures,
         "peak_gear_force": rng.normal(9000, 2000, 300),
         "peak_pressure": rng.normal(2000, 200, 300),
         "min_loaded_rollers": counts,
-        "lost_motion_arcmin": np.zeros(300),
+        "backlash_arcmin": np.zeros(300),
     }
     summary = MonteCarloResult(metrics, {"roller_radius": np.ones(300)}, True).summary(Checks())
     pct = summary["percentiles"]["min_loaded_rollers"]

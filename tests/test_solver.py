@@ -240,7 +240,7 @@ def test_bad_inputs(prototype):
     }
 
 
-def test_lost_motion_is_the_zero_torque_band(prototype):
+def test_backlash_is_the_zero_torque_band(prototype):
     # Tiny forward and reverse torques leave the cam at the two ends of the
     # band in which no roller is loaded; the output turns 1/(z+1) of it.
     err = ManufacturingErrors(roller_radius_error=-0.01)
@@ -248,10 +248,12 @@ def test_lost_motion_is_the_zero_torque_band(prototype):
     fwd = solve_forces(prototype, 1e-9, angles, errors=err)
     rev = solve_forces(prototype, -1e-9, angles, errors=err)
     band = (fwd.cam_rotation - rev.cam_rotation) / 26
-    np.testing.assert_allclose(fwd.lost_motion, band, rtol=1e-6)
-    assert np.all(fwd.lost_motion > 0)
+    np.testing.assert_allclose(fwd.backlash, band, rtol=1e-6)
+    assert np.all(fwd.backlash > 0)
     tight = solve_forces(prototype, M0, angles, errors=ManufacturingErrors(cam_radius_error=0.01))
-    assert np.all(tight.lost_motion == 0)
+    assert np.all(tight.backlash == 0)
+    with pytest.warns(DeprecationWarning, match="ForceResult.backlash"):
+        np.testing.assert_array_equal(fwd.lost_motion, fwd.backlash)  # the deprecated alias
 
 
 def test_loaded_count_does_not_depend_on_the_resolution(prototype):

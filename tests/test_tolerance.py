@@ -10,7 +10,7 @@ import pytest
 from corr_cad import GearDesign, SceneError
 from corr_cad.run.scene import parse_scene
 from corr_cad.tolerance.allocation import allocate
-from corr_cad.tolerance.checks import CHECK_METRICS, Checks, evaluate_checks
+from corr_cad.tolerance.checks import CHECK_METRICS, DATASHEET_METRICS, Checks, evaluate_checks
 from corr_cad.tolerance.montecarlo import Distribution, SerialExecutor, monte_carlo
 
 M0 = 1.1e5
@@ -147,7 +147,10 @@ def test_draws_of_one_kind_do_not_change_when_another_is_added():
 def test_summary_has_percentiles_failures_and_ranking():
     mc = _mc(SerialExecutor(), n=40)
     s = mc.summary(Checks(max_contact_pressure=2000.0))
-    assert set(s["percentiles"]) == {m for m, _ in CHECK_METRICS.values()}
+    # Every check's metric but the datasheet's (judged on the nominal design only).
+    assert set(s["percentiles"]) == {
+        m for m, _ in CHECK_METRICS.values() if m not in DATASHEET_METRICS
+    }
     p = s["percentiles"]["peak_pressure"]
     assert p["p5"] <= p["p50"] <= p["p95"] <= p["p99"]
     expected = np.mean(mc.metrics["peak_pressure"] > 2000.0)

@@ -24,19 +24,19 @@ _LIMIT_OF = {
     "peak_pressure": "max_contact_pressure",
     "peak_gear_force": "max_gear_force",
     "min_loaded_rollers": "min_loaded_rollers",
-    "lost_motion_arcmin": "max_lost_motion_arcmin",
+    "backlash_arcmin": "max_backlash_arcmin",
 }
 _LABEL = {
     "peak_pressure": "peak contact pressure [MPa]",
     "peak_gear_force": "peak gear force $F_n$ [N]",
     "min_loaded_rollers": "fewest loaded rollers [-]",
-    "lost_motion_arcmin": "output lost motion [arcmin]",
+    "backlash_arcmin": "output backlash [arcmin]",
 }
 _SHORT = {
     "peak_pressure": "pressure",
     "peak_gear_force": "$F_n$",
     "min_loaded_rollers": "loaded rollers",
-    "lost_motion_arcmin": "lost motion",
+    "backlash_arcmin": "backlash",
 }
 
 

@@ -24,12 +24,15 @@ _CHECK_UNITS = {
     "max_gear_force": "N",
     "min_loaded_rollers": "",
     "max_lost_motion_arcmin": "arcmin",
+    "max_backlash_arcmin": "arcmin",
+    "min_torsional_rigidity_Nm_per_arcmin": "N*m/arcmin",
+    "max_transmission_error_arcsec": "arcsec",
 }
 _METRIC_LABELS = {
     "peak_gear_force": ("peak gear force F_n", "N"),
     "peak_pressure": ("peak contact pressure", "MPa"),
     "min_loaded_rollers": ("fewest loaded rollers", ""),
-    "lost_motion_arcmin": ("output lost motion", "arcmin"),
+    "backlash_arcmin": ("output backlash", "arcmin"),
 }
 _PLOT_CAPTIONS = {
     "preview.png": "The stage at crank angle 0 (shaded: material) and a tooth close-up",
@@ -37,6 +40,8 @@ _PLOT_CAPTIONS = {
     "load_distribution.png": "Forces on every roller where the gear force peaks",
     "interference.png": "Interference check against the tessellation allowance",
     "montecarlo.png": "Monte Carlo: distributions, limits, failure probability, sensitivity",
+    "hysteresis.png": "Hysteresis curve: output torque against windup, input locked",
+    "transmission_error.png": "Transmission error over one output revolution, both directions",
 }
 
 
@@ -217,6 +222,9 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             "output_torque": _fmt(float(np.mean(res.output_torque))),
             "outside_validity": int(np.count_nonzero(~res.valid & (res.F_j > 0))),
         }
+    sheet = manifest.get("datasheet")
+    if sheet:
+        ctx["datasheet"] = _datasheet_rows(sheet)
     mc = manifest.get("montecarlo")
     if mc:
         fail = mc.get("failure_probability", {})
@@ -321,6 +329,74 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
         if n.endswith(".png")
     ]
     return ctx
+
+
+def _datasheet_rows(d: dict) -> dict:
+    """The datasheet table: figure, min, mean, max, unit, catalogue convention."""
+    rig = d["torsional_rigidity_Nm_per_arcmin"]
+    lm = d["lost_motion_arcmin"]
+    k = d["stiffness_Nm_per_arcmin"]
+    te = d["transmission_error_arcsec"]
+
+    def row(label, x, unit, note):
+        return {
+            "label": label,
+            "min": _fmt(x["min"]),
+            "mean": _fmt(x["mean"]),
+            "max": _fmt(x["max"]),
+            "unit": unit,
+            "note": note,
+        }
+
+    span = f"{_fmt(rig['from_torque_Nm'])}-{_fmt(rig['to_torque_Nm'])} N*m"
+    rows = [
+        row("backlash", d["backlash_arcmin"], "arcmin", "theta(0+) - theta(0-); catalogue: max"),
+        row(
+            "lost motion",
+            lm,
+            "arcmin",
+            f"at +-{_fmt(100 * lm['band'])} % T_R ({_fmt(lm['torque_Nm'])} N*m); catalogue: max",
+        ),
+    ]
+    if rig["with_series"] is not None:
+        rows.append(
+            row(
+                "torsional rigidity",
+                rig["with_series"],
+                "N*m/arcmin",
+                f"{span}, series rigidity {_fmt(rig['series_rigidity_Nm_per_arcmin'])} "
+                "N*m/arcmin included; catalogue: min",
+            )
+        )
+    rows.append(
+        row(
+            "torsional rigidity, contacts alone",
+            rig["contact_only"],
+            "N*m/arcmin",
+            f"{span}; without bearings, crank, frame and housing: not the reducer's rigidity",
+        )
+    )
+    bp = ", ".join(_fmt(b) for b in k["breakpoints_Nm"])
+    for name in ("K1", "K2", "K3"):
+        rows.append(row(name, k[name], "N*m/arcmin", f"slopes between 0, {bp} N*m"))
+    return {
+        "rated_torque": _fmt(d["rated_torque_Nm"]),
+        "positions": d["positions"]["count"],
+        "span": d["positions"]["span"],
+        "rows": rows,
+        "te_forward": _fmt(te["forward_peak_to_peak"]),
+        "te_reverse": _fmt(te["reverse_peak_to_peak"]),
+        "te_torque": _fmt(te["driving_torque_Nm"]),
+        "pressure_rated": (
+            None
+            if "rated_torque_from_contact_pressure" not in d
+            else {
+                "torque": _fmt(d["rated_torque_from_contact_pressure"]["torque_Nm"]),
+                "allowable": _fmt(d["rated_torque_from_contact_pressure"]["allowable_MPa"]),
+            }
+        ),
+        "hysteresis": d["hysteresis_loss_note"],
+    }
 
 
 def _flat(d: dict, prefix: str = "") -> list[tuple[str, str]]:

@@ -27,7 +27,7 @@ import numpy as np
 __all__ = ["solve_samples", "METRICS"]
 
 #: Columns of the kernel's output, in order.
-METRICS = ("peak_gear_force", "peak_pressure", "min_loaded_rollers", "lost_motion_rad")
+METRICS = ("peak_gear_force", "peak_pressure", "min_loaded_rollers", "backlash_rad")
 
 _KNEE = 0.99  # contact.VALIDITY_KNEE
 _LOADED_SHARE = 1e-9  # solver.LOADED_SHARE
@@ -358,7 +358,7 @@ def solve_samples(
             if not ok:
                 worst = np.inf
                 break
-            # Residual as solver._solve_positions measures it, and lost motion.
+            # Residual as solver._solve_positions measures it, and the backlash.
             mom = 0.0
             scale = 0.0
             fmax = 0.0

@@ -151,14 +151,16 @@ class ForceResult:
         return np.abs(self.cam_rotation) < 0.01
 
     @property
-    def lost_motion(self) -> np.ndarray:
-        """Output lost motion at each position, rad (P,).
+    def backlash(self) -> np.ndarray:
+        """Output backlash at each position, rad (P,): the free rotation at zero torque.
 
         With the crank held, the frame turns freely until a roller closes its
         clearance: the cam may turn from ``max(-g/a)`` over rollers with
         ``a < 0`` to ``min(-g/a)`` over rollers with ``a > 0`` without load,
         and the output turns ``1/(z + 1)`` of that. Zero where rollers are in
-        contact both ways (no clearance).
+        contact both ways (no clearance). Lost motion (at +-3 % of the rated
+        torque, elastic windup included) is a datasheet figure:
+        :mod:`corr_cad.mechanics.datasheet`.
         """
         g = self.geometry
         a = np.where(g.loadable, g.advance, 0.0)
@@ -168,6 +170,25 @@ class ForceResult:
         rev = np.max(np.where(a < 0, t, -np.inf), axis=1)
         play = np.where(np.isfinite(fwd) & np.isfinite(rev), np.maximum(fwd - rev, 0.0), 0.0)
         return play / g.psi.shape[1]
+
+    @property
+    def lost_motion(self) -> np.ndarray:
+        """Deprecated: the free play at zero torque, now :attr:`backlash`.
+
+        "Lost motion" is the catalogue figure at +-3 % of the rated torque
+        (:mod:`corr_cad.mechanics.datasheet`); this name kept its old value
+        for scripts written before the datasheet, with a warning.
+        """
+        import warnings
+
+        warnings.warn(
+            "ForceResult.lost_motion is the backlash (free play at zero torque): use "
+            "ForceResult.backlash; lost motion at +-3 % of the rated torque is "
+            "corr_cad.mechanics.datasheet",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.backlash
 
     @property
     def valid(self) -> np.ndarray:

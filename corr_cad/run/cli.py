@@ -86,6 +86,7 @@ def _parser() -> argparse.ArgumentParser:
             "kernel",
             "interference",
             "coldstart",
+            "datasheet",
         ),
         help="run only this study (repeatable); default all",
     )
@@ -231,6 +232,7 @@ def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
         checks=bool(scene.checks.active()),
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
+        datasheet_checks=bool(scene.checks.datasheet_active()),
     )
     return bool(worker_stages(stages))
 

@@ -24,6 +24,7 @@ __all__ = [
     "force_peaks",
     "warnings",
     "failed_checks",
+    "datasheet_lines",
     "summary_lines",
 ]
 
@@ -170,6 +171,53 @@ def _where(p: dict) -> str:
     return f"roller {p['roller']} at crank angle {p['crank_angle_deg']:.2f} deg"
 
 
+def datasheet_lines(d: dict | None) -> list[str]:
+    """The datasheet table of the console summary (catalogue units), from its manifest entry."""
+    if not d:
+        return []
+    p, rig = d["positions"], d["torsional_rigidity_Nm_per_arcmin"]
+    lm, te = d["lost_motion_arcmin"], d["transmission_error_arcsec"]
+
+    def mmm(x: dict) -> str:
+        return f"{x['min']:.4g} / {x['mean']:.4g} / {x['max']:.4g}"
+
+    out = [
+        f"datasheet at T_R = {d['rated_torque_Nm']:.5g} N*m, {p['count']} positions over "
+        f"{p['span']} (min / mean / max):",
+        f"  backlash            {mmm(d['backlash_arcmin'])} arcmin",
+        f"  lost motion         {mmm(lm)} arcmin (at +-{100 * lm['band']:g} % T_R)",
+    ]
+    if rig["with_series"] is not None:
+        out.append(
+            f"  torsional rigidity  {mmm(rig['with_series'])} N*m/arcmin (series "
+            f"{rig['series_rigidity_Nm_per_arcmin']:.4g} included)"
+        )
+    out.append(
+        f"  rigidity, contacts  {mmm(rig['contact_only'])} N*m/arcmin "
+        f"({rig['from_torque_Nm']:.4g}-{rig['to_torque_Nm']:.4g} N*m; the contacts alone: "
+        "bearings, crank and housing are not in it)"
+    )
+    k = d["stiffness_Nm_per_arcmin"]
+    out.append(
+        f"  K1 / K2 / K3 (min)  {k['K1']['min']:.4g} / {k['K2']['min']:.4g} / "
+        f"{k['K3']['min']:.4g} N*m/arcmin (breakpoints "
+        + ", ".join(f"{b:.4g}" for b in k["breakpoints_Nm"])
+        + " N*m)"
+    )
+    out.append(
+        f"  transmission error  forward {te['forward_peak_to_peak']:.4g}, reverse "
+        f"{te['reverse_peak_to_peak']:.4g} arcsec peak-to-peak over one output revolution"
+    )
+    out.append("  hysteresis loss     0: the model has no friction (both branches coincide)")
+    rp = d.get("rated_torque_from_contact_pressure")
+    if rp:
+        out.append(
+            f"  rated torque from contact pressure {rp['torque_Nm']:.5g} N*m "
+            f"(peak Hertz pressure {rp['allowable_MPa']:.4g} MPa)"
+        )
+    return out
+
+
 def summary_lines(manifest: dict, out) -> list[str]:
     """The console summary of a finished run, from its manifest."""
     lines = []
@@ -199,6 +247,7 @@ def summary_lines(manifest: dict, out) -> list[str]:
             f"F_n mean {f['F_n_mean']:.1f} N, peak {f['F_n_peak']:.1f} N; "
             f"F_s peak-to-peak {f['F_s_peak_to_peak']:.1f} N"
         )
+    lines.extend(datasheet_lines(manifest.get("datasheet")))
     mc = manifest.get("montecarlo")
     if mc:
         lines.append(f"Monte Carlo, {mc['samples']} samples:")

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from corr_cad.geometry.deviations import ManufacturingErrors
     from corr_cad.geometry.profile import ProfileCurve, UndercutInfo
     from corr_cad.geometry.sampling import ProfileApproximation
+    from corr_cad.mechanics.datasheet import Datasheet
     from corr_cad.mechanics.solver import ForceResult
     from corr_cad.run.scene import Scene
     from corr_cad.tolerance.measured import Registration
@@ -54,6 +55,8 @@ class Results:
     interference: dict[str, Any] | None = None
     #: ``clearance``: the exact clearance of every roller over the cycle.
     clearance: Clearance | None = None
+    #: ``datasheet``: the windup curve, the transmission error and their figures.
+    datasheet: Datasheet | None = None
 
 
 @dataclass

@@ -162,6 +162,7 @@ def run_scene(
         checks=bool(scene.checks.active()),
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
+        datasheet_checks=bool(scene.checks.datasheet_active()),
     )
     from corr_cad.run.resources import estimate
 

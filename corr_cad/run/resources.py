@@ -156,6 +156,8 @@ def estimate(scene, workers: int | None = None) -> Estimate:
         lin[key] = (P, BASE_BYTES, SOLVER_CELL_BYTES * R)
         csv[key] = FORCES_ROW_BYTES * P * R
         secs["forces"] = 1.1e-6 * P * R
+    if "datasheet" in f or scene.checks.datasheet_active():
+        _datasheet_estimate(scene, lin, csv, secs)
     mc = scene.montecarlo
     if {"montecarlo", "allocation"} & f:
         n = max(mc["samples"] if "montecarlo" in f else 0, mc["allocation_samples"])
@@ -200,6 +202,45 @@ def estimate(scene, workers: int | None = None) -> Estimate:
         # An extruded polygon of V vertices: 2 caps of V - 2 triangles, 2V on the side.
         tri = MESH_CALIBRATION * 4.0 * (ring + 2 * cam + 2 * R * roller + 2 * frame)
     return Estimate(mem, verts, tri, csv, secs, lin)
+
+
+#: windup.csv: bytes per row (torque, angle, windup at 9 and 12 digits).
+WINDUP_ROW_BYTES = 45
+
+
+def _datasheet_estimate(scene, lin: dict, csv: dict, secs: dict) -> None:
+    """The datasheet's memory, windup.csv size and time (the geometry of every position is kept).
+
+    Positions: ``positions_per_mesh`` per mesh period over the span after
+    which the windup repeats (one mesh period, a tooth pitch of z + 1 mesh
+    periods, or z (z + 1) for a ring deviation, a measured one included);
+    the transmission error solves at most ``per_turn`` classes for alike
+    parts, else every one of its ``per_turn (z + 1)`` positions.
+    """
+    from corr_cad.mechanics.datasheet import TORQUE_LEVELS
+    from corr_cad.mechanics.windup import mesh_period_rad, result_period_rad
+
+    d = scene.design
+    z, R = d.tooth_count, d.roller_count
+    ds = scene.datasheet
+    mult = round(result_period_rad(d, scene.errors, scene.solver.variants) / mesh_period_rad(d))
+    if scene.measured_profile is not None:
+        mult = z * R
+    ppm, turn = ds["positions_per_mesh"], ds["transmission_error_positions_per_turn"]
+    levels = TORQUE_LEVELS + 3  # the grid, 0- and 0+, the band rows
+    lin["[datasheet] positions_per_mesh"] = (
+        ppm,
+        BASE_BYTES,
+        mult * (SOLVER_CELL_BYTES * R + 16 * levels),
+    )
+    solved_per_turn = 1 if mult == 1 else R
+    lin["[datasheet] transmission_error_positions_per_turn"] = (
+        turn,
+        BASE_BYTES,
+        solved_per_turn * SOLVER_CELL_BYTES * R + 40 * R,
+    )
+    csv["[datasheet] positions_per_mesh"] = WINDUP_ROW_BYTES * levels * mult * ppm
+    secs["datasheet"] = 1.1e-6 * R * (levels * mult * ppm + 2 * solved_per_turn * turn)
 
 
 def check_scene(scene, workers: int | None = None) -> Estimate:

@@ -38,7 +38,12 @@ from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema 
     every_format,
     key_range,
 )
-from corr_cad.run.scene_text import bounds_table, no_effect_warnings, template_text  # noqa: F401
+from corr_cad.run.scene_text import (  # noqa: F401
+    bounds_table,
+    no_effect_warnings,
+    renamed_key_warnings,
+    template_text,
+)
 from corr_cad.tolerance.checks import Checks
 from corr_cad.tolerance.montecarlo import TOLERANCE_KINDS, Distribution
 from corr_cad.tolerance.sweeps import PAPER_SWEEPS
@@ -103,6 +108,8 @@ class Scene:
     sweeps: dict = field(default_factory=dict)
     edm: dict = field(default_factory=dict)
     inspection: dict = field(default_factory=dict)
+    #: ``[datasheet]`` with its defaults (``rated_torque_Nm`` None: from ``[load]``).
+    datasheet: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
@@ -190,6 +197,11 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
 def _bounds(where: str, v: float, spec: Key) -> None:
     if out_of_range(v, spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open):
         shown = v if isinstance(v, int) else f"{v:g}"
+        works = spec.default if spec.default is not None else spec.example
+        if where.startswith("[datasheet]") and isinstance(works, (int, float)):
+            raise SceneError(
+                f"{where} = {shown}: allowed range is {key_range(spec)}, e.g. {works:g}"
+            )
         raise SceneError(f"{where} = {shown}: allowed range is {key_range(spec)}")
 
 
@@ -372,6 +384,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             design.roller_count,
             low_open=False,
         )
+    _check_datasheet(values["datasheet"], checks, formats, load)
+    sheet = "datasheet" in formats or bool(checks.datasheet_active()) or "datasheet" in data
     tolerances = {k: v for k, v in values["tolerances"].items() if v is not None}
     tol_high = {
         "cam_radius": (half_r, True),
@@ -416,6 +430,12 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             raise SceneError(f"[sweeps] {swept} = {rng!r}: allowed range is min > 0 (mm)")
     if "allocation" in formats and not checks.active():
         raise SceneError("allocation needs at least one limit in [checks]")
+    if "allocation" in formats and not checks.montecarlo_active():
+        raise SceneError(
+            f"allocation needs a limit the Monte Carlo computes in [checks]; "
+            f"{', '.join(checks.datasheet_active())} is judged on the nominal design only "
+            "(e.g. add max_backlash_arcmin or max_contact_pressure)"
+        )
     _unique_angle_tags(ex["assembly_angles_deg"])
     ip = ex["interference_positions"]
     if ex["interference_method"] != "exact" and ip is not None and ip > MESH_POSITIONS_MAX:
@@ -466,6 +486,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         sweeps=values["sweeps"],
         edm=values["edm"],
         inspection=values["inspection"],
+        datasheet=values["datasheet"],
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
@@ -473,14 +494,52 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
                 if v is not None
             }
             for s, vals in values.items()
+            # [datasheet] is recorded where it is used or given (the inputs of
+            # scenes without it stay as they were).
+            if s != "datasheet" or sheet
         },
-        warnings=no_effect_warnings(data, formats, bool(checks.active())),
+        warnings=no_effect_warnings(data, formats, bool(checks.active()))
+        + renamed_key_warnings(data),
         formats_left_out=left_out,
     )
     from corr_cad.run.resources import check_scene
 
     check_scene(scene)
     return scene
+
+
+def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
+    """``[datasheet]`` against the rest of the scene, when the datasheet or its checks run."""
+    if not ("datasheet" in formats or checks.datasheet_active()):
+        return
+    rng = ds["rigidity_range"]
+    if len(rng) != 2 or not rng[0] < rng[1]:
+        raise SceneError(
+            f"[datasheet] rigidity_range = {rng!r}: must be [T_1, T_2] with "
+            "0 <= T_1 < T_2 <= 1 (shares of T_R), e.g. [0.5, 1.0]"
+        )
+    if ds["rated_torque_Nm"] is None and load is None:
+        why = (
+            "formats lists 'datasheet'"
+            if "datasheet" in formats
+            else (f"[checks] {next(iter(checks.datasheet_active()))} needs the datasheet")
+        )
+        raise SceneError(
+            f"[datasheet] rated_torque_Nm is not set and [load] gives no torque ({why}); "
+            "set rated_torque_Nm (N*m, e.g. 2860) or [load] input_torque (N*mm)"
+        )
+    if ds["rated_torque_Nm"] is None and load is not None and load.input_torque == 0:
+        raise SceneError(
+            "[load] input_torque = 0: the datasheet's rated torque (z + 1) * input_torque "
+            "would be 0; set [datasheet] rated_torque_Nm (N*m, e.g. 2860)"
+        )
+    if checks.datasheet_active() and checks.max_failure_probability is not None:
+        name = next(iter(checks.datasheet_active()))
+        hint = " (the free play it meant before is max_backlash_arcmin)" if "lost" in name else ""
+        raise SceneError(
+            f"[checks] {name} is judged on the nominal design only: the Monte Carlo does not "
+            f"compute it, so max_failure_probability cannot gate it{hint}; remove one of them"
+        )
 
 
 def _unique_angle_tags(angles: list[float]) -> None:

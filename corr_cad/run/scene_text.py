@@ -12,7 +12,13 @@ from corr_cad.run.scene_schema import MAX_LIST, MAX_STR, SCHEMA, key_range
 
 #: Which formats make each section, or key, have an effect. ``None`` for a
 #: section means "see the keys"; a key not listed follows its section.
-_SOLVER_FORMATS = {"forces", "montecarlo", "allocation", "sweeps"}
+_SOLVER_FORMATS = {"forces", "datasheet", "montecarlo", "allocation", "sweeps"}
+#: ``[checks]`` keys judged on the datasheet's windup (they run the datasheet).
+_DATASHEET_CHECKS = (
+    "max_lost_motion_arcmin",
+    "min_torsional_rigidity_Nm_per_arcmin",
+    "max_transmission_error_arcsec",
+)
 _MESH = {"stl", "3mf", "glb", "ply"}
 
 
@@ -20,6 +26,7 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     """One line for each given section or key that does nothing in this scene."""
     f = set(formats)
     forces = "forces" in f or checks  # the checks run the force solver
+    sheet = "datasheet" in f or bool(set(_DATASHEET_CHECKS) & set(data.get("checks", {})))
     mc = bool({"montecarlo", "allocation"} & f)
     # inspection solves the forces, nominal and measured, when [load] gives a torque
     inspected = "inspection" in f and "load" in data
@@ -57,10 +64,16 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
             "no format runs the force solver (forces, montecarlo, allocation, sweeps, inspection)",
         )
     elif not forces:
-        # inspection solves with positions and crank_angles_deg, never with the variants
-        for k in ("variants",) if inspected else ("positions", "crank_angles_deg", "variants"):
-            if k in sv:
-                warn(f"[solver] {k}", 'only "forces" and [checks] use it')
+        # inspection solves with positions and crank_angles_deg; the datasheet with the
+        # variants (its positions are its own)
+        for k in ("positions", "crank_angles_deg", "variants"):
+            used = (k == "variants" and sheet) or (k != "variants" and inspected)
+            if k in sv and not used:
+                warn(
+                    f"[solver] {k}", 'only "forces", "datasheet", "inspection" and [checks] use it'
+                )
+    if "datasheet" in data and not sheet:
+        warn("[datasheet]", 'formats does not list "datasheet" and no [checks] limit needs it')
     ex = data.get("export", {})
     if "representation" in ex and "dxf" not in f:
         warn("[export] representation", 'formats does not list "dxf"')
@@ -105,6 +118,7 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     for k in physical:  # the sweeps vary the nominal design: they ignore [errors]
         if not (
             forces
+            or sheet
             or mc
             or exact
             or inspected
@@ -112,9 +126,29 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         ):
             warn(
                 f"[errors] {k}",
-                "only forces, checks, montecarlo, allocation, interference, inspection with [load]",
+                "only forces, datasheet, checks, montecarlo, allocation, interference, "
+                "inspection with [load]",
             )
     return tuple(out)
+
+
+def renamed_key_warnings(data: dict) -> tuple[str, ...]:
+    """One line for a key whose meaning changed, naming the key that took the old one.
+
+    ``[checks] max_lost_motion_arcmin`` meant the free play at zero torque
+    before the datasheet; it now limits the catalogue lost motion (at
+    +-``lost_motion_band`` of the rated torque, elastic windup included),
+    which is never smaller. It keeps working, with the new meaning; a scene
+    that configures ``[datasheet]`` was written for the new meaning and is
+    not warned.
+    """
+    if "max_lost_motion_arcmin" in data.get("checks", {}) and "datasheet" not in data:
+        return (
+            "[checks] max_lost_motion_arcmin now limits the lost motion at +-3 % of the rated "
+            "torque (elastic windup included); the free play at zero torque it limited before "
+            "is max_backlash_arcmin",
+        )
+    return ()
 
 
 def bounds_table() -> str:

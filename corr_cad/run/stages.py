@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from corr_cad.run import stages_shop as shop
 from corr_cad.run.context import RunContext, Stage
+from corr_cad.run.stages_datasheet import _datasheet, _datasheet_files
 from corr_cad.run.stages_forces import _checks, _force_files, _forces
 from corr_cad.run.stages_geometry import (
     _clearance,
@@ -53,6 +54,13 @@ STAGES: dict[str, Stage] = {
         Stage("measured_profile", ("profiles",), _measured, "measured profile, registered"),
         Stage("forces", ("undercut",), _forces, "mesh-force solver"),
         Stage("force_files", ("forces",), _force_files, "forces.csv, summary JSON and plots"),
+        Stage("datasheet", ("undercut",), _datasheet, "windup curve and transmission error"),
+        Stage(
+            "datasheet_files",
+            ("datasheet",),
+            _datasheet_files,
+            "datasheet.json, windup and transmission error CSV, hysteresis plot",
+        ),
         Stage("solids", ("profiles",), _solids, "watertight solids (manifold3d), volumes checked"),
         Stage("mesh_files", ("solids",), _mesh_files, "part and assembly meshes"),
         Stage("step_files", ("profiles",), _step_files, "STEP AP214 parts and assembly, read back"),
@@ -74,6 +82,7 @@ FORMAT_TARGETS = {
     "dxf": "dxf_files",
     "png": "preview_png",
     "forces": "force_files",
+    "datasheet": "datasheet_files",
     **{f: "mesh_files" for f in ("stl", "3mf", "glb", "ply")},
     "step": "step_files",
     "interference": "interference",
@@ -101,11 +110,13 @@ def plan(
     checks: bool = False,
     measured: bool = False,
     interference_method: str = "exact",
+    datasheet_checks: bool = False,
 ) -> list[str]:
     """Stages needed for ``formats`` (and the checks), in dependency order, each once.
 
     With a measured profile it is registered first: the forces, Monte Carlo
-    and checks then see it as a gear-profile deviation.
+    and checks then see it as a gear-profile deviation. ``datasheet_checks``:
+    a check limits a datasheet figure, so the datasheet runs before the checks.
     """
     order: list[str] = []
 
@@ -125,6 +136,8 @@ def plan(
         else:
             visit(FORMAT_TARGETS[f])
     if checks:
+        if datasheet_checks:
+            visit("datasheet")
         visit("checks")
     if "report" in order:  # the report reads everything the others made
         order.remove("report")

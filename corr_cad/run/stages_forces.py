@@ -117,7 +117,7 @@ def check_values(res) -> dict[str, float]:
         "peak_gear_force": float(res.F_n.max()),
         "peak_pressure": float(np.maximum(np.maximum(res.p_cam, res.p_slot), res.p_gear).max()),
         "min_loaded_rollers": float(res.loaded_count.min()),
-        "lost_motion_arcmin": float(res.lost_motion.max() * ARCMIN_PER_RAD),
+        "backlash_arcmin": float(res.backlash.max() * ARCMIN_PER_RAD),
     }
 
 
@@ -125,13 +125,17 @@ def _checks(ctx: RunContext) -> None:
     from corr_cad.tolerance.checks import evaluate_checks
 
     values = check_values(ctx.results.forces)
+    if ctx.results.datasheet is not None:
+        values.update(ctx.results.datasheet.check_values())
     report = evaluate_checks(values, ctx.scene.checks)
     ctx.manifest.setdefault("checks", {}).update(report)
     for name, r in report.items():
         state = "pass" if r["passed"] else "FAIL"
         nums = f"value {r['value']:.4g}, limit {r['limit']:.4g}, margin {r['margin']:.4g}"
         ctx.progress(f"      check {name}: {state} ({nums})")
-    failed = [name for name, r in report.items() if not r["passed"]]
+    # The remedy search re-solves the forces only: datasheet figures get none.
+    sheet = ctx.scene.checks.datasheet_active()
+    failed = [name for name, r in report.items() if not r["passed"] and name not in sheet]
     if failed:
         _what_passes(ctx, failed)
 
@@ -164,7 +168,7 @@ def _what_passes(ctx: RunContext, failed: list[str]) -> None:
         if not res.success:
             return {k: math.nan for k in ("peak_gear_force", "peak_pressure")} | {
                 "min_loaded_rollers": -1.0,
-                "lost_motion_arcmin": math.inf,
+                "backlash_arcmin": math.inf,
             }
         return check_values(res)
 

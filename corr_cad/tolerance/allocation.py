@@ -87,6 +87,12 @@ def allocate(
 
     if not checks.active():
         raise SceneError("tolerance allocation needs at least one limit in [checks]")
+    if not checks.montecarlo_active():
+        raise SceneError(
+            "tolerance allocation needs a limit the Monte Carlo computes in [checks] "
+            f"(not only {', '.join(checks.datasheet_active())}, which are judged on the "
+            "nominal design only)"
+        )
     evals = 0
 
     if kind not in TOLERANCE_KINDS:
@@ -123,7 +129,7 @@ def allocate(
             kernel=kernel,
         )
         failing = []
-        for name in checks.active():
+        for name in checks.montecarlo_active():
             metric, sense = CHECK_METRICS[name]
             q = percentile if sense == "max" else 100.0 - percentile
             value = float(np.percentile(mc.metrics[metric], q))

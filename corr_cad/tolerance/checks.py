@@ -19,6 +19,7 @@ __all__ = [
     "ARCMIN_PER_RAD",
     "Checks",
     "CHECK_METRICS",
+    "DATASHEET_METRICS",
     "sample_metrics",
     "evaluate_checks",
     "evaluate_failure_probability",
@@ -35,7 +36,13 @@ class Checks:
     max_contact_pressure: float | None = None  # MPa
     max_gear_force: float | None = None  # N
     min_loaded_rollers: int | None = None
+    #: Lost motion at +-``[datasheet] lost_motion_band`` of the rated torque
+    #: (catalogue definition; before the datasheet this name meant the backlash).
     max_lost_motion_arcmin: float | None = None
+    #: Free rotation at zero torque, every clearance open.
+    max_backlash_arcmin: float | None = None
+    min_torsional_rigidity_Nm_per_arcmin: float | None = None
+    max_transmission_error_arcsec: float | None = None
     #: Largest allowed Monte Carlo failure probability per limit; ``None``:
     #: the Monte Carlo is reported but only the nominal design is gated.
     max_failure_probability: float | None = None
@@ -44,6 +51,16 @@ class Checks:
         """The limits that are set (not the failure-probability gate)."""
         return {k: v for k, v in self.__dict__.items() if v is not None and k in CHECK_METRICS}
 
+    def datasheet_active(self) -> dict[str, float]:
+        """The limits on datasheet figures (they need the windup; see :data:`DATASHEET_METRICS`)."""
+        return {k: v for k, v in self.active().items() if CHECK_METRICS[k][0] in DATASHEET_METRICS}
+
+    def montecarlo_active(self) -> dict[str, float]:
+        """The limits the Monte Carlo and allocation judge (:func:`sample_metrics`)."""
+        return {
+            k: v for k, v in self.active().items() if CHECK_METRICS[k][0] not in DATASHEET_METRICS
+        }
+
 
 #: check -> (metric, sense): "max" limits bound the metric from above.
 CHECK_METRICS = {
@@ -51,7 +68,18 @@ CHECK_METRICS = {
     "max_gear_force": ("peak_gear_force", "max"),
     "min_loaded_rollers": ("min_loaded_rollers", "min"),
     "max_lost_motion_arcmin": ("lost_motion_arcmin", "max"),
+    "max_backlash_arcmin": ("backlash_arcmin", "max"),
+    "min_torsional_rigidity_Nm_per_arcmin": ("torsional_rigidity_Nm_per_arcmin", "min"),
+    "max_transmission_error_arcsec": ("transmission_error_arcsec", "max"),
 }
+
+#: Metrics read off the windup (:meth:`corr_cad.mechanics.datasheet.Datasheet.check_values`):
+#: judged on the nominal design only; the Monte Carlo does not compute them.
+DATASHEET_METRICS = (
+    "lost_motion_arcmin",
+    "torsional_rigidity_Nm_per_arcmin",
+    "transmission_error_arcsec",
+)
 
 
 def sample_metrics(res, n_samples: int) -> dict[str, np.ndarray]:
@@ -68,7 +96,7 @@ def sample_metrics(res, n_samples: int) -> dict[str, np.ndarray]:
         "peak_gear_force": per(res.F_n).reshape(n_samples, P * R).max(axis=1),
         "peak_pressure": per(p).reshape(n_samples, P * R).max(axis=1),
         "min_loaded_rollers": loaded.min(axis=1).astype(float),
-        "lost_motion_arcmin": per(res.lost_motion).max(axis=1) * ARCMIN_PER_RAD,
+        "backlash_arcmin": per(res.backlash).max(axis=1) * ARCMIN_PER_RAD,
     }
 
 
