@@ -81,7 +81,7 @@ def test_pinion_torque_times_ratio():
 
 # --- formats = ["all"] ---------------------------------------------------------------
 EVERY = ["dxf", "png", "forces", "stl", "3mf", "glb", "ply", "step", "interference"]
-EVERY += ["montecarlo", "allocation", "sweeps", "edm", "cmm", "inspection", "report"]
+EVERY += ["montecarlo", "allocation", "sweeps", "datasheet", "edm", "cmm", "inspection", "report"]
 
 
 def _has_ocp() -> bool:
@@ -94,8 +94,11 @@ def test_all_formats_leave_out_what_the_scene_cannot_make():
     s = parse_scene({"export": {"formats": ["all"]}})
     left = dict(s.formats_left_out)
     need_load = {"forces", "montecarlo", "allocation", "sweeps"}
-    assert set(left) == need_load | {"inspection"} | (set() if _has_ocp() else {"step"})
+    assert set(left) == need_load | {"datasheet", "inspection"} | (
+        set() if _has_ocp() else {"step"}
+    )
     assert all(left[f] == "no [load] torque" for f in need_load)
+    assert left["datasheet"] == "no [load] torque and no [datasheet] rated_torque_Nm"
     assert left["inspection"] == "no [errors] measured_profile"
     assert list(s.formats) == [f for f in EVERY if f not in left]
     assert s.warnings == ()

@@ -23,6 +23,7 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
+from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
     ALL,
     FORMATS,
@@ -35,7 +36,6 @@ from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema 
     MESH_POSITIONS_MAX,
     SCHEMA,
     Key,
-    every_format,
     key_range,
 )
 from corr_cad.run.scene_text import (  # noqa: F401
@@ -211,42 +211,6 @@ def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
         raise SceneError(f"{where} = {v:g}: allowed range is {range_text(low, high, **kw)}")
 
 
-def _did_you_mean(word: object, choices) -> str:
-    """``"; did you mean 'x'?"`` for the closest valid name, or nothing."""
-    import difflib
-
-    if not isinstance(word, str):
-        return ""
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
-#: Design keys whose combination the geometry judges (collision, undercut, webs).
-_GEOMETRY_KEYS = ("tooth_count", "eccentricity", "cam_radius", "roller_radius")
-
-
-def _design_refusal(message: str, key: str, design: dict, given: dict) -> str:
-    """The geometry's refusal, blamed on what the user set, with the nearest changes that pass.
-
-    When the key the geometry names was left at its default, the line says
-    so and names the keys the scene did set; then each of eccentricity, cam
-    radius and roller radius moved alone to its nearest valid value
-    (:func:`~corr_cad.geometry.remedies.design_remedies`).
-    """
-    from corr_cad.geometry.remedies import design_remedies
-
-    if key in design and key not in given:
-        setters = [f"{k} = {given[k]}" for k in _GEOMETRY_KEYS if k in given]
-        by = f"; the scene sets {', '.join(setters)}" if setters else ""
-        message = f"{key} = {design[key]} (the default{by}): " + message.split(": ", 1)[-1]
-    if key not in _GEOMETRY_KEYS:
-        return f"[design] {message}"
-    remedies = design_remedies({k: v for k, v in design.items() if v is not None})
-    if remedies:
-        message += "; passes with " + " or ".join(r.text() for r in remedies)
-    return f"[design] {message}"
-
-
 def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -> Scene:
     """Validate a scene given as a dictionary (as read from TOML)."""
     if not isinstance(data, dict):
@@ -259,7 +223,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
-            f"unknown section [{show(unknown[0])[1:-1]}]{_did_you_mean(unknown[0], SCHEMA)}; "
+            f"unknown section [{show(unknown[0])[1:-1]}]{did_you_mean(unknown[0], SCHEMA)}; "
             f"valid sections: {', '.join(SCHEMA)}"
         )
     values: dict[str, dict[str, Any]] = {}
@@ -270,7 +234,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         bad = [k for k in given if k not in keys]
         if bad:
             raise SceneError(
-                f"unknown key {show(bad[0])} in [{section}]{_did_you_mean(bad[0], keys)}; "
+                f"unknown key {show(bad[0])} in [{section}]{did_you_mean(bad[0], keys)}; "
                 f"valid keys: {', '.join(keys)}"
             )
         values[section] = {
@@ -286,12 +250,12 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         key = str(exc).split(" ", 1)[0]
         if key in SCHEMA["material"]:
             raise SceneError(f"[material] {exc}") from exc
-        raise SceneError(_design_refusal(str(exc), key, d, data.get("design", {}))) from exc
+        raise SceneError(design_refusal(str(exc), key, d, data.get("design", {}))) from exc
     try:  # an undercut design is refused here, before anything runs (closed form, ms)
         working_profile(design)
     except CorrCadError as exc:
         key = str(exc).split(" ", 1)[0]
-        raise SceneError(_design_refusal(str(exc), key, d, data.get("design", {}))) from exc
+        raise SceneError(design_refusal(str(exc), key, d, data.get("design", {}))) from exc
 
     ex = values["export"]
     formats = tuple(ex["formats"])

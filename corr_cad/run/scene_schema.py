@@ -607,40 +607,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
 }
 
 
-def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], ...]]:
-    """``formats = ["all"]``: every format this scene can make, and why each other is left out.
-
-    Left out: what needs an input the scene lacks (a torque for the forces
-    and the studies built on them, tolerances, a limit for the allocation, a
-    measured profile for the inspection) and ``step`` without Open CASCADE.
-    """
-    import importlib.util
-
-    ld, chk = values["load"], values["checks"]
-    load = (ld["input_torque"] is not None or ld["pinion_torque"] is not None, "no [load] torque")
-    tol = (any(v is not None for v in values["tolerances"].values()), "no [tolerances]")
-    limit = (
-        any(v is not None for k, v in chk.items() if k != "max_failure_probability"),
-        "no limit in [checks]",
-    )
-    measured = (values["errors"]["measured_profile"] is not None, "no [errors] measured_profile")
-    ocp = (
-        importlib.util.find_spec("OCP") is not None,
-        "Open CASCADE is not installed (the step extra: pip install -e '.[step]')",
-    )
-    needs = {
-        "forces": (load,),
-        "montecarlo": (load, tol),
-        "allocation": (load, tol, limit),
-        "sweeps": (load,),
-        "inspection": (measured,),
-        "step": (ocp,),
-    }
-    why = {f: next((w for ok, w in needs.get(f, ()) if not ok), None) for f in FORMATS}
-    made = tuple(f for f in FORMATS if why.get(f) is None)
-    return made, tuple((f, why[f]) for f in FORMATS if why.get(f) is not None)
-
-
 def key_range(spec: Key) -> str:
     """The allowed range of a numeric key, as every message and the README state it."""
     return range_text(spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open)

@@ -1,0 +1,89 @@
+"""What a scene is told beyond its own keys: near misses, refusals that say what passes, "all".
+
+:func:`did_you_mean` names the nearest valid key or section;
+:func:`design_refusal` rewrites a refusal of the geometry so that it names
+the keys the scene set and the nearest values that pass
+(:mod:`corr_cad.geometry.remedies`); :func:`every_format` expands
+``formats = ["all"]`` into what this scene can make.
+"""
+
+from __future__ import annotations
+
+from corr_cad.run.scene_schema import FORMATS
+
+__all__ = ["did_you_mean", "design_refusal", "every_format"]
+
+
+def did_you_mean(word: object, choices) -> str:
+    """``"; did you mean 'x'?"`` for the closest valid name, or nothing."""
+    import difflib
+
+    if not isinstance(word, str):
+        return ""
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+#: Design keys whose combination the geometry judges (collision, undercut, webs).
+_GEOMETRY_KEYS = ("tooth_count", "eccentricity", "cam_radius", "roller_radius")
+
+
+def design_refusal(message: str, key: str, design: dict, given: dict) -> str:
+    """The geometry's refusal, blamed on what the user set, with the nearest changes that pass.
+
+    When the key the geometry names was left at its default, the line says
+    so and names the keys the scene did set; then each of eccentricity, cam
+    radius and roller radius moved alone to its nearest valid value
+    (:func:`~corr_cad.geometry.remedies.design_remedies`).
+    """
+    from corr_cad.geometry.remedies import design_remedies
+
+    if key in design and key not in given:
+        setters = [f"{k} = {given[k]}" for k in _GEOMETRY_KEYS if k in given]
+        by = f"; the scene sets {', '.join(setters)}" if setters else ""
+        message = f"{key} = {design[key]} (the default{by}): " + message.split(": ", 1)[-1]
+    if key not in _GEOMETRY_KEYS:
+        return f"[design] {message}"
+    remedies = design_remedies({k: v for k, v in design.items() if v is not None})
+    if remedies:
+        message += "; passes with " + " or ".join(r.text() for r in remedies)
+    return f"[design] {message}"
+
+
+def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], ...]]:
+    """``formats = ["all"]``: every format this scene can make, and why each other is left out.
+
+    Left out: what needs an input the scene lacks (a torque for the forces
+    and the studies built on them, tolerances, a limit for the allocation, a
+    measured profile for the inspection) and ``step`` without Open CASCADE.
+    """
+    import importlib.util
+
+    ld, chk = values["load"], values["checks"]
+    load = (ld["input_torque"] is not None or ld["pinion_torque"] is not None, "no [load] torque")
+    tol = (any(v is not None for v in values["tolerances"].values()), "no [tolerances]")
+    limit = (
+        any(v is not None for k, v in chk.items() if k != "max_failure_probability"),
+        "no limit in [checks]",
+    )
+    measured = (values["errors"]["measured_profile"] is not None, "no [errors] measured_profile")
+    ocp = (
+        importlib.util.find_spec("OCP") is not None,
+        "Open CASCADE is not installed (the step extra: pip install -e '.[step]')",
+    )
+    rated = (
+        load[0] or values.get("datasheet", {}).get("rated_torque_Nm") is not None,
+        "no [load] torque and no [datasheet] rated_torque_Nm",
+    )
+    needs = {
+        "forces": (load,),
+        "datasheet": (rated,),
+        "montecarlo": (load, tol),
+        "allocation": (load, tol, limit),
+        "sweeps": (load,),
+        "inspection": (measured,),
+        "step": (ocp,),
+    }
+    why = {f: next((w for ok, w in needs.get(f, ()) if not ok), None) for f in FORMATS}
+    made = tuple(f for f in FORMATS if why.get(f) is None)
+    return made, tuple((f, why[f]) for f in FORMATS if why.get(f) is not None)
