@@ -165,12 +165,13 @@ def test_failed_run_leaves_previous_outputs(tmp_path, monkeypatch):
 
 def test_staging_replaces_previous(tmp_path):
     out = tmp_path / "o"
+    # names a run can write (a run may stage nothing else: run/names.py)
     with StagingDir(out) as s:
-        Path(s, "one").write_text("1")
+        Path(s, "forces.csv").write_text("1")
     with StagingDir(out) as s:
-        Path(s, "two").write_text("2")
-    assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "two"]
-    assert set(json.loads((out / "manifest.json").read_text())["files"]) == {"two"}
+        Path(s, "preview.png").write_text("2")
+    assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "preview.png"]
+    assert set(json.loads((out / "manifest.json").read_text())["files"]) == {"preview.png"}
     shutil.rmtree(out)
 
 

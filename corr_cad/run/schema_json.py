@@ -54,7 +54,8 @@ def _key_schema(section: str, key: str, spec) -> dict:
             item["enum"] = list(spec.choices)
         out = {"type": "array", "items": item, "uniqueItems": True}
     elif kind == "list[float]":
-        out = {"type": "array", "items": {"type": "number"}}
+        # each item within the key's bounds, as the loader checks them
+        out = {"type": "array", "items": _number("float", spec)}
         if section == "sweeps" and key in PAPER_SWEEPS:
             out.update({"minItems": 2, "maxItems": 2})
     elif kind == "list[list[float]]":
