@@ -84,6 +84,15 @@ def writing(path: Path, suffix: str = ".part") -> Iterator[Path]:
         raise
 
 
+def _write_synced(fd: int, tmp: str, text: str) -> None:
+    """Write ``text`` to the open temporary ``fd``, sync it, give it the umask's mode."""
+    with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.chmod(tmp, 0o666 & ~_umask())
+
+
 def _atomic_text(path: Path, text: str) -> Path:
     path = Path(path)
     try:
@@ -91,11 +100,7 @@ def _atomic_text(path: Path, text: str) -> Path:
     except OSError as exc:
         raise _named(exc, path) from exc
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())
+        _write_synced(fd, tmp, text)
         os.replace(tmp, path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
@@ -121,11 +126,7 @@ def write_new_text(path: Path, text: str) -> Path:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())
+        _write_synced(fd, tmp, text)
         try:
             os.link(tmp, path, follow_symlinks=False)
         except FileExistsError:
