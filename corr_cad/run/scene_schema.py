@@ -7,17 +7,19 @@ generated from it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
-
-from corr_cad.bounds import range_text
-from corr_cad.export.gcode import DIALECT_NAMES
 from corr_cad.geometry.design import BOUNDS as DESIGN_BOUNDS
 from corr_cad.geometry.sampling import REPRESENTATIONS
 from corr_cad.mechanics.solver import VARIANTS
-from corr_cad.shop.edm import COMPENSATIONS
-from corr_cad.tolerance.montecarlo import TOLERANCE_KINDS
-from corr_cad.tolerance.sweeps import PAPER_SWEEPS
+from corr_cad.run import scene_schema_shop, scene_schema_tolerance
+from corr_cad.run.scene_key import (  # noqa: F401  (re-exported)
+    MAX_ANGLE_DEG,
+    MAX_LIST,
+    MAX_NESTING,
+    MAX_SCENE_BYTES,
+    MAX_STR,
+    Key,
+    key_range,
+)
 
 #: Output formats a scene may list in ``[export] formats``.
 FORMATS = (
@@ -50,46 +52,11 @@ INTERFERENCE_METHODS = ("exact", "mesh", "both")
 MESH_POSITIONS_MAX = 3600
 
 
-@dataclass(frozen=True)
-class Key:
-    kind: str  # "int", "float", "bool", "str", "list[str]", "list[float]"
-    default: Any
-    help: str
-    choices: tuple[str, ...] | None = None
-    low: float | None = None  # exclusive lower bound for numbers (list items too)
-    high: float | None = None  # inclusive upper bound
-    example: Any = None
-    high_open: bool = False  # the upper bound itself is not allowed
-    low_open: bool = True  # the lower bound itself is not allowed
-    max_len: int | None = None  # most entries a list may hold
-    note: str = ""  # a range that depends on the design, shown in the README table
-
-
-#: Most entries of a list key whose length the design does not fix.
-MAX_LIST = 1000
-#: Largest |angle| in degrees anywhere in a scene (ten turns).
-MAX_ANGLE_DEG = 3600.0
-#: Largest scene file (bytes) and deepest nesting of arrays/tables read.
-MAX_SCENE_BYTES = 10 * 1024 * 1024
-MAX_NESTING = 32
-#: Longest string value (a measured profile path).
-MAX_STR = 4096
-
-
 def _dk(name: str) -> dict:
     """Schema bounds of a design key, the same numbers ``GearDesign`` checks."""
     lo, hi = DESIGN_BOUNDS[name]
     return {"low": lo, "high": hi}
 
-
-#: Ranges of the tolerance scales that depend on the design (like the errors).
-_TOL_NOTE = {
-    "cam_radius": "[0, r/2)",
-    "eccentricity": "[0, r/2)",
-    "roller_radius": "[0, r/2)",
-    "slot_angle": "[0, 90/(z+1)) deg",
-    "cam_phase": "[0, 180] deg",
-}
 
 SCHEMA: dict[str, dict[str, Key]] = {
     "design": {
@@ -368,245 +335,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
             example=0.01,
         ),
     },
-    "datasheet": {
-        "rated_torque_Nm": Key(
-            "float",
-            None,
-            "T_R, rated output torque the figures refer to, N*m "
-            "(default: (z + 1) * [load] input_torque)",
-            low=0,
-            high=1e9,
-            example=2860.0,
-        ),
-        "lost_motion_band": Key(
-            "float",
-            0.03,
-            "lost motion at +- this share of T_R (RV catalogues 0.03, strain-wave 0.04)",
-            low=0,
-            high=1,
-            high_open=True,
-        ),
-        "rigidity_range": Key(
-            "list[float]",
-            [0.5, 1.0],
-            "[T_1, T_2] of the torsional rigidity, shares of T_R",
-            low=0,
-            low_open=False,
-            high=1,
-            max_len=2,
-            note="two values, T_1 < T_2",
-        ),
-        "transmission_error_torque_band": Key(
-            "float",
-            0.03,
-            "driving torque of the transmission error, share of T_R",
-            low=0,
-            high=1,
-            high_open=True,
-        ),
-        "positions_per_mesh": Key(
-            "int",
-            16,
-            "output positions per mesh period of the windup curve",
-            low=0,
-            high=10000,
-            note="and within the memory budget (2 GB)",
-        ),
-        "transmission_error_positions_per_turn": Key(
-            "int",
-            360,
-            "positions per crank (input) turn of the transmission error",
-            low=0,
-            high=100000,
-            note="and within the memory budget (2 GB)",
-        ),
-        "allowable_contact_pressure_MPa": Key(
-            "float",
-            None,
-            "rate the torque from contact pressure: allowable peak Hertz pressure, MPa",
-            low=0,
-            high=1e6,
-            example=1500.0,
-        ),
-        "series_rigidity_Nm_per_arcmin": Key(
-            "float",
-            None,
-            "rigidity in series with the contacts (bearings, crank, frame, housing), "
-            "N*m/arcmin (default: none)",
-            low=0,
-            high=1e9,
-            example=1000.0,
-        ),
-    },
-    "tolerances": {
-        kind: Key(
-            "distribution",
-            None,
-            f"{kind.replace('_', ' ')} tolerance, {unit}: "
-            "{ normal = sigma } or { uniform = half width }",
-            example={"normal": 0.001 if unit == "mm" else 0.01},
-            note=_TOL_NOTE[kind],
-        )
-        for kind, (_, unit) in TOLERANCE_KINDS.items()
-    },
-    "montecarlo": {
-        "samples": Key(
-            "int",
-            1000,
-            "Monte Carlo samples",
-            low=0,
-            high=10_000_000,
-            note="and within the memory budget (2 GB)",
-        ),
-        "seed": Key("int", 1, "random seed (runs are reproducible)", low=-1, high=1e9),
-        "positions": Key(
-            "int",
-            360,
-            "crank positions per sample (full cycle)",
-            low=0,
-            high=100_000,
-            note="and within the memory budget (2 GB)",
-        ),
-        "percentile": Key(
-            "float", 95.0, "percentile the allocation keeps under the limits", low=0, high=100
-        ),
-        "allocation_samples": Key(
-            "int", 200, "samples per step of the allocation search", low=0, high=100_000
-        ),
-    },
-    "sweeps": {
-        "points": Key("int", 7, "points per sweep", low=1, high=1000),
-        "positions": Key("int", 720, "crank positions per sweep point", low=0, high=100_000),
-        **{
-            name: Key(
-                "list[float]",
-                None,
-                f"[min, max] of the {name.replace('_', ' ')} sweep, mm (default: "
-                + (
-                    "+-20 % of the design value"
-                    if where == "design"
-                    else "+-0.02 mm around the [errors] value"
-                )
-                + "; the paper's range for its Table 1 design; clipped to the valid design space)",
-                example=[lo, hi],
-                max_len=2,
-            )
-            for name, (where, lo, hi) in PAPER_SWEEPS.items()
-        },
-    },
-    "edm": {
-        "wire_diameter": Key("float", 0.25, "wire diameter, mm", low=0, high=1.0),
-        "spark_gap": Key("float", 0.02, "spark gap (overcut per side), mm", low=0, high=0.5),
-        "start_hole_diameter": Key("float", 3.0, "start hole diameter, mm", low=0, high=50.0),
-        "lead_in_length": Key(
-            "float", 2.0, "lead-in: start hole centre to the wire path, mm", low=0, high=50.0
-        ),
-        "feed_mm_per_min": Key(
-            "float",
-            2.0,
-            "cutting feed F, mm/min (written with 2 decimals)",
-            low=0.01,
-            low_open=False,
-            high=10000.0,
-        ),
-        "dialect": Key(
-            "str",
-            "iso",
-            "G-code dialect of the control: iso (generic ISO 6983, as before), fanuc "
-            "(Fanuc-style wire EDM) or linuxcnc",
-            choices=DIALECT_NAMES,
-        ),
-        "compensation": Key(
-            "str",
-            "path",
-            "wire offset: path (in the programmed path) or G41 / G42 (by the control from "
-            "the D register; the path is then the finished part contour)",
-            choices=COMPENSATIONS,
-        ),
-        "d_register": Key(
-            "int",
-            1,
-            "G41/G42 offset register D (LinuxCNC: tool number)",
-            low=1,
-            low_open=False,
-            high=99,
-        ),
-        "program_number": Key(
-            "int", 1000, "program number O of the fanuc dialect", low=1, low_open=False, high=7999
-        ),
-        "slug_stop_mm": Key(
-            "float",
-            None,
-            "program stop this far before the contour closes, to secure the slug, mm; 0 = none "
-            "(default: 0 for iso, 1 for fanuc and linuxcnc)",
-            low=0,
-            low_open=False,
-            high=50.0,
-            example=1.0,
-            note="0 or at least 0.1, and under half the contour",
-        ),
-        "wire_thread_mcode": Key(
-            "int",
-            None,
-            "M-code that threads the wire at the start hole, from the machine's own list "
-            "(default: a program stop for the operator)",
-            low=3,
-            low_open=False,
-            high=999,
-            example=50,
-            note="not M30, M98, M99; linuxcnc: 100 to 199",
-        ),
-        "wire_cut_mcode": Key(
-            "int",
-            None,
-            "M-code that cuts the wire at the end, from the machine's own list (default: none)",
-            low=3,
-            low_open=False,
-            high=999,
-            example=60,
-            note="not M30, M98, M99; linuxcnc: 100 to 199",
-        ),
-    },
-    "inspection": {
-        "point_spacing": Key(
-            "float", 0.5, "CMM nominal points: spacing along the curve, mm", low=0, high=100.0
-        ),
-        "evaluation_psi_deg": Key(
-            "float",
-            180.0,
-            "evaluated flank: |psi| up to this from the tooth-space centre, deg",
-            low=0,
-            high=180.0,
-        ),
-        "profile_tolerance": Key(
-            "float",
-            None,
-            "profile: half-band around the nominal, mm",
-            low=0,
-            high=10.0,
-            example=0.01,
-        ),
-        "position_tolerance_arcsec": Key(
-            "float", None, "tooth position, arcsec", low=0, high=36000.0, example=20.0
-        ),
-        "single_pitch_tolerance_arcsec": Key(
-            "float", None, "single pitch deviation, arcsec", low=0, high=36000.0, example=20.0
-        ),
-        "cumulative_pitch_tolerance_arcsec": Key(
-            "float",
-            None,
-            "cumulative pitch over any span, arcsec",
-            low=0,
-            high=36000.0,
-            example=40.0,
-        ),
-        "runout_tolerance": Key(
-            "float", None, "runout of the tooth spaces, mm", low=0, high=10.0, example=0.02
-        ),
-    },
+    **scene_schema_tolerance.SECTIONS,
+    **scene_schema_shop.SECTIONS,
 }
-
-
-def key_range(spec: Key) -> str:
-    """The allowed range of a numeric key, as every message and the README state it."""
-    return range_text(spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open)

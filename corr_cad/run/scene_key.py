@@ -1,0 +1,45 @@
+"""One scene key's description, and the limits every key shares.
+
+:class:`Key` is the row type of :data:`corr_cad.run.scene_schema.SCHEMA`; the
+section tables live in ``scene_schema`` (design, export, load, solver, errors,
+checks), ``scene_schema_tolerance`` (datasheet, tolerances, Monte Carlo,
+sweeps) and ``scene_schema_shop`` (EDM, inspection).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from corr_cad.bounds import range_text
+
+
+@dataclass(frozen=True)
+class Key:
+    kind: str  # "int", "float", "bool", "str", "list[str]", "list[float]"
+    default: Any
+    help: str
+    choices: tuple[str, ...] | None = None
+    low: float | None = None  # exclusive lower bound for numbers (list items too)
+    high: float | None = None  # inclusive upper bound
+    example: Any = None
+    high_open: bool = False  # the upper bound itself is not allowed
+    low_open: bool = True  # the lower bound itself is not allowed
+    max_len: int | None = None  # most entries a list may hold
+    note: str = ""  # a range that depends on the design, shown in the README table
+
+
+#: Most entries of a list key whose length the design does not fix.
+MAX_LIST = 1000
+#: Largest |angle| in degrees anywhere in a scene (ten turns).
+MAX_ANGLE_DEG = 3600.0
+#: Largest scene file (bytes) and deepest nesting of arrays/tables read.
+MAX_SCENE_BYTES = 10 * 1024 * 1024
+MAX_NESTING = 32
+#: Longest string value (a measured profile path).
+MAX_STR = 4096
+
+
+def key_range(spec: Key) -> str:
+    """The allowed range of a numeric key, as every message and the README state it."""
+    return range_text(spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open)
