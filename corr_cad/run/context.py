@@ -52,7 +52,8 @@ class Results:
     meshes: dict[str, Any] | None = None
     #: ``interference``: the mesh-boolean sweep's summary.
     interference: dict[str, Any] | None = None
-    #: ``clearance``: the exact clearance of every roller over the cycle.
+    #: ``clearance``: the exact clearance over the cycle, per position the
+    #: smallest and largest over the rollers (:meth:`Clearance.envelope`).
     clearance: Clearance | None = None
 
 
