@@ -401,7 +401,8 @@ def test_huge_positions_refused_up_front_with_a_value_that_works(folder):
     base = '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
     proc, rss = _peak_rss_mb(folder, base + "[solver]\npositions = 1000000\n")
     line = _assert_refused(proc)
-    assert "[solver] positions = 1000000: needs about" in line
+    assert "[solver] positions = 1000000: the run would need about" in line
+    assert "--max-memory" in line and "[budget] memory_gb" in line
     assert rss < 400  # refused before any array was made
     ok = int(line.split("; ")[-1].split()[0])
     # The suggested value is accepted by the loader.
@@ -422,7 +423,7 @@ def test_large_positions_run_within_the_estimate(folder):
     )
     proc, rss = _peak_rss_mb(folder, scene)
     assert proc.returncode == 0, proc.stderr
-    est_mb = estimate(load_scene(folder / "s.toml")).memory_bytes["[solver] positions"] / 2**20
+    est_mb = estimate(load_scene(folder / "s.toml")).memory / 2**20
     assert rss < est_mb, (rss, est_mb)
     assert (folder / "out" / "forces.csv").stat().st_size > 0
 

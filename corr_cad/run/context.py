@@ -68,6 +68,8 @@ class RunContext:
     manifest: dict = field(default_factory=dict)
     progress: Callable[[str], None] = lambda msg: None
     executor: object = None
+    #: The run's :class:`~corr_cad.run.resources.Estimate` (expected stage times).
+    estimate: object = None
 
 
 @dataclass(frozen=True)

@@ -122,12 +122,20 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
     return [timings[name] for name in stages]
 
 
+def _executor_kind(executor) -> str:
+    if executor is None:
+        return "serial"
+    return "dask" if hasattr(executor, "scheduler_info") else "process"
+
+
 def run_scene(
     scene: Scene,
     out: Path,
     progress: Callable[[str], None] | None = None,
     executor=None,
     concurrent_stages: bool = False,
+    budget=None,
+    estimate=None,
 ) -> dict:
     """Run the stages ``scene`` needs, writing into ``out`` (a staging folder).
 
@@ -137,6 +145,9 @@ def run_scene(
     the STEP export runs in a pool worker beside the other stages
     (:mod:`corr_cad.run.concurrent`); the files and the manifest are
     the same as in a serial run, but for the ``stages`` timings.
+    ``budget`` (:class:`~corr_cad.run.resources.Budget`, default the scene's
+    ``[budget]``) and its ``estimate``: without an estimate the scene is
+    checked against the budget first (:func:`~corr_cad.run.resources.check_scene`).
 
     >>> import tempfile, pathlib
     >>> from corr_cad import GearDesign, run_scene
@@ -160,16 +171,13 @@ def run_scene(
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
     )
-    from corr_cad.run.resources import estimate
+    from corr_cad.run.resources import budget_for, check_scene
 
-    est = estimate(scene)
-    if est.memory_bytes or est.seconds:
-        mem = max(est.memory_bytes.values(), default=0.0)
-        work = ", ".join(f"{k} ~{v:.2g} s" for k, v in est.seconds.items())
-        ctx.progress(
-            f"estimate: peak memory ~{mem / 2**20:.0f} MB (budget 2048 MB)"
-            + (f"; solver work {work}" if work else "")
-        )
+    budget = budget or budget_for(scene)
+    if estimate is None:  # called from Python: the same budget check as the CLI's
+        estimate = check_scene(scene, budget=budget, executor=_executor_kind(executor))
+    ctx.progress(estimate.line(budget))
+    ctx.estimate = estimate
     timings = _run_stages(ctx, stages, concurrent_stages)
     files = {
         name: {"sha256": sha256_of(ctx.out / name), "bytes": (ctx.out / name).stat().st_size}

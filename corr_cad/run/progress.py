@@ -30,7 +30,8 @@ def enabled() -> bool:
     return _ENABLED
 
 
-def _duration(seconds: float) -> str:
+def duration(seconds: float) -> str:
+    """``45s``, ``3m05s``, ``2h10m``."""
     s = int(round(seconds))
     if s < 60:
         return f"{s}s"
@@ -75,7 +76,7 @@ class Progress:
         elapsed = max(time.monotonic() - self.t0, 1e-9)
         rate = self.done / elapsed
         left = (self.total - self.done) / rate if rate > 0 else float("inf")
-        eta = _duration(left) if left != float("inf") else "?"
+        eta = duration(left) if left != float("inf") else "?"
         pct = 100.0 * self.done / self.total if self.total else 100.0
         return (
             f"{self.desc}: {self.done}/{self.total} {self.unit} ({pct:.0f}%), "

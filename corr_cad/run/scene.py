@@ -101,6 +101,10 @@ class Scene:
     edm: dict = field(default_factory=dict)
     inspection: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
+    #: ``[budget]``: memory_gb, output_gb, time_warning_s (None: the defaults).
+    budget: dict = field(default_factory=dict)
+    #: ``[dask]``: connect, no-workers and stall time-outs in s (None: the defaults).
+    dask: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
 
@@ -454,6 +458,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         sweeps=values["sweeps"],
         edm=values["edm"],
         inspection=values["inspection"],
+        budget=values["budget"],
+        dask=values["dask"],
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
@@ -464,9 +470,12 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active())),
     )
-    from corr_cad.run.resources import check_scene
+    from corr_cad.run.resources import check_structure
 
-    check_scene(scene)
+    # The structural limits here; the budget (memory, files, time) where the
+    # run starts, with the command line's overrides and worker count
+    # (corr_cad.run.resources.check_scene).
+    check_structure(scene)
     return scene
 
 
