@@ -502,7 +502,10 @@ def test_measured_circle_is_not_this_gear(folder):
     circle = np.stack([rho * np.sin(t), rho * np.cos(t)], axis=1)
     (folder / "c.csv").write_text("x,y\n" + "\n".join(f"{x:.9f},{y:.9f}" for x, y in circle))
     _measured_scene(folder, "c.csv")
-    line = _assert_refused(_cli("run", "s.toml", "--out", "out", cwd=folder, timeout=120))
+    # --quiet: fitting a circle takes seconds, and a progress line would come first.
+    line = _assert_refused(
+        _cli("run", "s.toml", "--out", "out", "--quiet", cwd=folder, timeout=120)
+    )
     assert "not this design's gear" in line and "0.25 e = 0.875 mm" in line
 
 

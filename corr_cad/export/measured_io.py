@@ -177,7 +177,9 @@ def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray
                     f"{path}: expected a CSV with columns x,y (mm); the header is {header[:4]}"
                 )
             ix, iy = header.index("x"), header.index("y")
-            lines = sum(b.count(b"\n") for b in _lines(fh)) + 1
+            lines = 0
+            for block in _lines(fh):  # the last line may lack its newline
+                lines += block.count(b"\n") + (not block.endswith(b"\n"))
             stride = _stride(lines, max_points)
             fh.seek(body_start)
             kept, rows = [], 0

@@ -24,7 +24,14 @@ if TYPE_CHECKING:
     from corr_cad.run.scene import Scene
     from corr_cad.tolerance.measured import Registration
 
-__all__ = ["Results", "RunContext", "Stage", "scene_errors", "psi_contact_limit"]
+__all__ = [
+    "Results",
+    "RunContext",
+    "Stage",
+    "scene_errors",
+    "psi_contact_limit",
+    "expected_seconds",
+]
 
 
 @dataclass
@@ -89,3 +96,10 @@ def psi_contact_limit(ctx: RunContext) -> float:
     """Rollers beyond the trimmed tooth tips of an allowed undercut find no flank."""
     info = ctx.results.undercut
     return math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else math.pi
+
+
+def expected_seconds(ctx: RunContext, stage: str) -> float | None:
+    """The resource estimate's time for ``stage`` (None without an estimate)."""
+    est = ctx.estimate
+    cost = est.stages.get(stage) if est is not None else None
+    return cost.seconds if cost is not None else None

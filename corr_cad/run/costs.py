@@ -385,7 +385,7 @@ def _sweeps(scene, env):
     return Cost(
         memory=30 * MB + 4e3 * count + (0 if local or env.remote else solve),
         workers=local * (WORKER_BYTES + solve),
-        seconds=1.0 + count * (0.012 + 1.3e-6 * pos * R) / env.workers + 0.8 * len(PAPER_SWEEPS),
+        seconds=1.0 + count * (0.006 + 0.8e-6 * pos * R) / env.workers + 0.2 * len(PAPER_SWEEPS),
         output={"sweep_*": len(PAPER_SWEEPS) * (0.12 * MB + 120 * pts) + 3e3 * count},
         libraries=("matplotlib",),
         knobs=("[sweeps] points", "[sweeps] positions"),

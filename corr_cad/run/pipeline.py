@@ -84,6 +84,8 @@ def _clean(obj):
 def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[dict]:
     """Run ``stages`` in order (some in a pool worker if ``concurrent``); their timings."""
     from corr_cad.run.concurrent import kill_pool, run_stage_in_worker, worker_stages
+    from corr_cad.run.context import expected_seconds
+    from corr_cad.run.progress import heartbeat
 
     pending = {}
     if concurrent and ctx.executor is not None:
@@ -95,7 +97,8 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
     def join() -> None:  # manifest.json is key-sorted: the sections' order does not matter
         for name, fut in pending.items():
             if name not in joined:
-                sections, files, seconds = fut.result()
+                with heartbeat(f"      {name} (in a worker)", None):
+                    sections, files, seconds = fut.result()
                 joined.add(name)
                 ctx.manifest.update(sections)
                 ctx.files.extend(files)
@@ -110,7 +113,8 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
                 join()
             ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")
             t0 = time.perf_counter()
-            STAGES[name].run(ctx)
+            with heartbeat(f"      {name}", expected_seconds(ctx, name)):
+                STAGES[name].run(ctx)
             timings[name] = {"name": name, "seconds": round(time.perf_counter() - t0, 6)}
         join()
     except BaseException:

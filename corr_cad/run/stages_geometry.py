@@ -11,7 +11,7 @@ import numpy as np
 from corr_cad.errors import ExportError
 from corr_cad.export.files import angle_tag
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.context import RunContext, scene_errors
+from corr_cad.run.context import RunContext, expected_seconds, scene_errors
 
 #: Part names of the files, the same for DXF, meshes and STEP.
 PART_NAMES = {"ring": "inner_gear", "cam": "disk_cam", "roller": "roller", "frame": "teeth_frame"}
@@ -198,7 +198,9 @@ def _interference(ctx: RunContext) -> None:
     rows = []
     from corr_cad.run.progress import Progress
 
-    bar = Progress(n, "      interference", "positions")
+    bar = Progress(
+        n, "      interference", "positions", expected=expected_seconds(ctx, "interference")
+    )
     for k, ang in enumerate(angles):
         asm = mesh.assembly(
             d, solids, math.radians(ang), roller_solids=rollers, stack=stack, pieces=pieces
@@ -266,7 +268,7 @@ def _clearance(ctx: RunContext) -> None:
     chunk = max(1, CLEARANCE_CHUNK_CELLS // s.design.roller_count)
     fmts = ("%.6f", "%d") + ("%.9g",) * 4
     summaries, envelopes = [], []
-    bar = Progress(n, "      clearance", "positions")
+    bar = Progress(n, "      clearance", "positions", expected=expected_seconds(ctx, "clearance"))
     with atomic_writer(ctx.out / "clearance.csv") as f:
         f.write(",".join(COLUMNS) + "\n")
         for a in range(0, n, chunk):

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from corr_cad.geometry.profile import theoretical_profile, undercut_analysis, working_profile
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.context import RunContext
+from corr_cad.run.context import RunContext, expected_seconds
 
 
 def _undercut(ctx: RunContext) -> None:
@@ -32,7 +32,12 @@ def _dxf_geometry(ctx: RunContext) -> None:
 
     s = ctx.scene
     # A fine tolerance takes seconds per profile: a line with rate and time left.
-    bar = Progress(2, f"      dxf profiles ({s.representation}, {s.tolerance:g} mm)", "profiles")
+    bar = Progress(
+        2,
+        f"      dxf profiles ({s.representation}, {s.tolerance:g} mm)",
+        "profiles",
+        expected=expected_seconds(ctx, "dxf_geometry"),
+    )
     w = approximate(ctx.results.working, s.representation, s.tolerance)
     bar.update(1)
     t = approximate(ctx.results.theoretical, s.representation, s.tolerance)
