@@ -151,7 +151,8 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     staging = StagingDir(out)
     state["staging"] = staging
     concurrent = _concurrent_stages(args, scene)
-    with _executor(args, scene, concurrent) as executor, staging as stage:
+    task_s = max((c.task_seconds for c in est.stages.values()), default=0.0)
+    with _executor(args, scene, concurrent, task_s) as executor, staging as stage:
         # Printed with --quiet too (the user must know), once the run is
         # accepted: a refused run prints only its one error line.
         for warning in scene.warnings + ((slow,) if slow else ()):
@@ -189,10 +190,6 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     if failed or bad:
         return 1
     return status
-
-
-#: Seconds to wait for a Dask scheduler before giving up.
-SCHEDULER_TIMEOUT_S = 5.0
 
 
 def _worker_init(parent_pid: int) -> None:
@@ -250,8 +247,15 @@ def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
 
 
 @contextlib.contextmanager
-def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
-    """The executor for sample work and worker stages; only started (or contacted) when needed."""
+def _executor(
+    args: argparse.Namespace, scene, concurrent_stages: bool = False, task_seconds: float = 0.0
+):
+    """The executor for sample work and worker stages; only started (or contacted) when needed.
+
+    Dask: :mod:`corr_cad.run.dask_exec` (probed, time-outs, lost tasks
+    resubmitted once); ``task_seconds``, the estimate of the longest task,
+    sets a floor under the stall time-out.
+    """
     from corr_cad.errors import SceneError
 
     needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
@@ -261,20 +265,17 @@ def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
         if not needs:
             yield None
             return
-        try:
-            from dask.distributed import Client
-        except ImportError as exc:
-            raise SceneError(
-                "--executor dask needs the 'dask' extra: pip install -e '.[dask]'"
-            ) from exc
-        try:
-            client = Client(args.scheduler, timeout=SCHEDULER_TIMEOUT_S)
-        except Exception as exc:
-            raise SceneError(
-                f"--scheduler {args.scheduler!r}: no Dask scheduler answered within "
-                f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}); give a running one's "
-                "address, e.g. tcp://host:8786"
-            ) from exc
+        from corr_cad.run.dask_exec import connect, timeouts_for
+
+        t = timeouts_for(
+            scene,
+            args.dask_connect_timeout,
+            args.dask_no_workers_timeout,
+            args.dask_stall_timeout,
+            task_seconds,
+        )
+        say = None if args.quiet else (lambda m: print(m, flush=True))
+        client = connect(args.scheduler, t, say)
         try:
             yield client
         finally:

@@ -78,6 +78,8 @@ class Cost:
     libraries: tuple[str, ...] = ()
     #: Scene keys that drive its size, the main one first.
     knobs: tuple[str, ...] = ()
+    #: Seconds of its longest single task on one worker (sample work).
+    task_seconds: float = 0.0
 
 
 #: Stage name -> estimator ``(scene, env) -> Cost``.
@@ -347,6 +349,7 @@ def _montecarlo(scene, env):
         seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R,
         output={"montecarlo.csv": 70 * n, "montecarlo.png": 0.25 * MB},
         knobs=("[montecarlo] samples", "[montecarlo] positions"),
+        task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
         **{**work, "libraries": work["libraries"] + ("matplotlib",)},
     )
 
@@ -370,6 +373,7 @@ def _allocation(scene, env):
         seconds=0.5 + runs * (0.02 + per_run) + (2.0 if kernel else 0.0),
         output={"allocation.*": 4e3 * len(scene.tolerances)},
         knobs=("[montecarlo] allocation_samples", "[montecarlo] positions"),
+        task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
         **work,
     )
 
@@ -389,6 +393,7 @@ def _sweeps(scene, env):
         output={"sweep_*": len(PAPER_SWEEPS) * (0.12 * MB + 120 * pts) + 3e3 * count},
         libraries=("matplotlib",),
         knobs=("[sweeps] points", "[sweeps] positions"),
+        task_seconds=0.006 + 0.8e-6 * pos * R,
     )
 
 
