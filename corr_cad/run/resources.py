@@ -15,27 +15,29 @@ value that fits and the override:
 * time: a warning (the run still starts) beyond 60 s (``--warn-time``,
   ``[budget] time_warning_s``).
 
-Two structural limits stay as they were: a DXF profile of more than
-``MAX_PROFILE_VERTICES`` vertices (the approximator's own budget) and a mesh
-of more than ``MAX_MESH_TRIANGLES`` triangles.
-
-Vertex counts come from the exact curves' curvature: a chord of length
-``l`` on a circle of radius ``R`` misses it by ``l^2 / (8 R)``, so a polyline
-within ``tol`` needs ``integral of sqrt(kappa / (8 tol)) ds`` segments.
-Pure numpy.
+The two structural limits (a DXF profile of more than
+``MAX_PROFILE_VERTICES`` vertices, the approximator's own budget, and a mesh
+of more than ``MAX_MESH_TRIANGLES`` triangles) are :mod:`corr_cad.run.limits`,
+checked at load time.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 from dataclasses import dataclass, replace
 
-import numpy as np
-
 from corr_cad.errors import SceneError
 from corr_cad.run.costs import ESTIMATORS, LIBRARY_BYTES, WORKER_BYTES, Cost, Env
+from corr_cad.run.limits import (  # noqa: F401  (re-exported: the limits are part of this interface)
+    MAX_MESH_TRIANGLES,
+    MAX_PROFILE_VERTICES,
+    check_structure,
+    mesh_triangles,
+    polyline_segments,
+    profile_vertices,
+    round_up,
+)
 
 __all__ = [
     "DEFAULT_MEMORY_GB",
@@ -62,15 +64,6 @@ GB = 1024.0**3
 #: own tables (~50 kB a tooth: 134 MB at z = 1000).
 BASE_BYTES = 100 * 1024**2
 BASE_BYTES_PER_TOOTH = 60e3
-#: Most vertices (polyline/arcs) or control points (spline) of one DXF profile:
-#: the approximator's own budget (``sampling._MAX_VERTICES``, a test keeps the
-#: two equal), beyond which it cannot reach the tolerance.
-MAX_PROFILE_VERTICES = 200_000
-#: Most triangles of one mesh file (an STL of 5e6 triangles is 250 MB).
-MAX_MESH_TRIANGLES = 5_000_000
-#: The prototype's assembly_000deg.stl at chord_tolerance 1e-3 has 174 364
-#: triangles, the extruded-polygon count below gives 119 787: scale by 1.5.
-MESH_CALIBRATION = 1.5
 
 
 def default_workers() -> int:
@@ -123,83 +116,6 @@ def budget_for(
             f"memory; at most {math.floor(machine_memory() / GB * 10) / 10:g}"
         )
     return Budget(mem * GB, out * GB, warn, mem_from, out_from, warn_from)
-
-
-def _locus(design, per_tooth: int = 400) -> tuple[np.ndarray, np.ndarray]:
-    """Roller-centre locus and the working profile (outer offset by r), (n, 2) each."""
-    z, e, r = design.tooth_count, design.eccentricity, design.roller_radius
-    L = design.cam_radius + r
-    t = np.linspace(0.0, 2.0 * np.pi, per_tooth * z, endpoint=False)
-    psi = z * t
-    s = e * np.cos(psi) + np.sqrt(L * L - (e * np.sin(psi)) ** 2)
-    p = np.stack([s * np.sin(t), s * np.cos(t)], axis=1)
-    d = np.roll(p, -1, axis=0) - np.roll(p, 1, axis=0)
-    tang = d / np.linalg.norm(d, axis=1)[:, None]
-    # The curve runs clockwise (x = s sin t, y = s cos t): outward is the tangent turned left.
-    normal = np.stack([-tang[:, 1], tang[:, 0]], axis=1)
-    if np.sum(normal * p) < 0:
-        normal = -normal
-    return p, p + r * normal
-
-
-def polyline_segments(points: np.ndarray, tol: float) -> float:
-    """Segments a polyline within ``tol`` needs along the closed curve ``points`` (n, 2)."""
-    a = np.roll(points, 1, axis=0)
-    c = np.roll(points, -1, axis=0)
-    ab = np.linalg.norm(points - a, axis=1)
-    bc = np.linalg.norm(c - points, axis=1)
-    ac = np.linalg.norm(c - a, axis=1)
-    cross = np.abs((points - a)[:, 0] * (c - a)[:, 1] - (points - a)[:, 1] * (c - a)[:, 0])
-    kappa = 2.0 * cross / np.maximum(ab * bc * ac, 1e-300)  # circumscribed circle
-    ds = 0.5 * (ab + bc)
-    return float(np.sum(np.sqrt(kappa / (8.0 * tol)) * ds)) + 1.0
-
-
-@functools.lru_cache(maxsize=16)
-def _curvature_integrals(design) -> tuple[float, float]:
-    """``polyline_segments - 1`` of the working profile and of the locus at tol = 1e-3."""
-    locus, work = _locus(design)
-    return polyline_segments(work, 1e-3) - 1.0, polyline_segments(locus, 1e-3) - 1.0
-
-
-def _circle(radius: float, tol: float) -> float:
-    if tol >= radius:
-        return 8.0
-    return max(8.0, math.pi / math.acos(1.0 - tol / radius))
-
-
-#: Representation -> exponent of 1/tol in the vertex count and the count at
-#: tol = 1e-3 as a multiple of the curvature integral there. Measured on the
-#: prototype, working and theoretical profiles, tol = 1e-2, 1e-3, 1e-4
-#: (``approximate``): polyline 1300/4500/13650 vertices against an integral
-#: of 768/2430/7685 (ratio <= 1.85, exponent 1/2); arcs 800/1400/2800; spline
-#: 451/701/1251 control points. The ratios round the worst case up; the
-#: node-budget sampler (polyline 800/2525/7775) stays below the estimate.
-_REPR = {"polyline": (0.5, 1.9), "arcs": (1.0 / 3.0, 0.6), "spline": (0.25, 0.3)}
-
-
-def _vertices(design, representation: str, tol: float) -> float:
-    exponent, ratio = _REPR[representation]
-    work, locus = _curvature_integrals(design)
-    return ratio * (max(work, locus) + 1.0) * (1e-3 / tol) ** exponent
-
-
-def _triangles(design, chord: float) -> tuple[float, float]:
-    """Triangles of the assembly mesh and of the four part meshes at ``chord``."""
-    work, _ = _curvature_integrals(design)
-    R = design.roller_count
-    ring = work * math.sqrt(1e-3 / chord) + 1.0 + _circle(design.ring_outer_radius, chord)
-    cam = _circle(design.cam_radius, chord) + _circle(design.cam_bore_radius, chord)
-    roller = _circle(design.roller_radius, chord)
-    frame = (
-        _circle(design.frame_inner_radius, chord)
-        + _circle(design.frame_outer_radius, chord)
-        + R * roller
-    )
-    # An extruded polygon of V vertices: 2 caps of V - 2 triangles, 2V on the side.
-    asm = MESH_CALIBRATION * 4.0 * (ring + 2 * cam + 2 * R * roller + 2 * frame)
-    parts = MESH_CALIBRATION * 4.0 * (ring + cam + roller + frame)
-    return asm, parts
 
 
 @dataclass(frozen=True)
@@ -264,9 +180,11 @@ def _duration(s: float) -> str:
 def _env(scene, workers: int, executor: str, vertices: float, stages: list[str]) -> Env:
     tri, parts = (0.0, 0.0)
     if {"solids", "step_files", "interference"} & set(stages):
-        tri, parts = _triangles(scene.design, scene.chord_tolerance)
+        tri, parts = mesh_triangles(scene.design, scene.chord_tolerance)
     spline = (
-        _vertices(scene.design, "spline", scene.chord_tolerance) if "step_files" in stages else 0
+        profile_vertices(scene.design, "spline", scene.chord_tolerance)
+        if "step_files" in stages
+        else 0
     )
     size, is_dxf = 0, False
     if scene.measured_profile is not None:
@@ -310,7 +228,7 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
 
     workers = workers or default_workers()
     stages = _stages(scene)
-    verts = _vertices(scene.design, scene.representation, scene.tolerance)
+    verts = profile_vertices(scene.design, scene.representation, scene.tolerance)
     env = _env(scene, workers, executor, verts, stages)
     costs = {name: ESTIMATORS[name](scene, env) for name in stages}
     aside = set()
@@ -457,9 +375,9 @@ def _fitting_value(scene, key: str, fits) -> float | None:
     for _ in range(40):
         mid = math.sqrt(lo * hi)
         lo, hi = (lo, mid) if fits(put(scene, mid)) else (mid, hi)
-    value = _round_up(hi)
+    value = round_up(hi)
     while value < high and not fits(put(scene, value)):
-        value = _round_up(value * 1.05)
+        value = round_up(value * 1.05)
     return min(value, high)
 
 
@@ -503,8 +421,8 @@ def check_scene(
     a value that fits, and how to raise the budget.
     """
     budget = budget or budget_for(scene)
+    check_structure(scene)
     est = estimate(scene, workers, executor)
-    _check_structure(scene, est)
     stages = list(est.stages)
 
     def order(first: str) -> list[str]:
@@ -558,34 +476,3 @@ def time_warning(scene, est: Estimate, budget: Budget, executor: str = "process"
         f"threshold ({budget.warn_from}); {what}: {fit}; --warn-time S or "
         "[budget] time_warning_s moves the threshold"
     )
-
-
-def _check_structure(scene, est: Estimate) -> None:
-    if est.profile_vertices > MAX_PROFILE_VERTICES:
-        exponent, _ = _REPR[scene.representation]
-        ok = scene.tolerance * (est.profile_vertices / MAX_PROFILE_VERTICES) ** (1 / exponent)
-        raise SceneError(
-            f"[export] tolerance = {scene.tolerance:g}: a {scene.representation} DXF profile "
-            f"would need about {est.profile_vertices:.3g} vertices; at most "
-            f"{MAX_PROFILE_VERTICES:g}; tolerance = {_round_up(ok):g} would work"
-        )
-    if est.mesh_triangles > MAX_MESH_TRIANGLES:
-        ok = scene.chord_tolerance * (est.mesh_triangles / MAX_MESH_TRIANGLES) ** 2
-        raise SceneError(
-            f"[export] chord_tolerance = {scene.chord_tolerance:g}: the assembly mesh would "
-            f"have about {est.mesh_triangles:.3g} triangles; at most {MAX_MESH_TRIANGLES:g}; "
-            f"chord_tolerance = {_round_up(ok):g} would work"
-        )
-
-
-def check_structure(scene) -> None:
-    """The structural limits alone (DXF vertices, mesh triangles): at load time."""
-    _check_structure(scene, estimate(scene, 1, "serial"))
-
-
-def _round_up(x: float) -> float:
-    """``x`` rounded up to two significant digits (a value to suggest)."""
-    if x <= 0:
-        return x
-    q = 10 ** (math.floor(math.log10(x)) - 1)
-    return math.ceil(x / q) * q

@@ -470,7 +470,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active())),
     )
-    from corr_cad.run.resources import check_structure
+    from corr_cad.run.limits import check_structure
 
     # The structural limits here; the budget (memory, files, time) where the
     # run starts, with the command line's overrides and worker count
