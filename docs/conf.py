@@ -38,7 +38,8 @@ copyright = "corr_cad maintainers"
 extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon"]
 source_suffix = {".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "_generated"]
+# docs/_incoming: pages and changelog lines of a branch, merged by hand.
+exclude_patterns = ["_build", "_generated", "_incoming"]
 myst_heading_anchors = 3
 
 html_theme = "furo"

@@ -312,3 +312,28 @@ def test_small_runs_stay_within_their_estimate(tmp_path, name):
     est = estimate(load_scene(tmp_path / "s.toml"), 1, "serial").memory / 2**20
     assert rss <= est, (name, rss, est)
     assert f"estimate: peak memory ~{est:.0f} MB (budget 3072 MB)" in proc.stdout
+
+
+def test_every_stage_has_an_estimator():
+    """A new stage (a datasheet, a modification study) registers its cost in run/costs.py."""
+    from corr_cad.run.costs import ESTIMATORS
+    from corr_cad.run.stages import STAGES
+
+    assert sorted(STAGES) == sorted(ESTIMATORS)
+
+
+def test_files_beyond_the_free_disk_refused(tmp_path, monkeypatch):
+    """The output folder's disk is asked too (its free space faked at 1 MB)."""
+    import shutil
+    from collections import namedtuple
+
+    from corr_cad.errors import SceneError
+    from corr_cad.run.resources import check_disk, estimate
+    from corr_cad.run.scene import parse_scene
+
+    est = estimate(parse_scene({"export": {"formats": ["stl"]}}), 1, "serial")
+    check_disk(est, tmp_path / "new" / "out")  # the real disk has room
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9 - 2**20, 2**20))
+    with pytest.raises(SceneError, match=r"has 0.000977 GB free; free some space or choose"):
+        check_disk(est, tmp_path / "new" / "out")

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad.run.bench_accuracy import fidelity, interference, profile_export, solids
+from corr_cad.run.bench_resources import resources
 from corr_cad.run.bench_speed import (
     cold_start,
     kernel_crossover,
@@ -35,6 +36,7 @@ STUDIES = {
     "kernel": kernel_crossover,
     "interference": interference,
     "coldstart": cold_start,
+    "resources": resources,
 }
 
 

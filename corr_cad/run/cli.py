@@ -80,6 +80,7 @@ def _parser() -> argparse.ArgumentParser:
             "kernel",
             "interference",
             "coldstart",
+            "resources",
         ),
         help="run only this study (repeatable); default all",
     )
@@ -130,7 +131,13 @@ _FLAG_KEYS = (
 def _run(args: argparse.Namespace, state: dict) -> int:
     from corr_cad.run.outputs import StagingDir, check_out_dir, safe_folder_name
     from corr_cad.run.pipeline import run_scene
-    from corr_cad.run.resources import budget_for, check_scene, default_workers, time_warning
+    from corr_cad.run.resources import (
+        budget_for,
+        check_disk,
+        check_scene,
+        default_workers,
+        time_warning,
+    )
     from corr_cad.run.scene import load_scene
 
     _check_workers(args)
@@ -146,6 +153,7 @@ def _run(args: argparse.Namespace, state: dict) -> int:
         progress.set_enabled(False)
     out = args.out if args.out is not None else Path("outputs") / safe_folder_name(scene.name)
     check_out_dir(out)  # refuse before anything is created or started
+    check_disk(est, out)  # the files must fit where they go
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
     staging = StagingDir(out)
