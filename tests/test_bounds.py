@@ -335,5 +335,5 @@ def test_files_beyond_the_free_disk_refused(tmp_path, monkeypatch):
     check_disk(est, tmp_path / "new" / "out")  # the real disk has room
     usage = namedtuple("usage", "total used free")
     monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9 - 2**20, 2**20))
-    with pytest.raises(SceneError, match=r"has 0.000977 GB free; free some space or choose"):
+    with pytest.raises(SceneError, match=r"has 1 MB free; free some space or choose"):
         check_disk(est, tmp_path / "new" / "out")

@@ -417,7 +417,13 @@ def _show(v, key: str) -> str:
 
 
 def _gb(x: float) -> str:
+    """A budget, in the GB it is given in."""
     return f"{x / GB:.3g} GB"
+
+
+def _size(x: float) -> str:
+    """A need: MB below 1 GB, else GB."""
+    return f"{x / 1024**2:.3g} MB" if x < GB else f"{x / GB:.3g} GB"
 
 
 def check_scene(
@@ -443,7 +449,7 @@ def check_scene(
 
         what, fit = _blame(scene, est, order(est.peak_stage), fits)
         raise SceneError(
-            f"{what}: the run would need about {_gb(est.memory)} of memory (at "
+            f"{what}: the run would need about {_size(est.memory)} of memory (at "
             f"{est.peak_stage}); the budget is {_gb(budget.memory_bytes)} "
             f"({budget.memory_from}); {fit}, or raise it with --max-memory GB or "
             "[budget] memory_gb"
@@ -457,8 +463,8 @@ def check_scene(
         files = max(est.output, key=est.output.get)
         what, fit = _blame(scene, est, order(big), fits_out)
         raise SceneError(
-            f"{what}: the run would write about {_gb(est.output_bytes)} of files ({files} "
-            f"{_gb(est.output[files])}); the output budget is {_gb(budget.output_bytes)} "
+            f"{what}: the run would write about {_size(est.output_bytes)} of files ({files} "
+            f"{_size(est.output[files])}); the output budget is {_gb(budget.output_bytes)} "
             f"({budget.output_from}); {fit}, or raise it with --max-output GB or "
             "[budget] output_gb"
         )
@@ -479,8 +485,8 @@ def check_disk(est: Estimate, out) -> None:
         return  # the output folder's own checks report it
     if est.output_bytes > free:
         raise SceneError(
-            f"the run would write about {_gb(est.output_bytes)} of files; {where} has "
-            f"{_gb(free)} free; free some space or choose another --out"
+            f"the run would write about {_size(est.output_bytes)} of files; {where} has "
+            f"{_size(free)} free; free some space or choose another --out"
         )
 
 
