@@ -85,7 +85,7 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
     """Run ``stages`` in order (some in a pool worker if ``concurrent``); their timings."""
     from corr_cad.run.concurrent import kill_pool, run_stage_in_worker, worker_stages
     from corr_cad.run.context import expected_seconds
-    from corr_cad.run.progress import heartbeat
+    from corr_cad.run.progress import close_all, heartbeat
 
     pending = {}
     if concurrent and ctx.executor is not None:
@@ -113,8 +113,11 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
                 join()
             ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")
             t0 = time.perf_counter()
-            with heartbeat(f"      {name}", expected_seconds(ctx, name)):
-                STAGES[name].run(ctx)
+            try:
+                with heartbeat(f"      {name}", expected_seconds(ctx, name)):
+                    STAGES[name].run(ctx)
+            finally:
+                close_all()  # no counter of a stage that raised goes on printing
             timings[name] = {"name": name, "seconds": round(time.perf_counter() - t0, 6)}
         join()
     except BaseException:

@@ -27,7 +27,15 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import TextIO
 
-__all__ = ["set_enabled", "enabled", "Progress", "progress", "heartbeat", "duration"]
+__all__ = [
+    "set_enabled",
+    "enabled",
+    "Progress",
+    "progress",
+    "heartbeat",
+    "close_all",
+    "duration",
+]
 
 _ENABLED = True
 #: When any progress line was last printed (monotonic s): a heartbeat keeps
@@ -35,6 +43,8 @@ _ENABLED = True
 _LAST_LINE = [0.0]
 #: Counters printing lines now: a heartbeat keeps quiet while there is one.
 _ACTIVE = [0]
+#: Counters not closed yet (:func:`close_all` ends them when their stage ends).
+_OPEN: set = set()
 _LOCK = threading.Lock()
 
 
@@ -132,6 +142,7 @@ class Progress:
             self._ticker = _Ticker(interval, self._tick)
             with _LOCK:
                 _ACTIVE[0] += 1
+                _OPEN.add(self)
 
     def time_left(self) -> str:
         """``2m50s left`` (measured), ``estimated 2m50s left`` or ``? left``."""
@@ -182,9 +193,16 @@ class Progress:
             self._ticker = None
             with _LOCK:
                 _ACTIVE[0] -= 1
+                _OPEN.discard(self)
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+
+
+def close_all() -> None:
+    """Close every counter still open (a stage that raised left its own running)."""
+    for p in list(_OPEN):
+        p.close()
 
 
 @contextmanager
