@@ -98,9 +98,12 @@ LOCAL = {
     "montecarlo": None,
     "checks": None,
     "tolerances": None,
+    "budget": None,
+    "dask": None,
+    # Not "tolerance": with "dxf" in the formats, a tolerance below ~5e-7 mm
+    # passes the 200,000-vertex limit, which the JSON Schema cannot state.
     "export": {
         "representation",
-        # not "tolerance": the DXF vertex budget (the resource check) depends on the design
         "chord_tolerance",
         "assembly_angles_deg",
         "interference_positions",

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import csv
-import io
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +16,9 @@ from corr_cad.geometry.sampling import approximate
 
 __all__ = [
     "read_measured_points",
+    "read_measured",
+    "MeasuredRead",
+    "MAX_MEASURED_POINTS",
     "write_deviation_dxf",
     "MEASURED_LAYERS",
     "MAX_MEASURED_BYTES",
@@ -44,7 +47,32 @@ INSUNITS_MM = {
 }
 
 
-def read_measured_points(path: Path) -> np.ndarray:
+#: Most measured points kept for registration, inspection and the forces. A
+#: longer file is read whole (every value checked) and every k-th point kept,
+#: k = ceil(rows / MAX_MEASURED_POINTS): still 200 points a tooth at z = 1000,
+#: ten times the 20 a tooth the registration needs (``POINTS_PER_TOOTH``).
+MAX_MEASURED_POINTS = 200_000
+#: Bytes of a CSV read and parsed at a time.
+_BLOCK_BYTES = 4 << 20
+#: Longest header line read, bytes.
+_MAX_HEADER = 64 << 10
+
+
+@dataclass(frozen=True)
+class MeasuredRead:
+    """Points read from a measured profile, and how many the file held."""
+
+    points: np.ndarray
+    #: Data rows (CSV, blank lines aside) or contour points (DXF) in the file.
+    rows: int
+    #: Every ``stride``-th row kept (1: all).
+    stride: int
+
+    def as_dict(self) -> dict:
+        return {"rows": self.rows, "kept": int(len(self.points)), "stride": self.stride}
+
+
+def read_measured_points(path: Path, max_points: int | None = MAX_MEASURED_POINTS) -> np.ndarray:
     """Points (n, 2) in mm from a CSV with columns ``x,y`` or from a DXF's closed contour.
 
     The CSV may start with a UTF-8 byte-order mark; header names are read
@@ -52,59 +80,136 @@ def read_measured_points(path: Path) -> np.ndarray:
     contour is taken from layer ``MEASURED_PROFILE`` if present, else
     ``WORKING_PROFILE``, and scaled to mm by the header's ``$INSUNITS``. Only
     a regular file of at most ``MAX_MEASURED_BYTES`` is read. A
-    self-intersecting contour is refused.
+    self-intersecting contour is refused. Beyond ``max_points`` points every
+    k-th is kept (:func:`read_measured`).
     """
-    from corr_cad.export.inputfiles import read_regular_file
+    return read_measured(path, max_points).points
+
+
+def read_measured(path: Path, max_points: int | None = MAX_MEASURED_POINTS) -> MeasuredRead:
+    """:func:`read_measured_points` with the file's row count and the stride kept.
+
+    A CSV is streamed: read ``_BLOCK_BYTES`` at a time (every value is parsed
+    and checked), only every k-th row kept, so memory does not grow with the
+    file. A DXF is read by ezdxf (whole, its size bounded by the estimate).
+    """
+    from corr_cad.export.inputfiles import check_regular_file
 
     path = Path(path)
-    raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
+    size = check_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
     if path.suffix.lower() == ".dxf":
-        import ezdxf
-
-        try:
-            doc = ezdxf.readfile(str(path))
-            layers = {e.dxf.layer for e in doc.modelspace()}
-            units = int(doc.header.get("$INSUNITS", 0))
-        except Exception as exc:
-            raise ProfileError(
-                f"{path}: not a readable DXF file ({exc or type(exc).__name__})"
-            ) from exc
-        if units not in INSUNITS_MM:
-            raise ProfileError(
-                f"{path}: $INSUNITS = {units} is not a length unit corr_cad reads; "
-                f"one of {', '.join(str(k) for k in INSUNITS_MM)} (4 = mm)"
-            )
-        layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
-        try:
-            pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
-        except Exception as exc:
-            raise ProfileError(str(exc)) from exc
-        pts = pts * INSUNITS_MM[units]
+        pts = _read_dxf(path)
+        rows = len(pts)
+        stride = _stride(rows, max_points)
+        pts = pts[::stride]
     else:
-        try:
-            text = raw.decode("utf-8-sig")
-            reader = csv.reader(io.StringIO(text, newline=""))
-            header = [h.strip().lower() for h in next(reader, [])]
-            rows = list(reader)
-        except (UnicodeDecodeError, csv.Error) as exc:
-            raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
-        if "x" not in header or "y" not in header:
-            raise ProfileError(
-                f"{path}: expected a CSV with columns x,y (mm); the header is {header[:4]}"
-            )
-        ix, iy = header.index("x"), header.index("y")
-        try:
-            pts = np.array(
-                [[float(r[ix]), float(r[iy])] for r in rows if any(c.strip() for c in r)],
-                dtype=float,
-            ).reshape(-1, 2)
-        except (TypeError, ValueError, IndexError) as exc:
-            raise ProfileError(f"{path}: a value is not a number ({exc})") from exc
+        pts, rows, stride = _read_csv(path, size, max_points)
     if len(pts) >= 4 and np.all(np.isfinite(pts)):
         ring = shapely.LinearRing(pts)
         if not ring.is_simple:
             raise ProfileError(f"{path}: the contour intersects itself")
-    return pts
+    return MeasuredRead(pts, rows, stride)
+
+
+def _stride(rows: int, max_points: int | None) -> int:
+    return 1 if not max_points or rows <= max_points else -(-rows // max_points)
+
+
+def _read_dxf(path: Path) -> np.ndarray:
+    import ezdxf
+
+    try:
+        doc = ezdxf.readfile(str(path))
+        layers = {e.dxf.layer for e in doc.modelspace()}
+        units = int(doc.header.get("$INSUNITS", 0))
+    except Exception as exc:
+        raise ProfileError(
+            f"{path}: not a readable DXF file ({exc or type(exc).__name__})"
+        ) from exc
+    del doc
+    if units not in INSUNITS_MM:
+        raise ProfileError(
+            f"{path}: $INSUNITS = {units} is not a length unit corr_cad reads; "
+            f"one of {', '.join(str(k) for k in INSUNITS_MM)} (4 = mm)"
+        )
+    layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
+    try:
+        pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
+    except Exception as exc:
+        raise ProfileError(str(exc)) from exc
+    return pts * INSUNITS_MM[units]
+
+
+def _lines(fh, rest: bytes = b""):
+    """Blocks of whole lines (bytes) from ``fh``, ``_BLOCK_BYTES`` at a time (at most
+    ``MAX_MEASURED_BYTES`` in all: a file that grows while it is read is not followed)."""
+    total = 0
+    while True:
+        block = fh.read(_BLOCK_BYTES)
+        total += len(block)
+        if total > MAX_MEASURED_BYTES:
+            raise ValueError(f"it grew beyond {MAX_MEASURED_BYTES} bytes while read")
+        if not block:
+            if rest:
+                yield rest
+            return
+        block = rest + block
+        cut = block.rfind(b"\n") + 1
+        if cut == 0:
+            rest = block
+            if len(rest) > 16 * _BLOCK_BYTES:
+                raise ValueError(f"a line longer than {16 * _BLOCK_BYTES} bytes")
+            continue
+        rest = block[cut:]
+        yield block[:cut]
+
+
+def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray, int, int]:
+    """Stream a CSV: count its lines, then parse every row, keeping every k-th."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.readline(_MAX_HEADER)
+            body_start = fh.tell()
+            text = head.decode("utf-8-sig")
+            header = [h.strip().lower() for h in next(csv.reader([text]), [])]
+            if "x" not in header or "y" not in header:
+                raise ProfileError(
+                    f"{path}: expected a CSV with columns x,y (mm); the header is {header[:4]}"
+                )
+            ix, iy = header.index("x"), header.index("y")
+            lines = 0
+            for block in _lines(fh):  # the last line may lack its newline
+                lines += block.count(b"\n") + (not block.endswith(b"\n"))
+            stride = _stride(lines, max_points)
+            fh.seek(body_start)
+            kept, rows = [], 0
+            for block in _lines(fh):
+                rows_text = [r for r in block.decode("utf-8").splitlines() if r.strip(" \t,")]
+                if not rows_text:
+                    continue
+                vals = _parse_rows(rows_text, ix, iy, path)
+                kept.append(vals[(-rows) % stride :: stride])
+                rows += len(vals)
+    except OSError as exc:
+        raise ProfileError(
+            f"measured profile {path} cannot be read: {exc.strerror or exc}"
+        ) from exc
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
+    except ValueError as exc:
+        raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
+    pts = np.concatenate(kept) if kept else np.empty((0, 2))
+    return pts, rows, stride
+
+
+def _parse_rows(rows: list[str], ix: int, iy: int, path: Path) -> np.ndarray:
+    """``x, y`` of CSV rows (numpy's C parser; quotes and blanks as the csv module reads them)."""
+    try:
+        return np.loadtxt(
+            rows, delimiter=",", usecols=(ix, iy), ndmin=2, dtype=float, quotechar='"'
+        ).reshape(-1, 2)
+    except (TypeError, ValueError, IndexError) as exc:
+        raise ProfileError(f"{path}: a value is not a number ({exc})") from exc
 
 
 def write_deviation_dxf(

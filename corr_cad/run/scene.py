@@ -111,6 +111,10 @@ class Scene:
     #: ``[datasheet]`` with its defaults (``rated_torque_Nm`` None: from ``[load]``).
     datasheet: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
+    #: ``[budget]``: memory_gb, output_gb, time_warning_s (None: the defaults).
+    budget: dict = field(default_factory=dict)
+    #: ``[dask]``: connect, no-workers and stall time-outs in s (None: the defaults).
+    dask: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
     #: ``formats = ["all"]``: the formats it left out, each with the reason.
@@ -451,6 +455,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         edm=values["edm"],
         inspection=values["inspection"],
         datasheet=values["datasheet"],
+        budget=values["budget"],
+        dask=values["dask"],
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
@@ -466,9 +472,12 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         + renamed_key_warnings(data),
         formats_left_out=left_out,
     )
-    from corr_cad.run.resources import check_scene
+    from corr_cad.run.limits import check_structure
 
-    check_scene(scene)
+    # The structural limits here; the budget (memory, files, time) where the
+    # run starts, with the command line's overrides and worker count
+    # (corr_cad.run.resources.check_scene).
+    check_structure(scene)
     return scene
 
 
