@@ -96,7 +96,8 @@ LOCAL = {
     "material": None,
     "solver": None,
     "montecarlo": None,
-    "checks": None,
+    # Not "max_failure_probability": it needs a limit beside it in [checks].
+    "checks": {k for k in SCHEMA["checks"] if k != "max_failure_probability"},
     "tolerances": None,
     "budget": None,
     "dask": None,
