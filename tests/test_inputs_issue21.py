@@ -172,3 +172,42 @@ def test_long_paths_give_a_bounded_line(folder):
     assert r.returncode == 2
     (line,) = r.stderr.strip().splitlines()
     assert len(line) <= 300 and "--out" in line, line
+
+
+WARN_THEN = """
+import sys, warnings
+import numpy as np
+from corr_cad.export import plots
+real = plots.preview_png
+def noisy(*a, **k):
+    np.float64(1.0) / np.float64(0.0)  # numpy: RuntimeWarning, divide by zero
+    warnings.warn("a library's note", UserWarning)
+    if sys.argv[1] == "fail":
+        raise OSError(28, "No space left on device")
+    return real(*a, **k)
+plots.preview_png = noisy
+from corr_cad.run.cli import main
+sys.exit(main(["run", *sys.argv[2:]]))
+"""
+
+
+@pytest.mark.parametrize("outcome", ["ok", "fail"])
+def test_library_warnings_never_reach_the_terminal_raw(folder, outcome):
+    """A numpy or matplotlib warning printed its two raw lines before the error line."""
+    (folder / "s.toml").write_text(DESIGN + '[export]\nformats = ["png"]\n')
+    r = subprocess.run(
+        [sys.executable, "-c", WARN_THEN, outcome, "s.toml", "--out", "out", "--quiet"],
+        capture_output=True,
+        text=True,
+        cwd=folder,
+        timeout=120,
+    )
+    lines = r.stderr.strip().splitlines()
+    if outcome == "fail":
+        assert r.returncode == 2 and len(lines) == 1, r.stderr
+        assert lines[0].startswith("corr-cad: error: ") and "No space" in lines[0], lines
+        return
+    assert r.returncode == 0, r.stderr
+    assert len(lines) == 2 and all(x.startswith("corr-cad: warning: ") for x in lines), lines
+    assert "RuntimeWarning" in lines[0] and "UserWarning" in lines[1], lines
+    assert all(len(x) <= 300 for x in lines)
