@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import shapely
 
+from corr_cad.bounds import show
 from corr_cad.errors import ProfileError
 from corr_cad.export import dxf
 from corr_cad.geometry.profile import ProfileCurve
@@ -44,6 +45,59 @@ INSUNITS_MM = {
 }
 
 
+def _brief(exc: BaseException, limit: int = 100) -> str:
+    """An exception's message cut short: it may quote the file it failed on."""
+    return show(str(exc) or type(exc).__name__, limit)
+
+
+def _csv_points(raw: bytes, shown: str) -> np.ndarray:
+    """Points (n, 2) from a CSV's bytes; errors name the line and quote at most 40 characters.
+
+    A stray quote makes the csv module read the rest of the file as one
+    field: that field is never echoed whole.
+    """
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ProfileError(f"{shown}: cannot be read as CSV (not UTF-8: {exc.reason})") from exc
+    reader = csv.reader(io.StringIO(text, newline=""))
+    start = 1
+    try:
+        header = [h.strip().lower() for h in next(reader, [])]
+        if "x" not in header or "y" not in header:
+            raise ProfileError(
+                f"{shown}: expected a CSV with columns x,y (mm); the header is "
+                f"{show(header[:4], 60)}"
+            )
+        ix, iy = header.index("x"), header.index("y")
+        pts = []
+        while True:
+            start = reader.line_num + 1  # a quoted value may run over many lines
+            row = next(reader, None)
+            if row is None:
+                break
+            if not any(c.strip() for c in row):
+                continue
+            try:
+                pts.append((float(row[ix]), float(row[iy])))
+            except (ValueError, IndexError) as exc:
+                cells = row[ix] if ix < len(row) else ""
+                cells += "," + row[iy] if iy < len(row) else ""
+                quote = (
+                    " (a stray quote joins the lines after it into one)" if "\n" in cells else ""
+                )
+                raise ProfileError(
+                    f"{shown}: line {start}: x,y = {show(cells, 40)}: a value is not a number"
+                    + quote
+                ) from exc
+    except csv.Error as exc:
+        raise ProfileError(
+            f"{shown}: line {start}: cannot be read as CSV ({_brief(exc, 60)}; a stray quote "
+            "joins the lines after it into one value)"
+        ) from exc
+    return np.array(pts, dtype=float).reshape(-1, 2)
+
+
 def read_measured_points(path: Path) -> np.ndarray:
     """Points (n, 2) in mm from a CSV with columns ``x,y`` or from a DXF's closed contour.
 
@@ -58,6 +112,7 @@ def read_measured_points(path: Path) -> np.ndarray:
 
     path = Path(path)
     raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
+    shown = show(str(path), 120)
     if path.suffix.lower() == ".dxf":
         import ezdxf
 
@@ -66,44 +121,24 @@ def read_measured_points(path: Path) -> np.ndarray:
             layers = {e.dxf.layer for e in doc.modelspace()}
             units = int(doc.header.get("$INSUNITS", 0))
         except Exception as exc:
-            raise ProfileError(
-                f"{path}: not a readable DXF file ({exc or type(exc).__name__})"
-            ) from exc
+            raise ProfileError(f"{shown}: not a readable DXF file ({_brief(exc)})") from exc
         if units not in INSUNITS_MM:
             raise ProfileError(
-                f"{path}: $INSUNITS = {units} is not a length unit corr_cad reads; "
+                f"{shown}: $INSUNITS = {units} is not a length unit corr_cad reads; "
                 f"one of {', '.join(str(k) for k in INSUNITS_MM)} (4 = mm)"
             )
         layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
         try:
             pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
         except Exception as exc:
-            raise ProfileError(str(exc)) from exc
+            raise ProfileError(f"{shown}: {_brief(exc)}") from exc
         pts = pts * INSUNITS_MM[units]
     else:
-        try:
-            text = raw.decode("utf-8-sig")
-            reader = csv.reader(io.StringIO(text, newline=""))
-            header = [h.strip().lower() for h in next(reader, [])]
-            rows = list(reader)
-        except (UnicodeDecodeError, csv.Error) as exc:
-            raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
-        if "x" not in header or "y" not in header:
-            raise ProfileError(
-                f"{path}: expected a CSV with columns x,y (mm); the header is {header[:4]}"
-            )
-        ix, iy = header.index("x"), header.index("y")
-        try:
-            pts = np.array(
-                [[float(r[ix]), float(r[iy])] for r in rows if any(c.strip() for c in r)],
-                dtype=float,
-            ).reshape(-1, 2)
-        except (TypeError, ValueError, IndexError) as exc:
-            raise ProfileError(f"{path}: a value is not a number ({exc})") from exc
+        pts = _csv_points(raw, shown)
     if len(pts) >= 4 and np.all(np.isfinite(pts)):
         ring = shapely.LinearRing(pts)
         if not ring.is_simple:
-            raise ProfileError(f"{path}: the contour intersects itself")
+            raise ProfileError(f"{shown}: the contour intersects itself")
     return pts
 
 

@@ -24,6 +24,7 @@ Pure numpy.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass
@@ -106,9 +107,15 @@ def polyline_segments(points: np.ndarray, tol: float) -> float:
 
 
 def _circle(radius: float, tol: float) -> float:
+    """Segments of a polygon within ``tol`` of a circle of ``radius``.
+
+    ``pi / acos(1 - tol/R)``, written as ``pi / (2 asin(sqrt(tol / 2R)))``:
+    the same number, but finite for every tolerance (``1 - 1e-300`` is 1.0,
+    and ``acos(1)`` is 0).
+    """
     if tol >= radius:
         return 8.0
-    return max(8.0, math.pi / math.acos(1.0 - tol / radius))
+    return max(8.0, math.pi / (2.0 * math.asin(math.sqrt(tol / (2.0 * radius)))))
 
 
 @dataclass(frozen=True)
@@ -143,7 +150,6 @@ def estimate(scene, workers: int | None = None) -> Estimate:
     R = d.roller_count
     f = set(scene.formats)
     workers = workers or default_workers()
-    locus, work = _locus(d)
     # key -> (value, fixed bytes, bytes per unit of value): need = fixed + slope * value
     lin: dict[str, tuple[float, float, float]] = {}
     csv: dict[str, float] = {}
@@ -182,25 +188,8 @@ def estimate(scene, workers: int | None = None) -> Estimate:
             workers * SOLVER_CELL_BYTES * R,
         )
     mem = {k: fixed + slope * v for k, (v, fixed, slope) in lin.items()}
-    exponent, ratio = _REPR[scene.representation]
-    base = max(polyline_segments(work, 1e-3), polyline_segments(locus, 1e-3))
-    verts = ratio * base * (1e-3 / scene.tolerance) ** exponent if "dxf" in f else 0.0
-    tri = 0.0
-    if {
-        "stl",
-        "3mf",
-        "glb",
-        "ply",
-        "interference",
-        "step",
-    } & f:  # the solids are meshed for all of these
-        c = scene.chord_tolerance
-        ring = polyline_segments(work, c) + _circle(d.ring_outer_radius, c)
-        cam = _circle(d.cam_radius, c) + _circle(d.cam_bore_radius, c)
-        roller = _circle(d.roller_radius, c)
-        frame = _circle(d.frame_inner_radius, c) + _circle(d.frame_outer_radius, c) + R * roller
-        # An extruded polygon of V vertices: 2 caps of V - 2 triangles, 2V on the side.
-        tri = MESH_CALIBRATION * 4.0 * (ring + 2 * cam + 2 * R * roller + 2 * frame)
+    verts = _profile_vertices(scene, scene.tolerance) if "dxf" in f else 0.0
+    tri = _mesh_triangles(scene, scene.chord_tolerance) if MESHED & f else 0.0
     return Estimate(mem, verts, tri, csv, secs, lin)
 
 
@@ -243,8 +232,149 @@ def _datasheet_estimate(scene, lin: dict, csv: dict, secs: dict) -> None:
     secs["datasheet"] = 1.1e-6 * R * (levels * mult * ppm + 2 * solved_per_turn * turn)
 
 
+#: Formats for which the solids are meshed at ``chord_tolerance`` (STEP's
+#: read-back check uses the outlines, its ring profile a spline to it).
+MESHED = frozenset({"stl", "3mf", "glb", "ply", "interference", "step"})
+
+
+def _scaled_segments(segments_at_1e3: float, tol: float) -> float:
+    """:func:`polyline_segments` at ``tol`` from its value at 1e-3 (it goes as 1/sqrt(tol)).
+
+    In logarithms, so that no tolerance, however small, overflows: a count
+    beyond the float range is ``inf``.
+    """
+    log = math.log(segments_at_1e3 - 1.0) + 0.5 * (math.log(1e-3) - math.log(tol))
+    return (math.exp(log) if log < 700 else math.inf) + 1.0
+
+
+@functools.lru_cache(maxsize=16)
+def _segments_at_1e3(design) -> tuple[float, float]:
+    """Polyline segments at 1e-3 mm: (the larger of locus and working profile, working)."""
+    locus, work = _locus(design)
+    w = polyline_segments(work, 1e-3)
+    return max(polyline_segments(locus, 1e-3), w), w
+
+
+def _profile_vertices(scene, tol: float, representation: str | None = None) -> float:
+    """Estimated vertices of one DXF profile at ``tol`` (``inf`` beyond the float range)."""
+    exponent, ratio = _REPR[representation or scene.representation]
+    base = _segments_at_1e3(scene.design)[0]
+    log = math.log(ratio * base) + exponent * (math.log(1e-3) - math.log(tol))
+    return math.exp(log) if log < 700 else math.inf
+
+
+def _mesh_triangles(scene, c: float) -> float:
+    """Estimated triangles of the assembly mesh at chord tolerance ``c``."""
+    d = scene.design
+    R = d.roller_count
+    ring = _scaled_segments(_segments_at_1e3(d)[1], c) + _circle(d.ring_outer_radius, c)
+    cam = _circle(d.cam_radius, c) + _circle(d.cam_bore_radius, c)
+    roller = _circle(d.roller_radius, c)
+    frame = _circle(d.frame_inner_radius, c) + _circle(d.frame_outer_radius, c) + R * roller
+    # An extruded polygon of V vertices: 2 caps of V - 2 triangles, 2V on the side.
+    return MESH_CALIBRATION * 4.0 * (ring + 2 * cam + 2 * R * roller + 2 * frame)
+
+
+#: The finest tolerance accepted, as a fraction of the largest coordinate it
+#: applies to. float64 resolves about 1e-16 of a coordinate; the measured
+#: deviation of an approximation is noise from a few hundred ulps on (the
+#: prototype's 45 mm gear profile: a spline met 3e-13 mm but not 1e-13 mm).
+#: 1e-12 keeps a margin of ten and more over that noise.
+RESOLUTION = 1e-12
+#: Largest ``tolerance`` / ``chord_tolerance`` (the scene schema's bound), mm.
+MAX_TOLERANCE = 10.0
+
+
+def _smallest(need, limit: float, lo: float, hi: float = MAX_TOLERANCE) -> float:
+    """The smallest ``x`` in ``[lo, hi]`` with ``need(x) <= limit``, to 1 % (``need`` falls)."""
+    if need(lo) <= limit:
+        return lo
+    if need(hi) > limit:
+        return math.inf
+    while hi / lo > 1.01:  # bisection of the logarithm: 60 steps from 1e-300 to 10
+        mid = math.sqrt(lo) * math.sqrt(hi)
+        if need(mid) <= limit:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
+    """``(key, value, smallest value that works, why)`` for each tolerance the scene uses.
+
+    The smallest value is the larger of the float resolution (:data:`RESOLUTION`
+    of the largest coordinate) and what the vertex or triangle budget allows
+    (:data:`MAX_PROFILE_VERTICES` for every DXF profile and the wire-EDM
+    path, :data:`MAX_MESH_TRIANGLES` for the meshes), for this design.
+    ``why`` says which of them ``value`` misses (empty when it is fine).
+    """
+    d = scene.design
+    f = set(scene.formats)
+    out = []
+    profile = d.link_length + d.roller_radius + d.eccentricity
+    uses = []  # (representation, share of the tolerance it is held to, what)
+    if "dxf" in f:
+        uses.append((scene.representation, 1.0, f"a {scene.representation} DXF profile"))
+        if scene.measured_profile is not None:
+            uses.append(("polyline", 1.0, "measured_profile.dxf's polyline"))
+    if "edm" in f:
+        uses.append(("arcs", 0.7, "the wire-EDM path (arcs to 0.7 of it)"))
+    budgets = []
+    for rep, share, what in uses:
+        need = functools.partial(_share_vertices, scene, rep, share)
+        budgets.append((need, MAX_PROFILE_VERTICES, what, "vertices"))
+    if uses:
+        out.append(_floor(scene.tolerance, "tolerance", profile, "profile", budgets))
+    if MESHED & f:
+        size = max(d.ring_outer_radius, d.frame_outer_radius, profile)
+        need = functools.partial(_mesh_triangles, scene)
+        budget = [(need, MAX_MESH_TRIANGLES, "the assembly mesh", "triangles")]
+        out.append(_floor(scene.chord_tolerance, "chord_tolerance", size, "part", budget))
+    return out
+
+
+def _share_vertices(scene, rep: str, share: float, tol: float) -> float:
+    return _profile_vertices(scene, share * tol, rep)
+
+
+def _floor(value: float, key: str, size: float, what_size: str, budgets) -> tuple:
+    floor = RESOLUTION * size
+    why = []
+    if value < floor:
+        why.append(f"float64 cannot resolve below 1e-12 of the {size:.4g} mm {what_size}")
+    for need, limit, what, unit in budgets:
+        low = _smallest(need, limit, RESOLUTION * size)
+        floor = max(floor, low)
+        if value < low:
+            at = f"below {low:.2g} mm" if math.isfinite(low) else "at any tolerance"
+            why.append(f"{what} would need more than {limit:g} {unit} {at}")
+    return key, value, floor, why
+
+
+def _check_tolerances(scene) -> None:
+    for key, value, floor, why in tolerance_floors(scene):
+        if not why:
+            continue
+        ok = _round_up(floor)
+        if not ok <= MAX_TOLERANCE:
+            raise SceneError(
+                f"[export] {key} = {value:g}: no value up to {MAX_TOLERANCE:g} mm works for "
+                f"this design ({'; '.join(why)})"
+            )
+        raise SceneError(
+            f"[export] {key} = {value:g}: too fine for this design: {'; '.join(why)}; "
+            f"allowed range here is [{ok:g}, {MAX_TOLERANCE:g}] mm; {key} = {ok:g} would work"
+        )
+
+
 def check_scene(scene, workers: int | None = None) -> Estimate:
-    """Refuse a scene whose run would pass the memory budget or write an exploding file."""
+    """Refuse a scene whose run would pass the memory budget or write an exploding file.
+
+    The tolerances come first (:func:`tolerance_floors`): one finer than
+    this design can honour is refused with the smallest value that works.
+    """
+    _check_tolerances(scene)
     est = estimate(scene, workers)
     budget = MEMORY_BUDGET
     # Blame the key whose own share is largest (samples for 1e7 samples, ...).
@@ -267,21 +397,6 @@ def check_scene(scene, workers: int | None = None) -> Estimate:
                 f"{key} = {value}: the CSV would take about {size / 1024**3:.3g} GB; "
                 f"at most {MAX_CSV_BYTES / 1024**3:.3g} GB; {ok} would fit"
             )
-    if est.profile_vertices > MAX_PROFILE_VERTICES:
-        exponent, _ = _REPR[scene.representation]
-        ok = scene.tolerance * (est.profile_vertices / MAX_PROFILE_VERTICES) ** (1 / exponent)
-        raise SceneError(
-            f"[export] tolerance = {scene.tolerance:g}: a {scene.representation} DXF profile "
-            f"would need about {est.profile_vertices:.3g} vertices; at most "
-            f"{MAX_PROFILE_VERTICES:g}; tolerance = {_round_up(ok):g} would work"
-        )
-    if est.mesh_triangles > MAX_MESH_TRIANGLES:
-        ok = scene.chord_tolerance * (est.mesh_triangles / MAX_MESH_TRIANGLES) ** 2
-        raise SceneError(
-            f"[export] chord_tolerance = {scene.chord_tolerance:g}: the assembly mesh would "
-            f"have about {est.mesh_triangles:.3g} triangles; at most {MAX_MESH_TRIANGLES:g}; "
-            f"chord_tolerance = {_round_up(ok):g} would work"
-        )
     return est
 
 
