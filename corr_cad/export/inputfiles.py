@@ -23,6 +23,8 @@ def check_regular_file(path: Path, what: str, max_bytes: int, error=SceneError) 
     opened (opening a FIFO would block, /dev/zero never ends).
     """
     shown = show(str(path), 120)
+    if "\0" in str(path):  # os.stat raises ValueError, not OSError, on it
+        raise error(f"{what} {shown} contains a NUL character; no file can have that name")
     try:
         st = os.stat(path)
     except FileNotFoundError as exc:

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import shapely
 
+from corr_cad.bounds import show
 from corr_cad.errors import ProfileError
 from corr_cad.export import dxf
 from corr_cad.geometry.profile import ProfileCurve
@@ -107,7 +109,7 @@ def read_measured(path: Path, max_points: int | None = MAX_MEASURED_POINTS) -> M
     if len(pts) >= 4 and np.all(np.isfinite(pts)):
         ring = shapely.LinearRing(pts)
         if not ring.is_simple:
-            raise ProfileError(f"{path}: the contour intersects itself")
+            raise ProfileError(f"{_shown(path)}: the contour intersects itself")
     return MeasuredRead(pts, rows, stride)
 
 
@@ -123,20 +125,18 @@ def _read_dxf(path: Path) -> np.ndarray:
         layers = {e.dxf.layer for e in doc.modelspace()}
         units = int(doc.header.get("$INSUNITS", 0))
     except Exception as exc:
-        raise ProfileError(
-            f"{path}: not a readable DXF file ({exc or type(exc).__name__})"
-        ) from exc
+        raise ProfileError(f"{_shown(path)}: not a readable DXF file ({_brief(exc)})") from exc
     del doc
     if units not in INSUNITS_MM:
         raise ProfileError(
-            f"{path}: $INSUNITS = {units} is not a length unit corr_cad reads; "
+            f"{_shown(path)}: $INSUNITS = {units} is not a length unit corr_cad reads; "
             f"one of {', '.join(str(k) for k in INSUNITS_MM)} (4 = mm)"
         )
     layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
     try:
         pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
     except Exception as exc:
-        raise ProfileError(str(exc)) from exc
+        raise ProfileError(f"{_shown(path)}: {_brief(exc)}") from exc
     return pts * INSUNITS_MM[units]
 
 
@@ -164,8 +164,22 @@ def _lines(fh, rest: bytes = b""):
         yield block[:cut]
 
 
+def _shown(path: Path) -> str:
+    return show(str(path), 120)
+
+
+def _brief(exc: BaseException, limit: int = 100) -> str:
+    """An exception's message cut short: it may quote the file it failed on."""
+    return show(str(exc) or type(exc).__name__, limit)
+
+
 def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray, int, int]:
-    """Stream a CSV: count its lines, then parse every row, keeping every k-th."""
+    """Stream a CSV: count its lines, then parse every row, keeping every k-th.
+
+    Errors name the line where the bad record starts and quote at most 40
+    characters of it (a stray quote would otherwise echo the rest of the file).
+    """
+    shown = _shown(path)
     try:
         with open(path, "rb") as fh:
             head = fh.readline(_MAX_HEADER)
@@ -174,7 +188,8 @@ def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray
             header = [h.strip().lower() for h in next(csv.reader([text]), [])]
             if "x" not in header or "y" not in header:
                 raise ProfileError(
-                    f"{path}: expected a CSV with columns x,y (mm); the header is {header[:4]}"
+                    f"{shown}: expected a CSV with columns x,y (mm); the header is "
+                    f"{show(header[:4], 60)}"
                 )
             ix, iy = header.index("x"), header.index("y")
             lines = 0
@@ -182,34 +197,72 @@ def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray
                 lines += block.count(b"\n") + (not block.endswith(b"\n"))
             stride = _stride(lines, max_points)
             fh.seek(body_start)
-            kept, rows = [], 0
+            kept, rows, line = [], 0, 2  # line: the file's line number of the block's start
             for block in _lines(fh):
-                rows_text = [r for r in block.decode("utf-8").splitlines() if r.strip(" \t,")]
-                if not rows_text:
-                    continue
-                vals = _parse_rows(rows_text, ix, iy, path)
-                kept.append(vals[(-rows) % stride :: stride])
-                rows += len(vals)
+                decoded = block.decode("utf-8")
+                rows_text = [r for r in decoded.splitlines() if r.strip(" \t,")]
+                if rows_text:
+                    try:
+                        vals = _parse_rows(rows_text, ix, iy)
+                    except ValueError:
+                        _raise_bad_row(decoded, line, ix, iy, shown)
+                        raise
+                    kept.append(vals[(-rows) % stride :: stride])
+                    rows += len(vals)
+                line += block.count(b"\n")
+    except ProfileError:
+        raise
     except OSError as exc:
         raise ProfileError(
-            f"measured profile {path} cannot be read: {exc.strerror or exc}"
+            f"measured profile {shown} cannot be read: {show(exc.strerror or str(exc), 100)}"
         ) from exc
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
-    except ValueError as exc:
-        raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
+    except UnicodeDecodeError as exc:
+        raise ProfileError(f"{shown}: cannot be read as CSV (not UTF-8: {exc.reason})") from exc
+    except (csv.Error, ValueError) as exc:
+        raise ProfileError(f"{shown}: cannot be read as CSV ({_brief(exc, 80)})") from exc
     pts = np.concatenate(kept) if kept else np.empty((0, 2))
     return pts, rows, stride
 
 
-def _parse_rows(rows: list[str], ix: int, iy: int, path: Path) -> np.ndarray:
+def _parse_rows(rows: list[str], ix: int, iy: int) -> np.ndarray:
     """``x, y`` of CSV rows (numpy's C parser; quotes and blanks as the csv module reads them)."""
     try:
         return np.loadtxt(
             rows, delimiter=",", usecols=(ix, iy), ndmin=2, dtype=float, quotechar='"'
         ).reshape(-1, 2)
-    except (TypeError, ValueError, IndexError) as exc:
-        raise ProfileError(f"{path}: a value is not a number ({exc})") from exc
+    except (TypeError, IndexError) as exc:
+        raise ValueError(str(exc)) from exc
+
+
+def _raise_bad_row(text: str, first_line: int, ix: int, iy: int, shown: str) -> None:
+    """Find the first bad record of a block with the csv module and raise naming its line."""
+    reader = csv.reader(io.StringIO(text, newline=""))
+    start = first_line
+    try:
+        while True:
+            start = first_line + reader.line_num  # a quoted value may run over many lines
+            row = next(reader, None)
+            if row is None:
+                return
+            if not any(c.strip(" \t") for c in row):
+                continue
+            try:
+                float(row[ix]), float(row[iy])
+            except (ValueError, IndexError) as exc:
+                cells = row[ix] if ix < len(row) else ""
+                cells += "," + row[iy] if iy < len(row) else ""
+                quote = (
+                    " (a stray quote joins the lines after it into one)" if "\n" in cells else ""
+                )
+                raise ProfileError(
+                    f"{shown}: line {start}: x,y = {show(cells, 40)}: a value is not a number"
+                    + quote
+                ) from exc
+    except csv.Error as exc:
+        raise ProfileError(
+            f"{shown}: line {start}: cannot be read as CSV ({_brief(exc, 60)}; a stray quote "
+            "joins the lines after it into one value)"
+        ) from exc
 
 
 def write_deviation_dxf(

@@ -184,9 +184,10 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             "tip_radius": _fmt(u["min_working_radius_mm"]),
             "trimmed": u.get("trimmed_psi_deg"),
         }
-    checks = manifest.get("checks")
-    if checks:
-        ctx["checks"] = [
+    checks = dict(manifest.get("checks") or {})
+    gate = checks.pop("montecarlo", {})  # the Monte Carlo gate: probabilities per limit
+    if checks or gate:
+        rows = [
             {
                 "name": k,
                 "limit": _fmt(r["limit"]),
@@ -202,7 +203,20 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             }
             for k, r in checks.items()
         ]
-        ctx["checks_passed"] = all(r["passed"] for r in checks.values())
+        rows += [
+            {
+                "name": f"montecarlo {k} (failure probability)",
+                "limit": _fmt(g["allowed"]),
+                "value": _fmt(g["probability"]),
+                "margin": _fmt(g["allowed"] - g["probability"]),
+                "unit": "",
+                "passed": g["passed"],
+                "passes_with": "",
+            }
+            for k, g in gate.items()
+        ]
+        ctx["checks"] = rows
+        ctx["checks_passed"] = all(r["passed"] for r in rows)
     res = forces
     if res is not None:
         f = manifest.get("forces", {})

@@ -156,6 +156,8 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
             raise SceneError(f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}")
         if len(value) > MAX_STR:
             raise SceneError(f"{where}: {len(value)} characters; at most {MAX_STR}")
+        if "\0" in value:  # os.stat would raise ValueError on the path
+            raise SceneError(f'{where} = {show(value)}: a NUL character; e.g. "measured.csv"')
         return value
     if spec.kind == "distribution":
         if not (isinstance(value, dict) and len(value) == 1):
