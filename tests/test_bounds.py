@@ -216,7 +216,7 @@ def test_a_bad_value_beyond_the_kept_rows_is_still_found(tmp_path):
     (tmp_path / "m.csv").write_text("\n".join(lines) + "\n")
     scene = '[export]\nformats = ["inspection"]\n[errors]\nmeasured_profile = "m.csv"\n'
     line = _refusal(_run(tmp_path, scene))
-    assert "m.csv: a value is not a number" in line
+    assert "m.csv': line 9: x,y = '1.0,abc': a value is not a number" in line
 
 
 # --- time: a warning, and progress at least every 5 s -----------------------------------
