@@ -241,6 +241,8 @@ def _worker_init(parent_pid: int) -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    # The parent forks with both blocked (_start_pool); Ctrl-C stays the parent's.
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
     def one_line(message, category, filename, lineno, file=None, line=None) -> None:
         where = f"{Path(filename).name}:{lineno}"
@@ -332,15 +334,37 @@ def _executor(
 
     from corr_cad.run.concurrent import kill_pool
 
-    pool = ProcessPoolExecutor(
-        max_workers=args.workers, initializer=_worker_init, initargs=(os.getpid(),)
-    )
+    pool = _start_pool(ProcessPoolExecutor, args.workers)
     try:
         yield pool
     except BaseException:
         kill_pool(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def _start_pool(pool_type, workers: int | None):
+    """A process pool whose workers are forked now, with SIGINT and SIGTERM held.
+
+    A signal that arrives while the pool forks would run its handler inside
+    an at-fork hook (logging registers some), where the KeyboardInterrupt is
+    printed as "Exception ignored" and lost: the run went on and exited 0.
+    Held, it is delivered when the forks are done, in the run proper. (The
+    pool forks every worker at its first task: submitting one now does it
+    here.)
+    """
+    import signal
+
+    held = {signal.SIGINT, signal.SIGTERM}
+    pool = pool_type(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
+    if threading.current_thread() is not threading.main_thread():
+        return pool
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        pool.submit(os.getpid)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    return pool
 
 
 def _create(path: Path, text: str) -> None:
