@@ -281,3 +281,28 @@ def test_full_disk_names_the_file_and_leaves_nothing(tiny_fs, tmp_path, leave):
     assert named, err
     assert not named.group(1).startswith(".corr-cad-staging"), err
     assert snapshot(tiny_fs) == before
+
+
+# --- corr-cad bench --out --------------------------------------------------------------
+def test_bench_refuses_a_folder_it_did_not_write(tmp_path):
+    """A user's speed.csv beside the bench's would-be tables is never replaced."""
+    (tmp_path / "solver_speed.csv").write_text("mine\n")
+    r = cli("bench", "--out", str(tmp_path), "--study", "kernel", "--quick")
+    assert r.returncode == 2, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "did not write" in r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["solver_speed.csv"]
+    assert (tmp_path / "solver_speed.csv").read_text() == "mine\n"
+    f = tmp_path / "file"
+    f.write_text("x")
+    r = cli("bench", "--out", str(f), "--study", "kernel", "--quick")
+    assert r.returncode == 2 and "not a folder" in r.stderr and f.read_text() == "x"
+
+
+def test_bench_writes_into_its_own_folder(tmp_path):
+    from corr_cad.run.bench import check_bench_folder
+
+    check_bench_folder(tmp_path / "new")  # absent: fine
+    check_bench_folder(tmp_path)  # empty: fine
+    (tmp_path / "machine.json").write_text('{"corr_cad": "0.1.0", "cores": 2}')
+    (tmp_path / "solver_speed.csv").write_text("an earlier bench's table\n")
+    check_bench_folder(tmp_path)  # a bench folder: fine
