@@ -71,6 +71,17 @@ def _preview_png(ctx: RunContext) -> None:
     ctx.files.append(p.name)
 
 
+def _sha256(path) -> str:
+    """SHA-256 of a file already read (and size-checked) as the measured profile."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def _measured(ctx: RunContext) -> None:
     from dataclasses import replace
 
@@ -85,7 +96,11 @@ def _measured(ctx: RunContext) -> None:
     check_fit(reg, s.design.eccentricity, src)
     ctx.results.registration, ctx.results.measured_points = reg, pts
     ctx.results.errors = replace(s.errors, profile_deviation=reg.deviation)
-    ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
+    ctx.manifest["measured_profile"] = {
+        "source": s.measured_profile.name,
+        "sha256": _sha256(s.measured_profile),
+        **reg.as_dict(),
+    }
     ctx.progress(
         f"      registered: rotation {reg.rotation_deg:.4g} deg, centre "
         f"({reg.centre_mm[0]:.4g}, {reg.centre_mm[1]:.4g}) mm, rms {reg.rms_mm:.3g} mm"
