@@ -11,6 +11,7 @@ import shapely
 
 from corr_cad.errors import ProfileError
 from corr_cad.export import dxf
+from corr_cad.export.measured_mesh import is_mesh, read_mesh_profile
 from corr_cad.geometry.profile import ProfileCurve
 from corr_cad.geometry.sampling import approximate
 
@@ -44,8 +45,12 @@ INSUNITS_MM = {
 }
 
 
-def read_measured_points(path: Path) -> np.ndarray:
-    """Points (n, 2) in mm from a CSV with columns ``x,y`` or from a DXF's closed contour.
+def read_measured_points(path: Path, design=None) -> np.ndarray:
+    """Points (n, 2) in mm from a CSV ``x,y``, a DXF's closed contour or a ring mesh.
+
+    A mesh (``.stl`` binary or ASCII, ``.ply``) is sliced at mid face width
+    and its inner loop taken (:mod:`corr_cad.export.measured_mesh`); it needs
+    the ``design`` (face width and rim to check the mesh against).
 
     The CSV may start with a UTF-8 byte-order mark; header names are read
     without surrounding blanks and case (``x, y``, ``X,Y``). For a DXF the
@@ -58,7 +63,11 @@ def read_measured_points(path: Path) -> np.ndarray:
 
     path = Path(path)
     raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
-    if path.suffix.lower() == ".dxf":
+    if is_mesh(path):
+        if design is None:
+            raise ProfileError(f"{path}: a mesh needs the design to be sliced (face width)")
+        pts = read_mesh_profile(raw, path.suffix, design, str(path))
+    elif path.suffix.lower() == ".dxf":
         import ezdxf
 
         try:

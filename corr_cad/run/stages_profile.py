@@ -91,7 +91,7 @@ def _measured(ctx: RunContext) -> None:
     s = ctx.scene
     w = ctx.results.working
     src = str(s.measured_profile)
-    pts = validate_points(read_measured_points(s.measured_profile), w, src)
+    pts = validate_points(read_measured_points(s.measured_profile, s.design), w, src)
     reg = register(w, pts)
     check_fit(reg, s.design.eccentricity, src)
     ctx.results.registration, ctx.results.measured_points = reg, pts
