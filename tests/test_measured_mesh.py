@@ -149,10 +149,11 @@ def sagitta():
     return float(d.max())
 
 
-#: Tolerance on the recovered deviation: the slicing's chords (measured 0.22 um
-#: from the profile at 400 points per tooth) plus what the registration's best
-#: fit takes from one displaced tooth (a centre shift of about U / z).
-TOL = 0.0012
+#: Tolerance on the recovered deviation: the slicing's chords (0.22 um from
+#: the profile at 400 points per tooth) plus what the registration's best fit
+#: takes from one deviating tooth. Measured: tooth 7 at 7.994 um (bump 8 um),
+#: its other flank -0.10 um, every other tooth within 0.27 um.
+TOL = 0.0005
 
 
 @pytest.fixture(scope="module")

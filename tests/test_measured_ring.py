@@ -213,3 +213,43 @@ def test_conjugate_ring_preloads_the_turned_tooth(conjugate):
     assert fwd[~win].max() - base < 0.25 * amp
     assert sheet["backlash_arcmin"]["max"] == 0.0
     assert insp["predicted"]["measured"]["lost_motion_arcmin"]["max"] > 0
+
+
+def test_play_figures_equal_the_datasheets_on_the_same_positions():
+    """The inspection's five-solve figures are the datasheet's (650 positions each)."""
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet, play_figures
+
+    err = ManufacturingErrors(
+        profile_deviation=harmonic_deviation([(0, -0.01, 0.0), (3, -0.004, 20.0)])
+    )
+    spec = DatasheetSpec(
+        rated_torque=2.86e6, positions_per_mesh=1, transmission_error_positions_per_turn=Z
+    )
+    d = datasheet(GearDesign(), spec, errors=err).figures()
+    p = play_figures(GearDesign(), spec, errors=err)
+    assert p["positions"] == d["positions"]["count"] == Z * R1
+    for k in ("backlash_arcmin", "lost_motion_arcmin"):
+        for s in ("min", "mean", "max"):
+            assert p[k][s] == pytest.approx(d[k][s], rel=1e-9, abs=1e-12), (k, s)
+    assert d["backlash_arcmin"]["max"] > 0.1  # the harmonic opens a clearance
+    for s in ("forward_peak_to_peak", "reverse_peak_to_peak"):
+        got, want = p["transmission_error_arcsec"][s], d["transmission_error_arcsec"][s]
+        assert got == pytest.approx(want, rel=1e-9) and want > 1.0
+
+
+def test_other_errors_have_no_effect_on_a_measured_rings_datasheet():
+    from corr_cad.run.scene_text import no_effect_warnings
+
+    data = {
+        "errors": {"measured_profile": "ring.csv", "roller_radius_error": 0.004},
+        "export": {"formats": ["datasheet"]},
+        "datasheet": {"rated_torque_Nm": 2860.0},
+    }
+    warned = no_effect_warnings(data, ("datasheet",), False)
+    assert any(w.startswith("[errors] roller_radius_error has no effect") for w in warned)
+    data["errors"].pop("measured_profile")
+    assert not any(
+        "roller_radius_error" in w for w in no_effect_warnings(data, ("datasheet",), False)
+    )
