@@ -140,7 +140,13 @@ def _datasheet_files(ctx: RunContext) -> None:
     ds = ctx.results.datasheet
     s = ctx.scene
     names = write_datasheet_files(ds, ctx.out, _meta(ctx))
-    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design)
-    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design)
+    ring = ring_description(ctx)
+    note = (
+        f"measured ring {ring['file']}, other parts nominal"
+        if ring["profile"] == "measured"
+        else ""
+    )
+    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note)
+    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
