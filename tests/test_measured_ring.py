@@ -159,6 +159,8 @@ def test_datasheet_says_which_ring(relieved):
     assert ring["file"] == "ring.csv" and len(ring["sha256"]) == 64
     assert ring["errors_not_applied"] == ["roller_radius_error"]
     assert "of the measured ring ring.csv" in r.stdout
+    b = sheet["backlash_arcmin"]["max"]
+    assert f"measured ring, other parts nominal: backlash {b:.4g} arcmin, lost motion" in r.stdout
     assert insp["predicted"]["ring"]["sha256"] == ring["sha256"]
 
 
