@@ -158,6 +158,16 @@ def estimate(scene, workers: int | None = None) -> Estimate:
         secs["forces"] = 1.1e-6 * P * R
     if "datasheet" in f or scene.checks.datasheet_active():
         _datasheet_estimate(scene, lin, csv, secs)
+    elif "inspection" in f and scene.measured_profile is not None:
+        # inspection.json predicted: windup solves at every transmission-error
+        # position of the measured ring (mechanics.datasheet.play_figures).
+        turn = scene.datasheet["transmission_error_positions_per_turn"]
+        lin["[datasheet] transmission_error_positions_per_turn"] = (
+            turn,
+            BASE_BYTES,
+            R * SOLVER_CELL_BYTES * R + 40 * R,
+        )
+        secs["inspection"] = 1.1e-6 * R * 5 * R * turn
     mc = scene.montecarlo
     if {"montecarlo", "allocation"} & f:
         n = max(mc["samples"] if "montecarlo" in f else 0, mc["allocation_samples"])
