@@ -13,6 +13,7 @@ import shapely
 from corr_cad.bounds import show
 from corr_cad.errors import ProfileError
 from corr_cad.export import dxf
+from corr_cad.export.measured_mesh import is_mesh, read_mesh_profile
 from corr_cad.geometry.profile import ProfileCurve
 from corr_cad.geometry.sampling import approximate
 
@@ -74,8 +75,14 @@ class MeasuredRead:
         return {"rows": self.rows, "kept": int(len(self.points)), "stride": self.stride}
 
 
-def read_measured_points(path: Path, max_points: int | None = MAX_MEASURED_POINTS) -> np.ndarray:
-    """Points (n, 2) in mm from a CSV with columns ``x,y`` or from a DXF's closed contour.
+def read_measured_points(
+    path: Path, design=None, max_points: int | None = MAX_MEASURED_POINTS
+) -> np.ndarray:
+    """Points (n, 2) in mm from a CSV ``x,y``, a DXF's closed contour or a ring mesh.
+
+    A mesh (``.stl`` binary or ASCII, ``.ply``) is sliced at mid face width
+    and its inner loop taken (:mod:`corr_cad.export.measured_mesh`); it needs
+    the ``design`` (face width and rim to check the mesh against).
 
     The CSV may start with a UTF-8 byte-order mark; header names are read
     without surrounding blanks and case (``x, y``, ``X,Y``). For a DXF the
@@ -85,10 +92,12 @@ def read_measured_points(path: Path, max_points: int | None = MAX_MEASURED_POINT
     self-intersecting contour is refused. Beyond ``max_points`` points every
     k-th is kept (:func:`read_measured`).
     """
-    return read_measured(path, max_points).points
+    return read_measured(path, max_points, design).points
 
 
-def read_measured(path: Path, max_points: int | None = MAX_MEASURED_POINTS) -> MeasuredRead:
+def read_measured(
+    path: Path, max_points: int | None = MAX_MEASURED_POINTS, design=None
+) -> MeasuredRead:
     """:func:`read_measured_points` with the file's row count and the stride kept.
 
     A CSV is streamed: read ``_BLOCK_BYTES`` at a time (every value is parsed
@@ -99,7 +108,18 @@ def read_measured(path: Path, max_points: int | None = MAX_MEASURED_POINTS) -> M
 
     path = Path(path)
     size = check_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
-    if path.suffix.lower() == ".dxf":
+    if is_mesh(path):
+        if design is None:
+            raise ProfileError(f"{_shown(path)}: a mesh needs the design to be sliced (face width)")
+        from corr_cad.export.inputfiles import read_regular_file
+
+        raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
+        pts = read_mesh_profile(raw, path.suffix, design, str(path))
+        del raw
+        rows = len(pts)
+        stride = _stride(rows, max_points)
+        pts = pts[::stride]
+    elif path.suffix.lower() == ".dxf":
         pts = _read_dxf(path)
         rows = len(pts)
         stride = _stride(rows, max_points)

@@ -17,7 +17,7 @@ import numpy as np
 
 from corr_cad.export.files import writing
 
-__all__ = ["report_context", "render_report", "write_report"]
+__all__ = ["ring_line", "report_context", "render_report", "write_report"]
 
 _CHECK_UNITS = {
     "max_contact_pressure": "MPa",
@@ -410,7 +410,25 @@ def _datasheet_rows(d: dict) -> dict:
             }
         ),
         "hysteresis": d["hysteresis_loss_note"],
+        "ring": ring_line(d.get("ring")),
     }
+
+
+def ring_line(ring: dict | None) -> str:
+    """Which ring a datasheet describes, in one line (report and console).
+
+    >>> ring_line({"profile": "measured", "file": "cmm.csv", "sha256": "ab" * 32})
+    'the measured ring cmm.csv (sha256 abababababab...) with nominal other parts'
+    """
+    if not ring:
+        return ""
+    if ring.get("profile") == "measured":
+        return (
+            f"the measured ring {ring.get('file')} (sha256 {str(ring.get('sha256'))[:12]}...) "
+            "with nominal other parts"
+        )
+    applied = ring.get("errors_applied") or []
+    return "the design" + (f" with [errors] {', '.join(applied)}" if applied else " (nominal)")
 
 
 def _flat(d: dict, prefix: str = "") -> list[tuple[str, str]]:

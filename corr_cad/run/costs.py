@@ -156,7 +156,14 @@ def _measured(scene, env):
     from corr_cad.export.measured_io import MAX_MEASURED_POINTS
 
     size = env.measured_bytes
-    if env.measured_dxf:
+    mesh = str(scene.measured_profile).lower().endswith((".stl", ".ply"))
+    if mesh:
+        # trimesh holds the file, its vertices and faces: 609 MB above the
+        # interpreter for a 50 MB binary STL of 1e6 triangles (ru_maxrss), ~13 bytes a
+        # byte; 11.6 s to read and slice it.
+        rows = 20_000.0  # the section, decimated to at most this
+        read, parse = 14.0 * size, 12.0 * size / 50e6
+    elif env.measured_dxf:
         # ezdxf holds every entity: ~40 bytes of memory per byte of DXF (measured
         # on LWPOLYLINE contours), then the flattened points.
         rows = size / 30.0
@@ -172,7 +179,7 @@ def _measured(scene, env):
         keeps=1200 * kept,
         seconds=1.0 + parse + 50e-6 * kept,
         output=out,
-        libraries=("ezdxf",) if env.measured_dxf or out else (),
+        libraries=(("trimesh",) if mesh else ()) + (("ezdxf",) if env.measured_dxf or out else ()),
         knobs=("[errors] measured_profile",),
     )
 
@@ -506,12 +513,21 @@ def _inspection(scene, env):
 
     kept = min(env.measured_bytes / 16.0, MAX_MEASURED_POINTS)
     key, cells = _force_cells(scene)
+    memory, seconds, knobs = 0.0, 0.0, ()
+    if not ("datasheet" in scene.formats or scene.checks.datasheet_active()):
+        # inspection.json "predicted": five windup solves at every transmission-error
+        # position of the measured ring (mechanics.datasheet.play_figures).
+        R = _rollers(scene)
+        turn = scene.datasheet["transmission_error_positions_per_turn"]
+        memory = turn * (600.0 * R * R + 40 * R)
+        seconds = 1.1e-6 * R * 5 * R * turn
+        knobs = ("[datasheet] transmission_error_positions_per_turn",)
     return Cost(
-        memory=30 * MB + 600 * kept + 2 * 240 * cells,
-        seconds=6.0 + 2e-5 * kept + 2e-6 * cells,
+        memory=30 * MB + 600 * kept + 2 * 240 * cells + memory,
+        seconds=6.0 + 2e-5 * kept + 2e-6 * cells + seconds,
         output={"inspection.*": 0.3 * MB},
         libraries=("matplotlib",),
-        knobs=("[errors] measured_profile",),
+        knobs=("[errors] measured_profile", *knobs),
     )
 
 

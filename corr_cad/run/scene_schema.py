@@ -258,7 +258,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "measured_profile": Key(
             "str",
             None,
-            "measured gear profile: CSV x,y (mm) or DXF, path relative to the scene",
+            "measured gear profile: CSV x,y (mm), DXF, or a ring mesh (STL, PLY; sliced at mid "
+            "face width), path relative to the scene",
             example="measured.csv",
         ),
         "measured_exaggeration": Key(

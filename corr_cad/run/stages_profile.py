@@ -76,6 +76,17 @@ def _preview_png(ctx: RunContext) -> None:
     ctx.files.append(p.name)
 
 
+def _sha256(path) -> str:
+    """SHA-256 of a file already read (and size-checked) as the measured profile."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def _measured(ctx: RunContext) -> None:
     from dataclasses import replace
 
@@ -85,7 +96,7 @@ def _measured(ctx: RunContext) -> None:
     s = ctx.scene
     w = ctx.results.working
     src = str(s.measured_profile)
-    got = read_measured(s.measured_profile)
+    got = read_measured(s.measured_profile, design=s.design)
     if got.stride > 1:
         ctx.progress(
             f"      measured profile: {got.rows} points read, 1 in {got.stride} kept "
@@ -99,6 +110,7 @@ def _measured(ctx: RunContext) -> None:
     ctx.results.errors = replace(s.errors, profile_deviation=reg.deviation)
     ctx.manifest["measured_profile"] = {
         "source": s.measured_profile.name,
+        "sha256": _sha256(s.measured_profile),
         **reg.as_dict(),
         "read": got.as_dict(),
     }
