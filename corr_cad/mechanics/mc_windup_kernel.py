@@ -70,24 +70,37 @@ def _preload_pressure(C, kc, W, gap, R, length):
             hi = max(hi, -gap[i] / a)
     if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
         return 0.0, 0.0
+    # Safeguarded Newton on the piecewise-linear up - down: intersect the two
+    # active lines; bisect where that leaves the bracket [a_lo, a_hi].
     a_lo, a_hi = lo, hi
+    tau = lo
     for _ in range(200):
-        mid = 0.5 * (a_lo + a_hi)
-        if mid <= a_lo or mid >= a_hi:
-            break
         up = -np.inf
         down = -np.inf
+        iu = -1
+        idn = -1
         for i in range(R):
             a = C[A, i]
             if a > 0.0:
-                up = max(up, gap[i] + a * mid)
+                v = gap[i] + a * tau
+                if v > up:
+                    up, iu = v, i
             elif a < 0.0:
-                down = max(down, gap[i] + a * mid)
+                v = gap[i] + a * tau
+                if v > down:
+                    down, idn = v, i
         if up < down:
-            a_lo = mid
+            a_lo = tau
+        elif up > down:
+            a_hi = tau
         else:
-            a_hi = mid
-    tau = 0.5 * (a_lo + a_hi)
+            break
+        nxt = (gap[idn] - gap[iu]) / (C[A, iu] - C[A, idn])
+        if not (a_lo < nxt < a_hi):
+            nxt = 0.5 * (a_lo + a_hi)
+        if nxt == tau or not (a_lo < nxt < a_hi):
+            break
+        tau = nxt
     _evaluate(tau, C, kc, W, False)
     peak = 0.0
     over = 0.0

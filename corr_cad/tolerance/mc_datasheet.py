@@ -80,16 +80,28 @@ class DatasheetMC:
     spec: DatasheetSpec
     binding_pressure_MPa: float = DEFAULT_PRESSURE_LIMIT_MPA
 
-    def torques(self) -> tuple[np.ndarray, np.ndarray]:
-        """Output torques to solve (N*mm) and their zero signs (``-1``/``+1`` for ``-0``/``+0``)."""
+    def torques(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Output torques to solve (N*mm, each once), their zero signs, and the columns.
+
+        ``zero[j]`` is ``-1``/``+1`` where torque ``j`` is ``-0``/``+0`` (an end
+        of the free rotation), else 0. ``columns`` (8,) picks, for
+        ``+b, -b, +te, -te, +T_1, +T_2, -T_1, -T_2`` (shares of T_R), the
+        torque solved; the default bands are equal, so six solves serve eight.
+        """
         sp = self.spec
-        T = sp.rated_torque
         b, te = sp.lost_motion_band, sp.transmission_error_torque_band
         t1, t2 = sp.rigidity_range
-        shares = [b, -b, te, -te, t1, t2, -t1, -t2]
-        torques = np.array([s * T for s in shares], dtype=float)
-        zero = np.array([0 if s != 0 else (1 if j < 6 else -1) for j, s in enumerate(shares)])
-        return torques, zero
+        wanted = [(b, 0), (-b, 0), (te, 0), (-te, 0), (t1, 1), (t2, 1), (-t1, -1), (-t2, -1)]
+        keys: list[tuple[float, int]] = []
+        columns = []
+        for share, side in wanted:
+            key = (share, side if share == 0 else 0)
+            if key not in keys:
+                keys.append(key)
+            columns.append(keys.index(key))
+        torques = np.array([share * sp.rated_torque for share, _ in keys], dtype=float)
+        zero = np.array([side for _, side in keys], dtype=np.int64)
+        return torques, zero, np.array(columns)
 
 
 def grid_positions(
@@ -132,7 +144,7 @@ def datasheet_chunk(
     else:
         pd = np.zeros_like(g.psi)
     cam, ecc, phase, dr, dl = errors
-    torques, zero = cfg.torques()
+    torques, zero, cols = cfg.torques()
     moments = -load_share * torques / R
     P, M = len(grid), len(torques)
     theta = np.empty((n, P, M))
@@ -160,7 +172,7 @@ def datasheet_chunk(
         float(design.roller_length),
         float(design.material.contact_modulus),
         c(moments),
-        c(zero.astype(np.int64)),
+        c(zero),
         _RTOL,
         theta,
         backlash,
@@ -177,6 +189,7 @@ def datasheet_chunk(
     theta = theta + torques[None, None, :] / series_rigidity_Nmm_per_rad(
         sp.series_rigidity_Nm_per_arcmin
     )
+    theta = theta[:, :, cols]  # +b, -b, +te, -te, +T_1, +T_2, -T_1, -T_2
     lost = (theta[:, :, 0] - theta[:, :, 1]).max(axis=1) * ARCMIN_PER_RAD
     te_f = np.ptp(theta[:, :, 3], axis=1)  # forward: theta(-T_TE)
     te_r = np.ptp(theta[:, :, 2], axis=1)  # reverse: theta(+T_TE)
