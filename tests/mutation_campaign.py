@@ -684,9 +684,9 @@ M = [
     ),
     (
         "mechanics/binding.py",
-        "contact.max_pressure(geo.rho_n * F, comp.cn, length)",
-        "contact.max_pressure(F, comp.cn, length)",
-        "binding: gear contact pressure from F_j instead of F_n",
+        "contact.max_pressure(geo.rho_n * F, comp.cn, length),",
+        "contact.max_pressure(geo.rho_n * F, comp.cj, length),",
+        "binding: gear contact pressure with the cam's curvature",
         "tests/test_mc_datasheet.py::test_kernel_binding_equals_the_numpy_binding_function",
     ),
     (
