@@ -712,8 +712,8 @@ M = [
     ),
     (
         "tolerance/montecarlo.py",
-        "grid = grid_positions(design, base, tolerances, datasheet.spec.positions_per_mesh)",
-        "grid = grid_positions(design, base, (), datasheet.spec.positions_per_mesh)",
+        "grid = grid_positions(design, base, tolerances, datasheet.positions_per_mesh)",
+        "grid = grid_positions(design, base, (), datasheet.positions_per_mesh)",
         "MC datasheet grid one mesh period although rollers differ",
         "tests/test_mc_datasheet.py::test_metrics_equal_the_numpy_windup_of_each_sample",
     ),

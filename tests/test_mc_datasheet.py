@@ -72,10 +72,9 @@ def _linear_windup(h, T, R):
     return -brentq(moment, -1.0, 1.0, xtol=1e-18, rtol=1e-15) / R
 
 
-def _spec(ppm=2, series=None):
-    return DatasheetSpec(
-        rated_torque=T_R, positions_per_mesh=ppm, series_rigidity_Nm_per_arcmin=series
-    )
+def _cfg(ppm=2, series=None, **kw):
+    spec = DatasheetSpec(rated_torque=T_R, series_rigidity_Nm_per_arcmin=series)
+    return DatasheetMC(spec, positions_per_mesh=ppm, **kw)
 
 
 def test_two_micrometre_undersize_backlash_and_lost_motion_by_hand(d):
@@ -84,7 +83,7 @@ def test_two_micrometre_undersize_backlash_and_lost_motion_by_hand(d):
     3 positions) is at least the linear-contact lost motion by hand (Hertz is softer)
     and at most 5 % above it (the elastic part at +-3 % T_R is small)."""
     base = E(roller_radius_error=-0.002)
-    mc = monte_carlo(d, M0, {}, 2, 1, 12, base_errors=base, datasheet=DatasheetMC(_spec(3)))
+    mc = monte_carlo(d, M0, {}, 2, 1, 12, base_errors=base, datasheet=_cfg(3))
     crank = 2 * math.pi * np.arange(12) / 12
     hand = max(_hand_backlash(_hand(d, phi / 25, -0.002), 26) for phi in crank) * ARCMIN
     np.testing.assert_allclose(mc.metrics["backlash_arcmin"], hand, rtol=1e-9)
@@ -111,7 +110,7 @@ def test_metrics_equal_the_numpy_windup_of_each_sample(d):
         "cam_phase": Distribution("normal", 0.01),
     }
     base = E(roller_radius_error=-0.002)
-    cfg = DatasheetMC(_spec(1, series=1200.0))
+    cfg = _cfg(1, series=1200.0)
     n = 3
     mc = monte_carlo(d, M0, tol, n, 7, 12, base_errors=base, datasheet=cfg)
     cam, ecc, ph, dr, dl = _sample_errors(base, tol, draw_samples(tol, n, 7, 26), n, 26)
@@ -148,7 +147,7 @@ def test_adding_the_datasheet_metrics_changes_no_draw_and_no_force_metric(d):
         "cam_radius": Distribution("uniform", 0.002),
     }
     a = monte_carlo(d, M0, tol, 6, 3, 24)
-    b = monte_carlo(d, M0, tol, 6, 3, 24, datasheet=DatasheetMC(_spec(1)))
+    b = monte_carlo(d, M0, tol, 6, 3, 24, datasheet=_cfg(1))
     for k, v in a.metrics.items():
         assert np.array_equal(v, b.metrics[k]), k
     for k, v in a.magnitudes.items():
@@ -192,7 +191,7 @@ def test_binding_interference_by_hand_and_certain_binding(d):
             1,
             6,
             base_errors=E(roller_radius_error=dr),
-            datasheet=DatasheetMC(_spec(1)),
+            datasheet=_cfg(1),
         )
         s = mc.summary(__import__("corr_cad").Checks())
         bp = s["binding_probability"]
@@ -210,7 +209,7 @@ def test_kernel_binding_equals_the_numpy_binding_function(d):
         "slot_angle": Distribution("normal", 0.002),
     }
     n = 4
-    cfg = DatasheetMC(_spec(1), binding_pressure_MPa=3000.0)
+    cfg = _cfg(1, binding_pressure_MPa=3000.0)
     mc = monte_carlo(d, M0, tol, n, 5, 6, datasheet=cfg)
     cam, ecc, ph, dr, dl = _sample_errors(E(), tol, draw_samples(tol, n, 5, 26), n, 26)
     x = (2 * math.pi / 25) * np.arange(26) / 26
@@ -270,8 +269,7 @@ roller_radius = {{ normal = 0.001 }}
 [montecarlo]
 samples = 30
 positions = 12
-[datasheet]
-positions_per_mesh = 1
+datasheet_positions_per_mesh = 1
 [checks]
 max_lost_motion_arcmin = 1.0
 min_torsional_rigidity_Nm_per_arcmin = 15000.0
@@ -338,7 +336,7 @@ def test_allocation_answers_which_roller_grade_keeps_lost_motion_under_1_arcmin(
             1,
             72,
             base_errors=E(roller_radius_error=-0.0043),
-            datasheet=DatasheetMC(_spec(2)),
+            datasheet=_cfg(2),
         )
         return np.percentile(mc.metrics["lost_motion_arcmin"], 99), mc.metrics["binds"].mean()
 

@@ -96,7 +96,12 @@ LOCAL = {
     "material": None,
     "solver": None,
     "montecarlo": None,
-    "checks": None,
+    # The Monte Carlo gates need a limit and the montecarlo format (other keys).
+    "checks": {
+        k
+        for k in SCHEMA["checks"]
+        if k not in ("max_failure_probability", "max_binding_probability")
+    },
     "tolerances": None,
     "export": {
         "representation",

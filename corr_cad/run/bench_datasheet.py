@@ -143,14 +143,22 @@ def datasheet_montecarlo(out: Path, quick: bool = False) -> list:
         for name, tol, base, ppm, samples in cases:
             cfg = None
             if ppm is not None:
-                spec = DatasheetSpec(rated_torque=design.roller_count * M0, positions_per_mesh=ppm)
-                cfg = DatasheetMC(spec)
+                spec = DatasheetSpec(rated_torque=design.roller_count * M0)
+                cfg = DatasheetMC(spec, positions_per_mesh=ppm)
             grid = 0 if cfg is None else len(grid_positions(design, base, tol, ppm))
 
             def once(k, tol=tol, base=base, cfg=cfg):
                 t0 = time.perf_counter()
                 monte_carlo(
-                    design, M0, tol, k, 1, 360, base_errors=base, executor=ex, datasheet=cfg,
+                    design,
+                    M0,
+                    tol,
+                    k,
+                    1,
+                    360,
+                    base_errors=base,
+                    executor=ex,
+                    datasheet=cfg,
                     kernel=True,
                 )
                 return time.perf_counter() - t0

@@ -21,8 +21,11 @@ def _datasheet_mc(scene):
     from corr_cad.run.stages_datasheet import datasheet_spec
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
 
+    mc = scene.montecarlo
     return DatasheetMC(
-        datasheet_spec(scene), binding_pressure_MPa=scene.montecarlo["binding_pressure_MPa"]
+        datasheet_spec(scene),
+        binding_pressure_MPa=mc["binding_pressure_MPa"],
+        positions_per_mesh=mc["datasheet_positions_per_mesh"],
     )
 
 
@@ -72,7 +75,7 @@ def _montecarlo(ctx: RunContext) -> None:
     if sheet is not None:
         summary["datasheet"] = {
             "rated_torque_Nm": sheet.spec.rated_torque / 1000.0,
-            "positions_per_mesh": sheet.spec.positions_per_mesh,
+            "positions_per_mesh": sheet.positions_per_mesh,
             "binding_pressure_MPa": sheet.binding_pressure_MPa,
         }
     summary["nominal"] = nominal
@@ -142,7 +145,7 @@ def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
         from corr_cad.tolerance.montecarlo import _sample_errors
 
         base = scene_errors(ctx)
-        grid = grid_positions(s.design, base, (), sheet.spec.positions_per_mesh)
+        grid = grid_positions(s.design, base, (), sheet.positions_per_mesh)
         errors = _sample_errors(base, {}, {}, 1, s.design.roller_count)
         extra, _ = datasheet_chunk(
             s.design, errors, 1, sheet, grid, s.solver.load_share, psi_contact_limit(ctx), base

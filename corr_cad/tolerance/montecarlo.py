@@ -400,7 +400,7 @@ def monte_carlo(
     if datasheet is not None:
         from corr_cad.tolerance.mc_datasheet import grid_positions
 
-        grid = grid_positions(design, base, tolerances, datasheet.spec.positions_per_mesh)
+        grid = grid_positions(design, base, tolerances, datasheet.positions_per_mesh)
     if (kernel or datasheet is not None) and not isinstance(executor, SerialExecutor) and samples:
         # Compile (or load from the cache) here, once, before the workers start:
         # forked workers inherit it.
