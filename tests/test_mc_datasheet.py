@@ -343,3 +343,15 @@ def test_allocation_answers_which_roller_grade_keeps_lost_motion_under_1_arcmin(
     lm, bp = p99(T)
     assert lm <= 1.0 and bp <= 0.01
     assert p99(1.1 * T)[0] > 1.0
+
+
+@pytest.mark.parametrize("dr,binds", [(0.0005, False), (0.002, False), (0.005, True)])
+def test_binding_table_of_the_docs(d, dr, binds):
+    """docs/tolerances.md, Binding: the prototype's table (2 positions per mesh period)."""
+    b = binding(d, E(roller_radius_error=dr), positions_per_mesh=2)
+    mesh = 2 * math.pi / (25 * 26)
+    assert b.output_angles.tolist() == [0.0, mesh / 2]
+    hand = max(_minimax_by_hand(_hand(d, x, dr)) for x in b.output_angles)
+    assert b.interference.max() == pytest.approx(hand, rel=1e-9)
+    assert b.binds == binds
+    assert 2.0 * dr < hand < 2.2 * dr  # more than the dead-centre roller's 2 dr

@@ -41,7 +41,7 @@ from corr_cad.mechanics.mc_kernel import (
     WS,
     A,
     F,
-    _evaluate,
+    _compliance,
     _jit,
     _solve_position,
 )
@@ -50,15 +50,17 @@ __all__ = ["windup_samples"]
 
 
 @_jit
-def _preload_pressure(C, kc, W, gap, R, length):
+def _preload_pressure(C, kc, gap, R, length, floor):
     """Gap-only preload pressure (MPa) at one position where the free rotation is empty.
 
     ``tau*`` minimises the largest overlap ``max_i (gap_i + a_i tau)`` of the
-    rollers (bisection between the two closing rotations, where the largest
-    overlap of the rollers with ``a > 0`` meets that of ``a < 0``); each
-    roller's chain is compressed by its overlap there and the force follows
-    from its elastic approach. Returns the largest Hertz pressure of any
-    contact, and the overlap at ``tau*`` (mm).
+    rollers (where the largest overlap of the rollers with ``a > 0`` meets
+    that of ``a < 0``); each roller's chain is compressed by its overlap there
+    and the force follows from its elastic approach ``G(F) = h``. Returns the
+    largest Hertz pressure of any contact, or ``floor`` when it is not above
+    ``floor`` (the sample's largest so far: a roller whose linear-contact force
+    ``h / G'(0)``, an upper bound of its force since ``G`` is convex, cannot
+    reach ``floor`` is not inverted), and the overlap at ``tau*`` (mm).
     """
     lo = np.inf  # first closing forward (a > 0): -gap/a, smallest
     hi = -np.inf  # first closing in reverse (a < 0): -gap/a, largest
@@ -69,7 +71,7 @@ def _preload_pressure(C, kc, W, gap, R, length):
         elif a < 0.0:
             hi = max(hi, -gap[i] / a)
     if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
-        return 0.0, 0.0
+        return floor, 0.0
     # Safeguarded Newton on the piecewise-linear up - down: intersect the two
     # active lines; bisect where that leaves the bracket [a_lo, a_hi].
     a_lo, a_hi = lo, hi
@@ -101,20 +103,35 @@ def _preload_pressure(C, kc, W, gap, R, length):
         if nxt == tau or not (a_lo < nxt < a_hi):
             break
         tau = nxt
-    _evaluate(tau, C, kc, W, False)
-    peak = 0.0
+    scale = np.pi * length / 2.0  # p = sqrt(F / c) / scale
+    top = floor * scale
     over = 0.0
     for i in range(R):
         h = tau * C[A, i] + C[H0, i]
         over = max(over, h)
-        f = W[F, i]
-        if f > 0.0:
-            fn = C[WN, i] * f
-            pj = math.sqrt(f / C[CJ, i])
-            pn = math.sqrt(fn / C[CN, i])
-            ps_ = math.sqrt(C[WS, i] * f / C[CS, i])
-            peak = max(peak, max(max(pj, ps_), pn))
-    return 2.0 * peak / (np.pi * length), over
+        if h <= 0.0:
+            continue
+        f = h / C[K0, i]  # linear-contact force: an upper bound
+        if _roller_pressure(C, i, f) <= top:
+            continue
+        for _ in range(100):  # G(f) = h, monotone Newton from the right
+            g, d = _compliance(f, C, i, kc)
+            f_new = max(f - (g - h) / d, 0.0)
+            if abs(f_new - f) <= 4e-16 * f:
+                f = f_new
+                break
+            f = f_new
+        top = max(top, _roller_pressure(C, i, f))
+    return top / scale, over
+
+
+@_jit
+def _roller_pressure(C, i, f):
+    """Largest ``sqrt(F / c)`` of roller ``i``'s cam, gear and slot contacts at ``F_j = f``."""
+    pj = math.sqrt(f / C[CJ, i])
+    pn = math.sqrt(C[WN, i] * f / C[CN, i])
+    ps_ = math.sqrt(C[WS, i] * f / C[CS, i])
+    return max(max(pj, ps_), pn)
 
 
 @_jit
@@ -230,8 +247,7 @@ def windup_samples(
             if np.isfinite(fwd) and np.isfinite(rev):
                 lost = max(lost, max(fwd - rev, 0.0) / ratio)
             if tight:
-                pp, ov = _preload_pressure(C, kc, W, gap, R, length)
-                press = max(press, pp)
+                press, ov = _preload_pressure(C, kc, gap, R, length, press)
                 inter = max(inter, ov)
             zero_theta = np.nan
             for j in range(M):
