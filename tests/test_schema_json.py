@@ -96,8 +96,12 @@ LOCAL = {
     "material": None,
     "solver": None,
     "montecarlo": None,
-    # Not "max_failure_probability": it needs a limit beside it in [checks].
-    "checks": {k for k in SCHEMA["checks"] if k != "max_failure_probability"},
+    # The Monte Carlo gates need a limit and the montecarlo format (other keys).
+    "checks": {
+        k
+        for k in SCHEMA["checks"]
+        if k not in ("max_failure_probability", "max_binding_probability")
+    },
     "tolerances": None,
     "budget": None,
     "dask": None,

@@ -262,6 +262,13 @@ def summary_lines(manifest: dict, out) -> list[str]:
             lines.append(f"  {metric}: {vals}")
         for name, prob in (mc.get("failure_probability") or {}).items():
             lines.append(f"  P(fail {name}) = {prob:.4g}")
+        b = mc.get("binding_probability")
+        if b:
+            lo, hi = b["wilson_interval"]
+            lines.append(
+                f"  P(binds) = {b['probability']:.4g} ({b['binding_samples']} of {b['samples']}; "
+                f"{100 * b['confidence']:g} % Wilson interval {lo:.4g}-{hi:.4g})"
+            )
     c = manifest.get("clearance")
     if c:
         low, work = c["min_clearance_mm"], c["working_contacts_max_abs_mm"]

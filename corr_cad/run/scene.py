@@ -24,6 +24,7 @@ from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
+from corr_cad.run.scene_montecarlo import check_binding_gate
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
     ALL,
     FORMATS,
@@ -390,6 +391,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
                 "[checks] max_failure_probability gates the Monte Carlo: "
                 "add 'montecarlo' to [export] formats"
             )
+    check_binding_gate(checks, formats)
     for swept, (where, _, _) in PAPER_SWEEPS.items():
         rng = values["sweeps"][swept]
         if rng is None:
@@ -507,13 +509,6 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
         raise SceneError(
             "[load] input_torque = 0: the datasheet's rated torque (z + 1) * input_torque "
             "would be 0; set [datasheet] rated_torque_Nm (N*m, e.g. 2860)"
-        )
-    if checks.datasheet_active() and checks.max_failure_probability is not None:
-        name = next(iter(checks.datasheet_active()))
-        hint = " (the free play it meant before is max_backlash_arcmin)" if "lost" in name else ""
-        raise SceneError(
-            f"[checks] {name} is judged on the nominal design only: the Monte Carlo does not "
-            f"compute it, so max_failure_probability cannot gate it{hint}; remove one of them"
         )
 
 

@@ -335,6 +335,14 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=1,
             example=0.01,
         ),
+        "max_binding_probability": Key(
+            "float",
+            None,
+            "gate the Monte Carlo on binding: largest allowed probability that a sample binds "
+            "at zero torque (preload pressure above [montecarlo] binding_pressure_MPa), in [0, 1]",
+            high=1,
+            example=0.01,
+        ),
     },
     **scene_schema_tolerance.SECTIONS,
     **scene_schema_shop.SECTIONS,

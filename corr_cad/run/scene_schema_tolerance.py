@@ -123,6 +123,22 @@ SECTIONS: dict[str, dict[str, Key]] = {
         "allocation_samples": Key(
             "int", 200, "samples per step of the allocation search", low=0, high=100_000
         ),
+        "datasheet_positions_per_mesh": Key(
+            "int",
+            4,
+            "positions per mesh period of each sample's datasheet metrics (one mesh period, "
+            "one tooth pitch or one output revolution, as the errors need)",
+            low=0,
+            high=1000,
+        ),
+        "binding_pressure_MPa": Key(
+            "float",
+            4000.0,
+            "a sample binds when its gap-only preload pressure at zero torque exceeds this, MPa "
+            "(default: 4000, the static capacity of bearing steel in line contact, ISO 76)",
+            low=0,
+            high=1e6,
+        ),
     },
     "sweeps": {
         "points": Key("int", 7, "points per sweep", low=1, high=1000),

@@ -12,6 +12,23 @@ from corr_cad.mechanics.solver import solve_forces
 from corr_cad.run.context import RunContext, expected_seconds, psi_contact_limit, scene_errors
 
 
+def _datasheet_mc(scene):
+    """The Monte Carlo's datasheet pass of a scene, or None when it does not ask for it."""
+    from corr_cad.run.scene_montecarlo import wants_datasheet_metrics
+
+    if not wants_datasheet_metrics(scene):
+        return None
+    from corr_cad.run.stages_datasheet import datasheet_spec
+    from corr_cad.tolerance.mc_datasheet import DatasheetMC
+
+    mc = scene.montecarlo
+    return DatasheetMC(
+        datasheet_spec(scene),
+        binding_pressure_MPa=mc["binding_pressure_MPa"],
+        positions_per_mesh=mc["datasheet_positions_per_mesh"],
+    )
+
+
 def _montecarlo(ctx: RunContext) -> None:
     from corr_cad.export import plots_tolerance
     from corr_cad.export.files import write_columns, write_json
@@ -22,6 +39,7 @@ def _montecarlo(ctx: RunContext) -> None:
     s = ctx.scene
     mc_cfg = s.montecarlo
     n = mc_cfg["samples"]
+    sheet = _datasheet_mc(s)
     bar = Progress(n, "      montecarlo", "samples", expected=expected_seconds(ctx, "montecarlo"))
 
     def tick(done: int, total: int) -> None:
@@ -39,6 +57,7 @@ def _montecarlo(ctx: RunContext) -> None:
         executor=ctx.executor,
         progress=tick,
         psi_contact_limit=psi_contact_limit(ctx),
+        datasheet=sheet,
     )
     bar.close()
     if not res.success:
@@ -52,11 +71,19 @@ def _montecarlo(ctx: RunContext) -> None:
     summary = res.summary(s.checks)
     summary.update({"seed": mc_cfg["seed"], "positions": mc_cfg["positions"]})
     summary["tolerances"] = {k: d.__dict__ for k, d in s.tolerances.items()}
-    nominal = _nominal_metrics(ctx, mc_cfg["positions"])
+    nominal = _nominal_metrics(ctx, mc_cfg["positions"], sheet)
+    if sheet is not None:
+        summary["datasheet"] = {
+            "rated_torque_Nm": sheet.spec.rated_torque / 1000.0,
+            "positions_per_mesh": sheet.positions_per_mesh,
+            "binding_pressure_MPa": sheet.binding_pressure_MPa,
+        }
     summary["nominal"] = nominal
     write_json(ctx.out / "montecarlo_summary.json", summary)
-    plots_tolerance.montecarlo_png(
-        res.metrics,
+    from corr_cad.tolerance.mc_datasheet import DATASHEET_MC_METRICS
+
+    plots_tolerance.montecarlo_png(  # the force metrics (the datasheet's are in the CSV)
+        {k: v for k, v in res.metrics.items() if k not in DATASHEET_MC_METRICS},
         s.checks,
         ctx.out / "montecarlo.png",
         summary,
@@ -68,9 +95,27 @@ def _montecarlo(ctx: RunContext) -> None:
     ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
     ctx.manifest["montecarlo"] = {
         k: summary[k]
-        for k in ("samples", "failure_probability", "percentiles", "nominal", "sensitivity")
+        for k in (
+            "samples",
+            "failure_probability",
+            "percentiles",
+            "nominal",
+            "sensitivity",
+            "binding_probability",
+        )
+        if k in summary
     }
     gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
+    allowed = s.checks.max_binding_probability
+    if allowed is not None:
+        b = summary["binding_probability"]
+        gate["max_binding_probability"] = {
+            "probability": b["probability"],
+            "allowed": allowed,
+            "passed": bool(b["probability"] <= allowed),
+            "standard_error": b["standard_error"],
+            "wilson_interval": b["wilson_interval"],
+        }
     if gate:
         ctx.manifest.setdefault("checks", {})["montecarlo"] = gate
         for name, g in gate.items():
@@ -81,7 +126,7 @@ def _montecarlo(ctx: RunContext) -> None:
             )
 
 
-def _nominal_metrics(ctx: RunContext, positions: int) -> dict:
+def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
     """The Monte Carlo metrics of the scene's own design and errors (no tolerance drawn)."""
     from corr_cad.mechanics.solver import cycle_angles
     from corr_cad.tolerance.checks import sample_metrics
@@ -94,7 +139,19 @@ def _nominal_metrics(ctx: RunContext, positions: int) -> dict:
         load_share=s.solver.load_share,
         errors=scene_errors(ctx),
     )
-    return {k: float(v[0]) for k, v in sample_metrics(res, 1).items()}
+    out = {k: float(v[0]) for k, v in sample_metrics(res, 1).items()}
+    if sheet is not None:
+        from corr_cad.tolerance.mc_datasheet import datasheet_chunk, grid_positions
+        from corr_cad.tolerance.montecarlo import _sample_errors
+
+        base = scene_errors(ctx)
+        grid = grid_positions(s.design, base, (), sheet.positions_per_mesh)
+        errors = _sample_errors(base, {}, {}, 1, s.design.roller_count)
+        extra, _ = datasheet_chunk(
+            s.design, errors, 1, sheet, grid, s.solver.load_share, psi_contact_limit(ctx), base
+        )
+        out.update({k: float(v[0]) for k, v in extra.items()})
+    return out
 
 
 def _allocation(ctx: RunContext) -> None:
@@ -112,6 +169,7 @@ def _allocation(ctx: RunContext) -> None:
         "executor": ctx.executor,
         "base_errors": scene_errors(ctx),
         "psi_contact_limit": psi_contact_limit(ctx),
+        "datasheet": _datasheet_mc(s),
     }
     d, m0 = s.design, s.load.input_torque
     rows = []

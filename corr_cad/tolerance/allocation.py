@@ -40,6 +40,7 @@ def allocate(
     psi_contact_limit: float = math.pi,
     progress: Callable[[int, int, float], None] | None = None,
     distribution: str | None = None,
+    datasheet=None,
 ) -> dict:
     """Largest symmetric tolerance ``T`` of ``kind`` that keeps the checks.
 
@@ -85,13 +86,14 @@ def allocate(
             return evals + bisect
         return evals + 1 + max(1, math.ceil(math.log2(1.0 / rel_precision)))
 
-    if not checks.active():
+    binding_limit = checks.max_binding_probability
+    if not checks.active() and binding_limit is None:
         raise SceneError("tolerance allocation needs at least one limit in [checks]")
-    if not checks.montecarlo_active():
+    if datasheet is None and (checks.datasheet_active() or binding_limit is not None):
+        what = next(iter(checks.datasheet_active()), "max_binding_probability")
         raise SceneError(
-            "tolerance allocation needs a limit the Monte Carlo computes in [checks] "
-            f"(not only {', '.join(checks.datasheet_active())}, which are judged on the "
-            "nominal design only)"
+            f"tolerance allocation on {what} needs the Monte Carlo's datasheet metrics "
+            "(pass datasheet=DatasheetMC(...))"
         )
     evals = 0
 
@@ -127,8 +129,11 @@ def allocate(
             base_errors=base_errors,
             psi_contact_limit=psi_contact_limit,
             kernel=kernel,
+            datasheet=datasheet,
         )
         failing = []
+        if binding_limit is not None and float(np.mean(mc.metrics["binds"])) > binding_limit:
+            failing.append("max_binding_probability")
         for name in checks.montecarlo_active():
             metric, sense = CHECK_METRICS[name]
             q = percentile if sense == "max" else 100.0 - percentile

@@ -38,6 +38,8 @@ __all__ = [
 #: Metrics that count something (rollers): their percentiles are sample
 #: values, never a fraction between two counts.
 COUNT_METRICS = ("min_loaded_rollers",)
+#: 0/1 flags: summarised as a probability, not as percentiles.
+FLAG_METRICS = ("binds",)
 
 
 def metric_percentile(values, q: float, metric: str) -> float:
@@ -150,9 +152,43 @@ def _sample_errors(base: ManufacturingErrors, tolerances, draws, n: int, R: int)
 
 
 def _chunk_task(
+    design,
+    input_torque,
+    angles,
+    load_share,
+    base,
+    tolerances,
+    draws,
+    n,
+    psi_limit,
+    kernel,
+    datasheet=None,
+    grid=None,
+):
+    """Solve one chunk of ``n`` samples (runs in a worker); ``draws``: its standard draws.
+
+    With ``datasheet`` (:class:`~corr_cad.tolerance.mc_datasheet.DatasheetMC`)
+    the same samples' datasheet metrics are added, on the output angles ``grid``.
+    """
+    metrics, ok = _force_chunk(
+        design, input_torque, angles, load_share, base, tolerances, draws, n, psi_limit, kernel
+    )
+    if datasheet is not None:
+        from corr_cad.tolerance.mc_datasheet import datasheet_chunk
+
+        errors = _sample_errors(base, tolerances, draws, n, design.roller_count)
+        extra, ok_ds = datasheet_chunk(
+            design, errors, n, datasheet, grid, load_share, psi_limit, base
+        )
+        metrics = {**metrics, **extra}
+        ok = ok and ok_ds
+    return metrics, ok
+
+
+def _force_chunk(
     design, input_torque, angles, load_share, base, tolerances, draws, n, psi_limit, kernel
 ):
-    """Solve one chunk of ``n`` samples (runs in a worker); ``draws``: its standard draws."""
+    """The force metrics of one chunk (the numpy solver or the compiled kernel)."""
     if kernel:
         return _kernel_chunk(
             design, input_torque, angles, load_share, base, tolerances, draws, n, psi_limit
@@ -289,14 +325,24 @@ class MonteCarloResult:
         out["percentiles"] = {
             m: {f"p{q}": metric_percentile(v, q, m) for q in percentiles}
             for m, v in self.metrics.items()
+            if m not in FLAG_METRICS
         }
         fail = {}
         for name, limit in checks.montecarlo_active().items():
             metric, sense = CHECK_METRICS[name]
+            if metric not in self.metrics:
+                raise SolverError(
+                    f"[checks] {name}: the Monte Carlo did not compute {metric} "
+                    "(run it with the datasheet metrics)"
+                )
             v = self.metrics[metric]
             bad = v > limit if sense == "max" else v < limit
             fail[name] = float(np.mean(bad))
         out["failure_probability"] = fail
+        if "binds" in self.metrics:
+            from corr_cad.tolerance.mc_datasheet import binding_probability
+
+            out["binding_probability"] = binding_probability(self.metrics["binds"])
         sens = []
         for kind, mag in self.magnitudes.items():
             rho = {m: _spearman(mag, v) for m, v in self.metrics.items()}
@@ -322,6 +368,7 @@ def monte_carlo(
     progress: Callable[[int, int], None] | None = None,
     psi_contact_limit: float = math.pi,
     kernel: bool | None = None,
+    datasheet=None,
 ) -> MonteCarloResult:
     """Seeded Monte Carlo over ``tolerances``; see the module docstring.
 
@@ -334,6 +381,11 @@ def monte_carlo(
 
     Each sample draws every tolerance, solves ``positions`` crank positions
     of a cycle and keeps four metrics (:func:`sample_metrics`).
+
+    ``datasheet``: a :class:`~corr_cad.tolerance.mc_datasheet.DatasheetMC`
+    adds the datasheet metrics of the same samples (lost motion, rigidity,
+    transmission error, binding; :mod:`corr_cad.tolerance.mc_datasheet`),
+    always with the compiled kernel. The draws do not depend on it.
 
     >>> from corr_cad import GearDesign, monte_carlo, Distribution, Checks
     >>> tol = {"roller_radius": Distribution("normal", 0.001)}   # sigma 1 um per roller
@@ -356,7 +408,12 @@ def monte_carlo(
     bounds = [(lo, min(lo + chunk, samples)) for lo in range(0, samples, chunk)]
     if kernel is None:
         kernel = samples * len(angles) >= KERNEL_MIN_WORK
-    if kernel and not isinstance(executor, SerialExecutor):
+    grid = None
+    if datasheet is not None:
+        from corr_cad.tolerance.mc_datasheet import grid_positions
+
+        grid = grid_positions(design, base, tolerances, datasheet.positions_per_mesh)
+    if (kernel or datasheet is not None) and not isinstance(executor, SerialExecutor) and samples:
         # Compile (or load from the cache) here, once, before the workers start:
         # forked workers inherit it.
         _chunk_task(
@@ -369,7 +426,9 @@ def monte_carlo(
             {k: u[:1] for k, u in units.items()},
             1,
             psi_contact_limit,
-            True,
+            kernel,
+            datasheet,
+            None if grid is None else grid[:1],
         )
     futures = [
         executor.submit(
@@ -384,6 +443,8 @@ def monte_carlo(
             hi - lo,
             psi_contact_limit,
             kernel,
+            datasheet,
+            grid,
         )
         for lo, hi in bounds
     ]
