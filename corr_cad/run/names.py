@@ -38,7 +38,7 @@ _PARTS = _any(PART_FILE_STEMS)
 #: full) of every file that format can write.
 OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf"),
-    "png": (r"preview\.png",),
+    "png": (r"preview\.png", r"modification\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{
         fmt: (rf"{_PARTS}\.{fmt}", rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}")

@@ -24,6 +24,7 @@ from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
+from corr_cad.run.scene_modification import parse_modification
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
     ALL,
     FORMATS,
@@ -110,6 +111,9 @@ class Scene:
     inspection: dict = field(default_factory=dict)
     #: ``[datasheet]`` with its defaults (``rated_torque_Nm`` None: from ``[load]``).
     datasheet: dict = field(default_factory=dict)
+    #: ``[modification]`` (None: the conjugate profile) and ``[assembly]``.
+    modification: Any = None
+    assembly: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
@@ -423,6 +427,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"[inspection] point_spacing = {spacing:g}: more than 2,000,000 points; "
             "allowed range is at least 1e-6 of the circumference"
         )
+    modification, assembly = parse_modification(values, data, design, base_dir)
     scene = Scene(
         name=name,
         design=design,
@@ -451,6 +456,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         edm=values["edm"],
         inspection=values["inspection"],
         datasheet=values["datasheet"],
+        modification=modification,
+        assembly=assembly,
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
@@ -460,7 +467,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given (the inputs of
             # scenes without it stay as they were).
-            if s != "datasheet" or sheet
+            if (s != "datasheet" or sheet) and (s not in ("modification", "assembly") or s in data)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

@@ -11,7 +11,7 @@ import numpy as np
 from corr_cad.errors import ExportError
 from corr_cad.export.files import angle_tag
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.context import RunContext, scene_errors
+from corr_cad.run.context import RunContext, modified_curve, raw_errors
 
 #: Part names of the files, the same for DXF, meshes and STEP.
 PART_NAMES = {"ring": "inner_gear", "cam": "disk_cam", "roller": "roller", "frame": "teeth_frame"}
@@ -255,7 +255,9 @@ def _clearance(ctx: RunContext) -> None:
     psi_end = math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else None
     n = s.positions_for("exact")
     angles = 2.0 * np.pi * np.arange(n) / n
-    clr = clearance(s.design, angles, scene_errors(ctx), psi_end)
+    # The designed clearance is the exact distance to the modified profile,
+    # so the errors here are the scene's own (no modification gap added).
+    clr = clearance(s.design, angles, raw_errors(ctx), psi_end, modified_curve(ctx))
     cols = clr.columns()
     write_columns(
         ctx.out / "clearance.csv",
@@ -289,7 +291,9 @@ def _agreement(ctx: RunContext, angles_deg, rows, allowance, tol: float) -> dict
     mesh_errors = ManufacturingErrors(
         roller_radius_error=err.roller_radius_error, roller_radius_errors=err.roller_radius_errors
     )
-    clr = clearance(d, np.radians(np.asarray(angles_deg, dtype=float)), mesh_errors)
+    clr = clearance(
+        d, np.radians(np.asarray(angles_deg, dtype=float)), mesh_errors, profile=modified_curve(ctx)
+    )
     index = {float(a): k for k, a in enumerate(angles_deg)}
     search = max(0.1, 50 * tol)
     exact_of = {"ring": clr.ring, "cam": clr.cam, "frame": clr.slot}

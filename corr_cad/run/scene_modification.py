@@ -1,0 +1,86 @@
+"""Parsing of ``[modification]`` and ``[assembly]`` (issue 20), called from
+:func:`corr_cad.run.scene.parse_scene`.
+
+The normal table is a CSV file ``psi_deg,normal_mm`` (an optional header
+line with exactly those names, ``#`` comments), read from the scene's folder.
+Every refusal is one line naming the key (or the file and row), the value
+and what works.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from corr_cad.errors import CorrCadError, SceneError
+from corr_cad.export.inputfiles import read_regular_file
+from corr_cad.geometry.design import GearDesign
+from corr_cad.geometry.modification import Modification, NormalTable, modified_profile
+
+__all__ = ["parse_modification", "read_normal_table", "MAX_TABLE_BYTES"]
+
+#: Largest normal table read (bytes).
+MAX_TABLE_BYTES = 1024 * 1024
+
+
+def read_normal_table(path: Path) -> NormalTable:
+    """The table of ``path``: rows ``psi_deg,normal_mm``."""
+    where = f"[modification] normal_table {path.name}"
+    text = read_regular_file(path, "[modification] normal_table", MAX_TABLE_BYTES)
+    try:
+        lines = text.decode("utf-8-sig").splitlines()
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{where}: not UTF-8 text; write psi_deg,normal_mm rows") from exc
+    psi, nrm = [], []
+    for k, raw in enumerate(lines, start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        cells = [c.strip() for c in line.replace(";", ",").split(",")]
+        if not psi and [c.lower() for c in cells] == ["psi_deg", "normal_mm"]:
+            continue
+        if len(cells) != 2:
+            raise SceneError(
+                f"{where} line {k}: {len(cells)} columns; need psi_deg,normal_mm, e.g. 90,0.005"
+            )
+        try:
+            psi.append(float(cells[0]))
+            nrm.append(float(cells[1]))
+        except ValueError as exc:
+            raise SceneError(
+                f"{where} line {k}: {line!r} is not two numbers psi_deg,normal_mm, e.g. 90,0.005"
+            ) from exc
+    try:
+        return NormalTable(tuple(psi), tuple(nrm), source=f"normal_table {path.name}")
+    except CorrCadError as exc:
+        raise SceneError(f"[modification] {exc}") from exc
+
+
+def parse_modification(
+    values: dict, data: dict, design: GearDesign, base_dir: Path | None
+) -> tuple[Modification | None, dict]:
+    """``(modification or None, [assembly] values)``; None without a ``[modification]``."""
+    mv = values["modification"]
+    mod = None
+    if "modification" in data:
+        table = None
+        if mv["normal_table"] is not None:
+            table = read_normal_table(Path(base_dir or ".") / mv["normal_table"])
+        mod = Modification(mv["equidistant_mm"], mv["shift_mm"], table)
+        half = 0.5 * design.roller_radius
+        for key in ("equidistant_mm", "shift_mm"):
+            if abs(mv[key]) >= half:
+                raise SceneError(
+                    f"[modification] {key} = {mv[key]:g}: allowed range is "
+                    f"(-{half:g}, {half:g}) (half the roller radius), e.g. 0.01"
+                )
+        try:
+            modified_profile(design, mod)
+        except CorrCadError as exc:
+            raise SceneError(str(exc)) from exc
+    asm = dict(values["assembly"])
+    if "assembly" in data and not asm["roller_classes_um"]:
+        raise SceneError(
+            "[assembly] roller_classes_um is empty; give the classes you can buy, "
+            "e.g. [-4.0, -2.0, 0.0, 2.0]"
+        )
+    return mod, asm
