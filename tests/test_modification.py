@@ -164,7 +164,7 @@ EQ = 0.02
 def shop(tmp_path_factory):
     folder = tmp_path_factory.mktemp("shop")
     (folder / "s.toml").write_text(
-        '[export]\nformats = ["dxf", "edm", "cmm", "png"]\nrepresentation = "arcs"\n'
+        '[export]\nformats = ["dxf", "edm", "cmm", "png", "stl"]\nrepresentation = "arcs"\n'
         f"tolerance = 0.001\n[modification]\nequidistant_mm = {EQ}\n"
     )
     r = subprocess.run(
@@ -229,6 +229,20 @@ def test_cmm_points_sit_at_r_plus_equidistant_from_the_roller_locus(shop):
     # the normal points from the ring material into the opening: towards the locus
     inward = locus(np.arctan2(p[:, 0], p[:, 1])) - p
     assert np.all(np.sum(n * inward, axis=1) > 0)
+
+
+def test_stl_ring_clears_the_nominal_roller_by_plus_equidistant(shop):
+    import trimesh
+
+    v = trimesh.load(shop / "inner_gear.stl").vertices
+    v = v[(np.abs(v[:, 2]) < 1e-9) & (np.hypot(v[:, 0], v[:, 1]) < L + R + 10)][:, :2]
+    a = v[np.argsort(np.arctan2(v[:, 0], v[:, 1]))]  # the opening's outline at z = 0
+    ab = np.roll(a, -1, axis=0) - a
+    q = locus(np.radians(np.linspace(-170, 170, 35)) / Z)
+    u = np.clip(np.einsum("qij,ij->qi", q[:, None, :] - a[None], ab) / np.sum(ab * ab, 1), 0, 1)
+    foot = a[None] + u[..., None] * ab[None]
+    c = np.min(np.linalg.norm(q[:, None, :] - foot, axis=2), axis=1) - R
+    assert np.all(np.abs(c - EQ) <= 0.001 + 1e-6), c  # chord tolerance
 
 
 def test_modification_png_and_manifest(shop):

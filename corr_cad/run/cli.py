@@ -165,7 +165,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     bad = manifest.get("inspection", {}).get("failed")
     if bad:
         print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
-    if failed or bad:
+    asm = manifest.get("assembly", {}).get("failed")
+    if asm:
+        print(f"corr-cad: selective assembly failed: {'; '.join(asm)}", file=sys.stderr)
+    if failed or bad or asm:
         return 1
     return status
 

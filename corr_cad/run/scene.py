@@ -465,9 +465,11 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
                 if v is not None
             }
             for s, vals in values.items()
-            # [datasheet] is recorded where it is used or given (the inputs of
-            # scenes without it stay as they were).
-            if (s != "datasheet" or sheet) and (s not in ("modification", "assembly") or s in data)
+            # [datasheet] is recorded where it is used or given, [modification] and
+            # [assembly] where they act (the inputs of scenes without them stay as they were).
+            if (s != "datasheet" or sheet)
+            and (s != "modification" or modification is not None)
+            and (s != "assembly" or bool(assembly))
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

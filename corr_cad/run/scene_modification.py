@@ -73,14 +73,31 @@ def parse_modification(
                     f"[modification] {key} = {mv[key]:g}: allowed range is "
                     f"(-{half:g}, {half:g}) (half the roller radius), e.g. 0.01"
                 )
+        if mod.is_zero:  # an empty section (e.g. the commented template): the conjugate
+            return None, _assembly(values, data)
         try:
             modified_profile(design, mod)
         except CorrCadError as exc:
             raise SceneError(str(exc)) from exc
+    return mod, _assembly(values, data)
+
+
+def _assembly(values: dict, data: dict) -> dict:
+    """``[assembly]`` values; empty unless ``roller_classes_um`` is given."""
     asm = dict(values["assembly"])
-    if "assembly" in data and not asm["roller_classes_um"]:
+    classes = asm["roller_classes_um"]
+    if classes is None:
+        return {}
+    if not classes:
         raise SceneError(
             "[assembly] roller_classes_um is empty; give the classes you can buy, "
             "e.g. [-4.0, -2.0, 0.0, 2.0]"
         )
-    return mod, asm
+    if len(set(classes)) != len(classes):
+        raise SceneError(f"[assembly] roller_classes_um = {classes}: lists a class twice")
+    formats = values["export"]["formats"]
+    if "datasheet" not in formats and "all" not in formats:
+        raise SceneError(
+            '[assembly] roller_classes_um needs the datasheet: add "datasheet" to [export] formats'
+        )
+    return asm

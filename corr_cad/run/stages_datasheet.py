@@ -92,3 +92,36 @@ def _datasheet_files(ctx: RunContext) -> None:
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png"])
     ctx.manifest["datasheet"] = ds.figures()
+    if s.assembly:
+        _assembly(ctx)
+
+
+def _assembly(ctx: RunContext) -> None:
+    """``[assembly]``: the roller class to fit, with each class's datasheet (assembly.json)."""
+    from corr_cad.export.files import write_json
+    from corr_cad.tolerance.assembly import selective_assembly
+
+    s = ctx.scene
+    ring = "measured ring" if s.measured_profile is not None else "nominal ring"
+    ctx.progress(
+        f"      selective assembly ({ring}): {len(s.assembly['roller_classes_um'])} classes"
+    )
+    res = selective_assembly(
+        s.design,
+        datasheet_spec(s),
+        scene_errors(ctx),
+        s.assembly["roller_classes_um"],
+        s.assembly["target_backlash_arcmin"],
+        load_share=s.solver.load_share,
+        variants=s.solver.variants,
+        psi_contact_limit=psi_contact_limit(ctx),
+        progress=ctx.progress,
+    )
+    res = {"ring": ring, **res}
+    write_json(ctx.out / "assembly.json", res)
+    ctx.files.append("assembly.json")
+    ctx.manifest["assembly"] = {
+        k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")
+    }
+    if res["chosen_class_um"] is None:
+        ctx.manifest["assembly"]["failed"] = [res["reason"]]
