@@ -164,7 +164,7 @@ EQ = 0.02
 def shop(tmp_path_factory):
     folder = tmp_path_factory.mktemp("shop")
     (folder / "s.toml").write_text(
-        '[export]\nformats = ["dxf", "edm", "cmm", "png", "stl"]\nrepresentation = "arcs"\n'
+        '[export]\nformats = ["dxf", "edm", "cmm", "png", "stl", "interference"]\nrepresentation = "arcs"\n'
         f"tolerance = 0.001\n[modification]\nequidistant_mm = {EQ}\n"
     )
     r = subprocess.run(
@@ -243,6 +243,12 @@ def test_stl_ring_clears_the_nominal_roller_by_plus_equidistant(shop):
     foot = a[None] + u[..., None] * ab[None]
     c = np.min(np.linalg.norm(q[:, None, :] - foot, axis=2), axis=1) - R
     assert np.all(np.abs(c - EQ) <= 0.001 + 1e-6), c  # chord tolerance
+
+
+def test_exact_clearance_csv_gives_the_ring_clearance_of_the_modification(shop):
+    with open(shop / "clearance.csv") as f:
+        ring = np.array([float(r["ring_clearance_mm"]) for r in csv.DictReader(f)])
+    assert np.all(np.abs(ring - EQ) < 1e-9), (ring.min(), ring.max())
 
 
 def test_modification_png_and_manifest(shop):

@@ -165,9 +165,11 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     bad = manifest.get("inspection", {}).get("failed")
     if bad:
         print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
-    asm = manifest.get("assembly", {}).get("failed")
+    asm = manifest.get("assembly", {}).get("failed", []) + manifest.get(
+        "modification_design", {}
+    ).get("failed", [])
     if asm:
-        print(f"corr-cad: selective assembly failed: {'; '.join(asm)}", file=sys.stderr)
+        print(f"corr-cad: {'; '.join(asm)}", file=sys.stderr)
     if failed or bad or asm:
         return 1
     return status

@@ -24,7 +24,7 @@ from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
-from corr_cad.run.scene_modification import parse_modification
+from corr_cad.run.scene_modification import parse_modification, split_design_table
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
     ALL,
     FORMATS,
@@ -114,6 +114,7 @@ class Scene:
     #: ``[modification]`` (None: the conjugate profile) and ``[assembly]``.
     modification: Any = None
     assembly: dict = field(default_factory=dict)
+    modification_design: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
@@ -224,6 +225,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
+    data = split_design_table(data)
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -427,7 +429,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"[inspection] point_spacing = {spacing:g}: more than 2,000,000 points; "
             "allowed range is at least 1e-6 of the circumference"
         )
-    modification, assembly = parse_modification(values, data, design, base_dir)
+    modification, assembly, search = parse_modification(values, data, design, base_dir, load)
     scene = Scene(
         name=name,
         design=design,
@@ -458,6 +460,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         datasheet=values["datasheet"],
         modification=modification,
         assembly=assembly,
+        modification_design=search,
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
@@ -470,6 +473,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             if (s != "datasheet" or sheet)
             and (s != "modification" or modification is not None)
             and (s != "assembly" or bool(assembly))
+            and (s != "modification.design" or bool(search))
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

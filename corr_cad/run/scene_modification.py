@@ -16,7 +16,12 @@ from corr_cad.export.inputfiles import read_regular_file
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.modification import Modification, NormalTable, modified_profile
 
-__all__ = ["parse_modification", "read_normal_table", "MAX_TABLE_BYTES"]
+__all__ = [
+    "parse_modification",
+    "read_normal_table",
+    "split_design_table",
+    "MAX_TABLE_BYTES",
+]
 
 #: Largest normal table read (bytes).
 MAX_TABLE_BYTES = 1024 * 1024
@@ -55,10 +60,50 @@ def read_normal_table(path: Path) -> NormalTable:
         raise SceneError(f"[modification] {exc}") from exc
 
 
+def split_design_table(data: dict) -> dict:
+    """``[modification.design]`` (a table inside ``[modification]``) as its own section."""
+    mod = data.get("modification") if isinstance(data, dict) else None
+    if not (isinstance(mod, dict) and "design" in mod):
+        return data
+    rest = {k: v for k, v in mod.items() if k != "design"}
+    return {**data, "modification": rest, "modification.design": mod["design"]}
+
+
+def _design_search(values: dict, data: dict, load) -> dict:
+    """``[modification.design]`` values when the ``modification`` format runs, else {}."""
+    md = values["modification.design"]
+    formats = values["export"]["formats"]
+    if "modification" not in formats:
+        return {}
+    if md["target_backlash_arcmin"] is None:
+        raise SceneError(
+            "[export] formats lists 'modification' but [modification.design] "
+            "target_backlash_arcmin is not set; e.g. target_backlash_arcmin = 2.0"
+        )
+    if not any(v is not None for v in values["tolerances"].values()):
+        raise SceneError(
+            "[export] formats lists 'modification' but [tolerances] is empty; the design "
+            "searches under the tolerance scatter, e.g. roller_radius = { normal = 0.002 }"
+        )
+    if load is None and values["datasheet"].get("rated_torque_Nm") is None:
+        raise SceneError(
+            "[export] formats lists 'modification' but neither [load] input_torque nor "
+            "[datasheet] rated_torque_Nm gives the rated torque"
+        )
+    for key in ("equidistant_range_mm", "shift_range_mm"):
+        r = md[key]
+        if len(r) != 2 or not r[0] < r[1]:
+            raise SceneError(
+                f"[modification.design] {key} = {r}: give two values, from < to, e.g. [0.0, 0.03]"
+            )
+    return dict(md)
+
+
 def parse_modification(
-    values: dict, data: dict, design: GearDesign, base_dir: Path | None
-) -> tuple[Modification | None, dict]:
-    """``(modification or None, [assembly] values)``; None without a ``[modification]``."""
+    values: dict, data: dict, design: GearDesign, base_dir: Path | None, load=None
+) -> tuple[Modification | None, dict, dict]:
+    """``(modification or None, [assembly] values, [modification.design] values)``."""
+    search = _design_search(values, data, load)
     mv = values["modification"]
     mod = None
     if "modification" in data:
@@ -74,12 +119,12 @@ def parse_modification(
                     f"(-{half:g}, {half:g}) (half the roller radius), e.g. 0.01"
                 )
         if mod.is_zero:  # an empty section (e.g. the commented template): the conjugate
-            return None, _assembly(values, data)
+            return None, _assembly(values, data), search
         try:
             modified_profile(design, mod)
         except CorrCadError as exc:
             raise SceneError(str(exc)) from exc
-    return mod, _assembly(values, data)
+    return mod, _assembly(values, data), search
 
 
 def _assembly(values: dict, data: dict) -> dict:

@@ -39,6 +39,7 @@ FORMATS = (
     "edm",
     "cmm",
     "inspection",
+    "modification",
     "report",
 )
 

@@ -7,6 +7,7 @@ Parsed by :func:`corr_cad.run.scene_modification.parse_modification`.
 from __future__ import annotations
 
 from corr_cad.run.scene_key import Key
+from corr_cad.tolerance.modification_design import FAMILIES, OBJECTIVES
 
 #: Inspect a measured ring against the modified profile or the conjugate one.
 INSPECT_AGAINST = ("modified", "conjugate")
@@ -42,6 +43,66 @@ SECTIONS: dict[str, dict[str, Key]] = {
             "modified",
             "nominal of the inspection: the modified profile or the conjugate one",
             choices=INSPECT_AGAINST,
+        ),
+    },
+    "modification.design": {
+        "target_backlash_arcmin": Key(
+            "float",
+            None,
+            "design the modification (format modification): largest backlash at "
+            "backlash_percentile under [tolerances], arcmin",
+            low=0.0,
+            high=600.0,
+            example=2.0,
+        ),
+        "backlash_percentile": Key(
+            "float", 95.0, "percentile the backlash target applies to", low=50.0, high=100.0
+        ),
+        "max_binding_probability": Key(
+            "float",
+            0.05,
+            "largest probability that the drive binds (preloaded rollers) under [tolerances]",
+            low=0.0,
+            low_open=False,
+            high=1.0,
+        ),
+        "family": Key("str", "equidistant+shift", "search space", choices=FAMILIES),
+        "objective": Key(
+            "str",
+            "peak_pressure",
+            "objective at rated torque: peak_pressure (p95, smallest) or loaded_rollers "
+            "(p5 of the fewest loaded rollers, largest)",
+            choices=OBJECTIVES,
+        ),
+        "equidistant_range_mm": Key(
+            "list[float]",
+            [0.0, 0.03],
+            "equidistant_mm searched from, to (mm)",
+            low=-1.0,
+            high=1.0,
+            max_len=2,
+            note="two values, from < to",
+        ),
+        "shift_range_mm": Key(
+            "list[float]",
+            [-0.02, 0.02],
+            "shift_mm searched from, to (mm; family equidistant+shift)",
+            low=-1.0,
+            high=1.0,
+            max_len=2,
+            note="two values, from < to",
+        ),
+        "steps": Key("int", 7, "grid points per parameter", low=2, low_open=False, high=101),
+        "samples": Key("int", 200, "tolerance samples", low=10, low_open=False, high=100_000),
+        "seed": Key("int", 1, "seed of the tolerance samples", low=0, low_open=False, high=2**31),
+        "positions": Key("int", 64, "crank positions per cycle", low=8, low_open=False, high=3600),
+        "force_candidates": Key(
+            "int",
+            5,
+            "feasible candidates solved for forces (spread over the backlash range)",
+            low=1,
+            low_open=False,
+            high=100,
         ),
     },
     "assembly": {

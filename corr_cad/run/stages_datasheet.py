@@ -124,4 +124,4 @@ def _assembly(ctx: RunContext) -> None:
         k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")
     }
     if res["chosen_class_um"] is None:
-        ctx.manifest["assembly"]["failed"] = [res["reason"]]
+        ctx.manifest["assembly"]["failed"] = [f"selective assembly failed: {res['reason']}"]

@@ -12,7 +12,13 @@ import numpy as np
 
 from corr_cad.run.context import RunContext
 
-__all__ = ["modification_manifest", "modification_png", "PLOT_POINTS"]
+__all__ = [
+    "modification_manifest",
+    "modification_png",
+    "modification_design",
+    "modified_toml",
+    "PLOT_POINTS",
+]
 
 #: Roll angles of the plot and the manifest's summary, over one tooth space.
 PLOT_POINTS = 721
@@ -51,3 +57,109 @@ def modification_png(ctx: RunContext) -> None:
     psi, curves = _curves(ctx)
     p = plot(np.degrees(psi), curves, ctx.out / "modification.png", ctx.scene.design)
     ctx.files.append(p.name)
+
+
+def modified_toml(scene, equidistant_mm: float, shift_mm: float) -> str:
+    """The user's scene (its parsed values) with the chosen ``[modification]`` written in.
+
+    Paths become absolute (the file lives in the output folder); the design
+    search and the ``modification`` format are left out, so the file runs
+    the shop files of the chosen design.
+    """
+    import json
+
+    from corr_cad.run.scene_text import _toml_value
+
+    def value(section: str, key: str, v) -> str:
+        if section == "tolerances" and isinstance(v, dict):
+            return f"{{ {v['kind']} = {v['scale']!r} }}"
+        if isinstance(v, str):
+            if key == "measured_profile" and scene.measured_profile is not None:
+                v = str(scene.measured_profile.resolve())
+            return json.dumps(v)
+        return _toml_value(v)
+
+    lines = [
+        f"# {scene.name} with the modification corr-cad designed ([modification.design]);",
+        "# run it for the shop files: corr-cad run modified.toml",
+    ]
+    for section, vals in scene.source.items():
+        if section in ("modification", "modification.design") or not vals:
+            continue
+        if section == "export":
+            vals = {**vals, "formats": [f for f in vals["formats"] if f != "modification"]}
+            vals["formats"] = vals["formats"] or ["dxf", "png"]
+        lines.append(f"\n[{section}]")
+        lines += [f"{k} = {value(section, k, v)}" for k, v in vals.items()]
+    lines += [
+        "\n[modification]",
+        f"equidistant_mm = {equidistant_mm!r}",
+        f"shift_mm = {shift_mm!r}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def modification_design(ctx: RunContext) -> None:
+    """Format ``modification``: search ``[modification.design]``; modification.json,
+    modification_tradeoff.png and modified.toml; exit 1 when the targets are unmet."""
+    from corr_cad.export.files import write_json, writing
+    from corr_cad.export.modification_plots import tradeoff_png
+    from corr_cad.run.context import psi_contact_limit, raw_errors
+    from corr_cad.run.progress import Progress
+    from corr_cad.run.stages_datasheet import rated_torque_Nmm
+    from corr_cad.tolerance.modification_design import design_modification
+
+    s = ctx.scene
+    md = s.modification_design
+    steps = md["steps"]
+    n = steps * (steps if md["family"] == "equidistant+shift" else 1)
+    bar = Progress(n, "      modification design", "candidates")
+
+    def tick(done: int, total: int) -> None:
+        bar.update(done - bar.done)
+
+    res = design_modification(
+        s.design,
+        s.tolerances,
+        family=md["family"],
+        objective=md["objective"],
+        target_backlash_arcmin=md["target_backlash_arcmin"],
+        max_binding_probability=md["max_binding_probability"],
+        crank_moment=rated_torque_Nmm(s) / s.design.roller_count,
+        equidistant_mm=(*md["equidistant_range_mm"], steps),
+        shift_mm=(*md["shift_range_mm"], steps),
+        backlash_percentile=md["backlash_percentile"],
+        samples=md["samples"],
+        seed=md["seed"],
+        positions=md["positions"],
+        force_candidates=md["force_candidates"],
+        base_errors=raw_errors(ctx),
+        load_share=s.solver.load_share,
+        psi_contact_limit=psi_contact_limit(ctx),
+        executor=ctx.executor,
+        progress=tick,
+    )
+    bar.close()
+    write_json(ctx.out / "modification.json", res)
+    tradeoff_png(res, ctx.out / "modification_tradeoff.png", s.design)
+    c = res["chosen"]
+    with writing(ctx.out / "modified.toml") as tmp:
+        tmp.write_text(modified_toml(s, c["equidistant_mm"], c["shift_mm"]))
+    ctx.files.extend(["modification.json", "modification_tradeoff.png", "modified.toml"])
+    key = f"p{int(md['backlash_percentile'])}"
+    rec = {
+        "met": res["met"],
+        "equidistant_mm": c["equidistant_mm"],
+        "shift_mm": c["shift_mm"],
+        f"backlash_{key}_arcmin": c["backlash_arcmin"][key]["value"],
+        "binding_probability": c["binding_probability"]["value"],
+    }
+    if not res["met"]:
+        rec["failed"] = [f"modification design: targets unmet: {res['failed']}"]
+    ctx.manifest["modification_design"] = rec
+    ctx.progress(
+        f"      modification: equidistant {c['equidistant_mm']:.4g} mm, shift "
+        f"{c['shift_mm']:.4g} mm; backlash {key} {rec[f'backlash_{key}_arcmin']:.4g} arcmin, "
+        f"binding probability {rec['binding_probability']:.3g}"
+        + ("" if res["met"] else f"; TARGETS UNMET: {res['failed']}")
+    )
