@@ -164,8 +164,8 @@ EQ = 0.02
 def shop(tmp_path_factory):
     folder = tmp_path_factory.mktemp("shop")
     (folder / "s.toml").write_text(
-        '[export]\nformats = ["dxf", "edm", "cmm", "png", "stl", "interference"]\nrepresentation = "arcs"\n'
-        f"tolerance = 0.001\n[modification]\nequidistant_mm = {EQ}\n"
+        '[export]\nformats = ["dxf", "edm", "cmm", "png", "stl", "interference"]\n'
+        f'representation = "arcs"\ntolerance = 0.001\n[modification]\nequidistant_mm = {EQ}\n"
     )
     r = subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
