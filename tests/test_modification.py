@@ -165,7 +165,7 @@ def shop(tmp_path_factory):
     folder = tmp_path_factory.mktemp("shop")
     (folder / "s.toml").write_text(
         '[export]\nformats = ["dxf", "edm", "cmm", "png", "stl", "interference"]\n'
-        f'representation = "arcs"\ntolerance = 0.001\n[modification]\nequidistant_mm = {EQ}\n"
+        f'representation = "arcs"\ntolerance = 0.001\n[modification]\nequidistant_mm = {EQ}\n'
     )
     r = subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
