@@ -121,3 +121,38 @@ def test_results_identical_on_every_executor(designed, tmp_path):
     r, out2 = _run(tmp_path, 2.0, executor="process")
     assert r.returncode == 0, r.stderr
     assert (out / "modification.json").read_bytes() == (out2 / "modification.json").read_bytes()
+
+
+def test_free_family_writes_its_curve_and_modified_toml_runs_it(tmp_path):
+    text = SCENE.format(target=3.5).replace(
+        'family = "equidistant+shift"', 'family = "free"\nobjective = "transmission_error"'
+    )
+    text = text.replace("steps = 4", "steps = 2").replace("samples = 60", "samples = 40")
+    text += "[datasheet]\npositions_per_mesh = 2\ntransmission_error_positions_per_turn = 4\n"
+    (tmp_path / "s.toml").write_text(text)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet",
+         "--executor", "serial"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "out" / "modification.json").read_text())
+    assert len(res["candidates"]) == 16 and res["met"]
+    c = res["chosen"]
+    assert c["transmission_error_arcsec_nominal"] == min(
+        x["transmission_error_arcsec_nominal"] for x in res["candidates"] if x.get("force_solved")
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "out/modified.toml", "--out", "shop",
+         "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    m = json.loads((tmp_path / "shop" / "manifest.json").read_text())
+    assert m["modification"]["families"] == ["normal_table"]
+    at = m["modification"]["flank_clearance_mm"]["at_psi_deg"]
+    assert at["0"] == pytest.approx(c["normal_mm"][0], abs=1e-6)  # the curve at psi 0

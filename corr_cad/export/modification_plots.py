@@ -70,7 +70,8 @@ def tradeoff_png(res: dict, path: Path, design: GearDesign | None) -> Path:
         facecolors="none",
         edgecolors="r",
         lw=2,
-        label=f"chosen: eq {ch['equidistant_mm']:.4g} mm, shift {ch['shift_mm']:.4g} mm",
+        label=f"chosen: eq {ch['equidistant_mm']:.4g} mm, shift {ch['shift_mm']:.4g} mm"
+        + (f", normal {ch['normal_mm']} mm" if "normal_mm" in ch else ""),
     )
     a1.axvline(
         res["targets"]["target_backlash_arcmin"], color="C1", ls="--", label="backlash target"
@@ -85,7 +86,10 @@ def tradeoff_png(res: dict, path: Path, design: GearDesign | None) -> Path:
     obj = res["objective"]
     if solved:
         x = [r["backlash_arcmin"][key]["value"] for r in solved]
-        if obj == "peak_pressure":
+        if obj == "transmission_error":
+            y = [r["transmission_error_arcsec_nominal"] for r in solved]
+            a2.set_ylabel("transmission error, nominal [arcsec]")
+        elif obj == "peak_pressure":
             y = [r["peak_pressure_MPa"]["p95"]["value"] for r in solved]
             a2.set_ylabel("peak contact pressure p95 [MPa]")
         else:
@@ -94,11 +98,11 @@ def tradeoff_png(res: dict, path: Path, design: GearDesign | None) -> Path:
         order = np.argsort(x)
         a2.plot(np.array(x)[order], np.array(y)[order], "o-", color="C0", label="feasible, solved")
         if ch.get("force_solved"):
-            yc = (
-                ch["peak_pressure_MPa"]["p95"]["value"]
-                if obj == "peak_pressure"
-                else ch["min_loaded_rollers"]["p5"]["value"]
-            )
+            yc = {
+                "transmission_error": ch.get("transmission_error_arcsec_nominal"),
+                "peak_pressure": ch["peak_pressure_MPa"]["p95"]["value"],
+                "loaded_rollers": ch["min_loaded_rollers"]["p5"]["value"],
+            }[obj]
             a2.scatter([ch["backlash_arcmin"][key]["value"]], [yc], s=120, facecolors="none",
                        edgecolors="r", lw=2, label="chosen")  # fmt: skip
         a2.legend(fontsize=8)

@@ -61,7 +61,12 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     "edm": (r"inner_gear_edm\.(?:dxf|nc)",),
     "cmm": (r"inner_gear_nominal\.csv",),
     "inspection": (r"inspection\.(?:csv|json|png)",),
-    "modification": (r"modification\.json", r"modification_tradeoff\.png", r"modified\.toml"),
+    "modification": (
+        r"modification\.json",
+        r"modification_tradeoff\.png",
+        r"modified\.toml",
+        r"modified_normal\.csv",
+    ),
     "report": (r"report\.html",),
 }
 

@@ -66,12 +66,20 @@ SECTIONS: dict[str, dict[str, Key]] = {
             low_open=False,
             high=1.0,
         ),
-        "family": Key("str", "equidistant+shift", "search space", choices=FAMILIES),
+        "family": Key(
+            "str",
+            "equidistant+shift",
+            "search space: equidistant, equidistant+shift, or free (a symmetric normal curve "
+            "through control points at psi 0, 60, 120, 180 deg, each on the "
+            "equidistant_range_mm grid: steps^4 candidates)",
+            choices=FAMILIES,
+        ),
         "objective": Key(
             "str",
             "peak_pressure",
-            "objective at rated torque: peak_pressure (p95, smallest) or loaded_rollers "
-            "(p5 of the fewest loaded rollers, largest)",
+            "objective at rated torque: peak_pressure (p95, smallest), loaded_rollers "
+            "(p5 of the fewest loaded rollers, largest) or transmission_error (nominal, "
+            "smallest)",
             choices=OBJECTIVES,
         ),
         "equidistant_range_mm": Key(

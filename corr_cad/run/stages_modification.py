@@ -59,7 +59,9 @@ def modification_png(ctx: RunContext) -> None:
     ctx.files.append(p.name)
 
 
-def modified_toml(scene, equidistant_mm: float, shift_mm: float) -> str:
+def modified_toml(
+    scene, equidistant_mm: float, shift_mm: float, normal_table: str | None = None
+) -> str:
     """The user's scene (its parsed values) with the chosen ``[modification]`` written in.
 
     Paths become absolute (the file lives in the output folder); the design
@@ -96,6 +98,8 @@ def modified_toml(scene, equidistant_mm: float, shift_mm: float) -> str:
         f"equidistant_mm = {equidistant_mm!r}",
         f"shift_mm = {shift_mm!r}",
     ]
+    if normal_table is not None:  # beside modified.toml in the output folder
+        lines += [f"normal_table = {json.dumps(normal_table)}"]
     return "\n".join(lines) + "\n"
 
 
@@ -106,13 +110,13 @@ def modification_design(ctx: RunContext) -> None:
     from corr_cad.export.modification_plots import tradeoff_png
     from corr_cad.run.context import psi_contact_limit, raw_errors
     from corr_cad.run.progress import Progress
-    from corr_cad.run.stages_datasheet import rated_torque_Nmm
+    from corr_cad.run.stages_datasheet import datasheet_spec, rated_torque_Nmm
     from corr_cad.tolerance.modification_design import design_modification
 
     s = ctx.scene
     md = s.modification_design
     steps = md["steps"]
-    n = steps * (steps if md["family"] == "equidistant+shift" else 1)
+    n = {"equidistant": steps, "equidistant+shift": steps**2, "free": steps**4}[md["family"]]
     bar = Progress(n, "      modification design", "candidates")
 
     def tick(done: int, total: int) -> None:
@@ -138,28 +142,40 @@ def modification_design(ctx: RunContext) -> None:
         psi_contact_limit=psi_contact_limit(ctx),
         executor=ctx.executor,
         progress=tick,
+        datasheet_spec=datasheet_spec(s) if md["objective"] == "transmission_error" else None,
     )
     bar.close()
     write_json(ctx.out / "modification.json", res)
     tradeoff_png(res, ctx.out / "modification_tradeoff.png", s.design)
     c = res["chosen"]
+    table = None
+    if "normal_mm" in c:  # the free family: its curve as a normal table beside modified.toml
+        table = "modified_normal.csv"
+        pairs = zip(c["normal_psi_deg"], c["normal_mm"], strict=True)
+        rows = "\n".join(f"{p!r},{v!r}" for p, v in pairs)
+        with writing(ctx.out / table) as tmp:
+            tmp.write_text("psi_deg,normal_mm\n" + rows + "\n")
+        ctx.files.append(table)
     with writing(ctx.out / "modified.toml") as tmp:
-        tmp.write_text(modified_toml(s, c["equidistant_mm"], c["shift_mm"]))
+        tmp.write_text(modified_toml(s, c["equidistant_mm"], c["shift_mm"], table))
     ctx.files.extend(["modification.json", "modification_tradeoff.png", "modified.toml"])
     key = f"p{int(md['backlash_percentile'])}"
     rec = {
         "met": res["met"],
         "equidistant_mm": c["equidistant_mm"],
         "shift_mm": c["shift_mm"],
+        **({"normal_mm": c["normal_mm"]} if "normal_mm" in c else {}),
         f"backlash_{key}_arcmin": c["backlash_arcmin"][key]["value"],
         "binding_probability": c["binding_probability"]["value"],
     }
     if not res["met"]:
         rec["failed"] = [f"modification design: targets unmet: {res['failed']}"]
     ctx.manifest["modification_design"] = rec
+    curve = f", normal {c['normal_mm']} mm at psi 0/60/120/180" if "normal_mm" in c else ""
     ctx.progress(
         f"      modification: equidistant {c['equidistant_mm']:.4g} mm, shift "
-        f"{c['shift_mm']:.4g} mm; backlash {key} {rec[f'backlash_{key}_arcmin']:.4g} arcmin, "
+        f"{c['shift_mm']:.4g} mm{curve}; "
+        f"backlash {key} {rec[f'backlash_{key}_arcmin']:.4g} arcmin, "
         f"binding probability {rec['binding_probability']:.3g}"
         + ("" if res["met"] else f"; TARGETS UNMET: {res['failed']}")
     )

@@ -63,8 +63,11 @@ __all__ = [
     "design_modification",
 ]
 
-FAMILIES = ("equidistant", "equidistant+shift")
-OBJECTIVES = ("peak_pressure", "loaded_rollers")
+FAMILIES = ("equidistant", "equidistant+shift", "free")
+OBJECTIVES = ("peak_pressure", "loaded_rollers", "transmission_error")
+#: ``free``: a symmetric normal curve through control points at these roll angles (deg),
+#: a periodic cubic spline (C2) as a ``normal_table``.
+FREE_CONTROL_PSI_DEG = (0.0, 60.0, 120.0, 180.0)
 #: Interference (mm) below this is exact contact, not binding.
 BINDING_EPS_MM = 1e-9
 
@@ -120,6 +123,31 @@ def percentile_with_error(values: np.ndarray, q: float) -> dict:
     return {"value": float(np.percentile(v, q)), "range": [float(v[lo]), float(v[hi])]}
 
 
+def _grid(family: str, equidistant_mm: tuple, shift_mm: tuple) -> list[dict]:
+    """The candidates of a family, as ``modification.json`` rows start."""
+    eqs = [float(v) for v in np.linspace(*equidistant_mm[:2], int(equidistant_mm[2]))]
+    if family == "free":
+        import itertools
+
+        return [
+            {"equidistant_mm": 0.0, "shift_mm": 0.0, "normal_psi_deg": list(FREE_CONTROL_PSI_DEG),
+             "normal_mm": list(v)}
+            for v in itertools.product(eqs, repeat=len(FREE_CONTROL_PSI_DEG))
+        ]  # fmt: skip
+    shs = np.linspace(*shift_mm[:2], int(shift_mm[2])) if family == "equidistant+shift" else [0.0]
+    return [{"equidistant_mm": a, "shift_mm": float(b)} for a in eqs for b in shs]
+
+
+def _modification(row: dict) -> Modification:
+    """The :class:`Modification` of a candidate row."""
+    table = None
+    if "normal_mm" in row:
+        from corr_cad.geometry.modification import NormalTable
+
+        table = NormalTable(tuple(row["normal_psi_deg"]), tuple(row["normal_mm"]), "free")
+    return Modification(row["equidistant_mm"], row["shift_mm"], table)
+
+
 def _probability(x: np.ndarray) -> dict:
     p = float(np.mean(x))
     return {"value": p, "standard_error": math.sqrt(p * (1.0 - p) / x.size)}
@@ -146,22 +174,27 @@ def design_modification(
     psi_contact_limit: float = math.pi,
     executor=None,
     progress: Callable[[int, int], None] | None = None,
+    datasheet_spec=None,
 ) -> dict:
-    """Search the family's grid; the ``modification.json`` content (see the module docstring)."""
+    """Search the family's grid; the ``modification.json`` content (see the module docstring).
+
+    ``free``: each control point of :data:`FREE_CONTROL_PSI_DEG` takes the
+    values of ``equidistant_mm``'s grid. ``transmission_error`` needs
+    ``datasheet_spec`` (the nominal transmission error of each force-solved
+    candidate, no scatter).
+    """
     base = base_errors or ManufacturingErrors()
     angles = cycle_angles(positions)
     units = draw_samples(tolerances, samples, seed, design.roller_count)
     solver = BatchSolver(design, angles, input_torque=crank_moment, load_share=load_share)
     geo = solver.geometry([_errors_for(base, tolerances, units, k) for k in range(samples)])
     psi = solver.nominal.psi
-    eqs = np.linspace(*equidistant_mm[:2], int(equidistant_mm[2]))
-    shs = np.linspace(*shift_mm[:2], int(shift_mm[2])) if family == "equidistant+shift" else [0.0]
-    grid = [(float(a), float(b)) for a in eqs for b in shs]
+    grid = _grid(family, equidistant_mm, shift_mm)
     rows = []
-    for k, (eq, sh) in enumerate(grid):
-        row = {"equidistant_mm": eq, "shift_mm": sh}
+    for k, row in enumerate(grid):
+        row = dict(row)
         try:
-            curve = modified_profile(design, Modification(eq, sh))
+            curve = modified_profile(design, _modification(row))
         except CorrCadError as exc:
             rows.append({**row, "valid": False, "why": str(exc)})
             continue
@@ -195,9 +228,7 @@ def design_modification(
         )
         for i in pick:
             r = feasible[int(i)]
-            gap = modification_gap(
-                design, modified_profile(design, Modification(r["equidistant_mm"], r["shift_mm"]))
-            )
+            gap = modification_gap(design, modified_profile(design, _modification(r)))
             mc = monte_carlo(
                 design,
                 crank_moment,
@@ -218,8 +249,22 @@ def design_modification(
                 for q in (1, 5, 50)
             }
             r["force_solved"] = True
+            if objective == "transmission_error":
+                from corr_cad.mechanics.datasheet import datasheet
+
+                ds = datasheet(
+                    design,
+                    datasheet_spec,
+                    errors=with_modification(base, gap),
+                    load_share=load_share,
+                    psi_contact_limit=psi_contact_limit,
+                )
+                te = ds.transmission_error_peak_to_peak()
+                r["transmission_error_arcsec_nominal"] = max(te.values())
         solved = [r for r in feasible if r.get("force_solved")]
-        if objective == "peak_pressure":
+        if objective == "transmission_error":
+            chosen = min(solved, key=lambda r: r["transmission_error_arcsec_nominal"])
+        elif objective == "peak_pressure":
             chosen = min(solved, key=lambda r: r["peak_pressure_MPa"]["p95"]["value"])
         else:
             chosen = max(
