@@ -38,7 +38,7 @@ copyright = "corr_cad maintainers"
 extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon"]
 source_suffix = {".md": "markdown"}
 root_doc = "index"
-# _incoming: changelog fragments of branches, merged into CHANGELOG.md by hand
+# docs/_incoming: pages and changelog lines of a branch, merged by hand.
 exclude_patterns = ["_build", "_generated", "_incoming"]
 myst_heading_anchors = 3
 

@@ -266,6 +266,17 @@ def _fill(fs: Path, leave: int) -> None:
     (fs / "filler.bin").write_bytes(b"\0" * max(0, free.f_bavail * free.f_frsize - leave))
 
 
+#: The run with its up-front disk check taken out: the disk fills while it writes
+#: (another process filling it meanwhile; the estimate is never below the files).
+NO_DISK_CHECK = """
+import sys
+from corr_cad.run import resources
+resources.check_disk = lambda est, out: None
+from corr_cad.run.cli import main
+sys.exit(main(["run", *sys.argv[1:]]))
+"""
+
+
 @pytest.mark.parametrize("leave", [0, 48 * 1024])
 def test_full_disk_names_the_file_and_leaves_nothing(tiny_fs, tmp_path, leave):
     """No file named, and a new --out folder left behind with its lock file."""
@@ -275,9 +286,45 @@ def test_full_disk_names_the_file_and_leaves_nothing(tiny_fs, tmp_path, leave):
     _fill(tiny_fs, leave)
     before = snapshot(tiny_fs)
     out = tiny_fs / "new" / "o"
+    # Refused before anything is created: the files would not fit.
     err = one_line(cli("run", scene, "--out", out))
+    assert "of files;" in err and "MB free; free some space or choose another --out" in err
+    assert snapshot(tiny_fs) == before
+    # Filled while writing: the file it could not write is named.
+    r = subprocess.run(
+        [sys.executable, "-c", NO_DISK_CHECK, str(scene), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    err = one_line(r)
     assert "No space left on device" in err
     named = re.search(re.escape(str(out)) + r"/([^/:]+): No space left", err)
     assert named, err
     assert not named.group(1).startswith(".corr-cad-staging"), err
     assert snapshot(tiny_fs) == before
+
+
+# --- corr-cad bench --out --------------------------------------------------------------
+def test_bench_refuses_a_folder_it_did_not_write(tmp_path):
+    """A user's speed.csv beside the bench's would-be tables is never replaced."""
+    (tmp_path / "solver_speed.csv").write_text("mine\n")
+    r = cli("bench", "--out", str(tmp_path), "--study", "kernel", "--quick")
+    assert r.returncode == 2, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "did not write" in r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["solver_speed.csv"]
+    assert (tmp_path / "solver_speed.csv").read_text() == "mine\n"
+    f = tmp_path / "file"
+    f.write_text("x")
+    r = cli("bench", "--out", str(f), "--study", "kernel", "--quick")
+    assert r.returncode == 2 and "not a folder" in r.stderr and f.read_text() == "x"
+
+
+def test_bench_writes_into_its_own_folder(tmp_path):
+    from corr_cad.run.bench import check_bench_folder
+
+    check_bench_folder(tmp_path / "new")  # absent: fine
+    check_bench_folder(tmp_path)  # empty: fine
+    (tmp_path / "machine.json").write_text('{"corr_cad": "0.1.0", "cores": 2}')
+    (tmp_path / "solver_speed.csv").write_text("an earlier bench's table\n")
+    check_bench_folder(tmp_path)  # a bench folder: fine

@@ -401,7 +401,8 @@ def test_huge_positions_refused_up_front_with_a_value_that_works(folder):
     base = '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
     proc, rss = _peak_rss_mb(folder, base + "[solver]\npositions = 1000000\n")
     line = _assert_refused(proc)
-    assert "[solver] positions = 1000000: needs about" in line
+    assert "[solver] positions = 1000000: the run would need about" in line
+    assert "--max-memory" in line and "[budget] memory_gb" in line
     assert rss < 400  # refused before any array was made
     ok = int(line.split("; ")[-1].split()[0])
     # The suggested value is accepted by the loader.
@@ -422,7 +423,7 @@ def test_large_positions_run_within_the_estimate(folder):
     )
     proc, rss = _peak_rss_mb(folder, scene)
     assert proc.returncode == 0, proc.stderr
-    est_mb = estimate(load_scene(folder / "s.toml")).memory_bytes["[solver] positions"] / 2**20
+    est_mb = estimate(load_scene(folder / "s.toml")).memory / 2**20
     assert rss < est_mb, (rss, est_mb)
     assert (folder / "out" / "forces.csv").stat().st_size > 0
 
@@ -501,7 +502,10 @@ def test_measured_circle_is_not_this_gear(folder):
     circle = np.stack([rho * np.sin(t), rho * np.cos(t)], axis=1)
     (folder / "c.csv").write_text("x,y\n" + "\n".join(f"{x:.9f},{y:.9f}" for x, y in circle))
     _measured_scene(folder, "c.csv")
-    line = _assert_refused(_cli("run", "s.toml", "--out", "out", cwd=folder, timeout=120))
+    # --quiet: fitting a circle takes seconds, and a progress line would come first.
+    line = _assert_refused(
+        _cli("run", "s.toml", "--out", "out", "--quiet", cwd=folder, timeout=120)
+    )
     assert "not this design's gear" in line and "0.25 e = 0.875 mm" in line
 
 

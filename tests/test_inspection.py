@@ -206,6 +206,26 @@ def test_forces_side_by_side(turned):
     assert rows["F_n_peak_any_roller"]["measured"] > rows["F_n_peak_any_roller"]["nominal"]
 
 
+def test_predicted_play_of_the_measured_ring(clean, turned):
+    """With [load], backlash, lost motion and transmission error; without, backlash only."""
+    _, _, summary = turned
+    p = summary["predicted"]
+    assert p["ring"]["profile"] == "measured" and p["ring"]["other_parts"] == "nominal"
+    m, n = p["measured"], p["nominal"]
+    assert m["backlash_arcmin"]["max"] == 0.0 == n["backlash_arcmin"]["max"]  # preloaded
+    # tooth 5 turned by 10 arcsec: a feature of the transmission error the nominal lacks
+    te = m["transmission_error_arcsec"]
+    assert (
+        te["forward_peak_to_peak"]
+        > 1.0
+        > 1e-3
+        > n["transmission_error_arcsec"]["forward_peak_to_peak"]
+    )
+    assert te["forward_peak_to_peak"] < 10.0 * 25 / 26  # at most the kinematic d z / (z + 1)
+    p = clean[2]["predicted"]
+    assert set(p["measured"]) == {"backlash_arcmin"} and "rated torque" in p["not_computed"]
+
+
 def test_design_fit_recovers_known_parameter_errors(tmp_path):
     de, dl, ph, c = 0.01, -0.02, math.radians(0.02), np.array([0.004, -0.003])
     t = (np.arange(Z * M) + 0.5) / (Z * M) * 2 * math.pi

@@ -96,11 +96,15 @@ LOCAL = {
     "material": None,
     "solver": None,
     "montecarlo": None,
-    "checks": None,
+    # Not "max_failure_probability": it needs a limit beside it in [checks].
+    "checks": {k for k in SCHEMA["checks"] if k != "max_failure_probability"},
     "tolerances": None,
+    "budget": None,
+    "dask": None,
+    # Not "tolerance": with "dxf" in the formats, a tolerance below ~5e-7 mm
+    # passes the 200,000-vertex limit, which the JSON Schema cannot state.
     "export": {
         "representation",
-        # not "tolerance": the DXF vertex budget (the resource check) depends on the design
         "chord_tolerance",
         "assembly_angles_deg",
         "interference_positions",

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["figure", "place_labels"]
+__all__ = ["figure", "place_labels", "resources_png"]
 
 
 def figure(out: Path, name: str, draw: Callable) -> Path:
@@ -51,3 +51,64 @@ def place_labels(ax, labels: list[tuple[float, float, str]], size: float = 7.0) 
             fontsize=size,
             annotation_clip=False,
         )
+
+
+def resources_png(path: Path, rows: list) -> Path:
+    """Estimate over measured, per scene: memory (the guarantee: >= 1), time and files.
+
+    ``rows``: ``[scene, est_MB, peak_MB, memory_ratio, est_s, s, time_ratio,
+    est_out_MB, out_MB, output_ratio]`` (``corr_cad.run.bench_resources``).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    names = [f"{k + 1}  {r[0]}" for k, r in enumerate(rows)]
+    y = np.arange(len(rows))
+    fig, (ax, ax2) = plt.subplots(
+        1, 2, figsize=(12, 0.45 * len(rows) + 2.2), gridspec_kw={"width_ratios": [3, 2]}
+    )
+    for k, (col, label, color) in enumerate(
+        ((3, "memory", "C0"), (6, "time", "C1"), (9, "files", "C2"))
+    ):
+        vals = np.array([r[col] for r in rows], dtype=float)
+        ax.barh(y + (k - 1) * 0.27, vals, height=0.27, color=color, label=label)
+    ax.axvline(1.0, color="k", lw=1.0)
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(plain)
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xticks([0.25, 0.5, 1, 2, 4])
+    ax.set_yticks(y, names, fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xlabel("estimate / measured (memory: peak RSS of the process tree)")
+    ax.set_title("resource estimate against whole runs (memory must stay >= 1)", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    ax.grid(alpha=0.3, which="both", axis="x")
+    est = np.array([r[1] for r in rows], dtype=float)
+    peak = np.array([r[2] for r in rows], dtype=float)
+    ax2.loglog(peak, est, "o", color="C0")
+    lo, hi = 0.8 * min(peak.min(), est.min()), 1.25 * max(peak.max(), est.max())
+    ax2.plot([lo, hi], [lo, hi], "k-", lw=1.0, label="estimate = peak")
+    ax2.plot([lo, hi], [2 * lo, 2 * hi], "k:", lw=0.8, label="estimate = 2 x peak")
+    ax2.set_xlim(lo, hi)
+    ax2.set_ylim(lo, hi * 2)
+    ticks = [t for t in (50, 100, 200, 500, 1000, 2000, 5000, 10000) if lo <= t <= 2 * hi]
+    for axis in (ax2.xaxis, ax2.yaxis):
+        axis.set_major_formatter(plain)
+        axis.set_minor_formatter(NullFormatter())
+        axis.set_ticks(ticks)
+    ax2.set_xlim(lo, hi)
+    ax2.set_ylim(lo, hi * 2)
+    ax2.set_xlabel("measured peak memory [MB]")
+    ax2.set_ylabel("estimated peak memory [MB]")
+    ax2.legend(fontsize=8, loc="upper left")
+    ax2.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    place_labels(ax2, [(x, e, str(k + 1)) for k, (x, e) in enumerate(zip(peak, est, strict=True))])
+    fig.savefig(path, dpi=120, metadata={"Software": None})
+    plt.close(fig)
+    return path

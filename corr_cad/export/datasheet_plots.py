@@ -135,8 +135,12 @@ def hysteresis_png(
     return _save(fig, path)
 
 
-def transmission_error_png(ds: Datasheet, path: Path, design: GearDesign | None = None) -> Path:
+def transmission_error_png(
+    ds: Datasheet, path: Path, design: GearDesign | None = None, note: str = ""
+) -> Path:
     """Forward and reverse transmission error over one output revolution, arcsec.
+
+    ``note``: appended to the title (which ring, for a measured one).
 
     Right: the first tooth pitch of output (``360/z`` deg), where every roller
     passes the loaded zone once.
@@ -175,6 +179,8 @@ def transmission_error_png(ds: Datasheet, path: Path, design: GearDesign | None 
         "Transmission error theta_out - theta_in/(z+1), one output revolution, "
         f"driving torque {T:.4g} N*m (forward: the load resists + rotation)"
     )
+    if note:
+        title += f"\n{note}"
     _title(fig, title, design, None)
     fig.tight_layout()
     return _save(fig, path)

@@ -27,7 +27,6 @@ it is written.
 
 from __future__ import annotations
 
-import math
 import re
 import string
 import textwrap
@@ -38,7 +37,14 @@ from corr_cad._version import __version__
 from corr_cad.errors import SceneError
 from corr_cad.export.files import _atomic_text
 from corr_cad.geometry.design import GearDesign
-from corr_cad.shop.edm import EdmProgram, EdmSpec, Move, check_lead_in
+from corr_cad.shop.edm import (
+    EdmProgram,
+    EdmSpec,
+    Move,
+    check_lead_in,
+    check_lead_in_steps,
+    gcode_decimals,
+)
 
 __all__ = [
     "DIALECTS",
@@ -134,8 +140,13 @@ class GcodeOptions:
 
 
 def needed_decimals(tolerance: float) -> int:
-    """Decimals the wire path needs: a number quantum at most a tenth of the tolerance."""
-    return max(4, math.ceil(-math.log10(tolerance / 10.0) - 1e-9))
+    """Decimals the wire path needs: a number quantum at most a tenth of the tolerance.
+
+    :func:`corr_cad.shop.edm.gcode_decimals` (``tolerance / 10`` of a subnormal
+    tolerance is 0, whose logarithm is a math domain error: it takes
+    ``1 - log10(tolerance)``).
+    """
+    return gcode_decimals(tolerance)
 
 
 def check_edm_scene(edm: dict, tolerance: float, design: GearDesign) -> None:
@@ -195,6 +206,7 @@ def check_edm_scene(edm: dict, tolerance: float, design: GearDesign) -> None:
             compensation=edm["compensation"],
         )
     )
+    check_lead_in_steps(edm["lead_in_length"], tolerance)  # its arc on the coordinate grid
 
 
 def scene_label(name: str) -> str | None:

@@ -13,16 +13,18 @@ from pathlib import Path
 from corr_cad.bounds import show
 from corr_cad.errors import SceneError
 
-__all__ = ["read_regular_file"]
+__all__ = ["read_regular_file", "check_regular_file"]
 
 
-def read_regular_file(path: Path, what: str, max_bytes: int, error=SceneError) -> bytes:
-    """The bytes of ``path`` if it is a regular file of at most ``max_bytes``.
+def check_regular_file(path: Path, what: str, max_bytes: int, error=SceneError) -> int:
+    """The size of ``path`` if it is a regular file of at most ``max_bytes`` (not opened).
 
-    ``os.stat`` comes first: a FIFO, a device or a folder is refused without
-    being opened (opening a FIFO would block, /dev/zero never ends).
+    ``os.stat`` only: a FIFO, a device or a folder is refused without being
+    opened (opening a FIFO would block, /dev/zero never ends).
     """
     shown = show(str(path), 120)
+    if "\0" in str(path):  # os.stat raises ValueError, not OSError, on it
+        raise error(f"{what} {shown} contains a NUL character; no file can have that name")
     try:
         st = os.stat(path)
     except FileNotFoundError as exc:
@@ -38,6 +40,16 @@ def read_regular_file(path: Path, what: str, max_bytes: int, error=SceneError) -
             f"{what} {shown} has {st.st_size} bytes; at most {max_bytes} "
             f"({max_bytes // (1024 * 1024)} MB) are read"
         )
+    return st.st_size
+
+
+def read_regular_file(path: Path, what: str, max_bytes: int, error=SceneError) -> bytes:
+    """The bytes of ``path`` if it is a regular file of at most ``max_bytes``.
+
+    :func:`check_regular_file` comes first, so nothing but a regular file is opened.
+    """
+    shown = show(str(path), 120)
+    check_regular_file(path, what, max_bytes, error)
     try:
         with open(path, "rb") as fh:
             data = fh.read(max_bytes + 1)

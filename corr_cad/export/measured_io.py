@@ -4,18 +4,24 @@ from __future__ import annotations
 
 import csv
 import io
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import shapely
 
+from corr_cad.bounds import show
 from corr_cad.errors import ProfileError
 from corr_cad.export import dxf
+from corr_cad.export.measured_mesh import is_mesh, read_mesh_profile
 from corr_cad.geometry.profile import ProfileCurve
 from corr_cad.geometry.sampling import approximate
 
 __all__ = [
     "read_measured_points",
+    "read_measured",
+    "MeasuredRead",
+    "MAX_MEASURED_POINTS",
     "write_deviation_dxf",
     "MEASURED_LAYERS",
     "MAX_MEASURED_BYTES",
@@ -44,67 +50,239 @@ INSUNITS_MM = {
 }
 
 
-def read_measured_points(path: Path) -> np.ndarray:
-    """Points (n, 2) in mm from a CSV with columns ``x,y`` or from a DXF's closed contour.
+#: Most measured points kept for registration, inspection and the forces. A
+#: longer file is read whole (every value checked) and every k-th point kept,
+#: k = ceil(rows / MAX_MEASURED_POINTS): still 200 points a tooth at z = 1000,
+#: ten times the 20 a tooth the registration needs (``POINTS_PER_TOOTH``).
+MAX_MEASURED_POINTS = 200_000
+#: Bytes of a CSV read and parsed at a time.
+_BLOCK_BYTES = 4 << 20
+#: Longest header line read, bytes.
+_MAX_HEADER = 64 << 10
+
+
+@dataclass(frozen=True)
+class MeasuredRead:
+    """Points read from a measured profile, and how many the file held."""
+
+    points: np.ndarray
+    #: Data rows (CSV, blank lines aside) or contour points (DXF) in the file.
+    rows: int
+    #: Every ``stride``-th row kept (1: all).
+    stride: int
+
+    def as_dict(self) -> dict:
+        return {"rows": self.rows, "kept": int(len(self.points)), "stride": self.stride}
+
+
+def read_measured_points(
+    path: Path, design=None, max_points: int | None = MAX_MEASURED_POINTS
+) -> np.ndarray:
+    """Points (n, 2) in mm from a CSV ``x,y``, a DXF's closed contour or a ring mesh.
+
+    A mesh (``.stl`` binary or ASCII, ``.ply``) is sliced at mid face width
+    and its inner loop taken (:mod:`corr_cad.export.measured_mesh`); it needs
+    the ``design`` (face width and rim to check the mesh against).
 
     The CSV may start with a UTF-8 byte-order mark; header names are read
     without surrounding blanks and case (``x, y``, ``X,Y``). For a DXF the
     contour is taken from layer ``MEASURED_PROFILE`` if present, else
     ``WORKING_PROFILE``, and scaled to mm by the header's ``$INSUNITS``. Only
     a regular file of at most ``MAX_MEASURED_BYTES`` is read. A
-    self-intersecting contour is refused.
+    self-intersecting contour is refused. Beyond ``max_points`` points every
+    k-th is kept (:func:`read_measured`).
     """
-    from corr_cad.export.inputfiles import read_regular_file
+    return read_measured(path, max_points, design).points
+
+
+def read_measured(
+    path: Path, max_points: int | None = MAX_MEASURED_POINTS, design=None
+) -> MeasuredRead:
+    """:func:`read_measured_points` with the file's row count and the stride kept.
+
+    A CSV is streamed: read ``_BLOCK_BYTES`` at a time (every value is parsed
+    and checked), only every k-th row kept, so memory does not grow with the
+    file. A DXF is read by ezdxf (whole, its size bounded by the estimate).
+    """
+    from corr_cad.export.inputfiles import check_regular_file
 
     path = Path(path)
-    raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
-    if path.suffix.lower() == ".dxf":
-        import ezdxf
+    size = check_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
+    if is_mesh(path):
+        if design is None:
+            raise ProfileError(f"{_shown(path)}: a mesh needs the design to be sliced (face width)")
+        from corr_cad.export.inputfiles import read_regular_file
 
-        try:
-            doc = ezdxf.readfile(str(path))
-            layers = {e.dxf.layer for e in doc.modelspace()}
-            units = int(doc.header.get("$INSUNITS", 0))
-        except Exception as exc:
-            raise ProfileError(
-                f"{path}: not a readable DXF file ({exc or type(exc).__name__})"
-            ) from exc
-        if units not in INSUNITS_MM:
-            raise ProfileError(
-                f"{path}: $INSUNITS = {units} is not a length unit corr_cad reads; "
-                f"one of {', '.join(str(k) for k in INSUNITS_MM)} (4 = mm)"
-            )
-        layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
-        try:
-            pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
-        except Exception as exc:
-            raise ProfileError(str(exc)) from exc
-        pts = pts * INSUNITS_MM[units]
+        raw = read_regular_file(path, "measured profile", MAX_MEASURED_BYTES, error=ProfileError)
+        pts = read_mesh_profile(raw, path.suffix, design, str(path))
+        del raw
+        rows = len(pts)
+        stride = _stride(rows, max_points)
+        pts = pts[::stride]
+    elif path.suffix.lower() == ".dxf":
+        pts = _read_dxf(path)
+        rows = len(pts)
+        stride = _stride(rows, max_points)
+        pts = pts[::stride]
     else:
-        try:
-            text = raw.decode("utf-8-sig")
-            reader = csv.reader(io.StringIO(text, newline=""))
-            header = [h.strip().lower() for h in next(reader, [])]
-            rows = list(reader)
-        except (UnicodeDecodeError, csv.Error) as exc:
-            raise ProfileError(f"{path}: cannot be read as CSV ({exc})") from exc
-        if "x" not in header or "y" not in header:
-            raise ProfileError(
-                f"{path}: expected a CSV with columns x,y (mm); the header is {header[:4]}"
-            )
-        ix, iy = header.index("x"), header.index("y")
-        try:
-            pts = np.array(
-                [[float(r[ix]), float(r[iy])] for r in rows if any(c.strip() for c in r)],
-                dtype=float,
-            ).reshape(-1, 2)
-        except (TypeError, ValueError, IndexError) as exc:
-            raise ProfileError(f"{path}: a value is not a number ({exc})") from exc
+        pts, rows, stride = _read_csv(path, size, max_points)
     if len(pts) >= 4 and np.all(np.isfinite(pts)):
         ring = shapely.LinearRing(pts)
         if not ring.is_simple:
-            raise ProfileError(f"{path}: the contour intersects itself")
-    return pts
+            raise ProfileError(f"{_shown(path)}: the contour intersects itself")
+    return MeasuredRead(pts, rows, stride)
+
+
+def _stride(rows: int, max_points: int | None) -> int:
+    return 1 if not max_points or rows <= max_points else -(-rows // max_points)
+
+
+def _read_dxf(path: Path) -> np.ndarray:
+    import ezdxf
+
+    try:
+        doc = ezdxf.readfile(str(path))
+        layers = {e.dxf.layer for e in doc.modelspace()}
+        units = int(doc.header.get("$INSUNITS", 0))
+    except Exception as exc:
+        raise ProfileError(f"{_shown(path)}: not a readable DXF file ({_brief(exc)})") from exc
+    del doc
+    if units not in INSUNITS_MM:
+        raise ProfileError(
+            f"{_shown(path)}: $INSUNITS = {units} is not a length unit corr_cad reads; "
+            f"one of {', '.join(str(k) for k in INSUNITS_MM)} (4 = mm)"
+        )
+    layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
+    try:
+        pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
+    except Exception as exc:
+        raise ProfileError(f"{_shown(path)}: {_brief(exc)}") from exc
+    return pts * INSUNITS_MM[units]
+
+
+def _lines(fh, rest: bytes = b""):
+    """Blocks of whole lines (bytes) from ``fh``, ``_BLOCK_BYTES`` at a time (at most
+    ``MAX_MEASURED_BYTES`` in all: a file that grows while it is read is not followed)."""
+    total = 0
+    while True:
+        block = fh.read(_BLOCK_BYTES)
+        total += len(block)
+        if total > MAX_MEASURED_BYTES:
+            raise ValueError(f"it grew beyond {MAX_MEASURED_BYTES} bytes while read")
+        if not block:
+            if rest:
+                yield rest
+            return
+        block = rest + block
+        cut = block.rfind(b"\n") + 1
+        if cut == 0:
+            rest = block
+            if len(rest) > 16 * _BLOCK_BYTES:
+                raise ValueError(f"a line longer than {16 * _BLOCK_BYTES} bytes")
+            continue
+        rest = block[cut:]
+        yield block[:cut]
+
+
+def _shown(path: Path) -> str:
+    return show(str(path), 120)
+
+
+def _brief(exc: BaseException, limit: int = 100) -> str:
+    """An exception's message cut short: it may quote the file it failed on."""
+    return show(str(exc) or type(exc).__name__, limit)
+
+
+def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray, int, int]:
+    """Stream a CSV: count its lines, then parse every row, keeping every k-th.
+
+    Errors name the line where the bad record starts and quote at most 40
+    characters of it (a stray quote would otherwise echo the rest of the file).
+    """
+    shown = _shown(path)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.readline(_MAX_HEADER)
+            body_start = fh.tell()
+            text = head.decode("utf-8-sig")
+            header = [h.strip().lower() for h in next(csv.reader([text]), [])]
+            if "x" not in header or "y" not in header:
+                raise ProfileError(
+                    f"{shown}: expected a CSV with columns x,y (mm); the header is "
+                    f"{show(header[:4], 60)}"
+                )
+            ix, iy = header.index("x"), header.index("y")
+            lines = 0
+            for block in _lines(fh):  # the last line may lack its newline
+                lines += block.count(b"\n") + (not block.endswith(b"\n"))
+            stride = _stride(lines, max_points)
+            fh.seek(body_start)
+            kept, rows, line = [], 0, 2  # line: the file's line number of the block's start
+            for block in _lines(fh):
+                decoded = block.decode("utf-8")
+                rows_text = [r for r in decoded.splitlines() if r.strip(" \t,")]
+                if rows_text:
+                    try:
+                        vals = _parse_rows(rows_text, ix, iy)
+                    except ValueError:
+                        _raise_bad_row(decoded, line, ix, iy, shown)
+                        raise
+                    kept.append(vals[(-rows) % stride :: stride])
+                    rows += len(vals)
+                line += block.count(b"\n")
+    except ProfileError:
+        raise
+    except OSError as exc:
+        raise ProfileError(
+            f"measured profile {shown} cannot be read: {show(exc.strerror or str(exc), 100)}"
+        ) from exc
+    except UnicodeDecodeError as exc:
+        raise ProfileError(f"{shown}: cannot be read as CSV (not UTF-8: {exc.reason})") from exc
+    except (csv.Error, ValueError) as exc:
+        raise ProfileError(f"{shown}: cannot be read as CSV ({_brief(exc, 80)})") from exc
+    pts = np.concatenate(kept) if kept else np.empty((0, 2))
+    return pts, rows, stride
+
+
+def _parse_rows(rows: list[str], ix: int, iy: int) -> np.ndarray:
+    """``x, y`` of CSV rows (numpy's C parser; quotes and blanks as the csv module reads them)."""
+    try:
+        return np.loadtxt(
+            rows, delimiter=",", usecols=(ix, iy), ndmin=2, dtype=float, quotechar='"'
+        ).reshape(-1, 2)
+    except (TypeError, IndexError) as exc:
+        raise ValueError(str(exc)) from exc
+
+
+def _raise_bad_row(text: str, first_line: int, ix: int, iy: int, shown: str) -> None:
+    """Find the first bad record of a block with the csv module and raise naming its line."""
+    reader = csv.reader(io.StringIO(text, newline=""))
+    start = first_line
+    try:
+        while True:
+            start = first_line + reader.line_num  # a quoted value may run over many lines
+            row = next(reader, None)
+            if row is None:
+                return
+            if not any(c.strip(" \t") for c in row):
+                continue
+            try:
+                float(row[ix]), float(row[iy])
+            except (ValueError, IndexError) as exc:
+                cells = row[ix] if ix < len(row) else ""
+                cells += "," + row[iy] if iy < len(row) else ""
+                quote = (
+                    " (a stray quote joins the lines after it into one)" if "\n" in cells else ""
+                )
+                raise ProfileError(
+                    f"{shown}: line {start}: x,y = {show(cells, 40)}: a value is not a number"
+                    + quote
+                ) from exc
+    except csv.Error as exc:
+        raise ProfileError(
+            f"{shown}: line {start}: cannot be read as CSV ({_brief(exc, 60)}; a stray quote "
+            "joins the lines after it into one value)"
+        ) from exc
 
 
 def write_deviation_dxf(

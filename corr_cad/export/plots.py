@@ -235,7 +235,7 @@ def forces_png(
     ax2.set_xlabel("crank angle relative to the frame [deg]")
     ax2.grid(alpha=0.3)
     ax2.legend(fontsize=8)
-    if len(ang) > 1:
+    if float(ang.max()) > float(ang.min()):  # [0, 0] or one angle: matplotlib's own margins
         ax2.set_xlim(float(ang.min()), float(ang.max()))
     ax1.set_ylim(bottom=0)
     ax2.set_ylim(bottom=0)

@@ -17,7 +17,7 @@ import numpy as np
 
 from corr_cad.export.files import writing
 
-__all__ = ["report_context", "render_report", "write_report"]
+__all__ = ["ring_line", "report_context", "render_report", "write_report"]
 
 _CHECK_UNITS = {
     "max_contact_pressure": "MPa",
@@ -184,9 +184,10 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             "tip_radius": _fmt(u["min_working_radius_mm"]),
             "trimmed": u.get("trimmed_psi_deg"),
         }
-    checks = manifest.get("checks")
-    if checks:
-        ctx["checks"] = [
+    checks = dict(manifest.get("checks") or {})
+    gate = checks.pop("montecarlo", {})  # the Monte Carlo gate: probabilities per limit
+    if checks or gate:
+        rows = [
             {
                 "name": k,
                 "limit": _fmt(r["limit"]),
@@ -202,7 +203,20 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             }
             for k, r in checks.items()
         ]
-        ctx["checks_passed"] = all(r["passed"] for r in checks.values())
+        rows += [
+            {
+                "name": f"montecarlo {k} (failure probability)",
+                "limit": _fmt(g["allowed"]),
+                "value": _fmt(g["probability"]),
+                "margin": _fmt(g["allowed"] - g["probability"]),
+                "unit": "",
+                "passed": g["passed"],
+                "passes_with": "",
+            }
+            for k, g in gate.items()
+        ]
+        ctx["checks"] = rows
+        ctx["checks_passed"] = all(r["passed"] for r in rows)
     res = forces
     if res is not None:
         f = manifest.get("forces", {})
@@ -401,6 +415,7 @@ def _datasheet_rows(d: dict) -> dict:
             }
         ),
         "hysteresis": d["hysteresis_loss_note"],
+        "ring": ring_line(d.get("ring")),
     }
 
 
@@ -429,6 +444,23 @@ def _assembly_rows(path: Path) -> dict:
         "reason": a["reason"],
         "rows": rows,
     }
+
+
+def ring_line(ring: dict | None) -> str:
+    """Which ring a datasheet describes, in one line (report and console).
+
+    >>> ring_line({"profile": "measured", "file": "cmm.csv", "sha256": "ab" * 32})
+    'the measured ring cmm.csv (sha256 abababababab...) with nominal other parts'
+    """
+    if not ring:
+        return ""
+    if ring.get("profile") == "measured":
+        return (
+            f"the measured ring {ring.get('file')} (sha256 {str(ring.get('sha256'))[:12]}...) "
+            "with nominal other parts"
+        )
+    applied = ring.get("errors_applied") or []
+    return "the design" + (f" with [errors] {', '.join(applied)}" if applied else " (nominal)")
 
 
 def _flat(d: dict, prefix: str = "") -> list[tuple[str, str]]:

@@ -45,6 +45,7 @@ __all__ = [
     "distance_to_working_profile",
     "COLUMNS",
     "INTERFERENCE_EPS",
+    "merge_summaries",
 ]
 
 #: clearance.csv columns (an interface: the names do not change).
@@ -208,6 +209,61 @@ class Clearance:
             min(self.cam.min(), self.ring.min(), self.slot.min(), self.neighbour.min())
         )
         return out
+
+    def envelope(self) -> Clearance:
+        """Per position, the smallest and the largest over the rollers: (P, 2) arrays.
+
+        What the clearance plot draws, in 32 bytes a position and contact
+        whatever the roller count (``roller_radii`` kept).
+        """
+
+        def mm(a: np.ndarray) -> np.ndarray:
+            return np.stack([a.min(axis=1), a.max(axis=1)], axis=1)
+
+        return Clearance(
+            self.crank_angles,
+            mm(self.cam),
+            mm(self.ring),
+            mm(self.slot),
+            mm(self.neighbour),
+            self.roller_radii,
+        )
+
+    @staticmethod
+    def concatenate(parts: list[Clearance]) -> Clearance:
+        """Consecutive position chunks joined (the same rollers)."""
+        return Clearance(
+            *(np.concatenate([getattr(p, f) for p in parts]) for f in _FIELDS),
+            parts[0].roller_radii,
+        )
+
+
+_FIELDS = ("crank_angles", "cam", "ring", "slot", "neighbour")
+
+
+def merge_summaries(parts: list[dict]) -> dict:
+    """The :meth:`Clearance.summary` of a whole cycle from those of consecutive position chunks.
+
+    The same values as one summary over every position: an extreme found in
+    an earlier chunk wins a tie, as ``argmin``/``argmax`` take the first.
+    """
+    out = {"positions": sum(p["positions"] for p in parts), "rollers": parts[0]["rollers"]}
+    for name in ("cam", "ring", "slot", "neighbour"):
+        best = dict(parts[0][name])
+        best["interference_count"] = 0
+        for p in parts:
+            q = p[name]
+            if q["min_mm"] < best["min_mm"]:
+                for k in ("min_mm", "min_at_crank_angle_deg", "min_roller"):
+                    best[k] = q[k]
+            if q["max_mm"] > best["max_mm"]:
+                for k in ("max_mm", "max_at_crank_angle_deg", "max_roller"):
+                    best[k] = q[k]
+            best["interference_count"] += q["interference_count"]
+        out[name] = best
+    out["working_contacts_max_abs_mm"] = max(p["working_contacts_max_abs_mm"] for p in parts)
+    out["min_clearance_mm"] = min(p["min_clearance_mm"] for p in parts)
+    return out
 
 
 def clearance(

@@ -46,6 +46,35 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "young_modulus": (0.0, 1.0e7),
 }
 
+#: Thinnest axial length (roller_length, face_width, frame_thickness), mm: ten
+#: times Open CASCADE's confusion distance (1e-7 mm: its prism of 1e-9 mm
+#: fails) and a hundred times the mesher's vertex merge distance (a 1e-9 mm
+#: ring meshes with no volume). Checked on top of the static range.
+MIN_AXIAL_LENGTH = 1e-6
+#: Smallest eccentricity as a fraction of the cam radius: the tooth depth 2e
+#: then keeps about seven significant digits in the float64 profile
+#: coordinates (at 1e-16 of them it is lost entirely, and the solver divides
+#: by it). The hard case e = 1e-6 mm on the 135 mm cam (7.4e-9 of it) solves
+#: (tests/issues/test_tiny_eccentricity_huge_tooth_count.py).
+MIN_RELATIVE_ECCENTRICITY = 1e-9
+#: Softest material accepted, MPa: an elastomer. Below it the contact model
+#: (small displacements) has no meaning, and at subnormal values 1/E overflows.
+MIN_YOUNG_MODULUS = 1.0
+
+
+def _axial(name: str, value: object) -> float:
+    return _check_range(
+        name,
+        value,
+        MIN_AXIAL_LENGTH,
+        BOUNDS[name][1],
+        low_open=False,
+        high_open=False,
+        why=f"thinner than {MIN_AXIAL_LENGTH:g} mm is below what the STEP kernel and the "
+        f"mesher resolve; {name} = {MIN_AXIAL_LENGTH:g} would work",
+    )
+
+
 #: An outer radius (ring, frame) may be at most this many times the radius it
 #: must clear; beyond that it is a unit slip, not a design (1e9 mm is refused).
 PLAUSIBLE_FACTOR = 10.0
@@ -97,7 +126,18 @@ class Material:
 
     def __post_init__(self) -> None:
         object.__setattr__(
-            self, "young_modulus", _check_range("young_modulus", self.young_modulus, 0.0)
+            self,
+            "young_modulus",
+            _check_range(
+                "young_modulus",
+                self.young_modulus,
+                MIN_YOUNG_MODULUS,
+                BOUNDS["young_modulus"][1],
+                low_open=False,
+                high_open=False,
+                why=f"softer than an elastomer's {MIN_YOUNG_MODULUS:g} MPa is no gear material; "
+                "steel is 2.06e5",
+            ),
         )
         object.__setattr__(
             self, "poisson_ratio", _check_range("poisson_ratio", self.poisson_ratio, -1.0, 0.5)
@@ -177,7 +217,7 @@ class GearDesign:
         object.__setattr__(self, "tooth_count", z)
         Rj = _check_range("cam_radius", self.cam_radius, 0.0)
         r = _check_range("roller_radius", self.roller_radius, 0.0)
-        _check_range("roller_length", self.roller_length, 0.0)
+        _axial("roller_length", self.roller_length)
         e = _check_range(
             "eccentricity",
             self.eccentricity,
@@ -185,6 +225,14 @@ class GearDesign:
             Rj,
             why="the crankshaft axis must lie inside the cam, e < cam_radius",
         )
+        e_min = MIN_RELATIVE_ECCENTRICITY * Rj
+        if e < e_min:
+            raise DesignError(
+                f"eccentricity = {e:g}: allowed range is [{e_min:g}, {Rj:g}) for cam_radius = "
+                f"{Rj:g} (below {MIN_RELATIVE_ECCENTRICITY:g} of it the teeth, 2e deep, drown "
+                "in the rounding of the "
+                f"profile's coordinates); eccentricity = {e_min:g} would work"
+            )
         if not isinstance(self.allow_undercut, bool):
             raise DesignError(
                 f"allow_undercut = {show(self.allow_undercut)}: must be true or false"
@@ -230,7 +278,7 @@ class GearDesign:
         if self.face_width is None:
             object.__setattr__(self, "face_width", float(self.roller_length))
         else:
-            object.__setattr__(self, "face_width", _check_range("face_width", self.face_width, 0.0))
+            object.__setattr__(self, "face_width", _axial("face_width", self.face_width))
         if self.cam_bore_radius is None:
             bore = min(0.35 * Rj, 0.5 * (Rj - e))
             object.__setattr__(self, "cam_bore_radius", round(bore, 1) if bore > 1.0 else bore)
@@ -252,7 +300,7 @@ class GearDesign:
             object.__setattr__(self, "frame_thickness", max(5.0, r))
         else:
             object.__setattr__(
-                self, "frame_thickness", _check_range("frame_thickness", self.frame_thickness, 0.0)
+                self, "frame_thickness", _axial("frame_thickness", self.frame_thickness)
             )
         slot_in = s_min - r - SLOT_END_CLEARANCE
         slot_out = s_max + r + SLOT_END_CLEARANCE

@@ -67,6 +67,7 @@ __all__ = [
     "Datasheet",
     "datasheet",
     "rated_torque_from_pressure",
+    "play_figures",
 ]
 
 #: Torque levels of the windup curve from -T_R to +T_R (step 5 % of T_R).
@@ -419,3 +420,64 @@ def datasheet(
             w, spec.allowable_contact_pressure, spec.rated_torque
         )
     return out
+
+
+def play_figures(
+    design: GearDesign,
+    spec: DatasheetSpec,
+    *,
+    errors: ManufacturingErrors | None = None,
+    load_share: float = 0.55,
+    contact_model: str = "nonlinear",
+    variants: tuple[str, ...] = (),
+    psi_contact_limit: float = math.pi,
+) -> dict:
+    """Backlash, lost motion and transmission error without the windup curve (catalogue units).
+
+    The figures a ring's own errors change, as :func:`datasheet` defines
+    them, at the transmission-error positions (``transmission_error_positions_per_turn``
+    per crank turn over one output revolution, each periodic class solved
+    once): free ends, ``theta(+-b T_R)`` and ``theta(-+T_TE)``. What the
+    inspection report predicts for a measured ring; five windup solves
+    instead of the datasheet's curve.
+    """
+    errors = errors or ManufacturingErrors()
+    x, index = revolution_classes(
+        design, spec.transmission_error_positions_per_turn, errors, variants
+    )
+    w = Windup(
+        design,
+        x,
+        errors=errors,
+        load_share=load_share,
+        contact_model=contact_model,
+        variants=variants,
+        psi_contact_limit=psi_contact_limit,
+        series_rigidity_Nm_per_arcmin=spec.series_rigidity_Nm_per_arcmin,
+    )
+    T_R = spec.rated_torque
+    b, b_te = spec.lost_motion_band, spec.transmission_error_torque_band
+    lo, hi = w.free_ends()
+    lm = w.theta(b * T_R) - w.theta(-b * T_R)
+    fwd = w.theta(-b_te * T_R)[index]
+    rev = w.theta(b_te * T_R)[index]
+    return {
+        "positions": int(len(index)),
+        "positions_solved": int(len(x)),
+        "backlash_arcmin": {
+            **_stats((hi - lo) * ARCMIN_PER_RAD),
+            "definition": "theta(0+) - theta(0-)",
+        },
+        "lost_motion_arcmin": {
+            **_stats(lm * ARCMIN_PER_RAD),
+            "band": b,
+            "torque_Nm": b * T_R / NMM_PER_NM,
+            "definition": "theta(+b T_R) - theta(-b T_R)",
+        },
+        "transmission_error_arcsec": {
+            "forward_peak_to_peak": float(np.ptp(fwd) * ARCSEC_PER_RAD),
+            "reverse_peak_to_peak": float(np.ptp(rev) * ARCSEC_PER_RAD),
+            "driving_torque_Nm": b_te * T_R / NMM_PER_NM,
+            "definition": "peak-to-peak of theta(-+T_TE, x) over one output revolution",
+        },
+    }

@@ -15,6 +15,7 @@ import numpy as np
 
 from corr_cad.run.bench_accuracy import fidelity, interference, profile_export, solids
 from corr_cad.run.bench_datasheet import datasheet_speed
+from corr_cad.run.bench_resources import resources
 from corr_cad.run.bench_speed import (
     cold_start,
     kernel_crossover,
@@ -37,7 +38,38 @@ STUDIES = {
     "interference": interference,
     "coldstart": cold_start,
     "datasheet": datasheet_speed,
+    "resources": resources,
 }
+
+
+def check_bench_folder(out: Path) -> None:
+    """Refuse a folder the benchmarks did not make: they would replace files in it.
+
+    A bench writes ``machine.json`` and one CSV and PNG per study into
+    ``out``. It may write into a folder that does not exist, an empty one,
+    or one whose ``machine.json`` a bench wrote (it names ``corr_cad``);
+    anything else may hold a user's ``speed.csv``, and is refused.
+    """
+    import json
+
+    from corr_cad.bounds import show
+    from corr_cad.errors import OutputError
+
+    shown = show(str(out), 120)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"bench --out {shown}: exists and is not a folder; choose another")
+    if not out.is_dir() or not any(out.iterdir()):
+        return
+    try:
+        mine = "corr_cad" in json.loads((out / "machine.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError, TypeError):
+        mine = False
+    if not mine:
+        raise OutputError(
+            f"bench --out {shown}: the folder holds files a benchmark did not write (no "
+            "machine.json of corr-cad bench); its tables would replace files of the same "
+            "name: choose an empty or new folder, e.g. --out outputs/bench"
+        )
 
 
 def run(out: Path, studies: Sequence[str] = tuple(STUDIES), quick: bool = False) -> dict:
@@ -48,6 +80,7 @@ def run(out: Path, studies: Sequence[str] = tuple(STUDIES), quick: bool = False)
     from corr_cad.export.files import write_json
 
     out = Path(out)
+    check_bench_folder(out)
     out.mkdir(parents=True, exist_ok=True)
     write_json(
         out / "machine.json",

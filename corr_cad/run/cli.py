@@ -69,6 +69,20 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--workers", type=int, default=None, help="process pool size (default: all cores)"
     )
+    budget = run.add_argument_group("budget (overrides the scene's [budget])")
+    budget.add_argument(
+        "--max-memory", type=float, metavar="GB", help="memory the run may plan to use (3)"
+    )
+    budget.add_argument(
+        "--max-output", type=float, metavar="GB", help="total size of the files written (1)"
+    )
+    budget.add_argument(
+        "--warn-time", type=float, metavar="S", help="warn when the run would take longer (60)"
+    )
+    dask = run.add_argument_group("Dask time-outs (override the scene's [dask])")
+    dask.add_argument("--dask-connect-timeout", type=float, metavar="S", help="default 5")
+    dask.add_argument("--dask-no-workers-timeout", type=float, metavar="S", help="default 30")
+    dask.add_argument("--dask-stall-timeout", type=float, metavar="S", help="default 120")
     bench = sub.add_parser("bench", help="measure what accuracy costs in time (tables, CSV, PNG)")
     bench.add_argument(
         "--out", type=_out_arg, default=Path("outputs") / "bench", help="default outputs/bench"
@@ -87,6 +101,7 @@ def _parser() -> argparse.ArgumentParser:
             "interference",
             "coldstart",
             "datasheet",
+            "resources",
         ),
         help="run only this study (repeatable); default all",
     )
@@ -106,43 +121,85 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _check_workers(args: argparse.Namespace) -> None:
+    import math
+
     from corr_cad.errors import SceneError
+    from corr_cad.run.scene_schema import SCHEMA, key_range
 
     cores = os.cpu_count() or 1
     if args.workers is not None and not 1 <= args.workers <= cores:
         raise SceneError(
             f"--workers {args.workers}: allowed range is 1..{cores} (the number of cores)"
         )
+    # Each flag has the range of the scene key it overrides.
+    for flag, section, key in _FLAG_KEYS:
+        v = getattr(args, flag.lstrip("-").replace("-", "_"))
+        spec = SCHEMA[section][key]
+        if v is not None and not (math.isfinite(v) and spec.low < v <= spec.high):
+            raise SceneError(
+                f"{flag} {v:g}: allowed range is {key_range(spec)} (as [{section}] {key})"
+            )
+
+
+#: Command-line flags and the scene keys they override.
+_FLAG_KEYS = (
+    ("--max-memory", "budget", "memory_gb"),
+    ("--max-output", "budget", "output_gb"),
+    ("--warn-time", "budget", "time_warning_s"),
+    ("--dask-connect-timeout", "dask", "connect_timeout_s"),
+    ("--dask-no-workers-timeout", "dask", "no_workers_timeout_s"),
+    ("--dask-stall-timeout", "dask", "stall_timeout_s"),
+)
 
 
 def _run(args: argparse.Namespace, state: dict) -> int:
     from corr_cad.run.outputs import StagingDir, check_out_dir, safe_folder_name
     from corr_cad.run.pipeline import run_scene
+    from corr_cad.run.resources import (
+        budget_for,
+        check_disk,
+        check_scene,
+        default_workers,
+        time_warning,
+    )
     from corr_cad.run.scene import load_scene
 
     _check_workers(args)
     scene = load_scene(args.scene)
+    # Refused here, with one line, before any folder or worker exists.
+    budget = budget_for(scene, args.max_memory, args.max_output, args.warn_time)
+    workers = 1 if args.executor == "serial" else args.workers or default_workers()
+    est = check_scene(scene, workers, budget, args.executor)
+    slow = time_warning(scene, est, budget, args.executor)
     if args.quiet:
         from corr_cad.run import progress
 
         progress.set_enabled(False)
     out = args.out if args.out is not None else Path("outputs") / safe_folder_name(scene.name)
     check_out_dir(out)  # refuse before anything is created or started
+    check_disk(est, out)  # the files must fit where they go
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
     staging = StagingDir(out, formats=scene.formats)
     state["staging"] = staging
     concurrent = _concurrent_stages(args, scene)
-    with _executor(args, scene, concurrent) as executor, staging as stage:
+    task_s = max((c.task_seconds for c in est.stages.values()), default=0.0)
+    with _executor(args, scene, concurrent, task_s) as executor, staging as stage:
         # Printed with --quiet too (the user must know), once the run is
         # accepted: a refused run prints only its one error line.
-        for warning in scene.warnings:
+        for warning in scene.warnings + ((slow,) if slow else ()):
             print(f"corr-cad: warning: {warning}", file=sys.stderr)
         if scene.formats_left_out:
             why = "; ".join(f"{f} ({w})" for f, w in scene.formats_left_out)
             print(f'corr-cad: note: formats = ["all"] leaves out {why}', file=sys.stderr)
         manifest = run_scene(
-            scene, stage, progress=say, executor=executor, concurrent_stages=concurrent
+            scene,
+            stage,
+            progress=say,
+            executor=executor,
+            concurrent_stages=concurrent,
+            budget=budget,
+            estimate=est,
         )
     from corr_cad.run.console import failed_checks, summary_lines
 
@@ -175,10 +232,6 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     return status
 
 
-#: Seconds to wait for a Dask scheduler before giving up.
-SCHEDULER_TIMEOUT_S = 5.0
-
-
 def _worker_init(parent_pid: int) -> None:
     """Process-pool worker start: die with the main process, leave Ctrl-C to it.
 
@@ -193,6 +246,8 @@ def _worker_init(parent_pid: int) -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    # The parent forks with both blocked (_start_pool); Ctrl-C stays the parent's.
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
     def one_line(message, category, filename, lineno, file=None, line=None) -> None:
         where = f"{Path(filename).name}:{lineno}"
@@ -243,8 +298,15 @@ def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
 
 
 @contextlib.contextmanager
-def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
-    """The executor for sample work and worker stages; only started (or contacted) when needed."""
+def _executor(
+    args: argparse.Namespace, scene, concurrent_stages: bool = False, task_seconds: float = 0.0
+):
+    """The executor for sample work and worker stages; only started (or contacted) when needed.
+
+    Dask: :mod:`corr_cad.run.dask_exec` (probed, time-outs, lost tasks
+    resubmitted once); ``task_seconds``, the estimate of the longest task,
+    sets a floor under the stall time-out.
+    """
     from corr_cad.errors import SceneError
 
     needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
@@ -254,20 +316,17 @@ def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
         if not needs:
             yield None
             return
-        try:
-            from dask.distributed import Client
-        except ImportError as exc:
-            raise SceneError(
-                "--executor dask needs the 'dask' extra: pip install -e '.[dask]'"
-            ) from exc
-        try:
-            client = Client(args.scheduler, timeout=SCHEDULER_TIMEOUT_S)
-        except Exception as exc:
-            raise SceneError(
-                f"--scheduler {args.scheduler!r}: no Dask scheduler answered within "
-                f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}); give a running one's "
-                "address, e.g. tcp://host:8786"
-            ) from exc
+        from corr_cad.run.dask_exec import connect, timeouts_for
+
+        t = timeouts_for(
+            scene,
+            args.dask_connect_timeout,
+            args.dask_no_workers_timeout,
+            args.dask_stall_timeout,
+            task_seconds,
+        )
+        say = None if args.quiet else (lambda m: print(m, flush=True))
+        client = connect(args.scheduler, t, say)
         try:
             yield client
         finally:
@@ -280,15 +339,37 @@ def _executor(args: argparse.Namespace, scene, concurrent_stages: bool = False):
 
     from corr_cad.run.concurrent import kill_pool
 
-    pool = ProcessPoolExecutor(
-        max_workers=args.workers, initializer=_worker_init, initargs=(os.getpid(),)
-    )
+    pool = _start_pool(ProcessPoolExecutor, args.workers)
     try:
         yield pool
     except BaseException:
         kill_pool(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def _start_pool(pool_type, workers: int | None):
+    """A process pool whose workers are forked now, with SIGINT and SIGTERM held.
+
+    A signal that arrives while the pool forks would run its handler inside
+    an at-fork hook (logging registers some), where the KeyboardInterrupt is
+    printed as "Exception ignored" and lost: the run went on and exited 0.
+    Held, it is delivered when the forks are done, in the run proper. (The
+    pool forks every worker at its first task: submitting one now does it
+    here.)
+    """
+    import signal
+
+    held = {signal.SIGINT, signal.SIGTERM}
+    pool = pool_type(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
+    if threading.current_thread() is not threading.main_thread():
+        return pool
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        pool.submit(os.getpid)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    return pool
 
 
 def _create(path: Path, text: str) -> None:

@@ -181,8 +181,14 @@ def datasheet_lines(d: dict | None) -> list[str]:
     def mmm(x: dict) -> str:
         return f"{x['min']:.4g} / {x['mean']:.4g} / {x['max']:.4g}"
 
+    ring = d.get("ring") or {}
+    of = (
+        f" of the measured ring {ring.get('file')} (other parts nominal)"
+        if ring.get("profile") == "measured"
+        else ""
+    )
     out = [
-        f"datasheet at T_R = {d['rated_torque_Nm']:.5g} N*m, {p['count']} positions over "
+        f"datasheet{of} at T_R = {d['rated_torque_Nm']:.5g} N*m, {p['count']} positions over "
         f"{p['span']} (min / mean / max):",
         f"  backlash            {mmm(d['backlash_arcmin'])} arcmin",
         f"  lost motion         {mmm(lm)} arcmin (at +-{100 * lm['band']:g} % T_R)",

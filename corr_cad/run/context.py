@@ -33,6 +33,7 @@ __all__ = [
     "raw_errors",
     "modified_curve",
     "psi_contact_limit",
+    "expected_seconds",
 ]
 
 
@@ -61,7 +62,8 @@ class Results:
     meshes: dict[str, Any] | None = None
     #: ``interference``: the mesh-boolean sweep's summary.
     interference: dict[str, Any] | None = None
-    #: ``clearance``: the exact clearance of every roller over the cycle.
+    #: ``clearance``: the exact clearance over the cycle, per position the
+    #: smallest and largest over the rollers (:meth:`Clearance.envelope`).
     clearance: Clearance | None = None
     #: ``datasheet``: the windup curve, the transmission error and their figures.
     datasheet: Datasheet | None = None
@@ -85,6 +87,8 @@ class RunContext:
     manifest: dict = field(default_factory=dict)
     progress: Callable[[str], None] = lambda msg: None
     executor: object = None
+    #: The run's :class:`~corr_cad.run.resources.Estimate` (expected stage times).
+    estimate: object = None
 
 
 @dataclass(frozen=True)
@@ -134,3 +138,10 @@ def psi_contact_limit(ctx: RunContext) -> float:
     """Rollers beyond the trimmed tooth tips of an allowed undercut find no flank."""
     info = ctx.results.undercut
     return math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else math.pi
+
+
+def expected_seconds(ctx: RunContext, stage: str) -> float | None:
+    """The resource estimate's time for ``stage`` (None without an estimate)."""
+    est = ctx.estimate
+    cost = est.stages.get(stage) if est is not None else None
+    return cost.seconds if cost is not None else None

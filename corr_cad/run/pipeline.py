@@ -84,6 +84,8 @@ def _clean(obj):
 def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[dict]:
     """Run ``stages`` in order (some in a pool worker if ``concurrent``); their timings."""
     from corr_cad.run.concurrent import kill_pool, run_stage_in_worker, worker_stages
+    from corr_cad.run.context import expected_seconds
+    from corr_cad.run.progress import close_all, heartbeat
 
     pending = {}
     if concurrent and ctx.executor is not None:
@@ -95,7 +97,8 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
     def join() -> None:  # manifest.json is key-sorted: the sections' order does not matter
         for name, fut in pending.items():
             if name not in joined:
-                sections, files, seconds = fut.result()
+                with heartbeat(f"      {name} (in a worker)", None):
+                    sections, files, seconds = fut.result()
                 joined.add(name)
                 ctx.manifest.update(sections)
                 ctx.files.extend(files)
@@ -113,7 +116,11 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
                 join()
             ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")
             t0 = time.perf_counter()
-            STAGES[name].run(ctx)
+            try:
+                with heartbeat(f"      {name}", expected_seconds(ctx, name)):
+                    STAGES[name].run(ctx)
+            finally:
+                close_all()  # no counter of a stage that raised goes on printing
             timings[name] = {"name": name, "seconds": round(time.perf_counter() - t0, 6)}
         join()
     except BaseException:
@@ -125,12 +132,20 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
     return [timings[name] for name in stages]
 
 
+def _executor_kind(executor) -> str:
+    if executor is None:
+        return "serial"
+    return "dask" if hasattr(executor, "scheduler_info") else "process"
+
+
 def run_scene(
     scene: Scene,
     out: Path,
     progress: Callable[[str], None] | None = None,
     executor=None,
     concurrent_stages: bool = False,
+    budget=None,
+    estimate=None,
 ) -> dict:
     """Run the stages ``scene`` needs, writing into ``out`` (a staging folder).
 
@@ -140,6 +155,9 @@ def run_scene(
     the STEP export runs in a pool worker beside the other stages
     (:mod:`corr_cad.run.concurrent`); the files and the manifest are
     the same as in a serial run, but for the ``stages`` timings.
+    ``budget`` (:class:`~corr_cad.run.resources.Budget`, default the scene's
+    ``[budget]``) and its ``estimate``: without an estimate the scene is
+    checked against the budget first (:func:`~corr_cad.run.resources.check_scene`).
 
     >>> import tempfile, pathlib
     >>> from corr_cad import GearDesign, run_scene
@@ -164,16 +182,13 @@ def run_scene(
         interference_method=scene.interference_method,
         datasheet_checks=bool(scene.checks.datasheet_active()),
     )
-    from corr_cad.run.resources import estimate
+    from corr_cad.run.resources import budget_for, check_scene
 
-    est = estimate(scene)
-    if est.memory_bytes or est.seconds:
-        mem = max(est.memory_bytes.values(), default=0.0)
-        work = ", ".join(f"{k} ~{v:.2g} s" for k, v in est.seconds.items())
-        ctx.progress(
-            f"estimate: peak memory ~{mem / 2**20:.0f} MB (budget 2048 MB)"
-            + (f"; solver work {work}" if work else "")
-        )
+    budget = budget or budget_for(scene)
+    if estimate is None:  # called from Python: the same budget check as the CLI's
+        estimate = check_scene(scene, budget=budget, executor=_executor_kind(executor))
+    ctx.progress(estimate.line(budget))
+    ctx.estimate = estimate
     timings = _run_stages(ctx, stages, concurrent_stages)
     files = {
         name: {"sha256": sha256_of(ctx.out / name), "bytes": (ctx.out / name).stat().st_size}

@@ -1,23 +1,51 @@
-"""Progress of long loops: a bar on a terminal, plain lines otherwise, nothing when quiet.
+"""Progress of long work: a bar on a terminal, plain lines otherwise, nothing when quiet.
 
 ``tqdm`` draws the bar (it is a small pure-Python dependency and the common
 choice; it measures the rate and the time left). When stderr is not a
 terminal (a log file, CI, a pipe) a line with the count, rate and time left
-is printed at most every ``interval`` seconds and at the end, so logs stay
-short. ``corr-cad run --quiet`` switches all of it off.
+is printed every ``interval`` seconds (5) while the work lasts and at the
+end, so logs stay short; work done within 2 s prints none. ``corr-cad run
+--quiet`` switches all of it off.
+
+The lines keep coming when the counter does not move: a thread prints the
+line again every ``interval`` (the time left from the elapsed time). The
+time left is measured only once enough of the work is done
+(:data:`TRUST_SHARE` of it, at least :data:`TRUST_DONE` units): before that
+it is the resource estimate's (``estimated 2m50s left``) or ``? left``; a
+rate from the first point or two once read "280h22m left". :func:`heartbeat`
+does the same for a stage with no counter of its own (a solve, an export),
+keeping quiet while a counter prints.
 """
 
 from __future__ import annotations
 
+import math
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import TextIO
 
-__all__ = ["set_enabled", "enabled", "Progress", "progress"]
+__all__ = [
+    "set_enabled",
+    "enabled",
+    "Progress",
+    "progress",
+    "heartbeat",
+    "close_all",
+    "duration",
+]
 
 _ENABLED = True
+#: When any progress line was last printed (monotonic s): a heartbeat keeps
+#: quiet while a counter prints.
+_LAST_LINE = [0.0]
+#: Counters printing lines now: a heartbeat keeps quiet while there is one.
+_ACTIVE = [0]
+#: Counters not closed yet (:func:`close_all` ends them when their stage ends).
+_OPEN: set = set()
+_LOCK = threading.Lock()
 
 
 def set_enabled(on: bool) -> None:
@@ -30,7 +58,8 @@ def enabled() -> bool:
     return _ENABLED
 
 
-def _duration(seconds: float) -> str:
+def duration(seconds: float) -> str:
+    """``45s``, ``3m05s``, ``2h10m``."""
     s = int(round(seconds))
     if s < 60:
         return f"{s}s"
@@ -41,10 +70,47 @@ def _duration(seconds: float) -> str:
 
 #: Plain progress lines start only once the work has taken this long, s.
 QUIET_S = 2.0
+#: The measured rate gives the time left from this share of the work on ...
+TRUST_SHARE = 0.02
+#: ... and at least this many units (all of them if fewer).
+TRUST_DONE = 2
+
+
+#: A thread checks ten times an interval and prints from 0.9 of it: no gap passes it.
+_DUE = 0.9
+
+
+def _emit(stream: TextIO, text: str) -> None:
+    with _LOCK:
+        print(text, file=stream, flush=True)
+        _LAST_LINE[0] = time.monotonic()
+
+
+class _Ticker:
+    """A daemon thread calling ``fn`` every ``interval`` s until stopped."""
+
+    def __init__(self, interval: float, fn) -> None:
+        self._stop = threading.Event()
+        self._fn, self._interval = fn, interval
+        self._thread = threading.Thread(target=self._loop, name="corr-cad-progress", daemon=True)
+        self._thread.start()
+
+    def _loop(self) -> None:
+        while not self._stop.wait(self._interval / 10.0):
+            self._fn()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not threading.current_thread():
+            self._thread.join(1.0)
 
 
 class Progress:
-    """Counts ``total`` units of work; ``update(n)`` after each piece is done."""
+    """Counts ``total`` units of work; ``update(n)`` after each piece is done.
+
+    ``expected``: the estimated seconds of the whole work (the resource
+    estimate), shown as the time left until the measured rate is trusted.
+    """
 
     def __init__(
         self,
@@ -55,32 +121,58 @@ class Progress:
         stream: TextIO | None = None,
         interval: float = 5.0,
         tty: bool | None = None,
+        expected: float | None = None,
     ) -> None:
         self.total, self.desc, self.unit = int(total), desc, unit
         self.stream = stream or sys.stderr
         self.interval = interval
+        self.expected = expected
         self.done = 0
         self.t0 = time.monotonic()
         self._last = self.t0
         self._bar = None
+        self._ticker = None
         self.on = _ENABLED and self.total > 0
         is_tty = tty if tty is not None else getattr(self.stream, "isatty", lambda: False)()
         if self.on and is_tty:
             from tqdm import tqdm
 
             self._bar = tqdm(total=self.total, desc=desc, unit=unit, file=self.stream, leave=False)
+        elif self.on and interval >= 1.0:
+            self._ticker = _Ticker(interval, self._tick)
+            with _LOCK:
+                _ACTIVE[0] += 1
+                _OPEN.add(self)
+
+    def time_left(self) -> str:
+        """``2m50s left`` (measured), ``estimated 2m50s left`` or ``? left``."""
+        elapsed = max(time.monotonic() - self.t0, 1e-9)
+        need = min(self.total, max(TRUST_DONE, math.ceil(TRUST_SHARE * self.total)))
+        if self.done >= need and self.done > 0:
+            return f"{duration((self.total - self.done) * elapsed / self.done)} left"
+        if self.expected is not None:
+            return f"estimated {duration(max(self.expected - elapsed, 0.0))} left"
+        return "? left"
 
     def line(self) -> str:
         """``desc: done/total unit (pct%), rate unit/s, left ETA``."""
         elapsed = max(time.monotonic() - self.t0, 1e-9)
         rate = self.done / elapsed
-        left = (self.total - self.done) / rate if rate > 0 else float("inf")
-        eta = _duration(left) if left != float("inf") else "?"
         pct = 100.0 * self.done / self.total if self.total else 100.0
         return (
             f"{self.desc}: {self.done}/{self.total} {self.unit} ({pct:.0f}%), "
-            f"{rate:.3g} {self.unit}/s, {eta} left"
+            f"{rate:.3g} {self.unit}/s, {self.time_left()}"
         )
+
+    def _print(self, now: float) -> None:
+        self._last = now
+        _emit(self.stream, self.line())
+
+    def _tick(self) -> None:
+        """The heartbeat: the line again when the counter has not printed for an interval."""
+        now = time.monotonic()
+        if now - self.t0 >= QUIET_S and now - self._last >= _DUE * self.interval:
+            self._print(now)
 
     def update(self, n: int = 1) -> None:
         self.done += n
@@ -93,13 +185,24 @@ class Progress:
         if now - self.t0 < min(self.interval, QUIET_S):
             return  # work done within a couple of seconds needs no progress line
         if now - self._last >= self.interval or self.done >= self.total:
-            self._last = now
-            print(self.line(), file=self.stream, flush=True)
+            self._print(now)
 
     def close(self) -> None:
+        if self._ticker is not None:
+            self._ticker.stop()
+            self._ticker = None
+            with _LOCK:
+                _ACTIVE[0] -= 1
+                _OPEN.discard(self)
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+
+
+def close_all() -> None:
+    """Close every counter still open (a stage that raised left its own running)."""
+    for p in list(_OPEN):
+        p.close()
 
 
 @contextmanager
@@ -110,3 +213,44 @@ def progress(total: int, desc: str, unit: str = "it", **kw) -> Iterator[Progress
         yield p
     finally:
         p.close()
+
+
+@contextmanager
+def heartbeat(
+    desc: str,
+    expected: float | None = None,
+    *,
+    stream: TextIO | None = None,
+    interval: float = 5.0,
+) -> Iterator[None]:
+    """``desc: 10s elapsed, estimated 25s left`` every ``interval`` s while the block runs.
+
+    Quiet while another progress line was printed within the interval, on
+    a terminal (the bar shows the work) and with ``--quiet``.
+    """
+    stream = stream or sys.stderr
+    if not _ENABLED or getattr(stream, "isatty", lambda: False)() or interval < 1.0:
+        yield
+        return
+    t0 = time.monotonic()
+    last = [t0]
+
+    def tick() -> None:
+        now = time.monotonic()
+        if _ACTIVE[0] or now - last[0] < _DUE * interval or now - _LAST_LINE[0] < _DUE * interval:
+            return
+        last[0] = now
+        elapsed = now - t0
+        if expected is None:
+            left = ""
+        elif elapsed <= expected:
+            left = f", estimated {duration(expected - elapsed)} left"
+        else:
+            left = f", past the estimate of {duration(expected)}"
+        _emit(stream, f"{desc}: {duration(elapsed)} elapsed{left}")
+
+    ticker = _Ticker(interval, tick)
+    try:
+        yield
+    finally:
+        ticker.stop()

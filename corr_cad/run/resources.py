@@ -1,70 +1,72 @@
-"""Memory, time and file-size estimates, checked before any heavy work.
+"""Memory, time and output estimates of a whole run, checked against a budget before any work.
 
-Every size a scene can set has a static upper bound in the scene schema;
-on top of that :func:`check_scene` estimates what the run would need and
-refuses a scene that would pass ``MEMORY_BUDGET`` bytes of memory or write
-an exploding file, with one line naming the key and a value that would work.
+Every size a scene can set has a static upper bound in the scene schema; on
+top of that :func:`estimate` adds up what each planned stage needs
+(:mod:`corr_cad.run.costs`, one estimator per stage) and :func:`check_scene`
+refuses a run that would pass its budget, with one line naming the key, a
+value that fits and the override:
 
-The per-cell costs are measured (peak RSS, prototype design, numpy 2):
+* memory: the main process's peak (the interpreter, the libraries the
+  stages import, what earlier stages keep, the largest stage) plus the pool
+  workers of this machine; default 3 GB (``--max-memory`` or
+  ``[budget] memory_gb``), never more than the machine's memory;
+* output: the bytes of every file the run writes; default 1 GB
+  (``--max-output``, ``[budget] output_gb``);
+* time: a warning (the run still starts) beyond 60 s (``--warn-time``,
+  ``[budget] time_warning_s``).
 
-* ``solve_forces``: 36 000 positions x 26 rollers raised the peak RSS by
-  285 MB, 305 bytes per (position, roller) cell; a whole forces-only run
-  (solver, then forces.csv formatted while the result is alive) peaked at
-  260 MB for 10 000 positions and 678 MB for 40 000: 561 bytes per cell
-  -> ``SOLVER_CELL_BYTES`` (a DXF-only run peaks at 103 MB, below ``BASE_BYTES``).
-* ``monte_carlo``: a chunk of 50 samples x 3600 positions x 26 rollers
-  raised it by 3.0 GB, 650 bytes per (sample, position, roller) cell ->
-  ``BATCH_CELL_BYTES``; every worker holds one chunk.
-
-Vertex counts come from the exact curves' curvature: a chord of length
-``l`` on a circle of radius ``R`` misses it by ``l^2 / (8 R)``, so a polyline
-within ``tol`` needs ``integral of sqrt(kappa / (8 tol)) ds`` segments.
-Pure numpy.
+The two structural limits (a DXF profile of more than
+``MAX_PROFILE_VERTICES`` vertices, the approximator's own budget, and a mesh
+of more than ``MAX_MESH_TRIANGLES`` triangles) are :mod:`corr_cad.run.limits`,
+checked at load time.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
-
-import numpy as np
+from dataclasses import dataclass, replace
 
 from corr_cad.errors import SceneError
+from corr_cad.run.costs import ESTIMATORS, LIBRARY_BYTES, WORKER_BYTES, Cost, Env
+from corr_cad.run.limits import (  # noqa: F401  (re-exported: the limits are part of this interface)
+    MAX_MESH_TRIANGLES,
+    MAX_PROFILE_VERTICES,
+    check_structure,
+    mesh_triangles,
+    polyline_segments,
+    profile_vertices,
+    round_up,
+)
 
 __all__ = [
-    "MEMORY_BUDGET",
+    "DEFAULT_MEMORY_GB",
+    "DEFAULT_OUTPUT_GB",
+    "DEFAULT_TIME_WARNING_S",
     "MAX_PROFILE_VERTICES",
     "MAX_MESH_TRIANGLES",
-    "MAX_CSV_BYTES",
+    "Budget",
     "Estimate",
+    "budget_for",
     "polyline_segments",
     "estimate",
     "check_scene",
+    "check_disk",
+    "time_warning",
     "default_workers",
+    "machine_memory",
 ]
 
-#: Largest memory (bytes) a run may plan to use.
-MEMORY_BUDGET = 2 * 1024**3
-#: Interpreter, numpy, scipy, the exporters: what a run holds before its arrays.
-BASE_BYTES = 250 * 1024**2
-SOLVER_CELL_BYTES = 600
-BATCH_CELL_BYTES = 700
-#: Samples per Monte Carlo task (``tolerance.monte_carlo``'s ``chunk``).
-MC_CHUNK = 50
-#: Most vertices (polyline/arcs) or control points (spline) of one DXF profile:
-#: the approximator's own budget (``sampling._MAX_VERTICES``, a test keeps the
-#: two equal), beyond which it cannot reach the tolerance.
-MAX_PROFILE_VERTICES = 200_000
-#: Most triangles of one mesh file (an STL of 5e6 triangles is 250 MB).
-MAX_MESH_TRIANGLES = 5_000_000
-#: Largest CSV a run may write (forces.csv rows are about 110 bytes).
-MAX_CSV_BYTES = 1024**3
-FORCES_ROW_BYTES = 110
-#: The prototype's assembly_000deg.stl at chord_tolerance 1e-3 has 174 364
-#: triangles, the extruded-polygon count below gives 119 787: scale by 1.5.
-MESH_CALIBRATION = 1.5
-MC_ROW_BYTES = 200
+DEFAULT_MEMORY_GB = 3.0
+DEFAULT_OUTPUT_GB = 1.0
+DEFAULT_TIME_WARNING_S = 60.0
+GB = 1024.0**3
+#: Interpreter, numpy, scipy and corr_cad (83 MB measured), and the design's
+#: own tables (~50 kB a tooth: 134 MB at z = 1000).
+BASE_BYTES = 100 * 1024**2
+BASE_BYTES_PER_TOOTH = 60e3
+#: Starting Python and importing numpy, scipy and corr_cad, s.
+STARTUP_S = 2.5
 
 
 def default_workers() -> int:
@@ -75,219 +77,438 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _locus(design, per_tooth: int = 400) -> tuple[np.ndarray, np.ndarray]:
-    """Roller-centre locus and the working profile (outer offset by r), (n, 2) each."""
-    z, e, r = design.tooth_count, design.eccentricity, design.roller_radius
-    L = design.cam_radius + r
-    t = np.linspace(0.0, 2.0 * np.pi, per_tooth * z, endpoint=False)
-    psi = z * t
-    s = e * np.cos(psi) + np.sqrt(L * L - (e * np.sin(psi)) ** 2)
-    p = np.stack([s * np.sin(t), s * np.cos(t)], axis=1)
-    d = np.roll(p, -1, axis=0) - np.roll(p, 1, axis=0)
-    tang = d / np.linalg.norm(d, axis=1)[:, None]
-    # The curve runs clockwise (x = s sin t, y = s cos t): outward is the tangent turned left.
-    normal = np.stack([-tang[:, 1], tang[:, 0]], axis=1)
-    if np.sum(normal * p) < 0:
-        normal = -normal
-    return p, p + r * normal
+def machine_memory() -> float:
+    """Bytes of physical memory of this machine (inf if unknown)."""
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover
+        return math.inf
 
 
-def polyline_segments(points: np.ndarray, tol: float) -> float:
-    """Segments a polyline within ``tol`` needs along the closed curve ``points`` (n, 2)."""
-    a = np.roll(points, 1, axis=0)
-    c = np.roll(points, -1, axis=0)
-    ab = np.linalg.norm(points - a, axis=1)
-    bc = np.linalg.norm(c - points, axis=1)
-    ac = np.linalg.norm(c - a, axis=1)
-    cross = np.abs((points - a)[:, 0] * (c - a)[:, 1] - (points - a)[:, 1] * (c - a)[:, 0])
-    kappa = 2.0 * cross / np.maximum(ab * bc * ac, 1e-300)  # circumscribed circle
-    ds = 0.5 * (ab + bc)
-    return float(np.sum(np.sqrt(kappa / (8.0 * tol)) * ds)) + 1.0
+@dataclass(frozen=True)
+class Budget:
+    """The limits a run is checked against, and what set each (for the messages)."""
+
+    memory_bytes: float = DEFAULT_MEMORY_GB * GB
+    output_bytes: float = DEFAULT_OUTPUT_GB * GB
+    warn_seconds: float = DEFAULT_TIME_WARNING_S
+    memory_from: str = "default"
+    output_from: str = "default"
+    warn_from: str = "default"
 
 
-def _circle(radius: float, tol: float) -> float:
-    if tol >= radius:
-        return 8.0
-    return max(8.0, math.pi / math.acos(1.0 - tol / radius))
+def budget_for(
+    scene, memory_gb: float | None = None, output_gb: float | None = None, warn_s=None
+) -> Budget:
+    """The scene's ``[budget]`` with the command line's overrides (``--max-memory`` ...)."""
+    b = getattr(scene, "budget", None) or {}
+
+    def pick(flag, flag_name, key, default):
+        if flag is not None:
+            return float(flag), flag_name
+        if b.get(key) is not None:
+            return float(b[key]), f"[budget] {key}"
+        return default, "default"
+
+    mem, mem_from = pick(memory_gb, "--max-memory", "memory_gb", DEFAULT_MEMORY_GB)
+    out, out_from = pick(output_gb, "--max-output", "output_gb", DEFAULT_OUTPUT_GB)
+    warn, warn_from = pick(warn_s, "--warn-time", "time_warning_s", DEFAULT_TIME_WARNING_S)
+    if mem * GB > machine_memory():
+        raise SceneError(
+            f"{mem_from} {mem:g}: more than this machine's {machine_memory() / GB:.3g} GB of "
+            f"memory; at most {math.floor(machine_memory() / GB * 10) / 10:g}"
+        )
+    return Budget(mem * GB, out * GB, warn, mem_from, out_from, warn_from)
 
 
 @dataclass(frozen=True)
 class Estimate:
     """What a scene's run is expected to need."""
 
-    memory_bytes: dict[str, float]
+    #: Stage name -> its cost, in plan order.
+    stages: dict[str, Cost]
+    #: Peak bytes of the run: the main process plus the pool workers.
+    memory: float
+    main_memory: float
+    worker_memory: float
+    #: The stage at whose peak ``memory`` is reached.
+    peak_stage: str
+    seconds: float
+    #: File (or pattern) -> bytes, and their sum.
+    output: dict[str, float]
+    output_bytes: float
     profile_vertices: float
     mesh_triangles: float
-    csv_bytes: dict[str, float]
-    seconds: dict[str, float]
-    #: key -> (value, fixed bytes, bytes per unit): how memory grows with each key
-    linear: dict[str, tuple[float, float, float]]
+    workers: int
 
     def as_dict(self) -> dict:
-        return self.__dict__.copy()
+        return {
+            "memory_bytes": self.memory,
+            "main_memory_bytes": self.main_memory,
+            "worker_memory_bytes": self.worker_memory,
+            "peak_stage": self.peak_stage,
+            "seconds": self.seconds,
+            "output_bytes": self.output_bytes,
+            "stages": {
+                n: {"memory_bytes": c.memory, "seconds": c.seconds, "output_bytes": _sum(c)}
+                for n, c in self.stages.items()
+            },
+        }
 
-
-#: Representation -> exponent of 1/tol in the vertex count and the count at
-#: tol = 1e-3 as a multiple of the curvature integral there. Measured on the
-#: prototype, working and theoretical profiles, tol = 1e-2, 1e-3, 1e-4
-#: (``approximate``): polyline 1300/4500/13650 vertices against an integral
-#: of 768/2430/7685 (ratio <= 1.85, exponent 1/2); arcs 800/1400/2800; spline
-#: 451/701/1251 control points. The ratios round the worst case up; the
-#: node-budget sampler (polyline 800/2525/7775) stays below the estimate.
-_REPR = {"polyline": (0.5, 1.9), "arcs": (1.0 / 3.0, 0.6), "spline": (0.25, 0.3)}
-
-
-def estimate(scene, workers: int | None = None) -> Estimate:
-    """Memory, vertex, triangle, CSV and time estimates of ``scene``'s run."""
-    d = scene.design
-    R = d.roller_count
-    f = set(scene.formats)
-    workers = workers or default_workers()
-    locus, work = _locus(d)
-    # key -> (value, fixed bytes, bytes per unit of value): need = fixed + slope * value
-    lin: dict[str, tuple[float, float, float]] = {}
-    csv: dict[str, float] = {}
-    secs: dict[str, float] = {}
-    forces = "forces" in f or bool(scene.checks.active())
-    if forces:
-        angles = scene.solver.crank_angles_deg
-        key = "[solver] crank_angles_deg" if angles is not None else "[solver] positions"
-        P = len(angles) if angles is not None else scene.solver.positions
-        lin[key] = (P, BASE_BYTES, SOLVER_CELL_BYTES * R)
-        csv[key] = FORCES_ROW_BYTES * P * R
-        secs["forces"] = 1.1e-6 * P * R
-    if "datasheet" in f or scene.checks.datasheet_active():
-        _datasheet_estimate(scene, lin, csv, secs)
-    mc = scene.montecarlo
-    if {"montecarlo", "allocation"} & f:
-        n = max(mc["samples"] if "montecarlo" in f else 0, mc["allocation_samples"])
-        per_sample = 8 * (6 + 4 * R) + 8 * 8  # standard draws of every kind, metrics
-        pos = mc["positions"] if "montecarlo" in f else min(mc["positions"], 72)
-        per_pos = workers * BATCH_CELL_BYTES * min(MC_CHUNK, n) * R  # one chunk per worker
-        lin["[montecarlo] positions"] = (pos, BASE_BYTES + per_sample * n, per_pos)
-        lin["[montecarlo] samples"] = (n, BASE_BYTES + per_pos * pos, per_sample)
-        if "montecarlo" in f:
-            csv["[montecarlo] samples"] = MC_ROW_BYTES * mc["samples"]
-            from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
-
-            # numpy ~3e-6 s per sample-position-roller; the compiled kernel
-            # (used from KERNEL_MIN_WORK on) ~1.1e-7 plus ~1 s to load it.
-            kernel = mc["samples"] * pos >= KERNEL_MIN_WORK
-            per_cell = 1.1e-7 if kernel else 3.0e-6
-            secs["montecarlo"] = per_cell * mc["samples"] * pos * R / workers + kernel * 1.0
-    if "sweeps" in f:
-        lin["[sweeps] positions"] = (
-            scene.sweeps["positions"],
-            BASE_BYTES,
-            workers * SOLVER_CELL_BYTES * R,
+    def line(self, budget: Budget) -> str:
+        """``estimate: peak memory ~..., files ~..., time ~...`` for the run's first lines."""
+        slow = sorted(self.stages.items(), key=lambda kv: -kv[1].seconds)[:3]
+        parts = ", ".join(f"{n} {_duration(c.seconds)}" for n, c in slow if c.seconds >= 1.0)
+        return (
+            f"estimate: peak memory ~{_mb(self.memory)} (budget {_mb(budget.memory_bytes)}), "
+            f"files ~{_mb(self.output_bytes)} (budget {_mb(budget.output_bytes)}), "
+            f"time ~{_duration(self.seconds)}" + (f" ({parts})" if parts else "")
         )
-    mem = {k: fixed + slope * v for k, (v, fixed, slope) in lin.items()}
-    exponent, ratio = _REPR[scene.representation]
-    base = max(polyline_segments(work, 1e-3), polyline_segments(locus, 1e-3))
-    verts = ratio * base * (1e-3 / scene.tolerance) ** exponent if "dxf" in f else 0.0
-    tri = 0.0
-    if {
-        "stl",
-        "3mf",
-        "glb",
-        "ply",
-        "interference",
-        "step",
-    } & f:  # the solids are meshed for all of these
-        c = scene.chord_tolerance
-        ring = polyline_segments(work, c) + _circle(d.ring_outer_radius, c)
-        cam = _circle(d.cam_radius, c) + _circle(d.cam_bore_radius, c)
-        roller = _circle(d.roller_radius, c)
-        frame = _circle(d.frame_inner_radius, c) + _circle(d.frame_outer_radius, c) + R * roller
-        # An extruded polygon of V vertices: 2 caps of V - 2 triangles, 2V on the side.
-        tri = MESH_CALIBRATION * 4.0 * (ring + 2 * cam + 2 * R * roller + 2 * frame)
-    return Estimate(mem, verts, tri, csv, secs, lin)
 
 
-#: windup.csv: bytes per row (torque, angle, windup at 9 and 12 digits).
-WINDUP_ROW_BYTES = 45
+def _sum(c: Cost) -> float:
+    return float(sum(c.output.values()))
 
 
-def _datasheet_estimate(scene, lin: dict, csv: dict, secs: dict) -> None:
-    """The datasheet's memory, windup.csv size and time (the geometry of every position is kept).
+def _mb(x: float) -> str:
+    return f"{x / 1024**2:.0f} MB" if x < 10 * GB else f"{x / GB:.3g} GB"
 
-    Positions: ``positions_per_mesh`` per mesh period over the span after
-    which the windup repeats (one mesh period, a tooth pitch of z + 1 mesh
-    periods, or z (z + 1) for a ring deviation, a measured one included);
-    the transmission error solves at most ``per_turn`` classes for alike
-    parts, else every one of its ``per_turn (z + 1)`` positions.
-    """
-    from corr_cad.mechanics.datasheet import TORQUE_LEVELS
-    from corr_cad.mechanics.windup import mesh_period_rad, result_period_rad
 
-    d = scene.design
-    z, R = d.tooth_count, d.roller_count
-    ds = scene.datasheet
-    mult = round(result_period_rad(d, scene.errors, scene.solver.variants) / mesh_period_rad(d))
+def _duration(s: float) -> str:
+    from corr_cad.run.progress import duration
+
+    return duration(s)
+
+
+def _env(scene, workers: int, executor: str, vertices: float, stages: list[str]) -> Env:
+    tri, parts = (0.0, 0.0)
+    if {"solids", "step_files", "interference"} & set(stages):
+        tri, parts = mesh_triangles(scene.design, scene.chord_tolerance)
+    spline = (
+        profile_vertices(scene.design, "spline", scene.chord_tolerance)
+        if "step_files" in stages
+        else 0
+    )
+    size, is_dxf = 0, False
     if scene.measured_profile is not None:
-        mult = z * R
-    ppm, turn = ds["positions_per_mesh"], ds["transmission_error_positions_per_turn"]
-    levels = TORQUE_LEVELS + 3  # the grid, 0- and 0+, the band rows
-    lin["[datasheet] positions_per_mesh"] = (
-        ppm,
-        BASE_BYTES,
-        mult * (SOLVER_CELL_BYTES * R + 16 * levels),
+        try:
+            size = os.stat(scene.measured_profile).st_size
+        except OSError:
+            size = 0  # the stage reports it
+        is_dxf = str(scene.measured_profile).lower().endswith(".dxf")
+    local = workers if executor == "process" else 0
+    return Env(
+        workers=1 if executor == "serial" else workers,
+        local_workers=local,
+        remote=executor == "dask",
+        triangles=tri,
+        part_triangles=parts,
+        vertices=vertices,
+        spline_points=spline,
+        measured_bytes=size,
+        measured_dxf=is_dxf,
     )
-    solved_per_turn = 1 if mult == 1 else R
-    lin["[datasheet] transmission_error_positions_per_turn"] = (
-        turn,
-        BASE_BYTES,
-        solved_per_turn * SOLVER_CELL_BYTES * R + 40 * R,
-    )
-    csv["[datasheet] positions_per_mesh"] = WINDUP_ROW_BYTES * levels * mult * ppm
-    secs["datasheet"] = 1.1e-6 * R * (levels * mult * ppm + 2 * solved_per_turn * turn)
 
 
-def check_scene(scene, workers: int | None = None) -> Estimate:
-    """Refuse a scene whose run would pass the memory budget or write an exploding file."""
-    est = estimate(scene, workers)
-    budget = MEMORY_BUDGET
-    # Blame the key whose own share is largest (samples for 1e7 samples, ...).
-    for key, (value, fixed, slope) in sorted(
-        est.linear.items(), key=lambda kv: -kv[1][2] * kv[1][0]
-    ):
-        need = fixed + slope * value
-        if need > budget:
-            ok = int((budget - fixed) / slope) if budget > fixed else 0
-            fit = f"{ok} would fit" if ok >= 1 else "reduce the other sizes first"
-            raise SceneError(
-                f"{key} = {value}: needs about {need / 1024**3:.3g} GB of memory; at most "
-                f"{budget / 1024**3:.3g} GB is allowed; {fit}"
-            )
-    for key, size in est.csv_bytes.items():
-        if size > MAX_CSV_BYTES:
-            value = est.linear[key][0]
-            ok = max(1, int(value * MAX_CSV_BYTES / size))
-            raise SceneError(
-                f"{key} = {value}: the CSV would take about {size / 1024**3:.3g} GB; "
-                f"at most {MAX_CSV_BYTES / 1024**3:.3g} GB; {ok} would fit"
-            )
-    if est.profile_vertices > MAX_PROFILE_VERTICES:
-        exponent, _ = _REPR[scene.representation]
-        ok = scene.tolerance * (est.profile_vertices / MAX_PROFILE_VERTICES) ** (1 / exponent)
-        raise SceneError(
-            f"[export] tolerance = {scene.tolerance:g}: a {scene.representation} DXF profile "
-            f"would need about {est.profile_vertices:.3g} vertices; at most "
-            f"{MAX_PROFILE_VERTICES:g}; tolerance = {_round_up(ok):g} would work"
+def _unknown(scene, env) -> Cost:
+    """A stage with no estimator of its own (tests/test_bounds.py asks every stage for one)."""
+    return Cost(memory=200 * 1024**2, seconds=5.0, output={"other files": 50 * 1024**2})
+
+
+def _stages(scene) -> list[str]:
+    from corr_cad.run.stages import plan
+
+    return plan(
+        scene.formats,
+        checks=bool(scene.checks.active()),
+        measured=scene.measured_profile is not None,
+        interference_method=scene.interference_method,
+        datasheet_checks=bool(scene.checks.datasheet_active()),
+    )
+
+
+def estimate(scene, workers: int | None = None, executor: str = "process") -> Estimate:
+    """Memory, time, output, vertex and triangle estimates of ``scene``'s run.
+
+    ``executor``: ``process`` (a pool of ``workers`` on this machine, the
+    default), ``serial`` or ``dask`` (the samples solved elsewhere).
+    """
+    from corr_cad.run.concurrent import worker_stages
+
+    workers = workers or default_workers()
+    stages = _stages(scene)
+    verts = profile_vertices(scene.design, scene.representation, scene.tolerance)
+    env = _env(scene, workers, executor, verts, stages)
+    costs = {name: ESTIMATORS.get(name, _unknown)(scene, env) for name in stages}
+    aside = set()
+    if executor == "process" and workers >= 2:
+        aside = set(worker_stages(stages))
+    libs = {lib for n, c in costs.items() if n not in aside for lib in c.libraries}
+    base = BASE_BYTES + BASE_BYTES_PER_TOOTH * scene.design.tooth_count
+    base += sum(LIBRARY_BYTES[lib] for lib in libs)
+    kept, main, peak_stage = 0.0, base, stages[0] if stages else ""
+    for name, c in costs.items():
+        if name in aside:
+            continue
+        if base + kept + c.memory > main:
+            main, peak_stage = base + kept + c.memory, name
+        kept += c.keeps
+    workers_mem = max((c.workers for c in costs.values()), default=0.0)
+    for name in aside:  # a pool worker repeats the profile stages, then runs this one
+        c = costs[name]
+        own = sum(LIBRARY_BYTES[lib] for lib in c.libraries)
+        workers_mem += WORKER_BYTES + own + c.memory + costs["profiles"].keeps
+    output: dict[str, float] = {}
+    for c in costs.values():
+        for k, v in c.output.items():
+            output[k] = output.get(k, 0.0) + v
+    seconds = STARTUP_S + sum(c.seconds for c in costs.values())
+    tri = env.triangles if {"solids", "step_files"} & set(stages) else 0.0
+    return Estimate(
+        stages=costs,
+        memory=main + workers_mem,
+        main_memory=main,
+        worker_memory=workers_mem,
+        peak_stage=peak_stage,
+        seconds=seconds,
+        output=output,
+        output_bytes=float(sum(output.values())),
+        profile_vertices=verts if "dxf" in scene.formats else 0.0,
+        mesh_triangles=tri,
+        workers=env.workers,
+    )
+
+
+# --- the keys a refusal can name, and how to change them ------------------------------
+def _set(section: str, key: str):
+    def setter(s, v):
+        return replace(s, **{section: {**getattr(s, section), key: v}})
+
+    return setter
+
+
+def _get(section: str, key: str):
+    def getter(s):
+        return getattr(s, section)[key]
+
+    return getter
+
+
+#: Scene key -> (get, set, integer, larger is cheaper, largest allowed).
+KNOBS = {
+    "[solver] positions": (
+        lambda s: s.solver.positions,
+        lambda s, v: replace(s, solver=replace(s.solver, positions=v)),
+        True,
+        False,
+        None,
+    ),
+    "[solver] crank_angles_deg": (
+        lambda s: len(s.solver.crank_angles_deg),
+        lambda s, v: replace(
+            s, solver=replace(s.solver, crank_angles_deg=s.solver.crank_angles_deg[:v])
+        ),
+        True,
+        False,
+        None,
+    ),
+    "[export] interference_positions": (
+        lambda s: s.positions_for("mesh" if s.interference_method == "mesh" else "exact"),
+        lambda s, v: replace(s, interference_positions=v),
+        True,
+        False,
+        None,
+    ),
+    "[export] assembly_angles_deg": (
+        lambda s: len(s.assembly_angles_deg),
+        lambda s, v: replace(s, assembly_angles_deg=s.assembly_angles_deg[:v]),
+        True,
+        False,
+        None,
+    ),
+    "[export] chord_tolerance": (
+        lambda s: s.chord_tolerance,
+        lambda s, v: replace(s, chord_tolerance=v),
+        False,
+        True,
+        10.0,
+    ),
+    "[export] tolerance": (
+        lambda s: s.tolerance,
+        lambda s, v: replace(s, tolerance=v),
+        False,
+        True,
+        10.0,
+    ),
+    "[inspection] point_spacing": (
+        lambda s: s.inspection["point_spacing"],
+        _set("inspection", "point_spacing"),
+        False,
+        True,
+        100.0,
+    ),
+    **{
+        f"[{sec}] {key}": (
+            _get(sec, key),
+            _set(sec, key),
+            True,
+            False,
+            None,
         )
-    if est.mesh_triangles > MAX_MESH_TRIANGLES:
-        ok = scene.chord_tolerance * (est.mesh_triangles / MAX_MESH_TRIANGLES) ** 2
+        for sec, key in (
+            ("montecarlo", "samples"),
+            ("montecarlo", "positions"),
+            ("montecarlo", "allocation_samples"),
+            ("sweeps", "points"),
+            ("sweeps", "positions"),
+            ("datasheet", "positions_per_mesh"),
+            ("datasheet", "transmission_error_positions_per_turn"),
+        )
+    },
+}
+
+
+def _fitting_value(scene, key: str, fits) -> float | None:
+    """The value of ``key`` nearest the scene's with which ``fits(scene')`` holds, or None."""
+    get, put, integer, up, high = KNOBS[key]
+    now = get(scene)
+    if integer:
+        if now <= 1 or not fits(put(scene, 1)):
+            return None
+        lo, hi = 1, now  # fits at lo, not at hi
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (mid, hi) if fits(put(scene, mid)) else (lo, mid)
+        return lo
+    if not up or not fits(put(scene, high)):
+        return None
+    lo, hi = now, high  # not at lo, fits at hi
+    for _ in range(40):
+        mid = math.sqrt(lo * hi)
+        lo, hi = (lo, mid) if fits(put(scene, mid)) else (mid, hi)
+    value = round_up(hi)
+    while value < high and not fits(put(scene, value)):
+        value = round_up(value * 1.05)
+    return min(value, high)
+
+
+def _blame(scene, est: Estimate, stages: list[str], fits) -> tuple[str, str]:
+    """The key to name and what to say of it: ``(key = value, 'N would fit')``."""
+    set_keys = {f"[{sec}] {k}" for sec, vals in scene.source.items() for k in vals}
+    candidates: list[str] = []
+    for name in stages:
+        for key in est.stages[name].knobs:
+            if key in KNOBS and key not in candidates:
+                candidates.append(key)
+    # Keys the scene set first, then the defaults, each in the stages' order.
+    candidates.sort(key=lambda k: k not in set_keys)
+    for key in candidates:
+        ok = _fitting_value(scene, key, fits)
+        if ok is not None:
+            get = KNOBS[key][0]
+            return f"{key} = {_show(get(scene), key)}", f"{_show(ok, key)} would fit"
+    key = candidates[0] if candidates else ""
+    if key in KNOBS:
+        return f"{key} = {_show(KNOBS[key][0](scene), key)}", "no single value of it fits"
+    return key or "the scene", "reduce its sizes"
+
+
+def _show(v, key: str) -> str:
+    if key in ("[solver] crank_angles_deg", "[export] assembly_angles_deg"):
+        return f"{v} angles" if isinstance(v, int) else str(v)
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def _gb(x: float) -> str:
+    """A budget, in the GB it is given in."""
+    return f"{x / GB:.3g} GB"
+
+
+def _size(x: float) -> str:
+    """A need: MB below 1 GB, else GB."""
+    return f"{x / 1024**2:.3g} MB" if x < GB else f"{x / GB:.3g} GB"
+
+
+def check_scene(
+    scene, workers: int | None = None, budget: Budget | None = None, executor: str = "process"
+) -> Estimate:
+    """Refuse a scene whose run would pass its budget or a structural limit; its estimate.
+
+    One :class:`SceneError` line: the key, its value, the need and the budget,
+    a value that fits, and how to raise the budget.
+    """
+    budget = budget or budget_for(scene)
+    check_structure(scene)
+    est = estimate(scene, workers, executor)
+    stages = list(est.stages)
+
+    def order(first: str) -> list[str]:
+        return [first] + [n for n in stages if n != first]
+
+    if est.memory > budget.memory_bytes:
+
+        def fits(s) -> bool:
+            return estimate(s, workers, executor).memory <= budget.memory_bytes
+
+        what, fit = _blame(scene, est, order(est.peak_stage), fits)
         raise SceneError(
-            f"[export] chord_tolerance = {scene.chord_tolerance:g}: the assembly mesh would "
-            f"have about {est.mesh_triangles:.3g} triangles; at most {MAX_MESH_TRIANGLES:g}; "
-            f"chord_tolerance = {_round_up(ok):g} would work"
+            f"{what}: the run would need about {_size(est.memory)} of memory (at "
+            f"{est.peak_stage}); the budget is {_gb(budget.memory_bytes)} "
+            f"({budget.memory_from}); {fit}, or raise it with --max-memory GB or "
+            "[budget] memory_gb"
+        )
+    if est.output_bytes > budget.output_bytes:
+
+        def fits_out(s) -> bool:
+            return estimate(s, workers, executor).output_bytes <= budget.output_bytes
+
+        big = max(est.stages, key=lambda n: _sum(est.stages[n]))
+        files = max(est.output, key=est.output.get)
+        what, fit = _blame(scene, est, order(big), fits_out)
+        raise SceneError(
+            f"{what}: the run would write about {_size(est.output_bytes)} of files ({files} "
+            f"{_size(est.output[files])}); the output budget is {_gb(budget.output_bytes)} "
+            f"({budget.output_from}); {fit}, or raise it with --max-output GB or "
+            "[budget] output_gb"
         )
     return est
 
 
-def _round_up(x: float) -> float:
-    """``x`` rounded up to two significant digits (a value to suggest)."""
-    if x <= 0:
-        return x
-    q = 10 ** (math.floor(math.log10(x)) - 1)
-    return math.ceil(x / q) * q
+def check_disk(est: Estimate, out) -> None:
+    """Refuse a run whose files would not fit on the disk of the output folder ``out``."""
+    import shutil
+    from pathlib import Path
+
+    where = Path(out).absolute()
+    while not where.exists() and where != where.parent:
+        where = where.parent
+    try:
+        free = shutil.disk_usage(where).free
+    except OSError:
+        return  # the output folder's own checks report it
+    if est.output_bytes > free:
+        raise SceneError(
+            f"the run would write about {_size(est.output_bytes)} of files; {where} has "
+            f"{_size(free)} free; free some space or choose another --out"
+        )
+
+
+def time_warning(scene, est: Estimate, budget: Budget, executor: str = "process") -> str | None:
+    """One line if the run is expected to take longer than the warning threshold."""
+    if est.seconds <= budget.warn_seconds:
+        return None
+    slow = max(est.stages, key=lambda n: est.stages[n].seconds)
+    limit = budget.warn_seconds
+
+    def fits(s) -> bool:
+        return estimate(s, est.workers, executor).seconds <= limit
+
+    what, fit = _blame(scene, est, [slow] + [n for n in est.stages if n != slow], fits)
+    fit = fit.replace("would fit", f"would take {_duration(limit)}")
+    return (
+        f"the run would take about {_duration(est.seconds)} ({slow} "
+        f"{_duration(est.stages[slow].seconds)}, {est.workers} worker"
+        f"{'s' if est.workers != 1 else ''}), more than the {_duration(limit)} warning "
+        f"threshold ({budget.warn_from}); {what}: {fit}; --warn-time S or "
+        "[budget] time_warning_s moves the threshold"
+    )

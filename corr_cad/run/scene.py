@@ -24,7 +24,7 @@ from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
-from corr_cad.run.scene_modification import parse_modification, split_design_table
+from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
     ALL,
     FORMATS,
@@ -111,11 +111,14 @@ class Scene:
     inspection: dict = field(default_factory=dict)
     #: ``[datasheet]`` with its defaults (``rated_torque_Nm`` None: from ``[load]``).
     datasheet: dict = field(default_factory=dict)
-    #: ``[modification]`` (None: the conjugate profile) and ``[assembly]``.
-    modification: Any = None
+    modification: Any = None  # [modification]; None: the conjugate profile
     assembly: dict = field(default_factory=dict)
     modification_design: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
+    #: ``[budget]``: memory_gb, output_gb, time_warning_s (None: the defaults).
+    budget: dict = field(default_factory=dict)
+    #: ``[dask]``: connect, no-workers and stall time-outs in s (None: the defaults).
+    dask: dict = field(default_factory=dict)
     #: One line per section or key that has no effect in this scene.
     warnings: tuple[str, ...] = ()
     #: ``formats = ["all"]``: the formats it left out, each with the reason.
@@ -157,6 +160,8 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
             raise SceneError(f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}")
         if len(value) > MAX_STR:
             raise SceneError(f"{where}: {len(value)} characters; at most {MAX_STR}")
+        if "\0" in value:  # os.stat would raise ValueError on the path
+            raise SceneError(f'{where} = {show(value)}: a NUL character; e.g. "measured.csv"')
         return value
     if spec.kind == "distribution":
         if not (isinstance(value, dict) and len(value) == 1):
@@ -461,6 +466,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         modification=modification,
         assembly=assembly,
         modification_design=search,
+        budget=values["budget"],
+        dask=values["dask"],
         source={
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
@@ -470,18 +477,18 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given, [modification] and
             # [assembly] where they act (the inputs of scenes without them stay as they were).
-            if (s != "datasheet" or sheet)
-            and (s != "modification" or modification is not None)
-            and (s != "assembly" or bool(assembly))
-            and (s != "modification.design" or bool(search))
+            if (s != "datasheet" or sheet) and acts(s, modification, assembly, search)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),
         formats_left_out=left_out,
     )
-    from corr_cad.run.resources import check_scene
+    from corr_cad.run.limits import check_structure
 
-    check_scene(scene)
+    # The structural limits here; the budget (memory, files, time) where the
+    # run starts, with the command line's overrides and worker count
+    # (corr_cad.run.resources.check_scene).
+    check_structure(scene)
     return scene
 
 

@@ -17,6 +17,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.modification import Modification, NormalTable, modified_profile
 
 __all__ = [
+    "acts",
     "parse_modification",
     "read_normal_table",
     "split_design_table",
@@ -58,6 +59,17 @@ def read_normal_table(path: Path) -> NormalTable:
         return NormalTable(tuple(psi), tuple(nrm), source=f"normal_table {path.name}")
     except CorrCadError as exc:
         raise SceneError(f"[modification] {exc}") from exc
+
+
+def acts(section: str, modification, assembly: dict, search: dict) -> bool:
+    """Whether a section of this module acts in the scene (only then is it recorded)."""
+    if section == "modification":
+        return modification is not None
+    if section == "assembly":
+        return bool(assembly)
+    if section == "modification.design":
+        return bool(search)
+    return True
 
 
 def split_design_table(data: dict) -> dict:

@@ -118,7 +118,7 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     for k in physical:  # the sweeps vary the nominal design: they ignore [errors]
         if not (
             forces
-            or sheet
+            or (sheet and not measured)  # the measured ring's datasheet: other parts nominal
             or mc
             or exact
             or inspected
@@ -126,8 +126,8 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         ):
             warn(
                 f"[errors] {k}",
-                "only forces, datasheet, checks, montecarlo, allocation, interference, "
-                "inspection with [load]",
+                "only forces, datasheet (without measured_profile), checks, montecarlo, "
+                "allocation, interference, inspection with [load]",
             )
     return tuple(out)
 

@@ -10,11 +10,14 @@ figures read the first, without the files.
 
 from __future__ import annotations
 
+from dataclasses import fields
+
+from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import NMM_PER_NM
-from corr_cad.run.context import RunContext, psi_contact_limit, scene_errors
+from corr_cad.run.context import RunContext, modified_curve, psi_contact_limit, scene_errors
 
-__all__ = ["datasheet_spec", "rated_torque_Nmm"]
+__all__ = ["datasheet_spec", "rated_torque_Nmm", "datasheet_errors", "ring_description"]
 
 
 def rated_torque_Nmm(scene) -> float:
@@ -44,12 +47,67 @@ def datasheet_spec(scene) -> DatasheetSpec:
     )
 
 
+def datasheet_errors(ctx: RunContext) -> ManufacturingErrors:
+    """The errors the datasheet describes.
+
+    With ``[errors] measured_profile`` it is the datasheet of the measured
+    ring with nominal other parts: the registered profile deviation alone
+    (the scene's other ``[errors]`` still reach the forces and the Monte
+    Carlo, not the datasheet). Without one, the scene's errors.
+    """
+    reg = ctx.results.registration
+    if reg is None:
+        return scene_errors(ctx)
+    measured = ManufacturingErrors(profile_deviation=reg.deviation)
+    if modified_curve(ctx) is None:
+        return measured
+    # The deviation is registered against the modified nominal: add the designed clearance.
+    from corr_cad.geometry.modification import with_modification
+
+    scene_errors(ctx)
+    return with_modification(measured, ctx.results.modification_gap)
+
+
+def _set_errors(errors: ManufacturingErrors) -> list[str]:
+    """Names of the error fields that differ from the nominal."""
+    nominal = ManufacturingErrors()
+    return [
+        f.name
+        for f in fields(errors)
+        if getattr(errors, f.name) is not None
+        and getattr(errors, f.name) != getattr(nominal, f.name)
+        and not (isinstance(getattr(errors, f.name), tuple) and not any(getattr(errors, f.name)))
+    ]
+
+
+def ring_description(ctx: RunContext) -> dict:
+    """Which ring (and which other parts) the datasheet describes: ``datasheet.json["ring"]``."""
+    reg = ctx.results.registration
+    if reg is None:
+        errs = _set_errors(ctx.scene.errors)
+        return {
+            "profile": "nominal" if "profile_deviation" not in errs else "nominal with deviation",
+            "errors_applied": errs,
+            "other_parts": "as [errors] gives them" if errs else "nominal",
+        }
+    m = ctx.manifest.get("measured_profile", {})
+    ignored = [k for k in _set_errors(ctx.scene.errors) if k != "profile_deviation"]
+    return {
+        "profile": "measured",
+        "file": m.get("source"),
+        "sha256": m.get("sha256"),
+        "registration": reg.as_dict(),
+        "other_parts": "nominal",
+        "errors_not_applied": ignored,
+    }
+
+
 def _datasheet(ctx: RunContext) -> None:
     s = ctx.scene
     ctx.results.datasheet = datasheet(
         s.design,
         datasheet_spec(s),
-        errors=scene_errors(ctx),
+        errors=datasheet_errors(ctx),
         load_share=s.solver.load_share,
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
@@ -60,6 +118,7 @@ def _meta(ctx: RunContext) -> dict:
     s = ctx.scene
     given = s.datasheet.get("rated_torque_Nm") is not None
     return {
+        "ring": ring_description(ctx),
         "rated_torque_source": (
             "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"
         ),
@@ -88,10 +147,16 @@ def _datasheet_files(ctx: RunContext) -> None:
     ds = ctx.results.datasheet
     s = ctx.scene
     names = write_datasheet_files(ds, ctx.out, _meta(ctx))
-    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design)
-    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design)
+    ring = ring_description(ctx)
+    note = (
+        f"measured ring {ring['file']}, other parts nominal"
+        if ring["profile"] == "measured"
+        else ""
+    )
+    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note)
+    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png"])
-    ctx.manifest["datasheet"] = ds.figures()
+    ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     if s.assembly:
         _assembly(ctx)
 
@@ -109,7 +174,7 @@ def _assembly(ctx: RunContext) -> None:
     res = selective_assembly(
         s.design,
         datasheet_spec(s),
-        scene_errors(ctx),
+        datasheet_errors(ctx),
         s.assembly["roller_classes_um"],
         s.assembly["target_backlash_arcmin"],
         load_share=s.solver.load_share,

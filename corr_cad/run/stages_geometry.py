@@ -11,7 +11,7 @@ import numpy as np
 from corr_cad.errors import ExportError
 from corr_cad.export.files import angle_tag
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.context import RunContext, modified_curve, raw_errors
+from corr_cad.run.context import RunContext, expected_seconds, modified_curve, raw_errors
 
 #: Part names of the files, the same for DXF, meshes and STEP.
 PART_NAMES = {"ring": "inner_gear", "cam": "disk_cam", "roller": "roller", "frame": "teeth_frame"}
@@ -198,7 +198,9 @@ def _interference(ctx: RunContext) -> None:
     rows = []
     from corr_cad.run.progress import Progress
 
-    bar = Progress(n, "      interference", "positions")
+    bar = Progress(
+        n, "      interference", "positions", expected=expected_seconds(ctx, "interference")
+    )
     for k, ang in enumerate(angles):
         asm = mesh.assembly(
             d, solids, math.radians(ang), roller_solids=rollers, stack=stack, pieces=pieces
@@ -245,10 +247,17 @@ def _interference(ctx: RunContext) -> None:
     ctx.results.interference = summary
 
 
+#: Crank positions x rollers of the exact clearance computed (and written) at a
+#: time: about 400 bytes a cell while it is computed, so 40 MB whatever the
+#: scene; only the per-position envelope (32 bytes a position and contact) is kept.
+CLEARANCE_CHUNK_CELLS = 100_000
+
+
 def _clearance(ctx: RunContext) -> None:
     from corr_cad.export import plots
-    from corr_cad.export.files import write_columns
-    from corr_cad.geometry.clearance import COLUMNS, clearance
+    from corr_cad.export.files import atomic_writer, format_columns
+    from corr_cad.geometry.clearance import COLUMNS, Clearance, clearance, merge_summaries
+    from corr_cad.run.progress import Progress
 
     s = ctx.scene
     info = ctx.results.undercut
@@ -257,19 +266,27 @@ def _clearance(ctx: RunContext) -> None:
     angles = 2.0 * np.pi * np.arange(n) / n
     # The designed clearance is the exact distance to the modified profile,
     # so the errors here are the scene's own (no modification gap added).
-    clr = clearance(s.design, angles, raw_errors(ctx), psi_end, modified_curve(ctx))
-    cols = clr.columns()
-    write_columns(
-        ctx.out / "clearance.csv",
-        COLUMNS,
-        [cols[c] for c in COLUMNS],
-        ("%.6f", "%d") + ("%.9g",) * 4,
-    )
-    plots.clearance_png(clr, ctx.out / "clearance.png", s.design)
+    errors, profile = raw_errors(ctx), modified_curve(ctx)
+    chunk = max(1, CLEARANCE_CHUNK_CELLS // s.design.roller_count)
+    fmts = ("%.6f", "%d") + ("%.9g",) * 4
+    summaries, envelopes = [], []
+    bar = Progress(n, "      clearance", "positions", expected=expected_seconds(ctx, "clearance"))
+    with atomic_writer(ctx.out / "clearance.csv") as f:
+        f.write(",".join(COLUMNS) + "\n")
+        for a in range(0, n, chunk):
+            clr = clearance(s.design, angles[a : a + chunk], errors, psi_end, profile)
+            cols = clr.columns()
+            f.write(format_columns([cols[c] for c in COLUMNS], fmts))
+            summaries.append(clr.summary())
+            envelopes.append(clr.envelope())
+            bar.update(len(clr.crank_angles))
+    bar.close()
+    env = Clearance.concatenate(envelopes)
+    plots.clearance_png(env, ctx.out / "clearance.png", s.design)
     ctx.files.extend(["clearance.csv", "clearance.png"])
-    summary = {"method": "exact", **clr.summary()}
+    summary = {"method": "exact", **merge_summaries(summaries)}
     ctx.manifest["clearance"] = summary
-    ctx.results.clearance = clr
+    ctx.results.clearance = env
 
 
 def _agreement(ctx: RunContext, angles_deg, rows, allowance, tol: float) -> dict:

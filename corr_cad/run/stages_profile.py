@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from corr_cad.geometry.profile import theoretical_profile, undercut_analysis, working_profile
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.context import RunContext, modified_curve
+from corr_cad.run.context import RunContext, expected_seconds, modified_curve
 
 
 def _undercut(ctx: RunContext) -> None:
@@ -40,8 +40,12 @@ def _dxf_geometry(ctx: RunContext) -> None:
     s = ctx.scene
     # A fine tolerance takes seconds per profile: a line with rate and time left.
     conj = ctx.results.conjugate
-    n = 2 if conj is None else 3
-    bar = Progress(n, f"      dxf profiles ({s.representation}, {s.tolerance:g} mm)", "profiles")
+    bar = Progress(
+        2 if conj is None else 3,
+        f"      dxf profiles ({s.representation}, {s.tolerance:g} mm)",
+        "profiles",
+        expected=expected_seconds(ctx, "dxf_geometry"),
+    )
     w = approximate(ctx.results.working, s.representation, s.tolerance)
     bar.update(1)
     t = approximate(ctx.results.theoretical, s.representation, s.tolerance)
@@ -99,21 +103,44 @@ def _preview_png(ctx: RunContext) -> None:
         modification_png(ctx)
 
 
+def _sha256(path) -> str:
+    """SHA-256 of a file already read (and size-checked) as the measured profile."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def _measured(ctx: RunContext) -> None:
     from dataclasses import replace
 
-    from corr_cad.export.measured_io import read_measured_points, write_deviation_dxf
+    from corr_cad.export.measured_io import MAX_MEASURED_POINTS, read_measured, write_deviation_dxf
     from corr_cad.tolerance.measured import check_fit, register, validate_points
 
     s = ctx.scene
     w = ctx.results.working
     src = str(s.measured_profile)
-    pts = validate_points(read_measured_points(s.measured_profile), w, src)
+    got = read_measured(s.measured_profile, design=s.design)
+    if got.stride > 1:
+        ctx.progress(
+            f"      measured profile: {got.rows} points read, 1 in {got.stride} kept "
+            f"({len(got.points)} points, at most {MAX_MEASURED_POINTS}: "
+            f"{len(got.points) // s.design.tooth_count} a tooth)"
+        )
+    pts = validate_points(got.points, w, src)
     reg = register(w, pts)
     check_fit(reg, s.design.eccentricity, src)
     ctx.results.registration, ctx.results.measured_points = reg, pts
     ctx.results.errors = replace(s.errors, profile_deviation=reg.deviation)
-    ctx.manifest["measured_profile"] = {"source": s.measured_profile.name, **reg.as_dict()}
+    ctx.manifest["measured_profile"] = {
+        "source": s.measured_profile.name,
+        "sha256": _sha256(s.measured_profile),
+        **reg.as_dict(),
+        "read": got.as_dict(),
+    }
     ctx.progress(
         f"      registered: rotation {reg.rotation_deg:.4g} deg, centre "
         f"({reg.centre_mm[0]:.4g}, {reg.centre_mm[1]:.4g}) mm, rms {reg.rms_mm:.3g} mm"

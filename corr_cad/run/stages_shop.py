@@ -11,9 +11,11 @@ import math
 
 import numpy as np
 
-from corr_cad.run.context import RunContext, scene_errors
+from corr_cad.run.context import RunContext, psi_contact_limit, scene_errors
 
-__all__ = ["edm_files", "cmm_points", "inspection"]
+__all__ = ["edm_files", "cmm_points", "inspection", "predicted_line"]
+
+_PLAY = ("backlash_arcmin", "lost_motion_arcmin", "transmission_error_arcsec")
 
 
 def edm_files(ctx: RunContext) -> None:
@@ -90,6 +92,80 @@ def cmm_points(ctx: RunContext) -> None:
         "normal": "unit, from the ring material into the opening",
         "tooth": "tooth space k centred at polar angle (k - 1) 360/z deg, from tip to tip",
     }
+
+
+def _predicted(ctx: RunContext) -> dict:
+    """The measured ring's predicted backlash, lost motion and transmission error.
+
+    The measured ring with nominal other parts (as the datasheet describes
+    it), beside the nominal design, in catalogue units. From the datasheet
+    when this run made it, else from five windup solves per ring
+    (:func:`corr_cad.mechanics.datasheet.play_figures`). Lost motion and
+    transmission error need the rated torque; backlash does not.
+    """
+    from corr_cad.mechanics.datasheet import DatasheetSpec, play_figures
+    from corr_cad.mechanics.windup import ARCMIN_PER_RAD, Windup, revolution_classes
+    from corr_cad.run.stages_datasheet import datasheet_errors, datasheet_spec, ring_description
+
+    s = ctx.scene
+    errors = datasheet_errors(ctx)
+    common = {
+        "load_share": s.solver.load_share,
+        "variants": s.solver.variants,
+        "psi_contact_limit": psi_contact_limit(ctx),
+    }
+    out: dict = {
+        "ring": ring_description(ctx),
+        "convention": "output windup, input locked, ring fixed (see datasheet.json)",
+    }
+    if s.datasheet.get("rated_torque_Nm") is None and s.load is None:
+        per_turn = s.datasheet.get("transmission_error_positions_per_turn", 360)
+        for name, err in (("measured", errors), ("nominal", None)):
+            x, _ = revolution_classes(s.design, per_turn, err, s.solver.variants)
+            b = Windup(s.design, x, errors=err, **common).backlash() * ARCMIN_PER_RAD
+            out[name] = {
+                "backlash_arcmin": {
+                    "min": float(b.min()),
+                    "mean": float(b.mean()),
+                    "max": float(b.max()),
+                    "definition": "theta(0+) - theta(0-)",
+                }
+            }
+        out["not_computed"] = (
+            "lost motion and transmission error need the rated torque: set [load] "
+            "input_torque (N*mm) or [datasheet] rated_torque_Nm"
+        )
+        return out
+    spec: DatasheetSpec = datasheet_spec(s)
+    ds = ctx.results.datasheet
+    if ds is not None:
+        fig = ds.figures()
+        out["measured"] = {k: fig[k] for k in _PLAY}
+        out["measured_source"] = "datasheet.json (same figures)"
+    else:
+        out["measured"] = play_figures(s.design, spec, errors=errors, **common)
+        out["measured_source"] = "windup at the transmission-error positions"
+    out["nominal"] = play_figures(s.design, spec, errors=None, **common)
+    out["rated_torque_Nm"] = spec.rated_torque / 1000.0
+    return out
+
+
+def predicted_line(p: dict) -> str:
+    """The predicted figures in one console line.
+
+    >>> predicted_line({"measured": {"backlash_arcmin": {"max": 0.5}}})
+    'measured ring, other parts nominal: backlash 0.5 arcmin'
+    """
+    m = p["measured"]
+    parts = [f"backlash {m['backlash_arcmin']['max']:.4g} arcmin"]
+    if "lost_motion_arcmin" in m:
+        parts.append(f"lost motion {m['lost_motion_arcmin']['max']:.4g} arcmin")
+        te = m["transmission_error_arcsec"]
+        parts.append(
+            f"transmission error {te['forward_peak_to_peak']:.4g} / "
+            f"{te['reverse_peak_to_peak']:.4g} arcsec (forward / reverse)"
+        )
+    return "measured ring, other parts nominal: " + ", ".join(parts)
 
 
 def _force_comparison(ctx: RunContext) -> dict:
@@ -181,6 +257,7 @@ def inspection(ctx: RunContext) -> None:
         "passed": all(v["passed"] for v in verdicts.values()),
         "design_fit": fit,
         "forces": _force_comparison(ctx),
+        "predicted": _predicted(ctx),
         "definitions": "see README 'Inspection report' (ISO 1328-1 adapted)",
     }
     if against is not None:
@@ -191,7 +268,7 @@ def inspection(ctx: RunContext) -> None:
     ctx.manifest["inspection"] = {
         k: summary[k]
         for k in ("passed", "limits", "profile_deviation_max_mm", "runout_mm")
-        + ("cumulative_pitch_total_arcsec",)
+        + ("cumulative_pitch_total_arcsec", "predicted")
     }
     ctx.manifest["inspection"]["failed"] = [
         f"{k} tooth {v['tooth']} value {v['value']:.6g} {v['unit']} > {v['limit']:g} "
@@ -201,3 +278,4 @@ def inspection(ctx: RunContext) -> None:
     ]
     for k, v in verdicts.items():
         ctx.progress(f"      inspection {verdict_line(k, v)}")
+    ctx.progress(f"      {predicted_line(summary['predicted'])}")

@@ -9,7 +9,7 @@ import numpy as np
 
 from corr_cad.errors import SceneError, SolverError
 from corr_cad.mechanics.solver import solve_forces
-from corr_cad.run.context import RunContext, psi_contact_limit, scene_errors
+from corr_cad.run.context import RunContext, expected_seconds, psi_contact_limit, scene_errors
 
 
 def _montecarlo(ctx: RunContext) -> None:
@@ -22,7 +22,7 @@ def _montecarlo(ctx: RunContext) -> None:
     s = ctx.scene
     mc_cfg = s.montecarlo
     n = mc_cfg["samples"]
-    bar = Progress(n, "      montecarlo", "samples")
+    bar = Progress(n, "      montecarlo", "samples", expected=expected_seconds(ctx, "montecarlo"))
 
     def tick(done: int, total: int) -> None:
         bar.update(done - bar.done)
@@ -115,19 +115,39 @@ def _allocation(ctx: RunContext) -> None:
     }
     d, m0 = s.design, s.load.input_torque
     rows = []
+    from corr_cad.run.costs import ALLOCATION_EVALUATIONS
     from corr_cad.run.progress import Progress
 
-    bar = Progress(2 * len(s.tolerances), "      allocation", "searches")
+    # Counted in Monte Carlo runs; the total is re-estimated as each search
+    # narrows (allocate's own expected count, a typical count for the searches
+    # still to come).
+    searches = 2 * len(s.tolerances)
+    bar = Progress(
+        searches * ALLOCATION_EVALUATIONS,
+        "      allocation",
+        "Monte Carlo runs",
+        expected=expected_seconds(ctx, "allocation"),
+    )
+    state = {"finished": 0, "left": searches}
+
+    def tick(done: int, expected: int, rate: float) -> None:
+        bar.total = state["finished"] + expected + (state["left"] - 1) * ALLOCATION_EVALUATIONS
+        bar.update(1)
+
+    def search(*args, **extra) -> dict:
+        r = allocate(*args, progress=tick, **extra, **kw)
+        state["finished"] += r["evaluations"]
+        state["left"] -= 1
+        return r
+
     for kind in s.tolerances:
         # Jointly: the other tolerances as given; alone: the others perfect.
-        joint = allocate(d, m0, s.tolerances, s.checks, kind, **kw)
-        bar.update(1)
+        joint = search(d, m0, s.tolerances, s.checks, kind)
         dist = s.tolerances[kind].kind
-        alone = allocate(d, m0, {}, s.checks, kind, distribution=dist, **kw)
+        alone = search(d, m0, {}, s.checks, kind, distribution=dist)
         joint["tolerance_alone"] = alone["tolerance"]
         if "why_zero" in alone and alone["why_zero"] != joint.get("why_zero"):
             joint["why_zero_alone"] = alone["why_zero"]
-        bar.update(1)
         rows.append(joint)
     bar.close()
 
@@ -183,7 +203,7 @@ def _sweeps(ctx: RunContext) -> None:
                 f"[sweeps] {name} = {given!r}: no point of this range is a valid design ({why})"
             )
     total = sum(s.sweeps["points"] for r in ranges.values() if r["swept"] is not None)
-    bar = Progress(total, "      sweeps", "points")
+    bar = Progress(total, "      sweeps", "points", expected=expected_seconds(ctx, "sweeps"))
     results = run_sweeps(
         s.design,
         s.load.input_torque,

@@ -80,11 +80,38 @@ __all__ = [
     "smallest_concave_radius",
     "lead_in_psi",
     "check_lead_in",
+    "check_lead_in_steps",
+    "gcode_decimals",
     "plan_cut",
 ]
 
 #: ``[edm] compensation``: offset in the path, or by the control to the left/right.
 COMPENSATIONS = ("path", "G41", "G42")
+
+#: The lead-in arc must span at least this many of the G-code's coordinate
+#: steps: shorter, its rounded ends collapse onto one point (a lead-in of one
+#: step at 4 decimals was still written, a tenth of a step was not).
+LEAD_IN_STEPS = 10
+
+
+def gcode_decimals(tolerance: float) -> int:
+    """Decimals of the written coordinates: a step of at most a tenth of ``tolerance``."""
+    return max(4, math.ceil(1.0 - math.log10(tolerance) - 1e-9))
+
+
+def check_lead_in_steps(lead_in_length: float, tolerance: float) -> None:
+    """Refuse a lead-in shorter than :data:`LEAD_IN_STEPS` G-code steps at ``tolerance``.
+
+    Its arc's rounded ends would fall on one point of the coordinate grid.
+    """
+    step = 10.0 ** -gcode_decimals(tolerance)
+    low = LEAD_IN_STEPS * step
+    if lead_in_length < low:
+        raise SceneError(
+            f"[edm] lead_in_length = {lead_in_length:g}: allowed range at [export] tolerance = "
+            f"{tolerance:g} is [{low:g}, 50] mm (at least {LEAD_IN_STEPS} of the G-code's "
+            f"{step:g} mm steps); lead_in_length = {low:g} would work"
+        )
 
 
 @dataclass(frozen=True)
@@ -412,7 +439,8 @@ def plan_cut(
     z, r = working.tooth_count, working.offset
     # The wire path keeps the profile's own shape (a modification's normal table too).
     path = replace(working, offset=r - (d if spec.compensation == "path" else 0.0))
-    decimals = max(4, math.ceil(-math.log10(tolerance / 10.0) - 1e-9))
+    decimals = gcode_decimals(tolerance)
+    check_lead_in_steps(spec.lead_in_length, tolerance)
     quantum = 10.0**-decimals
     approx = approximate(path, "arcs", tolerance - 3.0 * quantum)
     verts, bulges = approx.vertices, approx.bulges

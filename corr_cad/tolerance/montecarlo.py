@@ -232,17 +232,29 @@ def _kernel_chunk(design, input_torque, angles, load_share, base, tolerances, dr
 
 
 class SerialExecutor:
-    """Runs tasks in this process; the ``submit`` interface of ``concurrent.futures``."""
+    """Runs tasks in this process; the ``submit`` interface of ``concurrent.futures``.
 
-    class _Done:
-        def __init__(self, value):
-            self._value = value
+    A task runs when its result is first asked for, not at ``submit``: the
+    caller collecting results in order sees each one as it is done (a
+    progress line after each), as with a pool, instead of all work done
+    before the first result (which once read "280h22m left").
+    """
+
+    class _Lazy:
+        def __init__(self, fn, args):
+            self._fn, self._args, self._done = fn, args, False
 
         def result(self):
+            if not self._done:
+                self._value = self._fn(*self._args)
+                self._done, self._fn, self._args = True, None, None
             return self._value
 
+        def done(self) -> bool:
+            return self._done
+
     def submit(self, fn, *args):
-        return self._Done(fn(*args))
+        return self._Lazy(fn, args)
 
 
 def _magnitudes(units, tolerances) -> dict[str, np.ndarray]:

@@ -1,0 +1,241 @@
+"""The resource estimate against whole runs: ``corr-cad bench --study resources``.
+
+Each scene of a grid runs through the real CLI in a child process (under an
+address-space cap, so a wrong estimate cannot take the machine's memory);
+a thread reads the peak RSS (``VmHWM``) of every process of the run's tree
+every 20 ms and sums the peaks (the estimate is for the main process plus
+its pool workers, so it is compared with the same sum). Also the wall time
+and the bytes written, against the estimate the run printed. The memory
+estimate must never be below the measured peak.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from corr_cad.run.bench_common import _table, _write_csv
+
+__all__ = ["resources", "GRID", "measure"]
+
+#: Address-space cap of every benchmark run (numba, OCP and thread stacks
+#: reserve far more address space than they touch).
+CAP_BYTES = 10 * 1024**3
+
+_MC = "[load]\ninput_torque = 1.1e5\n[tolerances]\nroller_radius = { normal = 0.001 }\n"
+_Z1000 = "[design]\ntooth_count = 1000\neccentricity = 0.05\nroller_radius = 0.3\n"
+
+#: name -> (scene text, extra CLI arguments, in the quick grid?)
+GRID = {
+    "forces 3600": ('[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n', (), True),
+    "forces 120855": (
+        '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
+        "[solver]\npositions = 120855\n",
+        (),
+        True,
+    ),
+    "forces 300000": (
+        '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
+        "[solver]\npositions = 300000\n",
+        (),
+        False,
+    ),
+    "clearance 36000": (
+        '[export]\nformats = ["interference"]\ninterference_positions = 36000\n',
+        (),
+        True,
+    ),
+    "clearance z1000 15000": (
+        _Z1000 + '[export]\nformats = ["interference"]\ninterference_positions = 15000\n',
+        (),
+        False,
+    ),
+    "mesh interference 12": (
+        '[export]\nformats = ["interference"]\ninterference_method = "both"\n'
+        "interference_positions = 12\n",
+        (),
+        False,
+    ),
+    "meshes 4 formats x 4": (
+        '[export]\nformats = ["stl", "3mf", "glb", "ply"]\n'
+        "assembly_angles_deg = [0.0, 5.0, 10.0, 15.0]\n",
+        (),
+        True,
+    ),
+    "stl 1e-4 x 2": (
+        '[export]\nformats = ["stl"]\nchord_tolerance = 0.0001\nassembly_angles_deg = [0.0, 7.0]\n',
+        (),
+        False,
+    ),
+    "step x 2": (
+        '[export]\nformats = ["step", "png"]\nassembly_angles_deg = [0.0, 7.0]\n',
+        (),
+        False,
+    ),
+    "dxf 1e-4 edm cmm report": (
+        '[export]\nformats = ["dxf", "png", "edm", "cmm", "report"]\ntolerance = 0.0001\n',
+        (),
+        True,
+    ),
+    "montecarlo 3000 serial": (
+        '[export]\nformats = ["montecarlo"]\n' + _MC + "[montecarlo]\nsamples = 3000\n",
+        ("--executor", "serial"),
+        True,
+    ),
+    "montecarlo 20000 pool": (
+        '[export]\nformats = ["montecarlo"]\n' + _MC + "[montecarlo]\nsamples = 20000\n",
+        (),
+        False,
+    ),
+    "allocation 400": (
+        '[export]\nformats = ["allocation"]\n' + _MC + "[checks]\nmax_gear_force = 5000.0\n"
+        "[montecarlo]\nallocation_samples = 400\n",
+        (),
+        False,
+    ),
+    "sweeps 40": (
+        '[export]\nformats = ["sweeps"]\n[load]\ninput_torque = 1.1e5\n[sweeps]\npoints = 40\n',
+        (),
+        True,
+    ),
+    "measured 2M rows": ("", (), False),  # the file is written by the study
+}
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    try:
+        for tid in os.listdir(f"/proc/{pid}/task"):
+            with open(f"/proc/{pid}/task/{tid}/children") as f:
+                out += [int(c) for c in f.read().split()]
+    except OSError:
+        pass
+    return out
+
+
+def _hwm(pid: int) -> float:
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024.0
+    except OSError:
+        pass
+    return 0.0
+
+
+def measure(folder: Path, scene: str, args=(), timeout: float = 900) -> dict:
+    """Run ``scene`` from ``folder``; peak bytes of its process tree, seconds, bytes written."""
+    (folder / "s.toml").write_text(scene)
+    out = folder / "out"
+    cmd = [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet", *args]
+    if os.path.exists("/usr/bin/prlimit"):
+        cmd = ["prlimit", f"--as={CAP_BYTES}", *cmd]
+    t0 = time.monotonic()
+    p = subprocess.Popen(cmd, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    peaks: dict[int, float] = {}
+    stop = threading.Event()
+
+    def poll():
+        while not stop.is_set():
+            todo = [p.pid]
+            while todo:
+                pid = todo.pop()
+                peaks[pid] = max(peaks.get(pid, 0.0), _hwm(pid))
+                todo += _children(pid)
+            stop.wait(0.02)
+
+    poller = threading.Thread(target=poll, daemon=True)
+    poller.start()
+    try:
+        _, err = p.communicate(timeout=timeout)
+    finally:
+        stop.set()
+        poller.join()
+    seconds = time.monotonic() - t0
+    if p.returncode not in (0, 1):
+        raise RuntimeError(f"{scene!r} failed: {err.decode()[-400:]}")
+    files = sum(f.stat().st_size for f in out.iterdir()) if out.exists() else 0
+    return {"peak": sum(peaks.values()), "seconds": seconds, "bytes": files}
+
+
+def _measured_file(folder: Path, rows: int) -> str:
+    import numpy as np
+
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.geometry.profile import working_profile
+
+    w = working_profile(GearDesign())
+    with open(folder / "m.csv", "w") as f:
+        f.write("x,y\n")
+        t = np.linspace(0.0, 2 * np.pi, rows, endpoint=False)
+        for a in range(0, rows, 500_000):
+            np.savetxt(f, w.points(t[a : a + 500_000]), fmt="%.4f", delimiter=",")
+    return (
+        '[export]\nformats = ["inspection", "forces"]\n[load]\ninput_torque = 1.1e5\n'
+        '[errors]\nmeasured_profile = "m.csv"\n'
+    )
+
+
+def resources(out: Path, quick: bool = False) -> list:
+    """Estimate / measured peak memory, time and bytes over the grid; table, CSV, PNG."""
+    import shutil
+    import tempfile
+
+    from corr_cad.export.bench_plots import resources_png
+    from corr_cad.run.resources import estimate
+    from corr_cad.run.scene import load_scene
+
+    rows = []
+    for name, (scene, args, in_quick) in GRID.items():
+        if quick and not in_quick:
+            continue
+        folder = Path(tempfile.mkdtemp(prefix="corr-cad-bench-"))
+        try:
+            if name.startswith("measured"):
+                scene = _measured_file(folder, 2_000_000)
+            (folder / "s.toml").write_text(scene)
+            serial = "serial" in args
+            est = estimate(load_scene(folder / "s.toml"), 1 if serial else None,
+                           "serial" if serial else "process")  # fmt: skip
+            got = measure(folder, scene, args)
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+        mb = 1024.0**2
+        rows.append(
+            [
+                name,
+                est.memory / mb,
+                got["peak"] / mb,
+                est.memory / got["peak"],
+                est.seconds,
+                got["seconds"],
+                est.seconds / got["seconds"],
+                est.output_bytes / mb,
+                got["bytes"] / mb,
+                (est.output_bytes / got["bytes"]) if got["bytes"] else float("nan"),
+            ]
+        )
+    header = [
+        "scene",
+        "est_memory_MB",
+        "peak_MB",
+        "memory_ratio",
+        "est_time_s",
+        "time_s",
+        "time_ratio",
+        "est_output_MB",
+        "output_MB",
+        "output_ratio",
+    ]
+    _table("Resource estimate / measured (peak RSS of the process tree)", header, rows)
+    _write_csv(out, "resources.csv", header, rows)
+    resources_png(out / "resources.png", rows)
+    low = [r[0] for r in rows if r[3] < 1.0]
+    if low:
+        print(f"MEMORY ESTIMATE BELOW THE PEAK: {', '.join(low)}")
+    return rows
