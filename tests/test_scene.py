@@ -94,7 +94,7 @@ def test_all_formats_leave_out_what_the_scene_cannot_make():
     s = parse_scene({"export": {"formats": ["all"]}})
     left = dict(s.formats_left_out)
     need_load = {"forces", "montecarlo", "allocation", "sweeps"}
-    assert set(left) == need_load | {"datasheet", "inspection"} | (
+    assert set(left) == need_load | {"datasheet", "inspection", "modification"} | (
         set() if _has_ocp() else {"step"}
     )
     assert all(left[f] == "no [load] torque" for f in need_load)

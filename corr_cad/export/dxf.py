@@ -47,6 +47,7 @@ PART_FILES = {
 LAYERS = {
     "WORKING_PROFILE": 1,
     "THEORETICAL_PROFILE": 8,
+    "CONJUGATE_PROFILE": 9,
     "RING_OUTER": 7,
     "CAM_OUTER": 7,
     "CAM_BORE": 5,
@@ -159,23 +160,31 @@ def write_inner_gear(
     working: ProfileApproximation,
     theoretical: ProfileApproximation,
     path: Path,
+    conjugate: ProfileApproximation | None = None,
+    modification: dict | None = None,
 ) -> Path:
-    """Inner gear ring: working profile, theoretical profile (own layer), outer circle."""
-    doc = _new_doc(
-        design,
-        "inner_gear",
-        {
-            "corr_cad.representation": working.representation,
-            "corr_cad.tolerance_mm": working.tolerance,
-            "corr_cad.max_deviation_mm": working.max_deviation,
-            "corr_cad.within_tolerance": str(working.within_tolerance).lower(),
-            "corr_cad.theoretical_max_deviation_mm": theoretical.max_deviation,
-            "corr_cad.theoretical_within_tolerance": str(theoretical.within_tolerance).lower(),
-        },
-    )
+    """Inner gear ring: working profile, theoretical profile (own layer), outer circle.
+
+    With a profile modification the working profile is the modified one and
+    the unmodified conjugate profile sits on the reference layer
+    ``CONJUGATE_PROFILE`` (not to be cut).
+    """
+    extra = {
+        "corr_cad.representation": working.representation,
+        "corr_cad.tolerance_mm": working.tolerance,
+        "corr_cad.max_deviation_mm": working.max_deviation,
+        "corr_cad.within_tolerance": str(working.within_tolerance).lower(),
+        "corr_cad.theoretical_max_deviation_mm": theoretical.max_deviation,
+        "corr_cad.theoretical_within_tolerance": str(theoretical.within_tolerance).lower(),
+    }
+    if modification is not None:
+        extra.update({f"corr_cad.modification.{k}": v for k, v in modification.items()})
+    doc = _new_doc(design, "inner_gear", extra)
     msp = doc.modelspace()
     _add_profile(msp, working, _layer(doc, "WORKING_PROFILE"))
     _add_profile(msp, theoretical, _layer(doc, "THEORETICAL_PROFILE"))
+    if conjugate is not None:
+        _add_profile(msp, conjugate, _layer(doc, "CONJUGATE_PROFILE"))
     msp.add_circle(
         (0.0, 0.0), design.ring_outer_radius, dxfattribs={"layer": _layer(doc, "RING_OUTER")}
     )
@@ -226,12 +235,19 @@ def write_all(
     working: ProfileApproximation,
     theoretical: ProfileApproximation,
     out_dir: Path,
+    conjugate: ProfileApproximation | None = None,
+    modification: dict | None = None,
 ) -> dict[str, Path]:
     """Write the four part files into ``out_dir``; returns ``{part: path}``."""
     out_dir = Path(out_dir)
     return {
         "inner_gear": write_inner_gear(
-            design, working, theoretical, out_dir / PART_FILES["inner_gear"]
+            design,
+            working,
+            theoretical,
+            out_dir / PART_FILES["inner_gear"],
+            conjugate,
+            modification,
         ),
         "disk_cam": write_disk_cam(design, out_dir / PART_FILES["disk_cam"]),
         "roller": write_roller(design, out_dir / PART_FILES["roller"]),

@@ -327,6 +327,11 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
     meas = manifest.get("measured_profile")
     if meas:
         ctx["measured"] = _flat(meas)
+    mod = manifest.get("modification")
+    if mod:
+        ctx["modification"] = _flat(mod)
+    if manifest.get("assembly"):
+        ctx["assembly"] = _assembly_rows(Path(out) / "assembly.json")
     ctx["files"] = [{"name": n, "accuracy": _accuracy_of(n, manifest)} for n in sorted(files)]
     ctx["plots"] = [
         {
@@ -411,6 +416,33 @@ def _datasheet_rows(d: dict) -> dict:
         ),
         "hysteresis": d["hysteresis_loss_note"],
         "ring": ring_line(d.get("ring")),
+    }
+
+
+def _assembly_rows(path: Path) -> dict:
+    """The selective-assembly table: one row per roller class, the chosen one marked."""
+    import json
+
+    a = json.loads(path.read_text())
+    rows = [
+        {
+            "class_um": _fmt(r["class_um"]),
+            "binds": "yes" if r["binds"] else "no",
+            "backlash": _fmt(r["backlash_arcmin"]["max"]),
+            "lost_motion": _fmt(r["lost_motion_arcmin"]["max"]),
+            "rigidity": _fmt(r["torsional_rigidity_Nm_per_arcmin"]),
+            "te": _fmt(max(r["transmission_error_arcsec"].values())),
+            "pressure": _fmt(r["peak_contact_pressure_at_rated_MPa"]),
+            "chosen": r["class_um"] == a["chosen_class_um"],
+        }
+        for r in a["classes"]
+    ]
+    return {
+        "ring": a["ring"],
+        "target": _fmt(a["target_backlash_arcmin"]),
+        "chosen": a["chosen_class_um"],
+        "reason": a["reason"],
+        "rows": rows,
     }
 
 

@@ -271,11 +271,15 @@ def clearance(
     crank_angles: np.ndarray,
     errors: ManufacturingErrors | None = None,
     psi_end: float | None = None,
+    profile=None,
 ) -> Clearance:
     """Signed clearances of every roller at crank angles (P,) rad (relative to the frame).
 
     ``psi_end`` (rad): the trimmed tip of an allowed undercut, see
-    :func:`distance_to_working_profile`.
+    :func:`distance_to_working_profile`. ``profile``: a modified working
+    profile (:mod:`corr_cad.geometry.modification`); the ring clearance is
+    then the exact distance to it (a converged projection), not to the
+    conjugate profile.
     """
     errors = errors or ManufacturingErrors()
     z, R = design.tooth_count, design.roller_count
@@ -304,6 +308,11 @@ def clearance(
     dist = r - off
     if psi_end is not None and psi_end < math.pi:
         dist = distance_to_working_profile(design, q, psi_end)
+    if profile is not None:
+        from corr_cad.geometry.projection import signed_normal_distance
+
+        sd, t_flat = signed_normal_distance(profile, q.reshape(-1, 2), t_gear.reshape(-1))
+        dist, t_foot = -sd.reshape(t_gear.shape), t_flat.reshape(t_gear.shape)
     if errors.profile_deviation is not None:
         dist = dist - np.asarray(errors.profile_deviation(t_foot), dtype=float)
     ring = dist - radii

@@ -91,8 +91,15 @@ class ManufacturingErrors:
         return (
             (per is not None and len(set(per)) > 1)
             or (slots is not None and len(set(slots)) > 1)
-            or self.profile_deviation is not None
+            or not self.tooth_periodic_profile
         )
+
+    @property
+    def tooth_periodic_profile(self) -> bool:
+        """True without a profile deviation, or with one alike on every tooth
+        (a designed modification, ``tooth_periodic``)."""
+        dev = self.profile_deviation
+        return dev is None or bool(getattr(dev, "tooth_periodic", False))
 
     def slot_errors(self, roller_count: int) -> np.ndarray:
         """Angular error of each slot, (z + 1,) rad."""

@@ -15,7 +15,6 @@ import math
 
 import numpy as np
 
-from corr_cad.geometry import kinematics as kin
 from corr_cad.geometry.profile import ProfileCurve
 
 __all__ = ["project", "signed_normal_distance"]
@@ -84,7 +83,7 @@ def signed_normal_distance(
     material (material removed), - is into the opening (material added).
     """
     t, foot = project(curve, q, t_seed)
-    n = kin.locus_normals(t, curve.tooth_count, curve.eccentricity, curve.link_length)
+    n = curve.normals(t)
     return np.sum((np.asarray(q, dtype=float).reshape(-1, 2) - foot) * n, axis=1), t
 
 

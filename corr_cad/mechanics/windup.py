@@ -120,7 +120,7 @@ def result_period_rad(
     repeats only after a tooth pitch.
     """
     errors = errors or ManufacturingErrors()
-    if errors.profile_deviation is not None:
+    if not errors.tooth_periodic_profile:
         return 2.0 * math.pi
     if errors.per_roller or "eq3_printed" in variants:
         return 2.0 * math.pi / design.tooth_count

@@ -222,7 +222,12 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     bad = manifest.get("inspection", {}).get("failed")
     if bad:
         print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
-    if failed or bad:
+    asm = manifest.get("assembly", {}).get("failed", []) + manifest.get(
+        "modification_design", {}
+    ).get("failed", [])
+    if asm:
+        print(f"corr-cad: {'; '.join(asm)}", file=sys.stderr)
+    if failed or bad or asm:
         return 1
     return status
 

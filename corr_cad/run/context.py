@@ -30,6 +30,8 @@ __all__ = [
     "RunContext",
     "Stage",
     "scene_errors",
+    "raw_errors",
+    "modified_curve",
     "psi_contact_limit",
     "expected_seconds",
 ]
@@ -65,6 +67,13 @@ class Results:
     clearance: Clearance | None = None
     #: ``datasheet``: the windup curve, the transmission error and their figures.
     datasheet: Datasheet | None = None
+    #: ``[modification]``: the unmodified (conjugate) working profile, its
+    #: approximation, and the modified exact profile and its gap (made on
+    #: first use by :func:`modified_curve`, :func:`scene_errors`).
+    conjugate: ProfileCurve | None = None
+    conjugate_approx: ProfileApproximation | None = None
+    modified: ProfileCurve | None = None
+    modification_gap: Any = None
 
 
 @dataclass
@@ -90,9 +99,39 @@ class Stage:
     doc: str
 
 
-def scene_errors(ctx: RunContext) -> ManufacturingErrors:
-    """The scene's errors, with a registered measured profile if there is one."""
+def raw_errors(ctx: RunContext) -> ManufacturingErrors:
+    """The scene's errors, with a registered measured profile, without the designed clearance."""
     return ctx.results.errors if ctx.results.errors is not None else ctx.scene.errors
+
+
+def modified_curve(ctx: RunContext) -> ProfileCurve | None:
+    """The modified working profile of ``[modification]`` (None without one), made once."""
+    mod = getattr(ctx.scene, "modification", None)
+    if mod is None:
+        return None
+    if ctx.results.modified is None:
+        from corr_cad.geometry.modification import modified_profile
+
+        ctx.results.modified = modified_profile(ctx.scene.design, mod)
+    return ctx.results.modified
+
+
+def scene_errors(ctx: RunContext) -> ManufacturingErrors:
+    """The scene's errors, with a registered measured profile if there is one.
+
+    With a ``[modification]`` the designed clearance is added as an initial
+    gap at the gear contact, from the exact geometry
+    (:func:`corr_cad.geometry.modification.modification_gap`).
+    """
+    base = raw_errors(ctx)
+    curve = modified_curve(ctx)
+    if curve is None:
+        return base
+    from corr_cad.geometry.modification import modification_gap, with_modification
+
+    if ctx.results.modification_gap is None:
+        ctx.results.modification_gap = modification_gap(ctx.scene.design, curve)
+    return with_modification(base, ctx.results.modification_gap)
 
 
 def psi_contact_limit(ctx: RunContext) -> float:

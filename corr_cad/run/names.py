@@ -38,7 +38,7 @@ _PARTS = _any(PART_FILE_STEMS)
 #: full) of every file that format can write.
 OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf"),
-    "png": (r"preview\.png",),
+    "png": (r"preview\.png", r"modification\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{
         fmt: (rf"{_PARTS}\.{fmt}", rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}")
@@ -54,12 +54,19 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     ),
     "datasheet": (
         r"datasheet\.json",
+        r"assembly\.json",
         r"(?:windup|transmission_error)\.csv",
         r"(?:hysteresis|transmission_error)\.png",
     ),
     "edm": (r"inner_gear_edm\.(?:dxf|nc)",),
     "cmm": (r"inner_gear_nominal\.csv",),
     "inspection": (r"inspection\.(?:csv|json|png)",),
+    "modification": (
+        r"modification\.json",
+        r"modification_tradeoff\.png",
+        r"modified\.toml",
+        r"modified_normal\.csv",
+    ),
     "report": (r"report\.html",),
 }
 

@@ -24,6 +24,7 @@ from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
+from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
     ALL,
@@ -111,6 +112,9 @@ class Scene:
     inspection: dict = field(default_factory=dict)
     #: ``[datasheet]`` with its defaults (``rated_torque_Nm`` None: from ``[load]``).
     datasheet: dict = field(default_factory=dict)
+    modification: Any = None  # [modification]; None: the conjugate profile
+    assembly: dict = field(default_factory=dict)
+    modification_design: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     #: ``[budget]``: memory_gb, output_gb, time_warning_s (None: the defaults).
     budget: dict = field(default_factory=dict)
@@ -227,6 +231,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
+    data = split_design_table(data)
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -431,6 +436,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"[inspection] point_spacing = {spacing:g}: more than 2,000,000 points; "
             "allowed range is at least 1e-6 of the circumference"
         )
+    modification, assembly, search = parse_modification(values, data, design, base_dir, load)
     scene = Scene(
         name=name,
         design=design,
@@ -459,6 +465,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         edm=values["edm"],
         inspection=values["inspection"],
         datasheet=values["datasheet"],
+        modification=modification,
+        assembly=assembly,
+        modification_design=search,
         budget=values["budget"],
         dask=values["dask"],
         source={
@@ -468,9 +477,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
                 if v is not None
             }
             for s, vals in values.items()
-            # [datasheet] is recorded where it is used or given (the inputs of
-            # scenes without it stay as they were).
-            if s != "datasheet" or sheet
+            # [datasheet] is recorded where it is used or given, [modification] and
+            # [assembly] where they act (the inputs of scenes without them stay as they were).
+            if (s != "datasheet" or sheet) and acts(s, modification, assembly, search)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

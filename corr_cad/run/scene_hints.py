@@ -83,6 +83,14 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         "sweeps": (load,),
         "inspection": (measured,),
         "step": (ocp,),
+        "modification": (
+            rated,
+            tol,
+            (
+                values.get("modification.design", {}).get("target_backlash_arcmin") is not None,
+                "no [modification.design] target_backlash_arcmin",
+            ),
+        ),
     }
     why = {f: next((w for ok, w in needs.get(f, ()) if not ok), None) for f in FORMATS}
     made = tuple(f for f in FORMATS if why.get(f) is None)

@@ -10,7 +10,12 @@ from __future__ import annotations
 from corr_cad.geometry.design import BOUNDS as DESIGN_BOUNDS
 from corr_cad.geometry.sampling import REPRESENTATIONS
 from corr_cad.mechanics.solver import VARIANTS
-from corr_cad.run import scene_schema_run, scene_schema_shop, scene_schema_tolerance
+from corr_cad.run import (
+    scene_schema_modification,
+    scene_schema_run,
+    scene_schema_shop,
+    scene_schema_tolerance,
+)
 from corr_cad.run.scene_key import (  # noqa: F401  (re-exported)
     MAX_ANGLE_DEG,
     MAX_LIST,
@@ -39,6 +44,7 @@ FORMATS = (
     "edm",
     "cmm",
     "inspection",
+    "modification",
     "report",
 )
 
@@ -346,5 +352,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     **scene_schema_tolerance.SECTIONS,
     **scene_schema_shop.SECTIONS,
+    **scene_schema_modification.SECTIONS,
     **scene_schema_run.SECTIONS,
 }

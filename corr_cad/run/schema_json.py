@@ -95,7 +95,7 @@ def scene_json_schema() -> dict:
     """
     from corr_cad.run.scene import SCHEMA
 
-    return {
+    out = {
         "$schema": SCHEMA_URI,
         "title": "corr_cad scene",
         "description": (
@@ -113,6 +113,12 @@ def scene_json_schema() -> dict:
         },
         "additionalProperties": False,
     }
+    # A dotted section ([modification.design]) is a table inside its parent in TOML.
+    for section in [s for s in SCHEMA if "." in s]:
+        parent, child = section.split(".", 1)
+        nested = out["properties"][parent].setdefault("patternProperties", {})
+        nested[f"^{child}$"] = dict(out["properties"][section])
+    return out
 
 
 def schema_text() -> str:

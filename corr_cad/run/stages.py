@@ -21,6 +21,7 @@ from corr_cad.run.stages_geometry import (
     _solids,
     _step_files,
 )
+from corr_cad.run.stages_modification import modification_design
 from corr_cad.run.stages_profile import (
     _dxf_files,
     _dxf_geometry,
@@ -73,6 +74,12 @@ STAGES: dict[str, Stage] = {
         Stage("edm_files", ("profiles",), shop.edm_files, "wire-EDM path, DXF and G-code"),
         Stage("cmm_points", ("profiles",), shop.cmm_points, "CMM nominal points"),
         Stage("inspection", ("measured_profile",), shop.inspection, "per-tooth inspection"),
+        Stage(
+            "modification_design",
+            ("undercut",),
+            modification_design,
+            "profile modification designed to targets under [tolerances]",
+        ),
         Stage("report", (), _report, "report.html (runs last, reads what the run made)"),
     )
 }
@@ -90,6 +97,7 @@ FORMAT_TARGETS = {
     "allocation": "allocation",
     "sweeps": "sweeps",
     **{"edm": "edm_files", "cmm": "cmm_points", "inspection": "inspection"},
+    "modification": "modification_design",
     "report": "report",
 }
 

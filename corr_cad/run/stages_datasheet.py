@@ -15,7 +15,7 @@ from dataclasses import fields
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import NMM_PER_NM
-from corr_cad.run.context import RunContext, psi_contact_limit, scene_errors
+from corr_cad.run.context import RunContext, modified_curve, psi_contact_limit, scene_errors
 
 __all__ = ["datasheet_spec", "rated_torque_Nmm", "datasheet_errors", "ring_description"]
 
@@ -58,7 +58,14 @@ def datasheet_errors(ctx: RunContext) -> ManufacturingErrors:
     reg = ctx.results.registration
     if reg is None:
         return scene_errors(ctx)
-    return ManufacturingErrors(profile_deviation=reg.deviation)
+    measured = ManufacturingErrors(profile_deviation=reg.deviation)
+    if modified_curve(ctx) is None:
+        return measured
+    # The deviation is registered against the modified nominal: add the designed clearance.
+    from corr_cad.geometry.modification import with_modification
+
+    scene_errors(ctx)
+    return with_modification(measured, ctx.results.modification_gap)
 
 
 def _set_errors(errors: ManufacturingErrors) -> list[str]:
@@ -150,3 +157,36 @@ def _datasheet_files(ctx: RunContext) -> None:
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
+    if s.assembly:
+        _assembly(ctx)
+
+
+def _assembly(ctx: RunContext) -> None:
+    """``[assembly]``: the roller class to fit, with each class's datasheet (assembly.json)."""
+    from corr_cad.export.files import write_json
+    from corr_cad.tolerance.assembly import selective_assembly
+
+    s = ctx.scene
+    ring = "measured ring" if s.measured_profile is not None else "nominal ring"
+    ctx.progress(
+        f"      selective assembly ({ring}): {len(s.assembly['roller_classes_um'])} classes"
+    )
+    res = selective_assembly(
+        s.design,
+        datasheet_spec(s),
+        datasheet_errors(ctx),
+        s.assembly["roller_classes_um"],
+        s.assembly["target_backlash_arcmin"],
+        load_share=s.solver.load_share,
+        variants=s.solver.variants,
+        psi_contact_limit=psi_contact_limit(ctx),
+        progress=ctx.progress,
+    )
+    res = {"ring": ring, **res}
+    write_json(ctx.out / "assembly.json", res)
+    ctx.files.append("assembly.json")
+    ctx.manifest["assembly"] = {
+        k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")
+    }
+    if res["chosen_class_um"] is None:
+        ctx.manifest["assembly"]["failed"] = [f"selective assembly failed: {res['reason']}"]

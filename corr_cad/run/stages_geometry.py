@@ -11,7 +11,7 @@ import numpy as np
 from corr_cad.errors import ExportError
 from corr_cad.export.files import angle_tag
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.context import RunContext, expected_seconds, scene_errors
+from corr_cad.run.context import RunContext, expected_seconds, modified_curve, raw_errors
 
 #: Part names of the files, the same for DXF, meshes and STEP.
 PART_NAMES = {"ring": "inner_gear", "cam": "disk_cam", "roller": "roller", "frame": "teeth_frame"}
@@ -264,7 +264,9 @@ def _clearance(ctx: RunContext) -> None:
     psi_end = math.radians(info.trimmed_psi_deg) if info.undercut and info.trimmed_psi_deg else None
     n = s.positions_for("exact")
     angles = 2.0 * np.pi * np.arange(n) / n
-    errors = scene_errors(ctx)
+    # The designed clearance is the exact distance to the modified profile,
+    # so the errors here are the scene's own (no modification gap added).
+    errors, profile = raw_errors(ctx), modified_curve(ctx)
     chunk = max(1, CLEARANCE_CHUNK_CELLS // s.design.roller_count)
     fmts = ("%.6f", "%d") + ("%.9g",) * 4
     summaries, envelopes = [], []
@@ -272,7 +274,7 @@ def _clearance(ctx: RunContext) -> None:
     with atomic_writer(ctx.out / "clearance.csv") as f:
         f.write(",".join(COLUMNS) + "\n")
         for a in range(0, n, chunk):
-            clr = clearance(s.design, angles[a : a + chunk], errors, psi_end)
+            clr = clearance(s.design, angles[a : a + chunk], errors, psi_end, profile)
             cols = clr.columns()
             f.write(format_columns([cols[c] for c in COLUMNS], fmts))
             summaries.append(clr.summary())
@@ -306,7 +308,9 @@ def _agreement(ctx: RunContext, angles_deg, rows, allowance, tol: float) -> dict
     mesh_errors = ManufacturingErrors(
         roller_radius_error=err.roller_radius_error, roller_radius_errors=err.roller_radius_errors
     )
-    clr = clearance(d, np.radians(np.asarray(angles_deg, dtype=float)), mesh_errors)
+    clr = clearance(
+        d, np.radians(np.asarray(angles_deg, dtype=float)), mesh_errors, profile=modified_curve(ctx)
+    )
     index = {float(a): k for k, a in enumerate(angles_deg)}
     search = max(0.1, 50 * tol)
     exact_of = {"ring": clr.ring, "cam": clr.cam, "frame": clr.slot}

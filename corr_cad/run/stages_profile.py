@@ -7,18 +7,25 @@ from __future__ import annotations
 
 from corr_cad.geometry.profile import theoretical_profile, undercut_analysis, working_profile
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.context import RunContext, expected_seconds
+from corr_cad.run.context import RunContext, expected_seconds, modified_curve
 
 
 def _undercut(ctx: RunContext) -> None:
     info = undercut_analysis(ctx.scene.design)
     ctx.results.undercut = info
     ctx.manifest["undercut"] = info.as_dict()
+    if ctx.scene.modification is not None:
+        from corr_cad.run.stages_modification import modification_manifest
+
+        ctx.manifest["modification"] = modification_manifest(ctx)
 
 
 def _profiles(ctx: RunContext) -> None:
     d = ctx.scene.design
     ctx.results.working = working_profile(d, ctx.results.undercut)
+    if ctx.scene.modification is not None:
+        ctx.results.conjugate = ctx.results.working
+        ctx.results.working = modified_curve(ctx)
     ctx.results.theoretical = theoretical_profile(d)
     ctx.manifest["profile"] = {
         "working_area_mm2": ctx.results.working.area(),
@@ -32,8 +39,9 @@ def _dxf_geometry(ctx: RunContext) -> None:
 
     s = ctx.scene
     # A fine tolerance takes seconds per profile: a line with rate and time left.
+    conj = ctx.results.conjugate
     bar = Progress(
-        2,
+        2 if conj is None else 3,
         f"      dxf profiles ({s.representation}, {s.tolerance:g} mm)",
         "profiles",
         expected=expected_seconds(ctx, "dxf_geometry"),
@@ -42,6 +50,9 @@ def _dxf_geometry(ctx: RunContext) -> None:
     bar.update(1)
     t = approximate(ctx.results.theoretical, s.representation, s.tolerance)
     bar.update(1)
+    if conj is not None:
+        ctx.results.conjugate_approx = approximate(conj, s.representation, s.tolerance)
+        bar.update(1)
     bar.close()
     ctx.results.working_approx = w
     ctx.results.theoretical_approx = t
@@ -53,13 +64,25 @@ def _dxf_geometry(ctx: RunContext) -> None:
         "working_profile": {**w.as_dict(), **where, "layer": "WORKING_PROFILE"},
         "theoretical_profile": {**t.as_dict(), **where, "layer": "THEORETICAL_PROFILE"},
     }
+    if conj is not None:
+        ctx.manifest["accuracy"]["conjugate_profile"] = {
+            **ctx.results.conjugate_approx.as_dict(),
+            **where,
+            "layer": "CONJUGATE_PROFILE",
+        }
 
 
 def _dxf_files(ctx: RunContext) -> None:
     from corr_cad.export import dxf
 
+    mod = ctx.scene.modification
     paths = dxf.write_all(
-        ctx.scene.design, ctx.results.working_approx, ctx.results.theoretical_approx, ctx.out
+        ctx.scene.design,
+        ctx.results.working_approx,
+        ctx.results.theoretical_approx,
+        ctx.out,
+        ctx.results.conjugate_approx,
+        None if mod is None else {"equidistant_mm": mod.equidistant_mm, "shift_mm": mod.shift_mm},
     )
     ctx.files.extend(p.name for p in paths.values())
 
@@ -74,6 +97,10 @@ def _preview_png(ctx: RunContext) -> None:
         ctx.out / "preview.png",
     )
     ctx.files.append(p.name)
+    if ctx.scene.modification is not None:
+        from corr_cad.run.stages_modification import modification_png
+
+        modification_png(ctx)
 
 
 def _sha256(path) -> str:

@@ -68,7 +68,6 @@ def edm_files(ctx: RunContext) -> None:
 
 def cmm_points(ctx: RunContext) -> None:
     from corr_cad.export.inspection_io import write_nominal_csv
-    from corr_cad.geometry import kinematics as kin
     from corr_cad.geometry.projection import arc_length_parameters
 
     s = ctx.scene
@@ -81,7 +80,7 @@ def cmm_points(ctx: RunContext) -> None:
     t = np.concatenate([t0 + k * pitch for k in range(z)])
     tooth = np.repeat(np.arange(1, z + 1), len(t0))
     pts = w.points(t)
-    normals = -kin.locus_normals(t, z, w.eccentricity, w.link_length)
+    normals = -w.normals(t)
     write_nominal_csv(tooth, t, pts, normals, ctx.out / "inner_gear_nominal.csv")
     ctx.files.append("inner_gear_nominal.csv")
     ctx.manifest["cmm"] = {
@@ -182,7 +181,13 @@ def _force_comparison(ctx: RunContext) -> dict:
         else None
     )
     kw = {"positions": s.solver.positions, "load_share": s.solver.load_share}
-    nom = solve_forces(s.design, s.load.input_torque, angles, errors=ManufacturingErrors(), **kw)
+    nominal_errors = ManufacturingErrors()
+    if s.modification is not None:  # the nominal is the modified design
+        from corr_cad.geometry.modification import with_modification
+
+        scene_errors(ctx)
+        nominal_errors = with_modification(nominal_errors, ctx.results.modification_gap)
+    nom = solve_forces(s.design, s.load.input_torque, angles, errors=nominal_errors, **kw)
     mea = ctx.results.forces or solve_forces(
         s.design, s.load.input_torque, angles, errors=scene_errors(ctx), **kw
     )
@@ -223,6 +228,14 @@ def inspection(ctx: RunContext) -> None:
     w = ctx.results.working
     reg = ctx.results.registration
     raw = ctx.results.measured_points
+    against = None
+    if s.modification is not None:
+        against = s.source["modification"].get("inspect_against", "modified")
+        if against == "conjugate":  # the conjugate profile as the nominal, registered to it
+            from corr_cad.tolerance.measured import register
+
+            w = ctx.results.conjugate
+            reg = register(w, raw)
     datum = kin.rotate_by_polar_angle(raw, -math.radians(reg.rotation_deg))
     res = inspect_teeth(w, reg.placed, datum, s.inspection["evaluation_psi_deg"])
     limits = {k: s.inspection[k] for k in LIMITS}
@@ -247,6 +260,8 @@ def inspection(ctx: RunContext) -> None:
         "predicted": _predicted(ctx),
         "definitions": "see README 'Inspection report' (ISO 1328-1 adapted)",
     }
+    if against is not None:
+        summary["nominal"] = f"{against} profile ([modification] inspect_against)"
     files = write_inspection(res, summary, ctx.out)
     inspection_png(res, limits, verdicts, ctx.out / "inspection.png", s.design)
     ctx.files.extend(files + ["inspection.png"])

@@ -60,7 +60,7 @@ so the slug is still held by that much uncut material.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import optimize
@@ -254,6 +254,8 @@ def smallest_concave_radius(working: ProfileCurve) -> tuple[float, float]:
     z, e, L, r = working.tooth_count, working.eccentricity, working.link_length, working.offset
 
     def kw(psi):
+        if getattr(working, "normal", None) is not None:  # a modification's normal table
+            return working.curvature(np.asarray(psi, dtype=float) / z)
         k = kin.locus_curvature(psi, z, e, L)
         return k / (1.0 + r * k)
 
@@ -434,8 +436,9 @@ def plan_cut(
             f"from the scrap side, {r_min:.6g} mm (tooth space, psi {psi_min:.4g} deg)"
         )
     check_lead_in(spec)
-    z, e, L, r = working.tooth_count, working.eccentricity, working.link_length, working.offset
-    path = ProfileCurve(z, e, L, r - (d if spec.compensation == "path" else 0.0))
+    z, r = working.tooth_count, working.offset
+    # The wire path keeps the profile's own shape (a modification's normal table too).
+    path = replace(working, offset=r - (d if spec.compensation == "path" else 0.0))
     decimals = gcode_decimals(tolerance)
     check_lead_in_steps(spec.lead_in_length, tolerance)
     quantum = 10.0**-decimals
@@ -474,7 +477,7 @@ def plan_cut(
     # Lead-in at the written start point, tangent to the first written move.
     q_w = np.asarray(contour[0].start)
     tan = contour[0].tangent(at_end=False)
-    n_in = -kin.locus_normals(np.array([t_q]), z, e, L)[0]
+    n_in = -working.normals(np.array([t_q]))[0]
     n_in = n_in - np.dot(n_in, tan) * tan
     n_in /= np.linalg.norm(n_in)
     rho = 0.5 * spec.lead_in_length

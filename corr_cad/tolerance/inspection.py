@@ -122,7 +122,6 @@ def inspect_teeth(
     k0 = np.mod(np.round(t / pitch).astype(int), z)
     psi = z * (t - np.round(t / pitch) * pitch)
     use = np.abs(psi) <= math.radians(evaluation_psi_deg) + 1e-12
-    z_, e, L = working.tooth_count, working.eccentricity, working.link_length
     reports = []
     pos = np.zeros(z)
     rho = np.zeros(z)
@@ -139,7 +138,7 @@ def inspect_teeth(
         for _ in range(4):
             qq = kin.rotate_by_polar_angle(q, -delta)
             fr, tk = _dev(working, qq, tk)
-            n = kin.locus_normals(tk, z_, e, L)
+            n = working.normals(tk)
             g = n[:, 0] * qq[:, 1] - n[:, 1] * qq[:, 0]
             step = -float(np.dot(fr, g) / np.dot(g, g))
             delta += step
@@ -149,7 +148,7 @@ def inspect_teeth(
         # Runout: radial shift of the tooth space (with a rotation) about the datum axis.
         qd = datum[sel]
         fd, td = _dev(working, qd, t[sel])
-        n = kin.locus_normals(td, z_, e, L)
+        n = working.normals(td)
         u = kin.unit_radial(np.array([k * pitch]))[0]
         a = -(n @ u)
         g = n[:, 0] * qd[:, 1] - n[:, 1] * qd[:, 0]
