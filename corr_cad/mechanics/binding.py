@@ -86,15 +86,18 @@ class Binding:
 
     Attributes
     ----------
-    output_angles : rad
-    free_rotation : rad of output
+    output_angles : numpy.ndarray
+        Output positions, rad.
+    free_rotation : numpy.ndarray
+        Free rotation of the output, rad:
         ``(min_{a>0} - max_{a<0}) (-g/a) / (z + 1)``; negative where the
         free rotation is empty (its overlap).
-    interference : mm
-        ``min_tau max_i h_i(tau)`` where the free rotation is empty, else 0.
-    preload_pressure : MPa
-        Largest Hertz pressure of the rollers compressed by ``h_i(tau*)``.
-    pressure_limit : MPa
+    interference : numpy.ndarray
+        ``min_tau max_i h_i(tau)``, mm, where the free rotation is empty, else 0.
+    preload_pressure : numpy.ndarray
+        Largest Hertz pressure of the rollers compressed by ``h_i(tau*)``, MPa.
+    pressure_limit : float
+        The limit, MPa.
     """
 
     output_angles: np.ndarray
