@@ -416,6 +416,38 @@ def _sample_work(scene, env, samples: int, positions: int, kernel: bool) -> dict
     }
 
 
+def _datasheet_mc(scene, samples: int, workers: int) -> tuple[float, float]:
+    """Seconds and per-worker bytes of the samples' datasheet pass (0, 0 when not asked).
+
+    Six windup torques at each position of the sample's grid by the compiled
+    kernel: 12.6 us a position at 26 rollers measured (2.47 ms a sample of 104
+    positions with the 1.16 ms force pass, 18.0 ms at 1300; ``bench --study
+    datasheet``), taken as 1 us a (position, roller), about twice that; and
+    ~8 s to compile the kernel once per process.
+    """
+    from corr_cad.run.scene_montecarlo import wants_datasheet_metrics
+
+    if not wants_datasheet_metrics(scene):
+        return 0.0, 0.0
+    from dataclasses import replace as _replace
+
+    from corr_cad.tolerance.mc_datasheet import grid_positions
+
+    base = scene.errors
+    if scene.measured_profile is not None and base.profile_deviation is None:
+        base = _replace(base, profile_deviation=lambda t: 0.0 * t)
+    grid = len(
+        grid_positions(
+            scene.design,
+            base,
+            tuple(scene.tolerances),
+            scene.montecarlo["datasheet_positions_per_mesh"],
+        )
+    )
+    R = _rollers(scene)
+    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), 300.0 * grid * R
+
+
 @stage_cost("montecarlo")
 def _montecarlo(scene, env):
     from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
@@ -426,9 +458,14 @@ def _montecarlo(scene, env):
     work = _sample_work(scene, env, n, pos, kernel)
     # The nominal solve and the plots.
     work["memory"] += 240 * pos * R + 40 * MB
+    sheet_s, sheet_bytes = _datasheet_mc(scene, n, env.workers)
+    if sheet_s:
+        work["memory"] += 0 if env.local_workers or env.remote else sheet_bytes
+        work["workers"] += env.local_workers * sheet_bytes
+        work["libraries"] = tuple(dict.fromkeys(work["libraries"] + ("numba",)))
     return Cost(
         keeps=0.0,
-        seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R,
+        seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R + sheet_s,
         output={"montecarlo.csv": 70 * n, "montecarlo.png": 0.25 * MB},
         knobs=("[montecarlo] samples", "[montecarlo] positions"),
         task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
@@ -451,8 +488,16 @@ def _allocation(scene, env):
     kernel = n * pos * ALLOCATION_EVALUATIONS >= KERNEL_MIN_WORK
     work = _sample_work(scene, env, n, pos, kernel)
     per_run = _mc_seconds(n, pos, R, kernel, env.workers) - (2.0 if kernel else 0.0)
+    sheet_s, sheet_bytes = _datasheet_mc(scene, n, env.workers)
+    if sheet_s:
+        per_run += sheet_s - 8.0
+        work["workers"] += env.local_workers * sheet_bytes
+        work["libraries"] = tuple(dict.fromkeys(work["libraries"] + ("numba",)))
     return Cost(
-        seconds=0.5 + runs * (0.02 + per_run) + (2.0 if kernel else 0.0),
+        seconds=0.5
+        + runs * (0.02 + per_run)
+        + (2.0 if kernel else 0.0)
+        + (8.0 if sheet_s else 0.0),
         output={"allocation.*": 4e3 * len(scene.tolerances)},
         knobs=("[montecarlo] allocation_samples", "[montecarlo] positions"),
         task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
