@@ -824,8 +824,8 @@ M = [
     ),
     (
         "run/stages_geometry.py",
-        "clr = clearance(s.design, angles, raw_errors(ctx), psi_end, modified_curve(ctx))",
-        "clr = clearance(s.design, angles, raw_errors(ctx), psi_end)",
+        "errors, profile = raw_errors(ctx), modified_curve(ctx)",
+        "errors, profile = raw_errors(ctx), None",
         "exact clearance stage measured against the conjugate profile",
         "tests/test_modification.py::test_exact_clearance_csv_gives_the_ring_clearance_of_the_modification",
     ),

@@ -12,7 +12,7 @@ from corr_cad.run.scene_schema import MAX_LIST, MAX_STR, SCHEMA, key_range
 
 #: Which formats make each section, or key, have an effect. ``None`` for a
 #: section means "see the keys"; a key not listed follows its section.
-_SOLVER_FORMATS = {"forces", "datasheet", "montecarlo", "allocation", "sweeps"}
+_SOLVER_FORMATS = {"forces", "datasheet", "montecarlo", "allocation", "sweeps", "modification"}
 #: ``[checks]`` keys judged on the datasheet's windup (they run the datasheet).
 _DATASHEET_CHECKS = (
     "max_lost_motion_arcmin",
@@ -46,7 +46,7 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         for k in ("percentile", "allocation_samples"):
             if k in mcd and "allocation" not in f:
                 warn(f"[montecarlo] {k}", 'formats does not list "allocation"')
-    if "tolerances" in data and not mc:
+    if "tolerances" in data and not mc and "modification" not in f:  # the design searches it
         warn("[tolerances]", 'formats lists neither "montecarlo" nor "allocation"')
     if "sweeps" in data and "sweeps" not in f:
         warn("[sweeps]", 'formats does not list "sweeps"')
