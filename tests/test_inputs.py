@@ -593,12 +593,12 @@ def test_published_bounds_are_the_schemas():
     conf = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(conf)
     generated = conf.scene_keys_markdown()
-    sections = dict(re.findall(r"### `\[(\w+)\]`\n(.*?)(?=\n### |\Z)", generated, re.S))
+    sections = dict(re.findall(r"### `\[([\w.]+)\]`\n(.*?)(?=\n### |\Z)", generated, re.S))
     rows = bounds_table().splitlines()[2:]
     assert len(rows) == sum(len(keys) for keys in SCHEMA.values())
     for row in rows:
         cells = [c.strip() for c in row.strip().strip("|").split(" | ")] + [""]
-        section, key = re.fullmatch(r"`\[(\w+)\] (\w+)`", cells[0]).groups()
+        section, key = re.fullmatch(r"`\[([\w.]+)\] (\w+)`", cells[0]).groups()
         kind, allowed, note = cells[1], cells[2], cells[3]
         line = re.search(rf"^\| `{key}` \| (.*)$", sections[section], re.M)
         assert line, f"[{section}] {key} missing from the key reference"

@@ -505,6 +505,39 @@ def _allocation(scene, env):
     )
 
 
+@stage_cost("modification_design")
+def _modification_design(scene, env):
+    # The samples' gaps are built once (~200 bytes a (sample, position, roller)
+    # cell); each candidate projects its modification and re-reads them (~1 us a
+    # cell: 49 candidates of 200 x 64 x 26 cells took 10.3 s with the start,
+    # 256 took 38 s); the feasible few get a force Monte Carlo each.
+    md, R = scene.modification_design, _rollers(scene)
+    steps = md["steps"]
+    candidates = {"equidistant": steps, "equidistant+shift": steps**2, "free": steps**4}[
+        md["family"]
+    ]
+    cells = md["samples"] * md["positions"] * R
+    force = md["force_candidates"] * _mc_seconds(
+        md["samples"], md["positions"], R, False, env.workers
+    )
+    return Cost(
+        memory=40 * MB + 200 * cells + 40 * cells,
+        seconds=2.0 + candidates * cells * 1e-6 + force,
+        output={
+            "modification.json": 2e3 * candidates,
+            "modification_tradeoff.png": 0.3 * MB,
+            "modified.toml": 20e3,
+        },
+        libraries=("matplotlib",),
+        knobs=(
+            "[modification.design] steps",
+            "[modification.design] samples",
+            "[modification.design] positions",
+        ),
+        task_seconds=candidates * cells * 1e-6 / max(candidates, 1),
+    )
+
+
 @stage_cost("sweeps")
 def _sweeps(scene, env):
     from corr_cad.tolerance.sweeps import PAPER_SWEEPS

@@ -365,6 +365,16 @@ KNOBS = {
             ("datasheet", "transmission_error_positions_per_turn"),
         )
     },
+    **{
+        f"[modification.design] {key}": (
+            _get("modification_design", key),
+            _set("modification_design", key),
+            True,
+            False,
+            None,
+        )
+        for key in ("steps", "samples", "positions")
+    },
 }
 
 
