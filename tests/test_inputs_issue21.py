@@ -102,6 +102,7 @@ SUBNORMAL = [
     ("design", "face_width", "[design] face_width = 4.94066e-324"),
     ("design", "frame_thickness", "[design] frame_thickness = 4.94066e-324"),
     ("design", "eccentricity", "[design] eccentricity = 4.94066e-324"),
+    ("design", "roller_radius", "[design] roller_radius = 4.94066e-324"),
     ("material", "young_modulus", "[material] young_modulus = 4.94066e-324"),
     ("edm", "lead_in_length", "[edm] lead_in_length = 4.94066e-324"),
 ]
@@ -118,6 +119,19 @@ def test_subnormal_values_name_their_key(folder, section, key, needle):
     line = refused(folder, cli(folder, scene))
     assert needle in line and "allowed range" in line, line
     assert "would work" in line or "steel" in line, line
+
+
+@pytest.mark.parametrize("value", ["1e-9", "1e-6"])
+def test_a_micrometre_roller_is_the_floor(folder, value):
+    """1e-9: 'manifold3d could not build the solid'; 1e-6: a zero-volume mesh; with
+    [tolerances] the refusal named [tolerances] cam_radius. Now roller_radius, one line."""
+    scene = DESIGN.replace("roller_radius = 4.0", f"roller_radius = {value}")
+    scene += '[export]\nformats = ["stl"]\n[tolerances]\ncam_radius = { normal = 0.001 }\n'
+    line = refused(folder, cli(folder, scene))
+    assert f"[design] roller_radius = {float(value):g}: allowed range is [0.001, 1000]" in line
+    assert "roller_radius = 0.001 would work" in line
+    ok = DESIGN + '[export]\nformats = ["dxf"]\n'
+    assert cli(folder, ok, "--quiet").returncode == 0
 
 
 def test_nul_byte_in_measured_profile(folder):

@@ -57,6 +57,10 @@ MIN_AXIAL_LENGTH = 1e-6
 #: by it). The hard case e = 1e-6 mm on the 135 mm cam (7.4e-9 of it) solves
 #: (tests/issues/test_tiny_eccentricity_huge_tooth_count.py).
 MIN_RELATIVE_ECCENTRICITY = 1e-9
+#: Smallest roller radius, mm (a micrometre): below it the roller's mesh has
+#: no volume (1e-6 mm: zero volume; 1e-9 mm: manifold3d cannot build it) and
+#: the errors and tolerances checked against it are refused naming other keys.
+MIN_ROLLER_RADIUS = 1e-3
 #: Softest material accepted, MPa: an elastomer. Below it the contact model
 #: (small displacements) has no meaning, and at subnormal values 1/E overflows.
 MIN_YOUNG_MODULUS = 1.0
@@ -216,7 +220,16 @@ class GearDesign:
             )
         object.__setattr__(self, "tooth_count", z)
         Rj = _check_range("cam_radius", self.cam_radius, 0.0)
-        r = _check_range("roller_radius", self.roller_radius, 0.0)
+        r = _check_range(
+            "roller_radius",
+            self.roller_radius,
+            MIN_ROLLER_RADIUS,
+            BOUNDS["roller_radius"][1],
+            low_open=False,
+            high_open=False,
+            why=f"a roller below {MIN_ROLLER_RADIUS:g} mm has no meshable volume and no "
+            f"meaningful contact; roller_radius = {MIN_ROLLER_RADIUS:g} would work",
+        )
         _axial("roller_length", self.roller_length)
         e = _check_range(
             "eccentricity",
