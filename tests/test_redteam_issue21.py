@@ -1,0 +1,52 @@
+"""Issue 21 red-team findings, each through the real CLI on a real folder."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+#: A z = 1000 drive (r = 7 mm, just below its undercut limit of 7.17 mm).
+Z1000 = """
+[design]
+tooth_count = 1000
+cam_radius = 5000.0
+roller_radius = 7.0
+roller_length = 12.0
+eccentricity = 3.5
+[export]
+formats = ["interference"]
+interference_positions = 36
+"""
+
+
+def _run(tmp_path: Path, scene: str, *args: str) -> subprocess.CompletedProcess:
+    (tmp_path / "notes.txt").write_text("user file\n")
+    path = tmp_path / "scene.toml"
+    path.write_text(scene)
+    return subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(path), "--out", str(tmp_path / "out"), *args],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=dict(os.environ),
+        timeout=300,
+    )
+
+
+def test_exact_interference_is_not_refused_for_a_mesh_it_does_not_make(tmp_path):
+    # The exact clearance meshes nothing: the assembly mesh's triangle limit
+    # (chord_tolerance, here its default 0.001 that the scene never set) must
+    # not refuse it. Before the fix: exit 2, "chord_tolerance = 0.001: too fine".
+    r = _run(tmp_path, Z1000)
+    assert r.returncode == 0, r.stderr
+    assert "chord_tolerance" not in r.stderr
+    assert (tmp_path / "out" / "clearance.csv").is_file()
+    assert (tmp_path / "notes.txt").read_text() == "user file\n"
+
+
+def test_mesh_interference_still_meets_the_triangle_limit(tmp_path):
+    r = _run(tmp_path, Z1000.replace("formats", 'interference_method = "mesh"\nformats'))
+    assert r.returncode == 2
+    line = r.stderr.strip().splitlines()[-1]
+    assert "chord_tolerance" in line and "triangles" in line
+    assert not (tmp_path / "out").exists()
