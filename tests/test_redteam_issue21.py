@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 #: A z = 1000 drive (r = 7 mm, just below its undercut limit of 7.17 mm).
 Z1000 = """
 [design]
@@ -50,3 +52,40 @@ def test_mesh_interference_still_meets_the_triangle_limit(tmp_path):
     line = r.stderr.strip().splitlines()[-1]
     assert "chord_tolerance" in line and "triangles" in line
     assert not (tmp_path / "out").exists()
+
+
+def test_the_last_worker_killed_later_in_the_run_leaks_no_dask_log_or_traceback(tmp_path):
+    """Killed at the second progress line (a result being gathered), the run printed
+    distributed's 'Couldn't gather ... rescheduling' warning and an asyncio
+    'Task exception was never retrieved ... Traceback ... AllExit' block before
+    its one line."""
+    pytest.importorskip("dask.distributed")
+    import signal
+    import time
+
+    from tests.test_dask_faults import Cluster, _run_and
+
+    cluster = Cluster(tmp_path)
+    try:
+        cluster.add_workers(1)
+        w = cluster.workers[0]
+        seen = []
+
+        def kill_at_second():
+            seen.append(1)
+            time.sleep(4.0)  # past the first progress line: results are being gathered
+            os.kill(w.pid, signal.SIGKILL)
+
+        proc = _run_and(cluster, tmp_path, 30000, kill_at_second,
+                        "--dask-no-workers-timeout", "3", timeout=150)  # fmt: skip
+    finally:
+        cluster.close()
+    assert proc.returncode == 2, proc.stderr
+    other = [
+        ln
+        for ln in proc.stderr.splitlines()
+        if ln.strip() and not ln.startswith("corr-cad: ") and "montecarlo:" not in ln
+    ]
+    assert other == [], proc.stderr
+    err = [ln for ln in proc.stderr.splitlines() if ln.startswith("corr-cad: error")]
+    assert len(err) == 1 and "every worker left the scheduler" in err[0], proc.stderr

@@ -160,6 +160,7 @@ def connect(address: str, t: DaskTimeouts, say=None) -> DaskExecutor:
     except ImportError as exc:
         raise DaskError("--executor dask needs the 'dask' extra: pip install -e '.[dask]'") from exc
     probe(address, t)
+    _quiet_dask_logs()
     try:
         client = Client(address, timeout=t.connect)
     except Exception as exc:  # the probe passed: name what Dask said
@@ -174,6 +175,17 @@ def connect(address: str, t: DaskTimeouts, say=None) -> DaskExecutor:
         ex.close()
         raise
     return ex
+
+
+def _quiet_dask_logs() -> None:
+    """Keep distributed's and asyncio's log lines off the user's terminal: a worker
+    lost while its result is gathered logs "Couldn't gather ... rescheduling" and,
+    when the run then stops, "Task exception was never retrieved" with a traceback
+    (AllExit). Every fault is reported as one ``DaskError`` line instead."""
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+    logging.getLogger("asyncio").setLevel(logging.CRITICAL)
 
 
 class DaskExecutor:
