@@ -696,6 +696,20 @@ M = [
         "mesh extent tolerance taken as 100 %: a mesh in metres or of another part passes",
         "tests/test_measured_mesh.py::test_bad_meshes_are_refused",
     ),
+    (
+        "run/limits.py",
+        'mesh_interference = "interference" in f and scene.interference_method != "exact"',
+        'mesh_interference = "interference" in f',
+        "the exact clearance held to the assembly mesh's triangle limit",
+        "tests/test_redteam_issue21.py::test_exact_interference_is_not_refused_for_a_mesh_it_does_not_make",
+    ),
+    (
+        "run/dask_exec.py",
+        "    _quiet_dask_logs()\n",
+        "",
+        "distributed/asyncio log lines reach the terminal when the last worker dies",
+        "tests/test_redteam_issue21.py::test_the_last_worker_killed_later_in_the_run_leaks_no_dask_log_or_traceback",
+    ),
 ]
 only = [int(x) for x in sys.argv[1:]]
 env = dict(os.environ, PYTHONPATH=str(WT))

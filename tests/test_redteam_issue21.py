@@ -55,7 +55,7 @@ def test_mesh_interference_still_meets_the_triangle_limit(tmp_path):
 
 
 def test_the_last_worker_killed_later_in_the_run_leaks_no_dask_log_or_traceback(tmp_path):
-    """Killed at the second progress line (a result being gathered), the run printed
+    """Stopped, then killed, while results were being gathered, the run printed
     distributed's 'Couldn't gather ... rescheduling' warning and an asyncio
     'Task exception was never retrieved ... Traceback ... AllExit' block before
     its one line."""
@@ -72,8 +72,11 @@ def test_the_last_worker_killed_later_in_the_run_leaks_no_dask_log_or_traceback(
         seen = []
 
         def kill_at_second():
+            # Stopped first, the worker holds the client's result() calls until their
+            # poll times out (each leaves a gather pending); then it dies.
             seen.append(1)
-            time.sleep(4.0)  # past the first progress line: results are being gathered
+            os.kill(w.pid, signal.SIGSTOP)
+            time.sleep(3.0)
             os.kill(w.pid, signal.SIGKILL)
 
         proc = _run_and(cluster, tmp_path, 30000, kill_at_second,

@@ -184,8 +184,11 @@ def _quiet_dask_logs() -> None:
     (AllExit). Every fault is reported as one ``DaskError`` line instead."""
     import logging
 
-    logging.getLogger("distributed").setLevel(logging.CRITICAL)
-    logging.getLogger("asyncio").setLevel(logging.CRITICAL)
+    # distributed's own logging config gives some child loggers their own level
+    # (distributed.client: warning), so each is set, not only the parent.
+    names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] == "distributed"]
+    for name in ("distributed", "distributed.client", "asyncio", *names):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 class DaskExecutor:
