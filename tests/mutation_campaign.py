@@ -708,7 +708,14 @@ M = [
         "    _quiet_dask_logs()\n",
         "",
         "distributed/asyncio log lines reach the terminal when the last worker dies",
-        "tests/test_redteam_issue21.py::test_the_last_worker_killed_later_in_the_run_leaks_no_dask_log_or_traceback",
+        "tests/test_redteam_issue21.py::test_a_dask_connection_keeps_distributed_and_asyncio_logs_off_the_terminal",
+    ),
+    (
+        "run/dask_exec.py",
+        'for name in ("distributed", "distributed.client", "asyncio", *names):',
+        'for name in ("distributed", "asyncio"):',
+        "only the parent distributed logger quieted (distributed.client keeps its own WARNING level)",
+        "tests/test_redteam_issue21.py::test_a_dask_connection_keeps_distributed_and_asyncio_logs_off_the_terminal",
     ),
 ]
 only = [int(x) for x in sys.argv[1:]]

@@ -92,3 +92,31 @@ def test_the_last_worker_killed_later_in_the_run_leaks_no_dask_log_or_traceback(
     assert other == [], proc.stderr
     err = [ln for ln in proc.stderr.splitlines() if ln.startswith("corr-cad: error")]
     assert len(err) == 1 and "every worker left the scheduler" in err[0], proc.stderr
+
+
+def test_a_dask_connection_keeps_distributed_and_asyncio_logs_off_the_terminal(tmp_path):
+    """Deterministic half of the test above: once connected, what distributed.client
+    (its own WARNING level in distributed's config) and asyncio would log stays off
+    stderr; the run's own lines are its only output."""
+    pytest.importorskip("dask.distributed")
+    from tests.test_dask_faults import Cluster
+
+    cluster = Cluster(tmp_path)
+    try:
+        cluster.add_workers(1)
+        code = (
+            "import logging, sys\n"
+            "from corr_cad.run.dask_exec import DaskTimeouts, connect\n"
+            f"ex = connect({cluster.address!r}, DaskTimeouts())\n"
+            "logging.getLogger('distributed.client').warning(\"Couldn't gather 1 keys\")\n"
+            "logging.getLogger('asyncio').error('Task exception was never retrieved')\n"
+            "ex.close()\n"
+            "print('done', file=sys.stderr)\n"
+        )
+        r = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+        )
+    finally:
+        cluster.close()
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.strip() == "done", r.stderr
