@@ -864,6 +864,27 @@ M = [
         "binding: wrong crossing of the rising and falling gap lines",
         "tests/test_assembly.py::test_selective_assembly_picks_the_class_for_a_measured_ring",
     ),
+    (
+        "run/limits.py",
+        'mesh_interference = "interference" in f and scene.interference_method != "exact"',
+        'mesh_interference = "interference" in f',
+        "the exact clearance held to the assembly mesh's triangle limit",
+        "tests/test_redteam_issue21.py::test_exact_interference_is_not_refused_for_a_mesh_it_does_not_make",
+    ),
+    (
+        "run/dask_exec.py",
+        "    _quiet_dask_logs()\n",
+        "",
+        "distributed/asyncio log lines reach the terminal when the last worker dies",
+        "tests/test_redteam_issue21.py::test_a_dask_connection_keeps_distributed_and_asyncio_logs_off_the_terminal",
+    ),
+    (
+        "run/dask_exec.py",
+        'for name in ("distributed", "distributed.client", "asyncio", *names):',
+        'for name in ("distributed", "asyncio"):',
+        "only the parent distributed logger quieted (distributed.client keeps its own WARNING level)",
+        "tests/test_redteam_issue21.py::test_a_dask_connection_keeps_distributed_and_asyncio_logs_off_the_terminal",
+    ),
 ]
 only = [int(x) for x in sys.argv[1:]]
 env = dict(os.environ, PYTHONPATH=str(WT))

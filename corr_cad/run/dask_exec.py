@@ -160,6 +160,7 @@ def connect(address: str, t: DaskTimeouts, say=None) -> DaskExecutor:
     except ImportError as exc:
         raise DaskError("--executor dask needs the 'dask' extra: pip install -e '.[dask]'") from exc
     probe(address, t)
+    _quiet_dask_logs()
     try:
         client = Client(address, timeout=t.connect)
     except Exception as exc:  # the probe passed: name what Dask said
@@ -174,6 +175,20 @@ def connect(address: str, t: DaskTimeouts, say=None) -> DaskExecutor:
         ex.close()
         raise
     return ex
+
+
+def _quiet_dask_logs() -> None:
+    """Keep distributed's and asyncio's log lines off the user's terminal: a worker
+    lost while its result is gathered logs "Couldn't gather ... rescheduling" and,
+    when the run then stops, "Task exception was never retrieved" with a traceback
+    (AllExit). Every fault is reported as one ``DaskError`` line instead."""
+    import logging
+
+    # distributed's own logging config gives some child loggers their own level
+    # (distributed.client: warning), so each is set, not only the parent.
+    names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] == "distributed"]
+    for name in ("distributed", "distributed.client", "asyncio", *names):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 class DaskExecutor:

@@ -128,8 +128,16 @@ def mesh_triangles(design, chord: float) -> tuple[float, float]:
     return asm, parts
 
 
-#: Formats for which the solids are meshed (and the triangle limit applies).
-_MESHED = {"stl", "3mf", "glb", "ply", "interference", "step"}
+#: Formats for which the solids are meshed (and the triangle limit applies);
+#: ``interference`` only with a mesh method (the exact clearance meshes nothing).
+_MESHED = {"stl", "3mf", "glb", "ply", "step"}
+
+
+def _meshes(scene) -> bool:
+    """Whether the run meshes the solids (and the triangle limit applies)."""
+    f = set(scene.formats)
+    mesh_interference = "interference" in f and scene.interference_method != "exact"
+    return bool(_MESHED & f) or mesh_interference
 
 
 def check_structure(scene) -> tuple[float, float]:
@@ -140,7 +148,7 @@ def check_structure(scene) -> tuple[float, float]:
     f = set(scene.formats)
     verts = profile_vertices(scene.design, scene.representation, scene.tolerance)
     verts = verts if "dxf" in f else 0.0
-    tri = mesh_triangles(scene.design, scene.chord_tolerance)[0] if _MESHED & f else 0.0
+    tri = mesh_triangles(scene.design, scene.chord_tolerance)[0] if _meshes(scene) else 0.0
     return verts, tri
 
 
@@ -195,7 +203,7 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
         budgets.append((need, MAX_PROFILE_VERTICES, what, "vertices"))
     if uses:
         out.append(_floor(scene.tolerance, "tolerance", profile, "profile", budgets))
-    if _MESHED & f:
+    if _meshes(scene):
         size = max(d.ring_outer_radius, d.frame_outer_radius, profile)
         budget = [
             (
