@@ -123,6 +123,27 @@ def test_results_identical_on_every_executor(designed, tmp_path):
     assert (out / "modification.json").read_bytes() == (out2 / "modification.json").read_bytes()
 
 
+def test_results_identical_on_a_dask_scheduler(designed, tmp_path):
+    """The search's samples run on a real local Dask cluster: the same bytes."""
+    distributed = pytest.importorskip("dask.distributed")
+    _, out = designed
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    (tmp_path / "s.toml").write_text(SCENE.format(target=2.0))
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        r = subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet",
+             "--executor", "dask", "--scheduler", cluster.scheduler_address],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+        )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    got = (tmp_path / "out" / "modification.json").read_bytes()
+    assert got == (out / "modification.json").read_bytes()
+
+
 def test_free_family_writes_its_curve_and_modified_toml_runs_it(tmp_path):
     text = SCENE.format(target=3.5).replace(
         'family = "equidistant+shift"', 'family = "free"\nobjective = "transmission_error"'
