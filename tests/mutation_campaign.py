@@ -628,8 +628,8 @@ M = [
     ),
     (
         "run/stages_datasheet.py",
-        "return ManufacturingErrors(profile_deviation=reg.deviation)",
-        "return scene_errors(ctx)",
+        "        return measured\n",
+        "        return scene_errors(ctx)\n",
         "measured ring's datasheet takes the scene's other [errors] (not nominal other parts)",
         "tests/test_measured_ring.py::test_backlash_is_the_registered_rings_kinematics",
     ),
