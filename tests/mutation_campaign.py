@@ -80,8 +80,8 @@ M = [
     ),
     (
         "geometry/deviations.py",
-        "            or self.profile_deviation is not None\n        )\n\n    def slot_errors",
-        "        )\n\n    def slot_errors",
+        "            or self.profile_deviation is not None\n        )\n\n    @property\n    def per_roller",
+        "        )\n\n    @property\n    def per_roller",
         "periodicity shortcut taken with a profile deviation",
         "tests/test_physics.py -k shortcut",
     ),
@@ -473,7 +473,7 @@ M = [
         "tests/test_mesh.py::test_assembly_files_have_one_named_node_per_frame_plate",
     ),
     (
-        "run/scene_schema.py",
+        "run/scene_hints.py",
         '        "forces": (load,),',
         '        "forces": (),',
         'formats = ["all"] keeps forces without a torque',
@@ -620,7 +620,7 @@ M = [
         "tests/test_datasheet.py::test_old_lost_motion_key_keeps_working_with_one_warning",
     ),
     (
-        "run/scene_schema.py",
+        "run/scene_schema_tolerance.py",
         '            0.03,\n            "lost motion at +- this share of T_R',
         '            0.04,\n            "lost motion at +- this share of T_R',
         "lost-motion band default 4 % (strain-wave) instead of 3 % (RV)",
