@@ -80,8 +80,8 @@ M = [
     ),
     (
         "geometry/deviations.py",
-        "            or self.profile_deviation is not None\n        )\n\n    @property\n    def per_roller",
-        "        )\n\n    @property\n    def per_roller",
+        "            or not self.tooth_periodic_profile\n        )\n",
+        "        )\n",
         "periodicity shortcut taken with a profile deviation",
         "tests/test_physics.py -k shortcut",
     ),
