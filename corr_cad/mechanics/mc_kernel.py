@@ -33,6 +33,40 @@ _KNEE = 0.99  # contact.VALIDITY_KNEE
 _LOADED_SHARE = 1e-9  # solver.LOADED_SHARE
 
 
+def kernel_inputs(geometry, profile_deviation, errors, design) -> tuple:
+    """The arguments the compiled kernels share, contiguous and typed.
+
+    ``geometry`` is a :func:`~corr_cad.mechanics.solver.roller_geometry`,
+    ``profile_deviation`` its gear deviation per cell, ``errors`` the sampled
+    ``(cam, ecc, phase, dr, dl)``; used by :func:`solve_samples` and
+    :func:`corr_cad.mechanics.mc_windup_kernel.windup_samples` callers.
+    """
+    g, c = geometry, np.ascontiguousarray
+    cam, ecc, phase, dr, dl = errors
+    return (
+        c(g.psi),
+        c(g.s),
+        c(g.rho_n),
+        c(np.abs(g.rho_s)),
+        c(np.where(g.loadable, g.advance, 0.0)),
+        c(g.loadable),
+        c(g.k_gear),
+        c(profile_deviation),
+        c(cam, dtype=float),
+        c(ecc, dtype=float),
+        c(phase, dtype=float),
+        c(dr, dtype=float),
+        c(dl, dtype=float),
+        float(design.eccentricity),
+        float(design.link_length),
+        float(design.tooth_count),
+        float(design.roller_radius),
+        float(design.cam_radius),
+        float(design.roller_length),
+        float(design.material.contact_modulus),
+    )
+
+
 def _jit(fn):
     """Compile with numba, cached on disk when numba finds a writable place.
 

@@ -143,7 +143,7 @@ def datasheet_chunk(
     base: ManufacturingErrors,
 ) -> tuple[dict[str, np.ndarray], bool]:
     """Datasheet metrics of ``n`` samples whose errors are ``(cam, ecc, phase, dr, dl)``."""
-    from corr_cad.mechanics import mc_windup_kernel
+    from corr_cad.mechanics import mc_kernel, mc_windup_kernel
 
     R = design.roller_count
     angles = design.tooth_count * grid
@@ -161,26 +161,7 @@ def datasheet_chunk(
     backlash, pressure, inter, rel = (np.empty(n) for _ in range(4))
     c = np.ascontiguousarray
     mc_windup_kernel.windup_samples(
-        c(g.psi),
-        c(g.s),
-        c(g.rho_n),
-        c(np.abs(g.rho_s)),
-        c(np.where(g.loadable, g.advance, 0.0)),
-        c(g.loadable),
-        c(g.k_gear),
-        c(pd),
-        c(cam, dtype=float),
-        c(ecc, dtype=float),
-        c(phase, dtype=float),
-        c(dr, dtype=float),
-        c(dl, dtype=float),
-        float(design.eccentricity),
-        float(design.link_length),
-        float(design.tooth_count),
-        float(design.roller_radius),
-        float(design.cam_radius),
-        float(design.roller_length),
-        float(design.material.contact_modulus),
+        *mc_kernel.kernel_inputs(g, pd, (cam, ecc, phase, dr, dl), design),
         c(moments),
         c(zero),
         _RTOL,

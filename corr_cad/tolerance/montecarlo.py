@@ -225,28 +225,8 @@ def _kernel_chunk(design, input_torque, angles, load_share, base, tolerances, dr
     cam, ecc, phase, dr, dl = _sample_errors(base, tolerances, draws, n, R)
     out = np.empty((n, 4))
     rel = np.empty(n)
-    c = np.ascontiguousarray
     mc_kernel.solve_samples(
-        c(g.psi),
-        c(g.s),
-        c(g.rho_n),
-        c(np.abs(g.rho_s)),
-        c(np.where(g.loadable, g.advance, 0.0)),
-        c(g.loadable),
-        c(g.k_gear),
-        c(pd),
-        c(cam, dtype=float),
-        c(ecc, dtype=float),
-        c(phase, dtype=float),
-        c(dr, dtype=float),
-        c(dl, dtype=float),
-        float(design.eccentricity),
-        float(design.link_length),
-        float(design.tooth_count),
-        float(design.roller_radius),
-        float(design.cam_radius),
-        float(design.roller_length),
-        float(design.material.contact_modulus),
+        *mc_kernel.kernel_inputs(g, pd, (cam, ecc, phase, dr, dl), design),
         load_share * float(input_torque),
         _RTOL,
         out,
