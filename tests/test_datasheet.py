@@ -442,6 +442,57 @@ def test_rated_torque_from_contact_pressure_reaches_the_allowable(prototype):
             assert (p > 1500.0) == above
 
 
+def test_rated_torque_from_pressure_is_the_weaker_direction(prototype):
+    """Rollers of three undersizes: the two directions reach the allowable at different
+    torques (2268 and 2275 N*m); the figure is the smaller, checked by direct solves."""
+    dr = tuple(-0.001 - 0.001 * (np.arange(26) % 3))
+    err = ManufacturingErrors(roller_radius_errors=dr)
+    spec = DatasheetSpec(
+        rated_torque=T_R,
+        positions_per_mesh=4,
+        transmission_error_positions_per_turn=2,
+        allowable_contact_pressure=1500.0,
+    )
+    ds = datasheet(prototype, spec, errors=err)
+    r = ds.rated_from_pressure
+    assert abs(r["positive_Nm"] - r["negative_Nm"]) > 1e-3 * r["torque_Nm"]
+    T = r["torque_Nm"] * 1000.0  # N*mm
+    angles = 25 * ds.output_angles
+
+    def peak(torque):
+        res = solve_forces(prototype, torque / 26, angles, load_share=SHARE, errors=err)
+        return max(res.p_cam.max(), res.p_slot.max(), res.p_gear.max())
+
+    # At the figure, one direction is at the allowable and neither is above it.
+    both = [peak(T), peak(-T)]
+    assert max(both) == pytest.approx(1500.0, rel=1e-5)
+    assert peak(0.999 * T) < 1500.0 and peak(-0.999 * T) < 1500.0
+
+
+@pytest.mark.parametrize(
+    "errors,variants,period",
+    [
+        ({}, (), 2 * math.pi / (25 * 26)),
+        ({"roller_radius_error": -0.002, "cam_phase_error": 0.01}, (), 2 * math.pi / (25 * 26)),
+        ({"roller_radius_errors": (0.001,) + (0.0,) * 25}, (), 2 * math.pi / 25),
+        ({"slot_angle_errors": (0.0,) * 25 + (0.002,)}, (), 2 * math.pi / 25),
+        ({}, ("eq3_printed",), 2 * math.pi / 25),
+        ({"profile_harmonics": ((3, 0.002, 0.0),)}, (), 2 * math.pi),
+    ],
+    ids=["nominal", "alike", "one_roller", "one_slot", "eq3_printed", "ring_harmonic"],
+)
+def test_the_windup_repeats_after_the_period_of_its_errors(prototype, errors, variants, period):
+    """Mesh period 2 pi / (z (z + 1)) while rollers and slots are alike, a tooth pitch
+    2 pi / z once one differs, a revolution with a ring deviation (written out)."""
+    from corr_cad.mechanics.windup import result_period_rad
+
+    if "profile_harmonics" in errors:
+        err = ManufacturingErrors(profile_deviation=harmonic_deviation(errors["profile_harmonics"]))
+    else:
+        err = ManufacturingErrors(**errors)
+    assert result_period_rad(prototype, err, variants) == pytest.approx(period, rel=1e-15)
+
+
 # --- the files: every figure again from the CSV files, by hand ----------------------
 
 

@@ -108,6 +108,10 @@ def test_ring_cam_roller_geometry(written):
     assert math.dist(outer.dxf.center.vec2, bore.dxf.center.vec2) == pytest.approx(
         design.eccentricity
     )
+    # Where the bore is: at psi = 0 the roller on +y sits at s = e + L from the crank
+    # axis (s = e cos psi + sqrt(L^2 - e^2 sin^2 psi)), L from the cam centre, so the cam
+    # centre is e above the axis and the axis (the bore) at (0, -e) in the cam's frame.
+    assert tuple(bore.dxf.center.vec2) == pytest.approx((0.0, -design.eccentricity), abs=1e-12)
     (roller,) = ezdxf.readfile(paths["roller"]).modelspace().query("CIRCLE")
     assert roller.dxf.radius == design.roller_radius
 

@@ -301,6 +301,27 @@ d = GearDesign(roller_radius=7.0)
 """
 
 
+def test_fallback_of_the_new_file_writer_never_overwrites(tmp_path, monkeypatch):
+    """Without hard links (EPERM) write_new_text creates the file exclusively: an existing
+    file is refused with FileExistsError and keeps its bytes; a new one is written."""
+    import errno
+
+    from corr_cad.export import files
+
+    def no_links(*a, **k):
+        raise OSError(errno.EPERM, "hard links not permitted")
+
+    monkeypatch.setattr(files.os, "link", no_links)
+    kept = tmp_path / "modified.toml"
+    kept.write_text("the user's own\n")
+    with pytest.raises(FileExistsError):
+        files.write_new_text(kept, "written over\n")
+    assert kept.read_text() == "the user's own\n"
+    fresh = files.write_new_text(tmp_path / "new.toml", "made\n")
+    assert fresh.read_text() == "made\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["modified.toml", "new.toml"]
+
+
 @pytest.mark.parametrize("which", ["roller", "disk_cam", "teeth_frame", "json"])
 def test_writer_killed_inside_the_write_leaves_the_previous_file(tmp_path, which):
     from corr_cad import GearDesign

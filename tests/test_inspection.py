@@ -222,6 +222,8 @@ def test_predicted_play_of_the_measured_ring(clean, turned):
         > n["transmission_error_arcsec"]["forward_peak_to_peak"]
     )
     assert te["forward_peak_to_peak"] < 10.0 * 25 / 26  # at most the kinematic d z / (z + 1)
+    # T_R = (z + 1) [load] input_torque = 26 * 1.1e5 N*mm = 2860 N*m
+    assert p["rated_torque_Nm"] == pytest.approx(2860.0, rel=1e-12)
     p = clean[2]["predicted"]
     assert set(p["measured"]) == {"backlash_arcmin"} and "rated torque" in p["not_computed"]
 

@@ -223,6 +223,64 @@ def test_kernel_binding_equals_the_numpy_binding_function(d):
     assert 0 < mc.metrics["binds"].sum() < n or mc.metrics["binding_pressure_MPa"].max() > 0
 
 
+def test_binding_pressure_of_the_gear_contact_takes_the_gear_force(d, monkeypatch):
+    """20 um oversize: the gear contact decides the preload pressure. Each roller's gear
+    contact is loaded by F_n = rho_n F_j, rho_n = sqrt(W^2 + z^2 e^2 sin^2 psi) / L
+    (written out), and the preload pressure is the gear contact's."""
+    from corr_cad.mechanics import binding as binding_module
+
+    calls = []
+    real = binding_module.contact.max_pressure
+
+    def spy(force, c, length):
+        p = real(force, c, length)
+        calls.append((np.array(force, dtype=float), p))
+        return p
+
+    monkeypatch.setattr(binding_module.contact, "max_pressure", spy)
+    x = np.radians([0.37, 1.1])
+    b = binding(d, E(roller_radius_error=0.02), x)
+    (fj, pj), (fn, pn), _ = calls  # cam, gear, slot contact, in the module's order
+    z, R, e, L = d.tooth_count, d.roller_count, d.eccentricity, d.cam_radius + d.roller_radius
+    psi = z * x[:, None] - np.arange(R)[None, :] * 2 * math.pi / R
+    W = np.sqrt(L * L - (e * np.sin(psi)) ** 2)
+    rho_n = np.sqrt(W * W + (z * e * np.sin(psi)) ** 2) / L
+    np.testing.assert_allclose(fn, rho_n * fj, rtol=1e-12)
+    np.testing.assert_allclose(b.preload_pressure, pn.max(axis=1), rtol=1e-12)
+    assert np.all(pn.max(axis=1) > pj.max(axis=1))  # the gear contact decides here
+
+
+def test_slot_angle_scatter_alone_is_evaluated_over_a_tooth_pitch(d):
+    """Only the slot angles scatter: the rollers differ, so each sample's figures come
+    from a tooth pitch 2 pi / z (26 positions at 1 per mesh period), by the numpy windup."""
+    tol = {"slot_angle": Distribution("normal", 0.003)}
+    base = E(roller_radius_error=-0.002)
+    n = 2
+    mc = monte_carlo(d, M0, tol, n, 11, 12, base_errors=base, datasheet=_cfg(1))
+    cam, ecc, ph, dr, dl = _sample_errors(base, tol, draw_samples(tol, n, 11, 26), n, 26)
+    x = (2 * math.pi / 25) * np.arange(26) / 26
+    for k in range(n):
+        w = Windup(
+            d, x, errors=E(roller_radius_errors=tuple(dr[k]), slot_angle_errors=tuple(dl[k]))
+        )
+        lm = np.max(w.contact_theta(0.03 * T_R) - w.contact_theta(-0.03 * T_R)) * ARCMIN
+        te = max(np.ptp(w.contact_theta(s * 0.03 * T_R)) for s in (1, -1)) * ARCSEC
+        assert mc.metrics["lost_motion_arcmin"][k] == pytest.approx(lm, rel=1e-9)
+        assert mc.metrics["transmission_error_arcsec"][k] == pytest.approx(te, rel=1e-7)
+
+
+def test_the_gate_passes_a_probability_equal_to_the_allowed_one():
+    """At most the allowed probability passes (the boundary included), above it fails."""
+    from corr_cad import Checks
+    from corr_cad.tolerance.checks import evaluate_failure_probability
+
+    checks = Checks(max_gear_force=1.0, max_failure_probability=0.05)
+    got = evaluate_failure_probability({"max_gear_force": 0.05}, checks)
+    assert got["max_gear_force"]["passed"] is True
+    got = evaluate_failure_probability({"max_gear_force": 0.05 + 1e-12}, checks)
+    assert got["max_gear_force"]["passed"] is False
+
+
 @pytest.mark.parametrize("k,n", [(0, 50), (50, 50), (7, 40), (1, 3)])
 def test_binomial_error_and_wilson_interval_written_out(k, n):
     r = binding_probability(np.array([1] * k + [0] * (n - k)))

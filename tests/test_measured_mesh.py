@@ -266,11 +266,16 @@ def test_face_cap(tmp_path, monkeypatch):
         measured_mesh.read_mesh_profile(raw, ".stl", GearDesign(), "ring.stl")
 
 
-def test_dense_section_is_thinned(tmp_path, monkeypatch):
+@pytest.mark.parametrize("share", [0.5, 0.77, 0.95])
+def test_dense_section_is_thinned(tmp_path, monkeypatch, share):
+    """Every k-th point, k = ceil(n / cap): never more than the cap, never under half of
+    it, whatever the ratio (n / cap = 2, 1.3 and 1.05 here)."""
     from corr_cad.export import measured_mesh
 
     v, f = ring_mesh(inner_profile()[0])
     write_stl_binary(tmp_path / "ring.stl", v, f)
-    monkeypatch.setattr(measured_mesh, "MAX_SECTION_POINTS", 5000)
+    n = len(read(tmp_path / "ring.stl"))
+    cap = int(share * n)
+    monkeypatch.setattr(measured_mesh, "MAX_SECTION_POINTS", cap)
     pts = read(tmp_path / "ring.stl")
-    assert 2500 < len(pts) <= 5000
+    assert cap / 2 < len(pts) <= cap

@@ -259,6 +259,46 @@ def test_modification_png_and_manifest(shop):
     assert rec["flank_clearance_mm"]["min"] == pytest.approx(EQ, abs=1e-9)
 
 
+def test_manifest_clearance_at_named_roll_angles_is_the_curve_there():
+    """A 15 um shift: the clearance varies along the flank, so each named roll angle of
+    ``manifest.json`` must be read at that angle (degrees) of the dense closed form."""
+    from types import SimpleNamespace
+
+    from corr_cad import GearDesign
+    from corr_cad.geometry.modification import Modification
+    from corr_cad.run.stages_modification import modification_manifest
+
+    scene = SimpleNamespace(design=GearDesign(), modification=Modification(0.0, 0.015, None))
+    at = modification_manifest(SimpleNamespace(scene=scene))["flank_clearance_mm"]["at_psi_deg"]
+    want = clearance_dense(np.radians([0.0, 45.0, 90.0, 135.0]), sh=0.015)
+    assert list(at) == ["0", "45", "90", "135"]
+    np.testing.assert_allclose([at[k] for k in at], want, atol=2e-7)
+    assert want[0] - want[2] > 1e-3  # the curve does vary: 15 um at psi 0, less on the flank
+
+
+def test_a_measured_ring_with_a_designed_clearance_repeats_after_a_revolution():
+    """The designed clearance alone is alike on every tooth (mesh period); added to a ring
+    deviation of its own (here harmonics) the windup repeats only after 2 pi."""
+    from corr_cad import GearDesign
+    from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
+    from corr_cad.geometry.modification import (
+        Modification,
+        modification_gap,
+        modified_profile,
+        with_modification,
+    )
+    from corr_cad.mechanics.windup import result_period_rad
+
+    d = GearDesign()
+    gap = modification_gap(d, modified_profile(d, Modification(0.01, 0.0, None)))
+    alone = with_modification(ManufacturingErrors(), gap)
+    assert result_period_rad(d, alone) == pytest.approx(2 * math.pi / (Z * (Z + 1)), rel=1e-15)
+    ring = ManufacturingErrors(profile_deviation=harmonic_deviation(((3, 0.002, 0.0),)))
+    both = with_modification(ring, gap)
+    assert not both.tooth_periodic_profile and both.per_roller
+    assert result_period_rad(d, both) == 2 * math.pi
+
+
 # ------------------------------------------------------------------ backlash
 def _roller_distance_beyond_locus(x, delta):
     """Signed distance of every roller centre beyond the locus (+ = towards the ring).

@@ -52,6 +52,44 @@ def designed(tmp_path_factory):
     return _run(tmp_path_factory.mktemp("designed"), 2.0)
 
 
+def test_candidate_clearance_is_subtracted_at_each_samples_own_positions():
+    """gap_metrics stacks samples sample-major (rows k P .. k P + P - 1); a clearance that
+    differs position by position must meet each sample at its own positions. The free
+    rotation written out: fwd = min over a > 0 of -g/a, rev = max over a < 0, per row."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from corr_cad import GearDesign
+    from corr_cad.tolerance.modification_design import gap_metrics
+
+    d = GearDesign()
+    n, P, R = 3, 4, d.roller_count
+    rng = np.random.default_rng(5)
+    psi = rng.uniform(-3.0, 3.0, (n * P, R))
+    advance = np.sin(psi)
+    rho_n = 1.0 + 0.1 * np.cos(psi)
+    gap = -rng.uniform(0.0, 0.002, (n * P, R))
+    clearance = np.linspace(0.0, 0.006, P * R).reshape(P, R)  # every cell its own value
+    geo = SimpleNamespace(
+        gap=gap, advance=advance, loadable=np.ones_like(gap, dtype=bool), rho_n=rho_n
+    )
+    backlash, binds = gap_metrics(geo, n, d, clearance)
+    want = []
+    for k in range(n):
+        worst = 0.0
+        for p in range(P):
+            row = k * P + p
+            g = gap[row] - rho_n[row] * clearance[p]
+            a = advance[row]
+            fwd = min(-g[i] / a[i] for i in range(R) if a[i] > 0)
+            rev = max(-g[i] / a[i] for i in range(R) if a[i] < 0)
+            worst = max(worst, max(fwd - rev, 0.0) / R)
+        want.append(worst * 60 * 180 / np.pi)
+    np.testing.assert_allclose(backlash, want, rtol=1e-12)
+    assert not binds.any()
+
+
 def test_design_writes_its_files_and_meets_the_targets(designed):
     r, out = designed
     assert r.returncode == 0, r.stderr

@@ -383,19 +383,31 @@ def test_undercut_threshold_is_where_the_working_radius_vanishes():
     assert 1 + r_adm * k == pytest.approx(0.0, abs=1e-9)
 
 
-def test_montecarlo_on_trimmed_tips_equals_direct_solve():
+@pytest.mark.parametrize("dr", [0.0, 0.001], ids=["clearance", "preloaded"])
+def test_montecarlo_on_trimmed_tips_equals_direct_solve(dr):
+    """Also with 1 um oversize rollers: every gap is closed, so a roller on a trimmed tip
+    would carry load unless the compiled kernel's inputs mask it as not loadable."""
     design = GearDesign(roller_radius=11.0, allow_undercut=True)
     limit = math.radians(undercut_analysis(design).trimmed_psi_deg)
     tol = {"eccentricity": Distribution("uniform", 0.0002)}
-    mc = monte_carlo(design, M0, tol, 2, 4, 52, psi_contact_limit=limit)
+    base = ManufacturingErrors(roller_radius_error=dr)
+    kw = {"psi_contact_limit": limit, "base_errors": base}
+    mc = monte_carlo(design, M0, tol, 2, 4, 52, **kw)
+    compiled = monte_carlo(design, M0, tol, 2, 4, 52, kernel=True, **kw)  # numba's inputs
+    for name, v in mc.metrics.items():
+        np.testing.assert_allclose(compiled.metrics[name], v, rtol=1e-9, err_msg=name)
     units = draw_samples(tol, 2, 4, design.roller_count)
     angles = 2 * math.pi * np.arange(52) / 52
     for k in range(2):
-        err = ManufacturingErrors(eccentricity_error=0.0002 * units["eccentricity"][k])
+        err = ManufacturingErrors(
+            eccentricity_error=0.0002 * units["eccentricity"][k], roller_radius_error=dr
+        )
         res = solve_forces(design, M0, angles, errors=err, psi_contact_limit=limit)
         p = max(res.p_cam.max(), res.p_slot.max(), res.p_gear.max())
         assert mc.metrics["peak_pressure"][k] == pytest.approx(p, rel=1e-9)
-        assert p < 1800  # the untrimmed tip would give ~2200 MPa here
+        assert mc.metrics["peak_gear_force"][k] == pytest.approx(res.F_n.max(), rel=1e-9)
+        if dr == 0.0:
+            assert p < 1800  # the untrimmed tip would give ~2200 MPa here
 
 
 def test_allocation_keeps_the_scenes_errors(prototype):

@@ -129,6 +129,25 @@ formats = ["allocation"]
 """
 
 
+def test_of_two_passing_changes_the_nearer_is_proposed():
+    """Eccentricity 3.5 mm fails; 3.2 mm (0.3 below) and 3.6 mm (0.1 above) both pass:
+    the remedy is the nearer, e >= 3.6 mm. Other knobs never pass."""
+    from corr_cad import Checks, GearDesign
+    from corr_cad.tolerance.remedy import check_remedies
+
+    def metrics(design, torque):
+        e = design.eccentricity
+        passing = e <= 3.2 + 1e-9 or e >= 3.6 - 1e-9
+        return {"peak_gear_force": 0.0 if passing else 1000.0}
+
+    d = GearDesign()
+    checks = Checks(max_gear_force=500.0)
+    out = check_remedies(d, {}, 1.1e5, checks, ["max_gear_force"], metrics)
+    (rem,) = out["max_gear_force"]
+    assert (rem.parameter, rem.sense) == ("eccentricity", ">=")
+    assert rem.value == pytest.approx(3.6, abs=0.01)
+
+
 def test_allocation_explains_its_zero(tmp_path):
     r = _run(tmp_path, "a", ALLOCATE.format(limit=1100.0))
     assert r.returncode == 1
