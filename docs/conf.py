@@ -44,7 +44,8 @@ myst_heading_anchors = 3
 
 html_theme = "furo"
 html_title = "corr_cad"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["tables.css"]  # wide tables wrap at 1280 px
 highlight_language = "none"
 html_last_updated_fmt = None
 html_copy_source = False

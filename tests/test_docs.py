@@ -270,3 +270,58 @@ def test_command_examples_parse():
             _parser().parse_args(args)
         except SystemExit:
             pytest.fail(f"{name}: corr-cad {' '.join(args)} does not parse")
+
+
+#: Words of the work's history, not of the tool: issue numbers, who wrote what, what changed.
+PROCESS_WORDS = re.compile(
+    r"\bissues? \d+|\bhelper\b|\bred-team\b|\bnew keys\b|\bas before\b|\bthis release\b"
+    r"|\bissue case\b|\bbefore this (?:work|change)\b",
+    re.I,
+)
+
+
+@pytest.mark.parametrize(
+    "doc",
+    [ROOT / "README.md", *(p for p in PAGES if p.name != "changelog.md")],
+    ids=lambda p: p.name,
+)
+def test_the_manual_speaks_of_the_tool_not_of_its_history(doc):
+    """Code spans and file names aside (a test file may carry a number), no page speaks of
+    issues, helpers or what was there before: that is the changelog's."""
+    text = re.sub(r"`[^`\n]*`", "", FENCE.sub("", doc.read_text()))
+    found = sorted({m.group(0) for m in PROCESS_WORDS.finditer(text)})
+    assert not found, f"{doc.name}: {found}"
+
+
+def test_readme_and_getting_started_link_every_page():
+    """Every page of the manual is one link away from the README and from Getting started."""
+    pages = {p.name for p in PAGES} - {"index.md", "changelog.md", "getting-started.md"}
+    readme = (ROOT / "README.md").read_text()
+    start = (DOCS / "getting-started.md").read_text()
+    assert not sorted(p for p in pages if f"(docs/{p}" not in readme), "README"
+    assert not sorted(p for p in pages if f"({p}" not in start), "getting-started.md"
+
+
+def test_stated_ranges_are_the_loaders():
+    """The key reference's range of max_failure_probability is what the loader refuses,
+    and every memory-budget note names the loader's default budget."""
+    from corr_cad.errors import SceneError
+    from corr_cad.run.resources import DEFAULT_MEMORY_GB
+    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene_key import key_range
+
+    assert key_range(SCHEMA["checks"]["max_failure_probability"]) == "[0, 1]"
+    for bad in ("-0.01", "1.01"):
+        with pytest.raises(SceneError, match=re.escape("allowed range is [0, 1]")):
+            parse_scene({"checks": {"max_gear_force": 1e4, "max_failure_probability": float(bad)}})
+    notes = [k.note for sec in SCHEMA.values() for k in sec.values() if "memory budget" in k.note]
+    assert notes and all(f"default {DEFAULT_MEMORY_GB:g} GB" in n for n in notes), notes
+
+
+def test_wide_tables_wrap_in_the_content_column(site):
+    """docs/_static/tables.css lets table cells wrap instead of scrolling out of sight
+    (checked by eye in headless Chromium at 1280 px); every page links it."""
+    css = (site / "_static" / "tables.css").read_text()
+    assert "overflow-x: visible" in css and "overflow-wrap" in css
+    for page in ("scenes.html", "gcode.html", "datasheet.html"):
+        assert "_static/tables.css" in (site / page).read_text(), page

@@ -32,6 +32,21 @@ DEG = math.pi / 180.0  # written out: the tests never use the package's conversi
 # --- unit conversions, pinned to hand-computed values -------------------------------
 
 
+def test_eccentricity_error_gap_is_plus_de_cos_psi(prototype):
+    """docs/physics.md: the eccentricity error's cam-contact gap is about ``+de cos psi``
+    (the cam centre moved out to e + de presses on the roller at psi = 0)."""
+    from corr_cad.mechanics.solver_geometry import roller_geometry
+
+    de = 0.001
+    R = prototype.roller_count
+    crank = np.radians([0.0, 30.0, 90.0])
+    geo = roller_geometry(prototype, crank, ManufacturingErrors(eccentricity_error=de))
+    nominal = roller_geometry(prototype, crank)
+    want = de * np.cos(crank[:, None] - np.arange(R) * 2 * math.pi / R)  # psi of each roller
+    np.testing.assert_allclose(geo.gap - nominal.gap, want, atol=0.05 * de)  # "about"
+    assert geo.gap[0, 0] == pytest.approx(de, rel=1e-3)  # +1.000 um at psi = 0
+
+
 def test_harmonic_phase_is_in_degrees():
     # dev(t) = a cos(k t - phase): phase 90 deg shifts a 3rd harmonic by 30 deg of t.
     dev = harmonic_deviation([(3, 0.002, 90.0)])

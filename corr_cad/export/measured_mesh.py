@@ -59,7 +59,7 @@ MESH_SUFFIXES = (".stl", ".ply")
 #: faces while it merges, checks and slices it: about 0.6 kB per triangle at
 #: the peak (measured: 1,000,000 triangles, a 50 MB binary STL, peak RSS
 #: 609 MB above the interpreter's 129 MB, 11.6 s on the 2-core machine), so
-#: the cap keeps a mesh under the run's 2 GB budget with room for the rest.
+#: the cap keeps a mesh under the run's default 3 GB budget with room for the rest.
 #: A ring scanned at 0.05 mm point spacing has far fewer.
 MAX_MESH_FACES = 1_000_000
 #: Most section points handed on: a denser loop keeps every k-th point

@@ -219,7 +219,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
             "crank positions per cycle",
             low=0,
             high=10_000_000,
-            note="and within the memory budget (2 GB)",
+            note="and within the memory budget ([budget] memory_gb, default 3 GB)",
         ),
         "load_share": Key("float", 0.55, "share of M0 carried by one cam (Eq. 8)", low=0, high=1),
         "crank_angles_deg": Key(
@@ -338,6 +338,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
             None,
             "gate the Monte Carlo too: largest allowed probability of breaking each limit, "
             "in [0, 1] (default: only the nominal design is gated)",
+            low=0,
+            low_open=False,
             high=1,
             example=0.01,
         ),

@@ -60,7 +60,7 @@ SECTIONS: dict[str, dict[str, Key]] = {
             "output positions per mesh period of the windup curve",
             low=0,
             high=10000,
-            note="and within the memory budget (2 GB)",
+            note="and within the memory budget ([budget] memory_gb, default 3 GB)",
         ),
         "transmission_error_positions_per_turn": Key(
             "int",
@@ -68,7 +68,7 @@ SECTIONS: dict[str, dict[str, Key]] = {
             "positions per crank (input) turn of the transmission error",
             low=0,
             high=100000,
-            note="and within the memory budget (2 GB)",
+            note="and within the memory budget ([budget] memory_gb, default 3 GB)",
         ),
         "allowable_contact_pressure_MPa": Key(
             "float",
@@ -106,7 +106,7 @@ SECTIONS: dict[str, dict[str, Key]] = {
             "Monte Carlo samples",
             low=0,
             high=10_000_000,
-            note="and within the memory budget (2 GB)",
+            note="and within the memory budget ([budget] memory_gb, default 3 GB)",
         ),
         "seed": Key("int", 1, "random seed (runs are reproducible)", low=-1, high=1e9),
         "positions": Key(
@@ -115,7 +115,7 @@ SECTIONS: dict[str, dict[str, Key]] = {
             "crank positions per sample (full cycle)",
             low=0,
             high=100_000,
-            note="and within the memory budget (2 GB)",
+            note="and within the memory budget ([budget] memory_gb, default 3 GB)",
         ),
         "percentile": Key(
             "float", 95.0, "percentile the allocation keeps under the limits", low=0, high=100
