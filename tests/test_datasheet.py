@@ -534,6 +534,73 @@ def run_dir(tmp_path_factory):
     return tmp / "ds", r
 
 
+def test_datasheet_html_is_written_and_its_numbers_are_datasheet_json_s(run_dir):
+    """datasheet.html beside datasheet.json: every figure cell holds the JSON's exact value
+    (data-value) and shows it rounded to 4 significant digits, never in e-notation; the two
+    curves are embedded byte for byte; the model is named."""
+    import base64
+    import re
+    from html.parser import HTMLParser
+
+    out, r = run_dir
+    sheet = json.loads((out / "datasheet.json").read_text())
+    text = (out / "datasheet.html").read_text()
+    assert "datasheet.html" in json.loads((out / "manifest.json").read_text())["files"]
+
+    class Cells(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.cells, self.imgs, self._open = [], [], None
+
+        def handle_starttag(self, tag, attrs):
+            a = dict(attrs)
+            if tag == "td" and "data-key" in a:
+                self._open = [a["data-key"], a["data-value"], ""]
+            if tag == "img":
+                self.imgs.append(a["src"])
+
+        def handle_data(self, data):
+            if self._open is not None:
+                self._open[2] += data
+
+        def handle_endtag(self, tag):
+            if tag == "td" and self._open is not None:
+                self.cells.append(tuple(self._open))
+                self._open = None
+
+    p = Cells()
+    p.feed(text)
+    keys = {k for k, _, _ in p.cells}
+    assert {
+        "rated_torque_Nm",
+        "backlash_arcmin.max",
+        "lost_motion_arcmin.max",
+        "torsional_rigidity_Nm_per_arcmin.catalogue",
+        "torsional_rigidity_Nm_per_arcmin.contact_only.min",
+        "stiffness_Nm_per_arcmin.K1.min",
+        "transmission_error_arcsec.catalogue",
+    } <= keys
+    for key, exact, shown in p.cells:
+        v = sheet
+        for part in key.split("."):
+            v = v[part]
+        assert float(exact) == v, key  # the very number of datasheet.json
+        assert re.fullmatch(r"-?[0-9,]+(\.[0-9]+)?", shown), (key, shown)  # no e-notation
+        got = float(shown.replace(",", ""))
+        if abs(v) < 1e-9:
+            assert got == 0.0, key
+            continue
+        digits = max(0, 3 - math.floor(math.log10(abs(v)))) if v else 0
+        assert abs(got - v) <= 0.5 * 10.0**-digits * (1 + 1e-9), (key, shown, v)
+    assert sheet["rated_torque_Nm"] == 2860.0 and "2,860" in text  # catalogue form
+    # The curves: the run's own PNGs, embedded.
+    for name in ("hysteresis.png", "transmission_error.png"):
+        data = "data:image/png;base64," + base64.b64encode((out / name).read_bytes()).decode()
+        assert data in p.imgs, name
+    for words in ("Hertz line contacts (nonlinear)", "frictionless", "load share of one cam 0.55"):
+        assert words in text
+
+
 def test_figures_are_reproducible_by_hand_from_the_csv_files(run_dir, prototype):
     out, _ = run_dir
     d = json.loads((out / "datasheet.json").read_text())

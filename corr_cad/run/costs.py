@@ -281,8 +281,9 @@ def _datasheet_files(scene, env):
             "transmission_error.csv": 40 * te_rows,
             "datasheet.json": 20e3,
             "datasheet plots": 0.4 * MB,
+            "datasheet.html": 0.6 * MB,  # the plots again, as base64
         },
-        libraries=("matplotlib",),
+        libraries=("matplotlib", "jinja2"),
         knobs=("[datasheet] positions_per_mesh",),
     )
 

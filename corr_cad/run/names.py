@@ -53,7 +53,7 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
         r"sweeps\.json",
     ),
     "datasheet": (
-        r"datasheet\.json",
+        r"datasheet\.(?:json|html)",
         r"assembly\.json",
         r"(?:windup|transmission_error)\.csv",
         r"(?:hysteresis|transmission_error)\.png",

@@ -146,7 +146,8 @@ def _datasheet_files(ctx: RunContext) -> None:
 
     ds = ctx.results.datasheet
     s = ctx.scene
-    names = write_datasheet_files(ds, ctx.out, _meta(ctx))
+    meta = _meta(ctx)
+    names = write_datasheet_files(ds, ctx.out, meta)
     ring = ring_description(ctx)
     note = (
         f"measured ring {ring['file']}, other parts nominal"
@@ -155,10 +156,30 @@ def _datasheet_files(ctx: RunContext) -> None:
     )
     hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note)
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
-    ctx.files.extend([*names, "hysteresis.png", "transmission_error.png"])
+    _datasheet_html(ctx, {**meta, **ds.figures()})
+    ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     if s.assembly:
         _assembly(ctx)
+
+
+def _datasheet_html(ctx: RunContext, sheet: dict) -> None:
+    """``datasheet.html`` from the dictionary ``datasheet.json`` holds, beside the PNGs."""
+    from corr_cad._version import __version__
+    from corr_cad.export.datasheet_html import catalogue_number, write_datasheet_html
+
+    mod = ctx.scene.modification
+    text = ""
+    if mod is not None and not mod.is_zero:
+        parts = [
+            f"{name} {catalogue_number(v)} mm"
+            for name, v in (("equidistant", mod.equidistant_mm), ("shift", mod.shift_mm))
+            if v
+        ]
+        if mod.normal_table is not None:
+            parts.append("normal table")
+        text = ", ".join(parts) + " (+ = clearance)"
+    write_datasheet_html(sheet, ctx.scene.design, ctx.out, ctx.scene.name, text, __version__)
 
 
 def _assembly(ctx: RunContext) -> None:
