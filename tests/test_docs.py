@@ -137,9 +137,13 @@ def test_python_examples_run(page, tmp_path, monkeypatch):
 )
 def test_toml_examples_use_only_keys_the_schema_knows(page, line, text):
     data = tomllib.loads(text)
-    for section, keys in data.items():
+    tables = list(data.items())
+    while tables:
+        section, keys = tables.pop()
         assert section in SCHEMA, f"{page}:{line}: unknown section [{section}]"
-        unknown = sorted(set(keys) - set(SCHEMA[section]))
+        nested = {k for k, v in keys.items() if isinstance(v, dict) and f"{section}.{k}" in SCHEMA}
+        tables.extend((f"{section}.{k}", keys[k]) for k in nested)  # [modification.design]
+        unknown = sorted(set(keys) - set(SCHEMA[section]) - nested)
         assert not unknown, f"{page}:{line}: unknown keys in [{section}]: {unknown}"
 
 

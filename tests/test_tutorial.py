@@ -1,0 +1,191 @@
+"""docs/tutorial.md is a promise: its commands run as written and do what the page says.
+
+The page is read, not copied: every ``toml`` block headed ``# save as: NAME``
+is written to ``NAME`` and every ``corr-cad ...`` line of a ``bash`` block is
+run, in page order, in one empty folder, through this checkout
+(``python -m corr_cad``). Then the numbers and choices the page states are
+read back from the files the steps wrote.
+
+``python tests/test_tutorial.py`` runs the page the same way and writes its
+pictures into ``docs/images/tutorial_*.png`` (downscaled, 64 colours).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGE = ROOT / "docs" / "tutorial.md"
+FENCE = re.compile(r"^```(\w*)[^\n]*\n(.*?)^```", re.M | re.S)
+
+#: The page's pictures: (file a step writes, picture in docs/images, width in pixels).
+PICTURES = [
+    ("step1/preview.png", "tutorial_1_preview.png", 640),
+    ("step2/hysteresis.png", "tutorial_2_hysteresis.png", 760),
+    ("step3/montecarlo.png", "tutorial_3_montecarlo.png", 760),
+    ("step4/modification_tradeoff.png", "tutorial_4_tradeoff.png", 640),
+    ("step5b/hysteresis.png", "tutorial_5_assembled.png", 760),
+    ("step6/modification.png", "tutorial_6_modification.png", 640),
+]
+
+
+def steps(text: str) -> list[tuple[str, str, str]]:
+    """``("file", name, content)`` and ``("run", command, "")`` in page order."""
+    out = []
+    for m in FENCE.finditer(text):
+        kind, body = m.group(1), m.group(2)
+        first = body.splitlines()[0] if body else ""
+        if kind == "toml" and first.startswith("# save as: "):
+            out.append(("file", first[len("# save as: ") :].strip(), body))
+        elif kind == "bash":
+            for line in body.splitlines():
+                command = line.split("#", 1)[0].strip()
+                if command.startswith("corr-cad "):
+                    out.append(("run", command, ""))
+    return out
+
+
+def run_page(folder: Path) -> dict[str, subprocess.CompletedProcess]:
+    """Run the tutorial in ``folder``; the result of each command, by its ``--out`` (or name)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    results = {}
+    for kind, what, body in steps(PAGE.read_text()):
+        if kind == "file":
+            (folder / what).write_text(body)
+            continue
+        words = shlex.split(what)
+        r = subprocess.run(
+            [sys.executable, "-m", "corr_cad", *words[1:]],
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            env=env,
+        )
+        key = words[words.index("--out") + 1] if "--out" in words else words[-1]
+        results[key] = r
+    return results
+
+
+@pytest.fixture(scope="module")
+def tutorial(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("tutorial")
+    return folder, run_page(folder)
+
+
+def test_the_page_has_six_steps_of_commands_files_and_pictures():
+    text = PAGE.read_text()
+    runs = [w for k, w, _ in steps(text) if k == "run"]
+    files = [w for k, w, _ in steps(text) if k == "file"]
+    assert runs[0] == "corr-cad new my_drive.toml" and len(runs) == 8
+    assert files == [
+        "datasheet.toml",
+        "tolerances.toml",
+        "modify.toml",
+        "assembly.toml",
+        "assembled.toml",
+        "shop.toml",
+    ]
+    for _, picture, _ in PICTURES:
+        assert f"(images/{picture})" in text
+        assert (ROOT / "docs" / "images" / picture).stat().st_size < 150_000  # kept small
+
+
+@pytest.mark.slow
+def test_every_command_runs_and_exits_0(tutorial):
+    folder, results = tutorial
+    assert len(results) == 8
+    for key, r in results.items():
+        assert r.returncode == 0, (key, r.stderr[-2000:])
+    for made, _, _ in PICTURES:
+        assert (folder / made).stat().st_size > 10_000, made
+
+
+@pytest.mark.slow
+def test_the_numbers_the_page_states(tutorial):
+    folder, _ = tutorial
+    text = PAGE.read_text()
+    # Step 1: the commented scene and its four profiles.
+    assert "[design]" in (folder / "my_drive.toml").read_text()
+    names = json.loads((folder / "step1" / "manifest.json").read_text())["files"]
+    assert {"inner_gear.dxf", "disk_cam.dxf", "roller.dxf", "teeth_frame.dxf"} <= set(names)
+    # Step 2: the figures quoted, and the customer's page.
+    ds = json.loads((folder / "step2" / "datasheet.json").read_text())
+    assert f"{ds['backlash_arcmin']['max']:.3f}" == "0.425" and "backlash 0.425 arcmin" in text
+    assert f"{ds['lost_motion_arcmin']['max']:.3f}" == "0.591"
+    rig = ds["torsional_rigidity_Nm_per_arcmin"]
+    assert f"{rig['catalogue']:,.0f}" == "1,136"
+    assert f"{rig['contact_only']['min']:,.0f}" == "21,256"
+    assert (folder / "step2" / "datasheet.html").stat().st_size > 10_000
+    # Step 3: the gate passes, with the probabilities quoted.
+    mc = json.loads((folder / "step3" / "montecarlo_summary.json").read_text())
+    assert mc["failure_probability"]["max_contact_pressure"] == 0.0
+    assert mc["failure_probability"]["min_loaded_rollers"] == 0.005
+    # Step 4: the chosen modification, as the page and the later scenes use it.
+    mod = json.loads((folder / "step4" / "modification.json").read_text())
+    chosen = mod["chosen"]
+    assert (chosen["equidistant_mm"], chosen["shift_mm"]) == (0.0, 0.02)
+    assert f"{chosen['backlash_arcmin']['p95']['value']:.3f}" == "1.818"
+    assert chosen["binding_probability"]["value"] == 0.0 and len(mod["candidates"]) == 16
+    for later in ("assembly.toml", "assembled.toml", "shop.toml"):
+        scene = tomllib.loads((folder / later).read_text())
+        assert scene["modification"]["shift_mm"] == chosen["shift_mm"], later
+    assert (folder / "step4" / "modified.toml").is_file()
+    # Step 5: the class, and the scene that assembles it.
+    fit = json.loads((folder / "step5" / "assembly.json").read_text())
+    assert fit["chosen_class_um"] == 8.0
+    assembled = tomllib.loads((folder / "assembled.toml").read_text())
+    assert assembled["errors"]["roller_radius_error"] * 1000.0 == fit["chosen_class_um"]
+    b = json.loads((folder / "step5b" / "datasheet.json").read_text())["backlash_arcmin"]["max"]
+    assert 0.1 < b < 0.5 and f"{b:.1f}" == "0.2"
+    # Step 6: the shop files, of the modified profile.
+    for name in ("inner_gear.dxf", "inner_gear_edm.nc", "inner_gear_edm.dxf"):
+        assert (folder / "step6" / name).stat().st_size > 1000, name
+    assert (folder / "step6" / "inner_gear_nominal.csv").is_file()
+    m = json.loads((folder / "step6" / "manifest.json").read_text())
+    assert m["modification"]["shift_mm"] == 0.02
+
+
+@pytest.mark.slow
+def test_wider_tolerances_fail_the_gate_with_exit_1(tmp_path):
+    """Step 3's remark: with +-5 um on the cam and the eccentricity the gate fails."""
+    text = dict((w, b) for k, w, b in steps(PAGE.read_text()) if k == "file")["tolerances.toml"]
+    wide = text.replace("cam_radius = { uniform = 0.001 }", "cam_radius = { uniform = 0.005 }")
+    wide = wide.replace("eccentricity = { uniform = 0.001 }", "eccentricity = { uniform = 0.005 }")
+    assert wide.count("0.005") == 2
+    (tmp_path / "wide.toml").write_text(wide)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "wide.toml", "--out", "o", "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"},
+    )
+    assert r.returncode == 1 and "failure probability" in r.stderr
+
+
+def _pictures(folder: Path) -> None:
+    """Write the page's pictures from a run of it (downscaled, 64 colours)."""
+    from PIL import Image
+
+    for made, picture, width in PICTURES:
+        im = Image.open(folder / made).convert("RGB")
+        im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
+        im.quantize(colors=64).save(ROOT / "docs" / "images" / picture, optimize=True)
+
+
+if __name__ == "__main__":
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for key, r in run_page(Path(tmp)).items():
+            print(key, r.returncode, r.stderr.strip().splitlines()[-1:] if r.returncode else "")
+        _pictures(Path(tmp))
