@@ -212,7 +212,7 @@ def render_datasheet_html(
     version: str = "",
 ) -> str:
     """The page's HTML text; the PNGs are read from ``out``."""
-    from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+    from corr_cad.export.html import render_template
 
     figures = []
     for name, caption in (
@@ -228,19 +228,14 @@ def render_datasheet_html(
     ):
         data = base64.b64encode((Path(out) / name).read_bytes()).decode("ascii")
         figures.append({"name": name, "data": data, "caption": caption})
-    env = Environment(
-        loader=PackageLoader("corr_cad", "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-        undefined=StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        keep_trailing_newline=True,
-    )
-    return env.get_template("datasheet.html.j2").render(
-        title=title,
-        rows=datasheet_rows(sheet),
-        figures=figures,
-        model=_model(sheet, design, title, modification, version),
+    return render_template(
+        "datasheet.html.j2",
+        {
+            "title": title,
+            "rows": datasheet_rows(sheet),
+            "figures": figures,
+            "model": _model(sheet, design, title, modification, version),
+        },
     )
 
 

@@ -486,17 +486,9 @@ def _version() -> str:
 
 def render_report(context: dict) -> str:
     """The HTML text, rendered from the template shipped in the package."""
-    from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+    from corr_cad.export.html import render_template
 
-    env = Environment(
-        loader=PackageLoader("corr_cad", "templates"),
-        autoescape=select_autoescape(["html", "j2"]),
-        undefined=StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        keep_trailing_newline=True,
-    )
-    return env.get_template("report.html.j2").render(**context)
+    return render_template("report.html.j2", context)
 
 
 def write_report(scene, manifest: dict, forces, files: list[str], out: Path) -> Path:
