@@ -65,3 +65,34 @@ def test_readme_formats_are_the_schemas_and_the_docs_list_their_files():
 
 def test_readme_is_short():
     assert len((ROOT / "README.md").read_text().splitlines()) <= 150
+
+
+def test_readme_states_the_python_the_virtualenv_and_the_step_system_libraries():
+    """Python >= 3.11 as pyproject says; a virtualenv first; and the step extra's system
+    libraries, which Open CASCADE's extension really links (ldd, where OCP is installed)."""
+    import glob
+    import os
+    import shutil
+    import subprocess
+    import tomllib
+
+    import pytest
+
+    text = (ROOT / "README.md").read_text()
+    start = (ROOT / "docs" / "getting-started.md").read_text()
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert project["requires-python"] == ">=3.11"
+    for page in (text, start):
+        assert "Python >= 3.11" in page or "Python 3.11 or newer" in page
+        assert "python3 -m venv .venv" in page
+        assert "libgl1 libx11-6" in page
+    assert text.index("python3 -m venv") < text.index("<!-- setup-commands -->")  # first
+    try:
+        import OCP
+    except ImportError:
+        pytest.skip("the step extra is not installed")
+    so = glob.glob(os.path.join(os.path.dirname(OCP.__file__), "OCP*.so"))
+    if not so or not shutil.which("ldd"):
+        pytest.skip("no OCP extension module or no ldd to read it")
+    linked = subprocess.run(["ldd", so[0]], capture_output=True, text=True).stdout
+    assert "libGL.so.1" in linked and "libX11.so.6" in linked
