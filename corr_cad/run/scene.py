@@ -112,6 +112,10 @@ class Scene:
     inspection: dict = field(default_factory=dict)
     #: ``[datasheet]`` with its defaults (``rated_torque_Nm`` None: from ``[load]``).
     datasheet: dict = field(default_factory=dict)
+    #: ``[friction]`` and ``[life]`` with their defaults, empty unless the scene
+    #: gives the section (either one makes the datasheet compute efficiency and life).
+    friction: dict = field(default_factory=dict)
+    life: dict = field(default_factory=dict)
     modification: Any = None  # [modification]; None: the conjugate profile
     assembly: dict = field(default_factory=dict)
     modification_design: dict = field(default_factory=dict)
@@ -465,6 +469,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         edm=values["edm"],
         inspection=values["inspection"],
         datasheet=values["datasheet"],
+        friction=values["friction"] if ("friction" in data or "life" in data) else {},
+        life=values["life"] if ("friction" in data or "life" in data) else {},
         modification=modification,
         assembly=assembly,
         modification_design=search,
@@ -479,7 +485,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given, [modification] and
             # [assembly] where they act (the inputs of scenes without them stay as they were).
-            if (s != "datasheet" or sheet) and acts(s, modification, assembly, search)
+            if (s != "datasheet" or sheet)
+            and (s not in ("friction", "life") or s in data)
+            and acts(s, modification, assembly, search)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),
