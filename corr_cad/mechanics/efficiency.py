@@ -120,7 +120,9 @@ def cycle_efficiency(rows: list[RowFriction], backdriving: bool) -> dict:
     return {
         "efficiency": eta,
         "driver_power": total_driver,
-        "losses": {k: float(v) for k, v in zip(("cam", "slot", "ring", "bearing"), losses)},
+        "losses": {
+            k: float(v) for k, v in zip(("cam", "slot", "ring", "bearing"), losses, strict=True)
+        },
         "balance": balance,
     }
 
@@ -140,17 +142,17 @@ def drive_life(
     """
     rating, _ = spec.rating()
     R = design.roller_count
-    r, L, l = design.roller_radius, design.link_length, design.roller_length
+    r, L, length = design.roller_radius, design.link_length, design.roller_length
     gamma = r / L
     lives: dict[str, float] = {}
-    for i, (row, fr) in enumerate(zip(rows, frictions)):
+    for i, (row, fr) in enumerate(zip(rows, frictions, strict=True)):
         tag = f"row{i + 1}"
         if mounting == "bearing":
             lives[f"bearing_{tag}"] = bearing_life_h(
                 rating, fr.bearing_load, fr.bearing_speed, output_rpm
             )
-        q_cam = raceway_capacity(row.conformity_cam, False, R, 2.0 * r, l, gamma)
-        q_ring = raceway_capacity(row.conformity_ring, True, R, 2.0 * r, l, gamma)
+        q_cam = raceway_capacity(row.conformity_cam, False, R, 2.0 * r, length, gamma)
+        q_ring = raceway_capacity(row.conformity_ring, True, R, 2.0 * r, length, gamma)
         cam_speed = float(np.mean(np.abs(fr.cam_spin - 1.0)))
         lives[f"cam_{tag}"] = raceway_life_h(
             row.cam_force, q_cam, cam_speed, output_rpm, stationary_load=mounting == "fixed"
@@ -201,8 +203,10 @@ class FrictionFigures:
     ``shares`` (S,) output torques as shares of T_R; ``forward``,
     ``backdriving`` (S,) efficiencies over the cycle; ``losses_forward``,
     ``losses_backdriving`` (S, 4) cam, slot, ring and bearing losses per
-    unit output speed (N*mm per rad); ``input_power`` (S,) the crank's
-    forward power per unit output speed; ``balance`` the worst power
+    unit output speed (N*mm per rad); ``input_power``, ``output_power``
+    (S,) the crank's and the output's forward power per unit output speed,
+    of the modelled row (the files scale them to the drive's output torque);
+    ``balance`` the worst power
     balance residual (relative) over every position of the map.
     """
 
@@ -214,15 +218,18 @@ class FrictionFigures:
     losses_forward: np.ndarray
     losses_backdriving: np.ndarray
     input_power: np.ndarray
+    output_power: np.ndarray
     balance: float
     friction: Friction
+    ratio: float
     lives: dict | None = None
     rated_torque_from_life: float | None = None
     life_spec: LifeSpec | None = None
     rating_source: str = ""
+    lives_at_rated_from_life: dict | None = None
 
     def self_locking_shares(self) -> list[float]:
-        return [float(s) for s, e in zip(self.shares, self.backdriving) if e <= 0.0]
+        return [float(s) for s, e in zip(self.shares, self.backdriving, strict=True) if e <= 0.0]
 
     def check_values(self) -> dict[str, float]:
         out = {"efficiency": float(np.min(self.forward))}
@@ -308,7 +315,7 @@ def friction_figures(
     def rows_at(T: float) -> list[RowLoads]:
         return [row_loads_from_forces(design, windup.forces(T))]
 
-    fwd, back, lf, lb, pin = [], [], [], [], []
+    fwd, back, lf, lb, pin, pout = [], [], [], [], [], []
     balance = 0.0
     for s in shares:
         T = s * rated_torque
@@ -320,6 +327,7 @@ def friction_figures(
         lf.append(list(e_f["losses"].values()))
         lb.append(list(e_b["losses"].values()))
         pin.append(e_f["driver_power"])
+        pout.append(e_f["driver_power"] - sum(e_f["losses"].values()))
         balance = max(balance, e_f["balance"], e_b["balance"])
     out = FrictionFigures(
         rated_torque=rated_torque,
@@ -330,8 +338,10 @@ def friction_figures(
         losses_forward=np.array(lf),
         losses_backdriving=np.array(lb),
         input_power=np.array(pin),
+        output_power=np.array(pout),
         balance=balance,
         friction=friction,
+        ratio=float(design.roller_count),
     )
     if life is not None:
 
@@ -346,4 +356,5 @@ def friction_figures(
         out.rated_torque_from_life = torque_for_life(
             lambda T: lives_at(T)["system"], life.rated_life_h, rated_torque
         )
+        out.lives_at_rated_from_life = lives_at(out.rated_torque_from_life)
     return out

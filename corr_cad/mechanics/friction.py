@@ -360,10 +360,10 @@ def row_friction(c: RowContacts, cam_force: np.ndarray, friction: Friction) -> R
         mid = np.where(settled, mid, 0.5 * (lo + hi))
         g_mid, res = moment(mid)
         settled |= g_mid == 0.0
-        if np.all(settled | (hi - lo <= 1e-13 * (abs(w_in) + 1.0))):
+        if np.all(settled | (hi - lo <= 1e-11 * (abs(w_in) + 1.0))):
             break
     # The bearing sticks where the balance is met at the crank's own speed.
-    sticks = np.abs(mid - w_in) <= 1e-12 * (abs(w_in) + 1.0)
+    sticks = np.abs(mid - w_in) <= 1e-10 * (abs(w_in) + 1.0)
     mid = np.where(sticks, w_in, mid)
     if np.any(sticks):
         res = roller_equilibrium(c, cam_force, mu, mid)
