@@ -13,7 +13,8 @@ at the same positive speed (output torque ``+T``). Efficiency over the
 cycle is ``1 - (sum of losses) / (power of the driving member)``, energies
 summed over the positions, so it is exactly 1 when every coefficient is 0.
 A backdriving efficiency at or below 0 means the output cannot drive the
-crank: the drive is **self-locking** at that torque.
+crank: the drive is **self-locking** at that torque (reported as 0 where
+the output would deliver no power at all).
 
 Friction is not fed back into the load sharing (first order, see
 :mod:`corr_cad.mechanics.friction`); the windup, the forces, the lives and
@@ -113,9 +114,13 @@ def cycle_efficiency(rows: list[RowFriction], backdriving: bool) -> dict:
     total_driver = float(np.sum(driver)) / n
     losses = np.sum(loss, axis=0) / n
     if total_driver <= 0.0:
-        raise SolverError("efficiency: the driving member delivers no power at this torque")
-    eta = 1.0 - float(np.sum(losses)) / total_driver
-    scale = np.maximum(np.abs(driver), 1e-300)
+        if not backdriving:
+            raise SolverError("efficiency: the crank delivers no power at this torque")
+        # The output would have to be driven too: self-locking, reported as 0.
+        eta = 0.0
+    else:
+        eta = 1.0 - float(np.sum(losses)) / total_driver
+    scale = np.maximum(np.maximum(np.abs(crank), np.abs(frame)), 1e-300)
     balance = float(np.max(np.abs(crank + frame - np.sum(loss, axis=1)) / scale))
     return {
         "efficiency": eta,

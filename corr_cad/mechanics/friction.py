@@ -258,8 +258,6 @@ def roller_equilibrium(c: RowContacts, cam_force: np.ndarray, mu: np.ndarray, ca
     force = -N[..., None] * d + f[..., None] * t  # on the roller, (P, R, 3, 2)
     power = np.einsum("prkx,prkx->pk", force, vb)
     loss = np.sum(-f * slip, axis=1)
-    arm = c.points[:, :, 0] - c.cam_centre[:, None, :]
-    on_cam = -force[:, :, 0]
     return {
         "N": N,
         "f": f,
@@ -269,7 +267,9 @@ def roller_equilibrium(c: RowContacts, cam_force: np.ndarray, mu: np.ndarray, ca
         "power": power,
         "loss": loss,
         "cam_force_on_rollers": np.sum(force[:, :, 0], axis=1),
-        "cam_moment": np.sum(_cross(arm, on_cam), axis=1),
+        # Normal forces pass through the cam centre; the friction force on the cam,
+        # -f t at the arm -R_j d: moment R_j f (d x z x d = 1).
+        "cam_moment": c.cam_radius * np.sum(f[:, :, 0], axis=1),
     }
 
 
