@@ -16,7 +16,6 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.mechanics.efficiency import (
-    cycle_efficiency,
     drive_friction,
     drive_life,
     friction_figures,
@@ -216,7 +215,6 @@ def test_clearance_breaks_the_catalogue_rule():
     spec = LifeSpec()
     l0, _, _ = _lives(w, T_R, 15.0, spec)
     l1, _, _ = _lives(w, 0.25 * T_R, 15.0, spec)
-    rule = 4.0 ** (10 / 3)
     assert abs(l1["cam_row1"] / l0["cam_row1"] / 4.0**4 - 1.0) > 0.05
 
 
