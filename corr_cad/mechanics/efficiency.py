@@ -232,6 +232,8 @@ class FrictionFigures:
     life_spec: LifeSpec | None = None
     rating_source: str = ""
     lives_at_rated_from_life: dict | None = None
+    #: :func:`corr_cad.mechanics.hysteresis.hysteresis_figures`, when computed.
+    hysteresis: dict | None = None
 
     def self_locking_shares(self) -> list[float]:
         return [float(s) for s, e in zip(self.shares, self.backdriving, strict=True) if e <= 0.0]
@@ -271,6 +273,29 @@ class FrictionFigures:
                 "power_balance_relative": self.balance,
             },
         }
+        if self.hysteresis is not None:
+            h = self.hysteresis
+            arcmin = 10800.0 / math.pi
+            out["hysteresis_loss_arcmin"] = float(np.max(h["loss"]) * arcmin)
+            out["hysteresis_loss_note"] = (
+                "computed from friction (first order): the loop's width at zero torque beyond "
+                "the backlash, maximum over the positions; zero without a preload (Coulomb "
+                "friction vanishes with the contact forces)"
+            )
+            out["hysteresis_loss_stats_arcmin"] = stats(h["loss"] * arcmin)
+            out["hysteresis_width_at_rated_arcmin"] = {
+                **stats(h["width_at_rated"] * arcmin),
+                "definition": "loading minus unloading branch at +-T_R, mean of both signs",
+            }
+            out["starting_torque_Nm"] = {
+                **stats(h["starting_torque"] / 1000.0),
+                "definition": "input torque to turn the drive at no output load (preload "
+                "and friction; no seal model)",
+            }
+            out["backdriving_torque_Nm"] = {
+                **stats(h["backdriving_torque"] / 1000.0),
+                "definition": "output torque to turn the drive from the output at no input load",
+            }
         if self.lives is not None:
             sp = self.life_spec
             out["life_h"] = {

@@ -207,6 +207,26 @@ def _body_velocities(c: RowContacts, cam_spin: np.ndarray) -> np.ndarray:
     return np.stack([cam, frame, ring], axis=2)
 
 
+def _slip_bases(c: RowContacts, cam_spin: np.ndarray) -> np.ndarray:
+    """``a_i``: each contact's slip at zero roller spin, (P, R, 3)."""
+    vb = _body_velocities(c, cam_spin)
+    return np.einsum("prkx,prkx->prk", c.centre_velocity[:, :, None, :] - vb, _perp(c.d))
+
+
+def _repeat(c: RowContacts, m: int) -> RowContacts:
+    """The contacts with every position repeated ``m`` times (position-major)."""
+    return RowContacts(
+        d=np.repeat(c.d, m, axis=0),
+        centre=np.repeat(c.centre, m, axis=0),
+        centre_velocity=np.repeat(c.centre_velocity, m, axis=0),
+        cam_centre=np.repeat(c.cam_centre, m, axis=0),
+        roller_radius=c.roller_radius,
+        cam_radius=c.cam_radius,
+        crank_speed=c.crank_speed,
+        ring_speed=c.ring_speed,
+    )
+
+
 def roller_equilibrium(c: RowContacts, cam_force: np.ndarray, mu: np.ndarray, cam_spin) -> dict:
     """Each roller's spin, normal and friction forces with friction, at a given cam spin.
 
@@ -241,7 +261,9 @@ def roller_equilibrium(c: RowContacts, cam_force: np.ndarray, mu: np.ndarray, ca
         slip = a + r * omega[..., None]
         sig = np.sign(slip)
         k = new[..., None] == np.arange(3)
-        coef = np.where(k, 0.0, -mu * sig)  # f_i = coef_i |N_i| for the sliding ones
+        # f_i = -mu_i |N_i| sign(slip_i) for the sliding ones, linear in N_i with the sign
+        # of the last iterate (a roller that lifts off its slot wall keeps its friction opposed).
+        coef = np.where(k, 0.0, -mu * sig * np.where(N < 0.0, -1.0, 1.0))
         # F_stick = -sum coef_i N_i (moment); total force sum N_i (-d_i + coef_i (t_i - t_k)) = 0
         tk = np.take_along_axis(t, new[..., None, None], axis=2)
         g = -d + coef[..., None] * (t - tk)
@@ -338,35 +360,37 @@ def row_friction(c: RowContacts, cam_force: np.ndarray, friction: Friction) -> R
         )
     k = 0.5 * friction.mu_bearing * friction.bearing_diameter
 
-    def moment(spin: np.ndarray) -> tuple[np.ndarray, dict]:
-        res = roller_equilibrium(c, cam_force, mu, spin)
+    def moment(cc, force, spin: np.ndarray) -> tuple[np.ndarray, dict]:
+        res = roller_equilibrium(cc, force, mu, spin)
         load = np.linalg.norm(res["cam_force_on_rollers"], axis=1)
         # The bearing's moment on the cam opposes its spin relative to the crank.
         return res["cam_moment"] - k * load * np.sign(spin - w_in), res
 
-    span = 4.0 * (abs(w_in) + 1.0) * (c.cam_radius + 2.0 * c.roller_radius) / c.roller_radius
-    lo, hi = np.full(P, w_in - span), np.full(P, w_in + span)
-    g_lo, _ = moment(lo)
-    g_hi, _ = moment(hi)
-    if np.any((g_lo < 0.0) | (g_hi > 0.0)):
-        raise SolverError("cam spin: the moment balance is not bracketed")
-    mid = np.full(P, float(w_in))
-    g_mid, res = moment(mid)
-    settled = g_mid == 0.0
-    for _ in range(80):
-        up = g_mid > 0.0
-        lo = np.where(settled, lo, np.where(up, mid, lo))
-        hi = np.where(settled, hi, np.where(up, hi, mid))
-        mid = np.where(settled, mid, 0.5 * (lo + hi))
-        g_mid, res = moment(mid)
-        settled |= g_mid == 0.0
-        if np.all(settled | (hi - lo <= 1e-11 * (abs(w_in) + 1.0))):
-            break
-    # The bearing sticks where the balance is met at the crank's own speed.
-    sticks = np.abs(mid - w_in) <= 1e-10 * (abs(w_in) + 1.0)
-    mid = np.where(sticks, w_in, mid)
-    if np.any(sticks):
-        res = roller_equilibrium(c, cam_force, mu, mid)
+    # The cam's moment is a step function of its spin: a roller's cam friction
+    # changes only where its cam stick speed crosses another contact's, at the
+    # spin (a_k - a_c0) / R_j, and the bearing's at the crank's speed. Evaluate
+    # the moment between those breakpoints at once; the balance sits on one.
+    a = _slip_bases(c, np.zeros(P))  # (P, R, 3) at cam spin 0: a_cam = a_c0 + R_j spin
+    b = (a[:, :, 1:] - a[:, :, :1]) / c.cam_radius
+    loaded = (np.asarray(cam_force) > 0.0)[..., None]
+    b = np.where(loaded, b, w_in).reshape(P, -1)
+    bps = np.sort(np.concatenate([b, np.full((P, 1), float(w_in))], axis=1), axis=1)
+    cands = np.concatenate(
+        [bps[:, :1] - 1.0, 0.5 * (bps[:, 1:] + bps[:, :-1]), bps[:, -1:] + 1.0], axis=1
+    )
+    M = cands.shape[1]
+    many = _repeat(c, M)
+    g, _ = moment(many, np.repeat(cam_force, M, axis=0), cands.reshape(-1))
+    g = g.reshape(P, M)
+    # g falls with the spin: the first candidate at or below zero.
+    j = np.argmax(g <= 0.0, axis=1)
+    j = np.where(np.any(g <= 0.0, axis=1), j, M - 1)
+    rows = np.arange(P)
+    flat = g[rows, j] == 0.0
+    mid = np.where(flat | (j == 0), cands[rows, j], bps[rows, np.maximum(j - 1, 0)])
+    mid = np.where(np.all(g == 0.0, axis=1), w_in, mid)
+    sticks = mid == w_in
+    _, res = moment(c, cam_force, mid)
     load = np.linalg.norm(res["cam_force_on_rollers"], axis=1)
     rel = np.abs(w_in - mid)
     bearing_loss = k * load * rel

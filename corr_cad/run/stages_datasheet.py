@@ -153,6 +153,7 @@ def friction_spec(scene):
 
 def _friction_figures(ctx: RunContext):
     from corr_cad.mechanics.efficiency import friction_figures
+    from corr_cad.mechanics.hysteresis import hysteresis_figures
     from corr_cad.mechanics.windup import Windup
 
     s = ctx.scene
@@ -166,7 +167,7 @@ def _friction_figures(ctx: RunContext):
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
     )
-    return friction_figures(
+    ff = friction_figures(
         s.design,
         w,
         ds.spec.rated_torque,
@@ -175,6 +176,8 @@ def _friction_figures(ctx: RunContext):
         s.friction["efficiency_speeds_rpm"],
         life,
     )
+    ff.hysteresis = hysteresis_figures(s.design, w, ds.spec.rated_torque, friction)
+    return ff
 
 
 def _meta(ctx: RunContext) -> dict:
