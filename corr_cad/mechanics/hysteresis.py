@@ -119,10 +119,16 @@ def hysteresis_figures(
         D, K = bench_dissipation(design, windup, s * rated_torque, step, friction)
         w = w + 2.0 * D / share / K
     out["width_at_rated"] = 0.5 * w
-    # Running at no load: the preload forces, crank driving (forward) and output driving.
-    fwd = drive_friction(design, [row_loads_from_forces(design, windup.forces(-zero))], friction)
-    back = drive_friction(design, [row_loads_from_forces(design, windup.forces(zero))], friction)
-    ratio = float(design.roller_count)
-    out["starting_torque"] = rows * fwd[0].total_loss / ratio
-    out["backdriving_torque"] = rows * back[0].total_loss
+
+    # Running at no load: the preload forces, crank driving (forward) and output driving,
+    # extrapolated to zero torque like D0.
+    def no_load(t: float) -> tuple[np.ndarray, np.ndarray]:
+        fwd = drive_friction(design, [row_loads_from_forces(design, windup.forces(-t))], friction)
+        back = drive_friction(design, [row_loads_from_forces(design, windup.forces(t))], friction)
+        return fwd[0].total_loss, back[0].total_loss
+
+    f1, b1 = no_load(zero)
+    f2, b2 = no_load(2.0 * zero)
+    out["starting_torque"] = rows * np.maximum(2.0 * f1 - f2, 0.0) / float(design.roller_count)
+    out["backdriving_torque"] = rows * np.maximum(2.0 * b1 - b2, 0.0)
     return out
