@@ -47,6 +47,14 @@ SECTIONS: dict[str, dict[str, Key]] = {
             high=1e5,
             example=82.4,
         ),
+        "positions_per_mesh": Key(
+            "int",
+            4,
+            "output positions per mesh period of the efficiency, hysteresis and life "
+            "(over the datasheet's span)",
+            low=0,
+            high=1000,
+        ),
         "efficiency_torques": Key(
             "list[float]",
             EFFICIENCY_TORQUES,

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from dataclasses import fields
 
+import numpy as np
+
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import NMM_PER_NM
@@ -154,15 +156,19 @@ def friction_spec(scene):
 def _friction_figures(ctx: RunContext):
     from corr_cad.mechanics.efficiency import friction_figures
     from corr_cad.mechanics.hysteresis import hysteresis_figures
-    from corr_cad.mechanics.windup import Windup
+    from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
 
     s = ctx.scene
     ds = ctx.results.datasheet
     friction, life = friction_spec(s)
+    errors = datasheet_errors(ctx)
+    # The datasheet's span (mesh period, tooth pitch or revolution) at [friction]'s density.
+    period = result_period_rad(s.design, errors, s.solver.variants)
+    n = int(round(period / mesh_period_rad(s.design))) * s.friction["positions_per_mesh"]
     w = Windup(
         s.design,
-        ds.output_angles,
-        errors=datasheet_errors(ctx),
+        period * np.arange(n) / n,
+        errors=errors,
         load_share=s.solver.load_share,
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
