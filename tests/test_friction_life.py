@@ -265,3 +265,34 @@ def test_datasheet_run_writes_efficiency_and_life(tmp_path):
     assert m["checks"]["min_efficiency"]["passed"] is False
     assert m["checks"]["min_life_h"]["passed"] is True
     assert (out / "efficiency.png").stat().st_size > 0
+
+
+def test_rows_given_by_a_drive_model_are_taken_as_they_are(windup):
+    """Two rows, as a drive model gives them (row B at phi + pi): both rows' lives."""
+    from types import SimpleNamespace
+
+    from corr_cad.mechanics.efficiency import rows_from_drive
+
+    wb = Windup(D, X + np.pi / D.tooth_count)  # crank angle z x + pi: row B
+
+    def rows_at(T):
+        return rows_from_drive(D, SimpleNamespace(rows=(windup.forces(T), wb.forces(T))))
+
+    spec = LifeSpec()
+    a = friction_figures(D, windup, T_R, MU, [0.5, 1.0], [1000.0], spec)
+    b = friction_figures(D, None, T_R, MU, [0.5, 1.0], [1000.0], spec, rows_at=rows_at)
+    # Alike rows half a crank turn apart: the same efficiency and lives as two copies.
+    assert np.allclose(a.forward, b.forward, rtol=1e-6)
+    assert b.lives["bearing_row2"] == pytest.approx(b.lives["bearing_row1"], rel=1e-3)
+    assert b.lives["system"] == pytest.approx(a.lives["system"], rel=1e-3)
+
+
+def test_floating_cam_moment_balance_closes(windup):
+    """The rollers' friction moments on the cam equal the bearing's 0.5 mu P d, signed."""
+    res = windup.forces(-T_R)
+    mu_b, d = 0.0025, 82.4
+    fr = row_friction(_contacts(res), res.F_j, Friction(0.05, 0.05, 0.05, mu_b, "bearing", d))
+    moment = D.cam_radius * fr.roller["f"][:, :, 0].sum(axis=1)
+    bearing = 0.5 * mu_b * fr.bearing_load * d * np.sign(fr.cam_spin - D.roller_count)
+    scale = D.cam_radius * np.abs(fr.roller["f"][:, :, 0]).sum(axis=1)
+    assert np.all(np.abs(moment - bearing) <= 1e-9 * scale)

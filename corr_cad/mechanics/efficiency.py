@@ -43,6 +43,7 @@ from corr_cad.mechanics.life import (
 __all__ = [
     "RowLoads",
     "row_loads_from_forces",
+    "rows_from_drive",
     "drive_friction",
     "cycle_efficiency",
     "drive_life",
@@ -80,6 +81,16 @@ def row_loads_from_forces(design, res) -> RowLoads:
         conformity_cam=np.broadcast_to(1.0 / (1.0 + r * g.k_cam), res.F_j.shape),
         conformity_ring=1.0 / (1.0 + r * g.k_gear),
     )
+
+
+def rows_from_drive(design, drive) -> list[RowLoads]:
+    """The :class:`RowLoads` of every row of a two-row drive result.
+
+    ``drive`` has ``rows``, one force result per row with its own crank
+    angles (row B's ``phi + pi`` and its phase) and geometry, as
+    ``corr_cad.mechanics.drive.DriveResult`` gives them.
+    """
+    return [row_loads_from_forces(design, r) for r in drive.rows]
 
 
 def drive_friction(design, rows: list[RowLoads], friction: Friction) -> list[RowFriction]:
@@ -331,19 +342,26 @@ def friction_figures(
     speeds_rpm,
     life: LifeSpec | None = None,
     rows: int = 2,
+    rows_at: Callable[[float], list[RowLoads]] | None = None,
 ) -> FrictionFigures:
-    """Efficiency map and lives of the paper's one-row model at the windup's positions.
+    """Efficiency map and lives at the windup's positions.
 
     ``windup`` a :class:`~corr_cad.mechanics.windup.Windup` (its positions
-    and load share); ``rated_torque`` T_R, N*mm. The efficiency is one value
-    per torque (Coulomb losses grow with speed as the power does); the map
-    repeats it per speed. Lives at T_R and ``life.rated_speed_rpm``, with
-    ``rows`` cams alike (the paper's model solves one at ``load_share``).
+    and load share) of the paper's one-row model; ``rated_torque`` T_R,
+    N*mm. The efficiency is one value per torque (Coulomb losses grow with
+    speed as the power does); the map repeats it per speed. Lives at T_R
+    and ``life.rated_speed_rpm``, with ``rows`` cams alike (the paper's
+    model solves one at ``load_share``). A drive model passes ``rows_at``
+    instead: the rows' loads at an output torque (N*mm, windup sign), e.g.
+    :func:`rows_from_drive` of its solution; its rows are then taken as
+    they are (``windup`` unused).
     """
     shares = np.asarray(shares, dtype=float)
+    given = rows_at is not None
+    if rows_at is None:
 
-    def rows_at(T: float) -> list[RowLoads]:
-        return [row_loads_from_forces(design, windup.forces(T))]
+        def rows_at(T: float) -> list[RowLoads]:
+            return [row_loads_from_forces(design, windup.forces(T))]
 
     fwd, back, lf, lb, pin, pout = [], [], [], [], [], []
     balance = 0.0
@@ -376,8 +394,12 @@ def friction_figures(
     if life is not None:
 
         def lives_at(T: float) -> dict:
-            r = rows_at(-T) * rows
-            fr = drive_friction(design, r[:1], friction) * rows
+            if given:
+                r = rows_at(-T)
+                fr = drive_friction(design, r, friction)
+            else:
+                r = rows_at(-T) * rows
+                fr = drive_friction(design, r[:1], friction) * rows
             return drive_life(design, r, fr, life, friction.mounting, life.rated_speed_rpm)
 
         out.lives = lives_at(rated_torque)

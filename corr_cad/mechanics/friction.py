@@ -36,8 +36,12 @@ cam's spin follows from its own moment balance about its centre: the
 rollers' friction moments against the bearing's constant-coefficient
 moment ``M = 0.5 mu P d`` (SKF and Koyo rolling-bearing catalogues:
 ``mu`` about 0.0025 for needle roller and cage assemblies, ``P`` the radial
-load, ``d`` the bore), found by bisection (the moment falls monotonically
-with the cam's spin). The bearing loss is ``M |omega_crank - omega_cam|``.
+load, ``d`` the bore). The moment falls with the cam's spin in steps, one
+where a roller's cam stick speed crosses one of its other contacts'; it is
+evaluated between all steps at once and the balance sits on a step. That
+roller then rolls on the cam and on that contact, and the split of its
+friction between them closes the cam's balance. The bearing loss is
+``M |omega_crank - omega_cam|``.
 
 Units: N, mm, rad; speeds per unit output speed (rad/rad): multiply the
 powers by the output speed in rad/s and by 1e-3 for watts.
@@ -277,22 +281,20 @@ def roller_equilibrium(c: RowContacts, cam_force: np.ndarray, mu: np.ndarray, ca
     fk = -np.sum(f, axis=2)
     f = np.where(k, fk[..., None], f)
     slip = np.where(k, 0.0, slip)
-    force = -N[..., None] * d + f[..., None] * t  # on the roller, (P, R, 3, 2)
-    power = np.einsum("prkx,prkx->pk", force, vb)
-    loss = np.sum(-f * slip, axis=1)
-    return {
-        "N": N,
-        "f": f,
-        "slip": slip,
-        "spin": omega,
-        "stick": stick,
-        "power": power,
-        "loss": loss,
-        "cam_force_on_rollers": np.sum(force[:, :, 0], axis=1),
-        # Normal forces pass through the cam centre; the friction force on the cam,
-        # -f t at the arm -R_j d: moment R_j f (d x z x d = 1).
-        "cam_moment": c.cam_radius * np.sum(f[:, :, 0], axis=1),
-    }
+    return _finish(c, vb, {"N": N, "f": f, "slip": slip, "spin": omega, "stick": stick})
+
+
+def _finish(c: RowContacts, vb: np.ndarray, out: dict) -> dict:
+    """Add the powers, losses and the forces on the cam to a roller state ``out``."""
+    N, f, slip, d = out["N"], out["f"], out["slip"], c.d
+    force = -N[..., None] * d + f[..., None] * _perp(d)  # on the roller, (P, R, 3, 2)
+    out["power"] = np.einsum("prkx,prkx->pk", force, vb)
+    out["loss"] = np.sum(-f * slip, axis=1)
+    out["cam_force_on_rollers"] = np.sum(force[:, :, 0], axis=1)
+    # Normal forces pass through the cam centre; the friction force on the cam,
+    # -f t at the arm -R_j d: moment R_j f (d x z x d = 1).
+    out["cam_moment"] = c.cam_radius * np.sum(f[:, :, 0], axis=1)
+    return out
 
 
 def _solve2(u: np.ndarray, v: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -374,7 +376,9 @@ def row_friction(c: RowContacts, cam_force: np.ndarray, friction: Friction) -> R
     b = (a[:, :, 1:] - a[:, :, :1]) / c.cam_radius
     loaded = (np.asarray(cam_force) > 0.0)[..., None]
     b = np.where(loaded, b, w_in).reshape(P, -1)
-    bps = np.sort(np.concatenate([b, np.full((P, 1), float(w_in))], axis=1), axis=1)
+    allb = np.concatenate([b, np.full((P, 1), float(w_in))], axis=1)
+    order = np.argsort(allb, axis=1, kind="stable")
+    bps = np.take_along_axis(allb, order, axis=1)
     cands = np.concatenate(
         [bps[:, :1] - 1.0, 0.5 * (bps[:, 1:] + bps[:, :-1]), bps[:, -1:] + 1.0], axis=1
     )
@@ -391,11 +395,64 @@ def row_friction(c: RowContacts, cam_force: np.ndarray, friction: Friction) -> R
     mid = np.where(np.all(g == 0.0, axis=1), w_in, mid)
     sticks = mid == w_in
     _, res = moment(c, cam_force, mid)
+    # On a roller's breakpoint that roller's cam and one other contact both roll: the
+    # split of friction between them is free, and takes up the cam's moment balance.
+    at = np.where(sticks | flat | (j == 0), -1, order[rows, np.maximum(j - 1, 0)])
+    at = np.where(at >= b.shape[1], -1, at)  # the bearing's own breakpoint: it sticks
+    res = _balance_cam(c, res, mu, mid, at, k, w_in)
     load = np.linalg.norm(res["cam_force_on_rollers"], axis=1)
     rel = np.abs(w_in - mid)
     bearing_loss = k * load * rel
     resid = np.where(sticks, 0.0, res["cam_moment"] - k * load * np.sign(mid - w_in))
     return _row(res, mid, rel, bearing_loss, load, resid)
+
+
+def _balance_cam(c: RowContacts, res: dict, mu, spin, at, k: float, w_in: float) -> dict:
+    """Close the cam's moment balance on the roller whose breakpoint the spin sits on.
+
+    ``at`` (P,): the breakpoint's flat index ``roller * 2 + (0 slot, 1 ring)``,
+    or -1. That roller's cam and that contact both roll; its cam friction is
+    set so that the cam's moments balance (the bearing's included), its other
+    rolling contact takes the roller's moment balance, the third slides. The
+    normal forces are solved again (a 2 x 2 system); three passes follow the
+    bearing load's small change. A balance outside the friction cones is left
+    as it is (clipped to the cone).
+    """
+    idx = np.flatnonzero(at >= 0)
+    if idx.size == 0:
+        return res
+    vb = _body_velocities(c, spin)
+    t = _perp(c.d)
+    N, f, slip = res["N"].copy(), res["f"].copy(), res["slip"].copy()
+    stick = res["stick"].copy()
+    for p in idx:
+        r, m = divmod(int(at[p]), 2)
+        m += 1
+        o = 3 - m  # the contact that slides (slot 1, ring 2)
+        d, tt = c.d[p, r], t[p, r]
+        for _ in range(3):
+            load = np.linalg.norm(
+                np.sum(-N[p, :, 0, None] * c.d[p, :, 0] + f[p, :, 0, None] * t[p, :, 0], axis=0)
+            )
+            others = c.cam_radius * (np.sum(f[p, :, 0]) - f[p, r, 0])
+            bearing = k * load * np.sign(spin[p] - w_in)
+            fc = (bearing - others) / c.cam_radius
+            lim = mu[0] * abs(N[p, r, 0])
+            fc = min(max(fc, -lim), lim)
+            co = -mu[o] * np.sign(slip[p, r, o]) * (1.0 if N[p, r, o] >= 0 else -1.0)
+            g_o = -d[o] + co * (tt[o] - tt[m])
+            g_m = -d[m]
+            rhs = N[p, r, 0] * d[0] - fc * (tt[0] - tt[m])
+            gs, gg = (g_m, g_o) if m == 1 else (g_o, g_m)
+            sol = _solve2(gs[None], gg[None], rhs[None])[0]
+            N[p, r, 1:] = sol
+            f[p, r, 0] = fc
+            f[p, r, o] = co * N[p, r, o]
+            f[p, r, m] = -fc - f[p, r, o]
+        slip[p, r, 0] = slip[p, r, m] = 0.0
+        stick[p, r] = m
+    out = {"N": N, "f": f, "slip": slip, "spin": res["spin"], "stick": stick}
+    return _finish(c, vb, out)
 
 
 def _row(res, spin, rel, bearing_loss, load, resid=None) -> RowFriction:
