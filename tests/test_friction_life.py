@@ -296,3 +296,26 @@ def test_floating_cam_moment_balance_closes(windup):
     bearing = 0.5 * mu_b * fr.bearing_load * d * np.sign(fr.cam_spin - D.roller_count)
     scale = D.cam_radius * np.abs(fr.roller["f"][:, :, 0]).sum(axis=1)
     assert np.all(np.abs(moment - bearing) <= 1e-9 * scale)
+
+
+def test_zero_friction_leaves_the_windup_and_makes_efficiency_one(tmp_path):
+    from corr_cad.run.cli import main
+
+    base = (
+        "[load]\ninput_torque = 1.1e5\n[export]\nformats = ['datasheet']\n"
+        "[datasheet]\npositions_per_mesh = 2\ntransmission_error_positions_per_turn = 12\n"
+        "[errors]\ncam_radius_error = 0.002\n"
+    )
+    zero = "[friction]\nmu_cam = 0.0\nmu_slot = 0.0\nmu_ring = 0.0\nmu_bearing = 0.0\n"
+    outs = []
+    for i, extra in enumerate(("", zero)):
+        scene = tmp_path / f"s{i}.toml"
+        scene.write_text(base + extra)
+        out = tmp_path / f"out{i}"
+        assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+        outs.append(out)
+    assert (outs[0] / "windup.csv").read_bytes() == (outs[1] / "windup.csv").read_bytes()
+    ds = json.loads((outs[1] / "datasheet.json").read_text())
+    assert ds["efficiency_forward"]["min"] == 1.0 and ds["efficiency_backdriving"]["max"] == 1.0
+    assert ds["hysteresis_loss_arcmin"] == 0.0
+    assert ds["starting_torque_Nm"]["max"] == 0.0
