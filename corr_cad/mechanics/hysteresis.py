@@ -52,6 +52,16 @@ _STEP = 1e-3
 _ZERO = 1e-9
 
 
+def _at_zero(at_1: np.ndarray, at_2: np.ndarray) -> np.ndarray:
+    """Extrapolate to zero torque from torques 1 and 2 (units of ``_ZERO``): ``2 D1 - D2``.
+
+    A part proportional to the torque cancels; what stays is the preload's.
+    Below 1e-6 of ``D1`` it is rounding of that cancellation: zero.
+    """
+    d0 = 2.0 * at_1 - at_2
+    return np.where(d0 > 1e-6 * np.abs(at_1), d0, 0.0)
+
+
 def bench_dissipation(design, windup, torque: float, step: float, friction: Friction):
     """Friction dissipation per unit output rotation on the locked-input bench, (P,) N*mm/rad.
 
@@ -112,7 +122,7 @@ def hysteresis_figures(
         # proportional to the torque drops out, the preload's stays.
         D1, K = bench_dissipation(design, windup, s * zero, step, friction)
         D2, _ = bench_dissipation(design, windup, 2.0 * s * zero, step, friction)
-        width0 = width0 + rows * np.maximum(2.0 * D1 - D2, 0.0) / K
+        width0 = width0 + rows * _at_zero(D1, D2) / K
     out["loss"] = width0
     w = np.zeros_like(width0)
     for s in (1.0, -1.0):
@@ -129,6 +139,6 @@ def hysteresis_figures(
 
     f1, b1 = no_load(zero)
     f2, b2 = no_load(2.0 * zero)
-    out["starting_torque"] = rows * np.maximum(2.0 * f1 - f2, 0.0) / float(design.roller_count)
-    out["backdriving_torque"] = rows * np.maximum(2.0 * b1 - b2, 0.0)
+    out["starting_torque"] = rows * _at_zero(f1, f2) / float(design.roller_count)
+    out["backdriving_torque"] = rows * _at_zero(b1, b2)
     return out
