@@ -96,6 +96,13 @@ SECTIONS: dict[str, dict[str, Key]] = {
             high=1e9,
             example=65000.0,
         ),
+        "montecarlo_samples": Key(
+            "int",
+            200,
+            "with a Monte Carlo: its first samples whose L10 percentiles are reported",
+            low=0,
+            high=1_000_000,
+        ),
         "needles": Key(
             "int", 40, "needles of each eccentric bearing", low=2, high=10000, low_open=False
         ),
