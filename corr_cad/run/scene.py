@@ -40,6 +40,7 @@ from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema 
     Key,
     key_range,
 )
+from corr_cad.run.scene_schema_friction import friction_sections
 from corr_cad.run.scene_text import (  # noqa: F401
     bounds_table,
     no_effect_warnings,
@@ -469,8 +470,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         edm=values["edm"],
         inspection=values["inspection"],
         datasheet=values["datasheet"],
-        friction=values["friction"] if _friction_given(data, checks) else {},
-        life=values["life"] if _friction_given(data, checks) else {},
+        **friction_sections(values, data, checks),
         modification=modification,
         assembly=assembly,
         modification_design=search,
@@ -500,16 +500,6 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     # (corr_cad.run.resources.check_scene).
     check_structure(scene)
     return scene
-
-
-def _friction_given(data: dict, checks: Checks) -> bool:
-    """``[friction]`` or ``[life]`` given, or a check that needs them (their defaults then)."""
-    return (
-        "friction" in data
-        or "life" in data
-        or checks.min_efficiency is not None
-        or checks.min_life_h is not None
-    )
 
 
 def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:

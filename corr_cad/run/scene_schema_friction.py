@@ -110,3 +110,21 @@ SECTIONS: dict[str, dict[str, Key]] = {
         "needle_length": Key("float", 12.0, "needle effective length L_we, mm", low=0, high=1000),
     },
 }
+
+
+def friction_sections(values: dict, data: dict, checks) -> dict:
+    """``Scene.friction`` and ``Scene.life``: the sections with their defaults when given.
+
+    Given means the scene has ``[friction]`` or ``[life]``, or a check that
+    needs them (``min_efficiency``, ``min_life_h``); otherwise both are empty.
+    """
+    given = (
+        "friction" in data
+        or "life" in data
+        or checks.min_efficiency is not None
+        or checks.min_life_h is not None
+    )
+    return {
+        "friction": values["friction"] if given else {},
+        "life": values["life"] if given else {},
+    }
