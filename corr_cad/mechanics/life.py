@@ -65,7 +65,6 @@ __all__ = [
     "raceway_capacity",
     "raceway_life_h",
     "system_life_h",
-    "catalogue_life_h",
 ]
 
 #: ISO 281 life exponent of roller bearings.
@@ -190,13 +189,6 @@ def system_life_h(lives: list[float] | np.ndarray) -> float:
     L = np.asarray(lives, dtype=float)
     s = float(np.sum(L ** (-WEIBULL_SLOPE)))
     return math.inf if s == 0.0 else s ** (-1.0 / WEIBULL_SLOPE)
-
-
-def catalogue_life_h(
-    rated_life_h: float, rated_speed: float, rated_torque: float, speed: float, torque: float
-) -> float:
-    """The reducer catalogues' rule ``L = L0 (N0 / N) (T0 / T)^(10/3)``."""
-    return rated_life_h * (rated_speed / speed) * (rated_torque / torque) ** BEARING_EXPONENT
 
 
 @dataclass(frozen=True)
