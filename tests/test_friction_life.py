@@ -238,7 +238,8 @@ def test_datasheet_run_writes_efficiency_and_life(tmp_path):
     scene.write_text(
         "[load]\ninput_torque = 1.1e5\n[export]\nformats = ['datasheet']\n"
         "[datasheet]\npositions_per_mesh = 4\ntransmission_error_positions_per_turn = 12\n"
-        "[friction]\nmu_cam = 0.05\n[life]\n[checks]\nmin_efficiency = 0.95\nmin_life_h = 100.0\n"
+        "[friction]\nmu_cam = 0.05\nhousing_area_m2 = 0.25\n[life]\n"
+        "[checks]\nmin_efficiency = 0.95\nmin_life_h = 100.0\n"
     )
     out = tmp_path / "out"
     rc = main(["run", str(scene), "--out", str(out), "--quiet"])
@@ -265,6 +266,13 @@ def test_datasheet_run_writes_efficiency_and_life(tmp_path):
     assert m["checks"]["min_efficiency"]["passed"] is False
     assert m["checks"]["min_life_h"]["passed"] is True
     assert (out / "efficiency.png").stat().st_size > 0
+    # Thermal limit: at that input speed the losses of efficiency.csv (proportional to the
+    # speed) equal k A dT = 18 W/(m^2 K) * 0.25 m^2 * 40 K = 180 W.
+    th = ds["thermal_limit"]
+    assert th["heat_dissipated_W"] == pytest.approx(180.0)
+    at = eff[eff["input_speed_rpm"] == 1000.0]
+    loss_W = sum(at[c] for c in ("loss_cam_W", "loss_slot_W", "loss_ring_W", "loss_bearing_W"))
+    assert np.allclose(loss_W * np.asarray(th["input_speed_rpm"]) / 1000.0, 180.0, rtol=1e-6)
 
 
 def test_rows_given_by_a_drive_model_are_taken_as_they_are(windup):

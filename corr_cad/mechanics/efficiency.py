@@ -245,6 +245,17 @@ class FrictionFigures:
     lives_at_rated_from_life: dict | None = None
     #: :func:`corr_cad.mechanics.hysteresis.hysteresis_figures`, when computed.
     hysteresis: dict | None = None
+    #: ``[thermal]``: housing area m^2, heat transfer W/(m^2 K), temperature rise K.
+    thermal: tuple[float, float, float] | None = None
+
+    def drive_losses(self) -> np.ndarray:
+        """The drive's forward losses per radian of output at each torque, N*mm (S,).
+
+        The modelled row's losses scaled so that its output power is the
+        drive's ``T`` per radian (as in ``efficiency.csv``).
+        """
+        k = self.shares * self.rated_torque / self.output_power
+        return self.losses_forward.sum(axis=1) * k
 
     def self_locking_shares(self) -> list[float]:
         return [float(s) for s, e in zip(self.shares, self.backdriving, strict=True) if e <= 0.0]
@@ -306,6 +317,22 @@ class FrictionFigures:
             out["backdriving_torque_Nm"] = {
                 **stats(h["backdriving_torque"] / 1000.0),
                 "definition": "output torque to turn the drive from the output at no input load",
+            }
+        if self.thermal is not None:
+            from corr_cad.mechanics.thermal import thermal_speed_rpm
+
+            area, k, rise = self.thermal
+            n = thermal_speed_rpm(self.drive_losses(), self.ratio, area, k, rise)
+            out["thermal_limit"] = {
+                "input_speed_rpm": [_finite(v) for v in n],
+                "output_torque_Nm": [float(v) for v in self.shares * self.rated_torque / 1000.0],
+                "heat_dissipated_W": area * k * rise,
+                "housing_area_m2": area,
+                "heat_transfer_W_per_m2K": k,
+                "max_temperature_rise_K": rise,
+                "definition": "input speed at which the losses equal k A dT (ISO/TR 14179-1 "
+                "style heat balance); load-independent losses (churning, seals) are not "
+                "modelled, so it is an upper bound and no-load heating is not predicted",
             }
         if self.lives is not None:
             sp = self.life_spec

@@ -55,6 +55,28 @@ SECTIONS: dict[str, dict[str, Key]] = {
             low=0,
             high=1000,
         ),
+        "housing_area_m2": Key(
+            "float",
+            None,
+            "thermal limit: the housing's outer surface, m^2 (default: no thermal limit)",
+            low=0,
+            high=1e4,
+            example=0.25,
+        ),
+        "heat_transfer_W_per_m2K": Key(
+            "float",
+            18.0,
+            "thermal limit: heat transfer coefficient of the housing, W/(m^2 K) (still air 15-20)",
+            low=0,
+            high=1e4,
+        ),
+        "max_temperature_rise_K": Key(
+            "float",
+            40.0,
+            "thermal limit: allowed rise of the housing surface over the ambient, K",
+            low=0,
+            high=1000,
+        ),
         "efficiency_torques": Key(
             "list[float]",
             EFFICIENCY_TORQUES,

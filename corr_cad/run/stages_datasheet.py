@@ -183,6 +183,13 @@ def _friction_figures(ctx: RunContext):
         life,
     )
     ff.hysteresis = hysteresis_figures(s.design, w, ds.spec.rated_torque, friction)
+    fr = s.friction
+    if fr["housing_area_m2"] is not None:
+        ff.thermal = (
+            fr["housing_area_m2"],
+            fr["heat_transfer_W_per_m2K"],
+            fr["max_temperature_rise_K"],
+        )
     return ff
 
 
