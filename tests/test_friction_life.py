@@ -231,6 +231,7 @@ def test_system_life_of_equal_parts():
     assert system_life_h([math.inf]) == math.inf
 
 
+@pytest.mark.slow
 def test_datasheet_run_writes_efficiency_and_life(tmp_path):
     from corr_cad.run.cli import main
 
@@ -306,6 +307,7 @@ def test_floating_cam_moment_balance_closes(windup):
     assert np.all(np.abs(moment - bearing) <= 1e-9 * scale)
 
 
+@pytest.mark.slow
 def test_zero_friction_leaves_the_windup_and_makes_efficiency_one(tmp_path):
     from corr_cad.run.cli import main
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
@@ -18,6 +19,7 @@ T_R = 2.86e6
 FR = Friction(0.05, 0.05, 0.05, 0.0025, "bearing", 82.4)
 
 
+@pytest.mark.slow
 def test_zero_tolerance_samples_reproduce_the_nominal_life():
     tol = {"roller_radius": Distribution("normal", 0.0)}
     lives = life_samples(D, ManufacturingErrors(), tol, 3, 1, LifeSpec(), FR, T_R)
@@ -53,3 +55,24 @@ def test_roller_scatter_shortens_the_life_and_percentiles_are_ordered():
     # The same seed and draws give the same samples whatever the subset asked for.
     again = life_samples(D, ManufacturingErrors(), tol, 5, 7, LifeSpec(), FR, T_R, draws=50)
     assert np.array_equal(again["system"], lives["system"][:5])
+
+
+@pytest.mark.slow
+def test_montecarlo_run_reports_life_percentiles(tmp_path):
+    import json
+
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        "[load]\ninput_torque = 1.1e5\n[export]\nformats = ['montecarlo']\n"
+        "[tolerances]\nroller_radius = { normal = 0.001 }\n"
+        "[montecarlo]\nsamples = 20\npositions = 26\n[life]\nmontecarlo_samples = 6\n"
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    life = json.loads((out / "montecarlo_summary.json").read_text())["life_h"]
+    assert life["samples"] == 6
+    assert life["system"]["p5"] <= life["system"]["p50"] <= life["system"]["p95"]
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["montecarlo"]["life_h"] == life
