@@ -329,3 +329,43 @@ def test_zero_friction_leaves_the_windup_and_makes_efficiency_one(tmp_path):
     assert ds["efficiency_forward"]["min"] == 1.0 and ds["efficiency_backdriving"]["max"] == 1.0
     assert ds["hysteresis_loss_arcmin"] == 0.0
     assert ds["starting_torque_Nm"]["max"] == 0.0
+
+
+@pytest.mark.slow
+def test_bearing_l10_from_forces_csv_by_iso281(tmp_path):
+    """The run's forces.csv gives the bearing's loads; ISO 281 written here gives its L10."""
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        "[load]\ninput_torque = 1.1e5\n[export]\nformats = ['forces', 'datasheet']\n"
+        "[solver]\npositions = 104\n"
+        "[datasheet]\npositions_per_mesh = 4\ntransmission_error_positions_per_turn = 12\n"
+        "[life]\ndynamic_load_rating_N = 60000.0\n"
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    f = np.genfromtxt(out / "forces.csv", delimiter=",", names=True)
+    e, L = D.eccentricity, D.link_length
+    loads = []
+    for phi_deg in np.unique(f["crank_angle_deg"]):
+        rows = f[f["crank_angle_deg"] == phi_deg]
+        phi = math.radians(phi_deg)
+        total = np.zeros(2)
+        for k, F in zip(rows["roller"].astype(int) - 1, rows["F_j"], strict=True):
+            th = 2 * math.pi * k / D.roller_count
+            psi = phi - th
+            s = e * math.cos(psi) + math.sqrt(L * L - (e * math.sin(psi)) ** 2)
+            n = (
+                s * np.array([math.cos(th), math.sin(th)])
+                - e * np.array([math.cos(phi), math.sin(phi)])
+            ) / L
+            total += F * n
+        loads.append(np.linalg.norm(total))
+    P_free = np.mean(np.asarray(loads) ** (10 / 3)) ** 0.3
+    ds = json.loads((out / "datasheet.json").read_text())
+    b = ds["rated_torque_from_life_Nm"]["bearing_at_rated_torque"]
+    # The cam's friction (0.05 by default) adds about 3 % to the frictionless resultant.
+    assert 1.0 < b["equivalent_load_N"] / P_free < 1.05
+    L10_h = (60000.0 / b["equivalent_load_N"]) ** (10 / 3) * 1e6 / (60 * b["relative_speed_rpm"])
+    assert ds["life_h"]["bearing_row1"] == pytest.approx(L10_h, rel=1e-9)

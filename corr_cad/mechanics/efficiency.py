@@ -33,8 +33,10 @@ import numpy as np
 from corr_cad.errors import SolverError
 from corr_cad.mechanics.friction import Friction, RowFriction, row_contacts, row_friction
 from corr_cad.mechanics.life import (
+    BEARING_EXPONENT,
     LifeSpec,
     bearing_life_h,
+    equivalent_load,
     raceway_capacity,
     raceway_life_h,
     system_life_h,
@@ -247,6 +249,8 @@ class FrictionFigures:
     hysteresis: dict | None = None
     #: ``[thermal]``: housing area m^2, heat transfer W/(m^2 K), temperature rise K.
     thermal: tuple[float, float, float] | None = None
+    #: Row 1's eccentric bearing at T_R: equivalent load and relative speed.
+    bearing: dict | None = None
 
     def drive_losses(self) -> np.ndarray:
         """The drive's forward losses per radian of output at each torque, N*mm (S,).
@@ -349,6 +353,7 @@ class FrictionFigures:
                 "rated_life_h": sp.rated_life_h,
                 "rated_speed_rpm": sp.rated_speed_rpm,
                 "bearing_rating_N": sp.rating()[0],
+                "bearing_at_rated_torque": self.bearing,
                 "bearing_rating_source": self.rating_source,
                 "definition": "output torque at which the system L10 is rated_life_h at "
                 "rated_speed_rpm",
@@ -431,6 +436,16 @@ def friction_figures(
 
         out.lives = lives_at(rated_torque)
         out.life_spec = life
+        if friction.mounting == "bearing":
+            fr0 = drive_friction(design, rows_at(-rated_torque)[:1], friction)[0]
+            speed = np.abs(fr0.bearing_speed)
+            out.bearing = {
+                "equivalent_load_N": equivalent_load(fr0.bearing_load, speed, BEARING_EXPONENT),
+                "relative_speed_rpm": float(np.mean(speed)) * life.rated_speed_rpm,
+                "definition": "row 1's eccentric bearing at T_R and rated_speed_rpm: "
+                "ISO 281 equivalent load (exponent 10/3, weighted by the revolutions at each "
+                "position) and mean relative speed; L10 = (C/P)^(10/3) 1e6 / (60 n)",
+            }
         out.rating_source = life.rating()[1]
         out.rated_torque_from_life = torque_for_life(
             lambda T: lives_at(T)["system"], life.rated_life_h, rated_torque
