@@ -102,7 +102,9 @@ LOCAL = {
         for k in SCHEMA["checks"]
         if k not in ("max_failure_probability", "max_binding_probability")
     },
-    "tolerances": None,
+    # Not "tolerances": their upper bounds depend on the design (r/2, 90/(z+1) deg).
+    "friction": None,
+    "life": None,
     "budget": None,
     "dask": None,
     # Not "tolerance": with "dxf" in the formats, a tolerance below ~5e-7 mm

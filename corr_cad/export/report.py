@@ -415,8 +415,67 @@ def _datasheet_rows(d: dict) -> dict:
             }
         ),
         "hysteresis": d["hysteresis_loss_note"],
+        "hysteresis_value": _fmt(d["hysteresis_loss_arcmin"]),
+        "friction": _friction_rows(d) if "efficiency_forward" in d else [],
         "ring": ring_line(d.get("ring")),
     }
+
+
+def _friction_rows(d: dict) -> list[dict]:
+    """Efficiency, starting torque, lives and rated torque from life (min, mean, max)."""
+
+    def row(label, x, unit, note):
+        return {
+            "label": label,
+            "min": _fmt(x["min"]),
+            "mean": _fmt(x["mean"]),
+            "max": _fmt(x["max"]),
+            "unit": unit,
+            "note": note,
+        }
+
+    bk = d["efficiency_backdriving"]
+    rows = [
+        row("efficiency, forward", d["efficiency_forward"], "", "over the torque-speed map"),
+        row(
+            "efficiency, backdriving",
+            bk,
+            "",
+            "self-locking at some torques" if bk["self_locking"] else "output driving",
+        ),
+        row("hysteresis width at T_R", d["hysteresis_width_at_rated_arcmin"], "arcmin", "friction"),
+        row("starting torque", d["starting_torque_Nm"], "N*m", "at the input, no load"),
+    ]
+    life = d.get("life_h")
+    if life:
+        for k, v in life.items():
+            if k in ("at_torque_Nm", "at_output_speed_rpm", "definition"):
+                continue
+            s = "inf" if v is None else _fmt(v)
+            rows.append(
+                {
+                    "label": f"L10 {k}",
+                    "min": "",
+                    "mean": "",
+                    "max": s,
+                    "unit": "h",
+                    "note": f"at {_fmt(life['at_torque_Nm'])} N*m, "
+                    f"{_fmt(life['at_output_speed_rpm'])} rpm output",
+                }
+            )
+        rt = d["rated_torque_from_life_Nm"]
+        rows.append(
+            {
+                "label": "rated torque from life",
+                "min": "",
+                "mean": "",
+                "max": _fmt(rt["value"]),
+                "unit": "N*m",
+                "note": f"L10 {_fmt(rt['rated_life_h'])} h at "
+                f"{_fmt(rt['rated_speed_rpm'])} rpm output",
+            }
+        )
+    return rows
 
 
 def _assembly_rows(path: Path) -> dict:

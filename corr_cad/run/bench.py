@@ -15,6 +15,7 @@ import numpy as np
 
 from corr_cad.run.bench_accuracy import fidelity, interference, profile_export, solids
 from corr_cad.run.bench_datasheet import datasheet_speed
+from corr_cad.run.bench_friction import friction_speed
 from corr_cad.run.bench_resources import resources
 from corr_cad.run.bench_speed import (
     cold_start,
@@ -38,6 +39,7 @@ STUDIES = {
     "interference": interference,
     "coldstart": cold_start,
     "datasheet": datasheet_speed,
+    "friction": friction_speed,
     "resources": resources,
 }
 

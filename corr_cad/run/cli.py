@@ -101,6 +101,7 @@ def _parser() -> argparse.ArgumentParser:
             "interference",
             "coldstart",
             "datasheet",
+            "friction",
             "resources",
         ),
         help="run only this study (repeatable); default all",

@@ -214,12 +214,50 @@ def datasheet_lines(d: dict | None) -> list[str]:
         f"  transmission error  forward {te['forward_peak_to_peak']:.4g}, reverse "
         f"{te['reverse_peak_to_peak']:.4g} arcsec peak-to-peak over one output revolution"
     )
-    out.append("  hysteresis loss     0: the model has no friction (both branches coincide)")
+    if "efficiency_forward" in d:
+        out.extend(friction_lines(d))
+    else:
+        out.append("  hysteresis loss     0: the model has no friction (both branches coincide)")
     rp = d.get("rated_torque_from_contact_pressure")
     if rp:
         out.append(
             f"  rated torque from contact pressure {rp['torque_Nm']:.5g} N*m "
             f"(peak Hertz pressure {rp['allowable_MPa']:.4g} MPa)"
+        )
+    return out
+
+
+def friction_lines(d: dict) -> list[str]:
+    """Efficiency, hysteresis, starting torque and life rows of the datasheet table."""
+
+    def mmm(x: dict) -> str:
+        return f"{x['min']:.4g} / {x['mean']:.4g} / {x['max']:.4g}"
+
+    fw, bk = d["efficiency_forward"], d["efficiency_backdriving"]
+    out = [
+        f"  efficiency forward  {mmm(fw)} over the map",
+        f"  efficiency backdriving {mmm(bk)}"
+        + (" (SELF-LOCKING at some torques)" if bk["self_locking"] else ""),
+        f"  hysteresis loss     {d['hysteresis_loss_arcmin']:.4g} arcmin (width at T_R "
+        f"{d['hysteresis_width_at_rated_arcmin']['max']:.4g} arcmin)",
+        f"  starting torque     {d['starting_torque_Nm']['max']:.4g} N*m at the input",
+    ]
+    life = d.get("life_h")
+    if life:
+        parts = ", ".join(
+            f"{k} {'inf' if v is None else f'{v:.4g}'}"
+            for k, v in life.items()
+            if isinstance(v, (int, float)) or v is None
+            if k not in ("at_torque_Nm", "at_output_speed_rpm")
+        )
+        rt = d["rated_torque_from_life_Nm"]
+        out.append(
+            f"  life L10, h         {parts} (at {life['at_torque_Nm']:.5g} N*m, "
+            f"{life['at_output_speed_rpm']:g} rpm out)"
+        )
+        out.append(
+            f"  rated torque from life {rt['value']:.5g} N*m (L10 {rt['rated_life_h']:g} h at "
+            f"{rt['rated_speed_rpm']:g} rpm)"
         )
     return out
 

@@ -67,6 +67,8 @@ class Results:
     clearance: Clearance | None = None
     #: ``datasheet``: the windup curve, the transmission error and their figures.
     datasheet: Datasheet | None = None
+    #: ``[friction]`` / ``[life]``: the efficiency map and the lives.
+    friction: Any = None
     #: ``[modification]``: the unmodified (conjugate) working profile, its
     #: approximation, and the modified exact profile and its gap (made on
     #: first use by :func:`modified_curve`, :func:`scene_errors`).

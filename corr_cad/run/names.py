@@ -57,6 +57,8 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
         r"assembly\.json",
         r"(?:windup|transmission_error)\.csv",
         r"(?:hysteresis|transmission_error)\.png",
+        r"efficiency\.(?:csv|png)",
+        r"life\.csv",
     ),
     "edm": (r"inner_gear_edm\.(?:dxf|nc)",),
     "cmm": (r"inner_gear_nominal\.csv",),

@@ -40,6 +40,7 @@ from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema 
     Key,
     key_range,
 )
+from corr_cad.run.scene_schema_friction import friction_sections
 from corr_cad.run.scene_text import (  # noqa: F401
     bounds_table,
     no_effect_warnings,
@@ -112,6 +113,10 @@ class Scene:
     inspection: dict = field(default_factory=dict)
     #: ``[datasheet]`` with its defaults (``rated_torque_Nm`` None: from ``[load]``).
     datasheet: dict = field(default_factory=dict)
+    #: ``[friction]`` and ``[life]`` with their defaults, empty unless the scene
+    #: gives the section (either one makes the datasheet compute efficiency and life).
+    friction: dict = field(default_factory=dict)
+    life: dict = field(default_factory=dict)
     modification: Any = None  # [modification]; None: the conjugate profile
     assembly: dict = field(default_factory=dict)
     modification_design: dict = field(default_factory=dict)
@@ -465,6 +470,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         edm=values["edm"],
         inspection=values["inspection"],
         datasheet=values["datasheet"],
+        **friction_sections(values, data, checks),
         modification=modification,
         assembly=assembly,
         modification_design=search,
@@ -479,7 +485,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given, [modification] and
             # [assembly] where they act (the inputs of scenes without them stay as they were).
-            if (s != "datasheet" or sheet) and acts(s, modification, assembly, search)
+            if (s != "datasheet" or sheet)
+            and (s not in ("friction", "life") or s in data)
+            and acts(s, modification, assembly, search)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

@@ -11,6 +11,7 @@ from corr_cad.geometry.design import BOUNDS as DESIGN_BOUNDS
 from corr_cad.geometry.sampling import REPRESENTATIONS
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run import (
+    scene_schema_friction,
     scene_schema_modification,
     scene_schema_run,
     scene_schema_shop,
@@ -333,6 +334,22 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=1296000,
             example=60.0,
         ),
+        "min_efficiency": Key(
+            "float",
+            None,
+            "smallest allowed forward efficiency over the [friction] map",
+            low=0,
+            high=1,
+            example=0.8,
+        ),
+        "min_life_h": Key(
+            "float",
+            None,
+            "smallest allowed system L10 at the rated torque and [life] rated_speed_rpm, h",
+            low=0,
+            high=1e9,
+            example=6000.0,
+        ),
         "max_failure_probability": Key(
             "float",
             None,
@@ -353,6 +370,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         ),
     },
     **scene_schema_tolerance.SECTIONS,
+    **scene_schema_friction.SECTIONS,
     **scene_schema_shop.SECTIONS,
     **scene_schema_modification.SECTIONS,
     **scene_schema_run.SECTIONS,

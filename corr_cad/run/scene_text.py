@@ -18,6 +18,8 @@ _DATASHEET_CHECKS = (
     "max_lost_motion_arcmin",
     "min_torsional_rigidity_Nm_per_arcmin",
     "max_transmission_error_arcsec",
+    "min_efficiency",
+    "min_life_h",
 )
 _MESH = {"stl", "3mf", "glb", "ply"}
 
@@ -74,6 +76,9 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
                 )
     if "datasheet" in data and not sheet:
         warn("[datasheet]", 'formats does not list "datasheet" and no [checks] limit needs it')
+    for section in ("friction", "life"):
+        if section in data and not sheet:
+            warn(f"[{section}]", 'formats does not list "datasheet" and no [checks] limit needs it')
     ex = data.get("export", {})
     if "representation" in ex and "dxf" not in f:
         warn("[export] representation", 'formats does not list "dxf"')

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from dataclasses import fields
 
+import numpy as np
+
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import NMM_PER_NM
@@ -112,6 +114,83 @@ def _datasheet(ctx: RunContext) -> None:
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
     )
+    if s.friction:
+        ctx.results.friction = _friction_figures(ctx)
+
+
+def friction_spec(scene):
+    """The :class:`Friction` and :class:`LifeSpec` of ``[friction]`` and ``[life]``.
+
+    The needle bearing sits in the cam's bore: pitch diameter ``2 cam_bore_radius
+    - needle_diameter``; the catalogue formula's ``d`` defaults to the raceway under
+    the needles, ``2 cam_bore_radius - 2 needle_diameter``.
+    """
+    from corr_cad.mechanics.friction import Friction
+    from corr_cad.mechanics.life import LifeSpec
+
+    fr, lf, d = scene.friction, scene.life, scene.design
+    bore = 2.0 * d.cam_bore_radius
+    dw = lf["needle_diameter"]
+    friction = Friction(
+        mu_cam=fr["mu_cam"],
+        mu_slot=fr["mu_slot"],
+        mu_ring=fr["mu_ring"],
+        mu_bearing=fr["mu_bearing"],
+        mounting=fr["cam_mounting"],
+        bearing_diameter=fr["bearing_bore_mm"]
+        if fr["bearing_bore_mm"] is not None
+        else bore - 2.0 * dw,
+    )
+    life = LifeSpec(
+        rated_life_h=lf["rated_life_h"],
+        rated_speed_rpm=lf["rated_speed_rpm"],
+        dynamic_load_rating=lf["dynamic_load_rating_N"],
+        needles=lf["needles"],
+        needle_diameter=dw,
+        needle_length=lf["needle_length"],
+        pitch_diameter=bore - dw,
+    )
+    return friction, life
+
+
+def _friction_figures(ctx: RunContext):
+    from corr_cad.mechanics.efficiency import friction_figures
+    from corr_cad.mechanics.hysteresis import hysteresis_figures
+    from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
+
+    s = ctx.scene
+    ds = ctx.results.datasheet
+    friction, life = friction_spec(s)
+    errors = datasheet_errors(ctx)
+    # The datasheet's span (mesh period, tooth pitch or revolution) at [friction]'s density.
+    period = result_period_rad(s.design, errors, s.solver.variants)
+    n = int(round(period / mesh_period_rad(s.design))) * s.friction["positions_per_mesh"]
+    w = Windup(
+        s.design,
+        period * np.arange(n) / n,
+        errors=errors,
+        load_share=s.solver.load_share,
+        variants=s.solver.variants,
+        psi_contact_limit=psi_contact_limit(ctx),
+    )
+    ff = friction_figures(
+        s.design,
+        w,
+        ds.spec.rated_torque,
+        friction,
+        s.friction["efficiency_torques"],
+        s.friction["efficiency_speeds_rpm"],
+        life,
+    )
+    ff.hysteresis = hysteresis_figures(s.design, w, ds.spec.rated_torque, friction)
+    fr = s.friction
+    if fr["housing_area_m2"] is not None:
+        ff.thermal = (
+            fr["housing_area_m2"],
+            fr["heat_transfer_W_per_m2K"],
+            fr["max_temperature_rise_K"],
+        )
+    return ff
 
 
 def _meta(ctx: RunContext) -> dict:
@@ -159,6 +238,17 @@ def _datasheet_files(ctx: RunContext) -> None:
     _datasheet_html(ctx, {**meta, **ds.figures()})
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
+    ff = ctx.results.friction
+    if ff is not None:
+        from corr_cad.export.files import write_json
+        from corr_cad.export.friction_io import efficiency_png, write_friction_files
+
+        figs = ff.figures()
+        write_json(ctx.out / "datasheet.json", {**_meta(ctx), **ds.figures(), **figs})
+        ctx.files.extend(write_friction_files(ff, ctx.out))
+        efficiency_png(ff, ctx.out / "efficiency.png", note)
+        ctx.files.append("efficiency.png")
+        ctx.manifest["datasheet"].update(figs)
     if s.assembly:
         _assembly(ctx)
 

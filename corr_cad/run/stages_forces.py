@@ -127,6 +127,8 @@ def _checks(ctx: RunContext) -> None:
     values = check_values(ctx.results.forces)
     if ctx.results.datasheet is not None:
         values.update(ctx.results.datasheet.check_values())
+    if ctx.results.friction is not None:
+        values.update(ctx.results.friction.check_values())
     report = evaluate_checks(values, ctx.scene.checks)
     ctx.manifest.setdefault("checks", {}).update(report)
     for name, r in report.items():

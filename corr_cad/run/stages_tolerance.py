@@ -79,6 +79,8 @@ def _montecarlo(ctx: RunContext) -> None:
             "binding_pressure_MPa": sheet.binding_pressure_MPa,
         }
     summary["nominal"] = nominal
+    if s.life:
+        summary["life_h"] = _life_under_tolerances(ctx)
     write_json(ctx.out / "montecarlo_summary.json", summary)
     from corr_cad.tolerance.mc_datasheet import DATASHEET_MC_METRICS
 
@@ -102,6 +104,7 @@ def _montecarlo(ctx: RunContext) -> None:
             "nominal",
             "sensitivity",
             "binding_probability",
+            "life_h",
         )
         if k in summary
     }
@@ -124,6 +127,33 @@ def _montecarlo(ctx: RunContext) -> None:
                 f"      check montecarlo {name}: {state} (failure probability "
                 f"{g['probability']:.4g}, allowed {g['allowed']:.4g})"
             )
+
+
+def _life_under_tolerances(ctx: RunContext) -> dict:
+    """``[life]`` with a Monte Carlo: L10 percentiles over its first samples."""
+    from corr_cad.run.stages_datasheet import friction_spec, rated_torque_Nmm
+    from corr_cad.tolerance.mc_life import life_percentiles, life_samples
+
+    s = ctx.scene
+    friction, life = friction_spec(s)
+    n = min(s.montecarlo["samples"], s.life["montecarlo_samples"])
+    ctx.progress(f"      life under tolerances: {n} samples")
+    lives = life_samples(
+        s.design,
+        scene_errors(ctx),
+        s.tolerances,
+        n,
+        s.montecarlo["seed"],
+        life,
+        friction,
+        rated_torque_Nmm(s),
+        load_share=s.solver.load_share,
+        variants=s.solver.variants,
+        psi_contact_limit=psi_contact_limit(ctx),
+        positions_per_mesh=s.friction["positions_per_mesh"],
+        draws=s.montecarlo["samples"],
+    )
+    return life_percentiles(lives)
 
 
 def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:

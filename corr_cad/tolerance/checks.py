@@ -43,6 +43,10 @@ class Checks:
     max_backlash_arcmin: float | None = None
     min_torsional_rigidity_Nm_per_arcmin: float | None = None
     max_transmission_error_arcsec: float | None = None
+    #: Forward efficiency (minimum over the ``[friction]`` map) and system L10
+    #: at the rated torque: judged on the nominal design only.
+    min_efficiency: float | None = None
+    min_life_h: float | None = None
     #: Largest allowed Monte Carlo failure probability per limit; ``None``:
     #: the Monte Carlo is reported but only the nominal design is gated.
     max_failure_probability: float | None = None
@@ -62,9 +66,14 @@ class Checks:
         """The limits the Monte Carlo and allocation judge: every limit.
 
         The datasheet's need the Monte Carlo's datasheet pass
-        (:mod:`corr_cad.tolerance.mc_datasheet`).
+        (:mod:`corr_cad.tolerance.mc_datasheet`); efficiency and life are
+        judged on the nominal design only (:data:`NOMINAL_ONLY_METRICS`).
         """
-        return self.active()
+        return {
+            k: v
+            for k, v in self.active().items()
+            if CHECK_METRICS[k][0] not in NOMINAL_ONLY_METRICS
+        }
 
 
 #: check -> (metric, sense): "max" limits bound the metric from above.
@@ -76,7 +85,12 @@ CHECK_METRICS = {
     "max_backlash_arcmin": ("backlash_arcmin", "max"),
     "min_torsional_rigidity_Nm_per_arcmin": ("torsional_rigidity_Nm_per_arcmin", "min"),
     "max_transmission_error_arcsec": ("transmission_error_arcsec", "max"),
+    "min_efficiency": ("efficiency", "min"),
+    "min_life_h": ("life_h", "min"),
 }
+#: Metrics of the friction and life models: the datasheet computes them for the
+#: nominal design; the Monte Carlo does not.
+NOMINAL_ONLY_METRICS = ("efficiency", "life_h")
 
 #: Metrics read off the windup (:meth:`corr_cad.mechanics.datasheet.Datasheet.check_values`):
 #: the Monte Carlo computes them in its datasheet pass (:mod:`corr_cad.tolerance.mc_datasheet`).
@@ -84,6 +98,7 @@ DATASHEET_METRICS = (
     "lost_motion_arcmin",
     "torsional_rigidity_Nm_per_arcmin",
     "transmission_error_arcsec",
+    *NOMINAL_ONLY_METRICS,
 )
 
 

@@ -1,0 +1,109 @@
+"""Files of the efficiency map and the rated life: efficiency.csv, efficiency.png, life.csv.
+
+``efficiency.csv``: one row per input speed and output torque, both
+directions' efficiencies; the forward powers in W at that speed for the
+whole drive (output power ``T omega_out``; Coulomb losses scale with the
+speed, so the efficiency does not). ``life.csv``: one row per component,
+L10 in hours at T_R and at the rated torque from life, both at the rated
+output speed.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from corr_cad.export.files import write_csv
+from corr_cad.mechanics.efficiency import FrictionFigures
+
+__all__ = ["EFFICIENCY_COLUMNS", "LIFE_COLUMNS", "write_friction_files", "efficiency_png"]
+
+EFFICIENCY_COLUMNS = (
+    "input_speed_rpm",
+    "output_torque_Nm",
+    "torque_share",
+    "efficiency_forward",
+    "efficiency_backdriving",
+    "input_power_W",
+    "loss_cam_W",
+    "loss_slot_W",
+    "loss_ring_W",
+    "loss_bearing_W",
+)
+LIFE_COLUMNS = ("component", "method", "life_h", "life_h_at_rated_torque_from_life")
+
+_METHOD = {
+    "bearing": "ISO 281 basic rating life, equivalent load exponent 10/3",
+    "cam": "Lundberg-Palmgren line contact, cam as inner raceway",
+    "ring": "Lundberg-Palmgren line contact, ring as outer raceway",
+    "system": "Weibull combination, slope 9/8",
+}
+
+
+def _g(v: float) -> str:
+    return "inf" if not math.isfinite(v) else f"{v:.9g}"
+
+
+def write_friction_files(ff: FrictionFigures, out: Path) -> list[str]:
+    """Write ``efficiency.csv`` (and ``life.csv`` with lives); returns the names written."""
+    out = Path(out)
+    T_R = ff.rated_torque / 1000.0
+    rows = []
+    for n in ff.speeds_rpm:
+        # Output speed in rad/s; powers are N*mm per rad of output: times it and 1e-3 is W.
+        to_W = 2.0 * math.pi * n / 60.0 / ff.ratio * 1e-3
+        for i, s in enumerate(ff.shares):
+            # The map's powers are the modelled row's (first order: friction lowers the output
+            # side); scaled so that the output power is the drive's T * omega_out.
+            k = to_W * s * ff.rated_torque / ff.output_power[i]
+            rows.append(
+                [
+                    f"{n:.9g}",
+                    f"{s * T_R:.9g}",
+                    f"{s:.9g}",
+                    f"{ff.forward[i]:.12g}",
+                    f"{ff.backdriving[i]:.12g}",
+                    f"{ff.input_power[i] * k:.9g}",
+                    *(f"{v * k:.9g}" for v in ff.losses_forward[i]),
+                ]
+            )
+    write_csv(out / "efficiency.csv", EFFICIENCY_COLUMNS, rows)
+    names = ["efficiency.csv"]
+    if ff.lives is not None:
+        at = ff.lives_at_rated_from_life or {}
+        life_rows = [
+            [k, _METHOD[k.split("_")[0]], _g(v), _g(at.get(k, math.nan))]
+            for k, v in ff.lives.items()
+        ]
+        write_csv(out / "life.csv", LIFE_COLUMNS, life_rows)
+        names.append("life.csv")
+    return names
+
+
+def efficiency_png(ff: FrictionFigures, path: Path, note: str = "") -> Path:
+    """The catalogue's efficiency against output torque, one curve per input speed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    T = ff.shares * ff.rated_torque / 1000.0
+    fig, ax = plt.subplots(figsize=(7, 4.6))
+    for k, n in enumerate(ff.speeds_rpm):
+        ax.plot(T, 100 * ff.forward, marker="o", ms=4 + 2 * k, mfc="none", label=f"{n:g} rpm in")
+    ax.plot(T, 100 * ff.backdriving, color="0.4", ls="--", label="backdriving")
+    ax.set_xlabel("output torque [N*m]")
+    ax.set_ylabel("efficiency [%]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fr = ff.friction
+    ax.set_title(
+        f"mu cam/slot/ring {fr.mu_cam:g}/{fr.mu_slot:g}/{fr.mu_ring:g}, bearing "
+        f"{fr.mu_bearing:g} ({fr.mounting} cam); Coulomb: the same at every speed"
+        + (f"\n{note}" if note else ""),
+        fontsize=9,
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, metadata={"Software": None})
+    plt.close(fig)
+    return Path(path)

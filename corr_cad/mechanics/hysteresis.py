@@ -1,0 +1,144 @@
+"""Hysteresis loss and starting torque from friction, first order.
+
+The bench
+---------
+The catalogues' hysteresis curve is measured with the input (crank) locked,
+the ring fixed, the output turned by an output torque. Turning the output
+by ``d theta`` carries every roller with its slot past the cam and the ring
+(tangentially ``s d theta``) and moves it along the slot by the elastic
+change of its cam contact, ``d u = (-(z x O1) . n - d delta_cam) / (n . u_r)``
+with ``n`` the cam normal and ``delta_cam = 2 F_j / (pi l E')`` the cam
+contact's approach to first order in the Hertz half-width (the sum of the
+two bodies' sagittas of the solver's contact law). Each roller's spin and
+its sliding contacts follow from its moment balance as in running
+(:mod:`corr_cad.mechanics.friction`); a floating cam's spin from its own.
+
+Friction dissipates ``D`` per unit output rotation (N*mm per rad): the
+loading branch needs ``T = T_e(theta) + D``, the unloading branch
+``T = T_e(theta) - D``, with ``T_e`` the frictionless windup's torque and
+``D`` evaluated on the frictionless state (first order). At zero torque the
+two branches stand ``D0 / K0`` either side of the frictionless curve
+(``K0 = dT/d theta`` there), so the **hysteresis loss**, the loop's width
+at zero torque beyond the backlash, is ``D0(0+) / K0(0+) + D0(0-) / K0(0-)``.
+Coulomb friction is proportional to the contact forces: without a preload
+(no force at zero torque) ``D0 = 0`` and the loss is zero; the loop then
+opens only under load (``hysteresis_width_at_rated``).
+
+Starting torque
+---------------
+The crank moment that starts the drive at no output load: the running
+losses at zero torque per unit crank rotation, ``losses(0) / (z + 1)``
+per unit output speed; the backdriving torque, the output moment that
+starts it from the output, ``losses(0)``.
+Without a preload (a modification that clears, no bearing preload, no seal
+model) it is zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from corr_cad.mechanics.contact import linear_compliance
+from corr_cad.mechanics.efficiency import drive_friction, row_loads_from_forces
+from corr_cad.mechanics.friction import Friction, row_contacts, row_friction
+
+__all__ = ["bench_dissipation", "hysteresis_figures"]
+
+#: Relative torque step of the finite differences (share of T_R).
+_STEP = 1e-3
+#: "Zero" torque of a preloaded drive's force state (share of T_R).
+_ZERO = 1e-9
+
+
+def _at_zero(at_1: np.ndarray, at_2: np.ndarray) -> np.ndarray:
+    """Extrapolate to zero torque from torques 1 and 2 (units of ``_ZERO``): ``2 D1 - D2``.
+
+    A part proportional to the torque cancels; what stays is the preload's.
+    Below 1e-6 of ``D1`` it is rounding of that cancellation: zero.
+    """
+    d0 = 2.0 * at_1 - at_2
+    return np.where(d0 > 1e-6 * np.abs(at_1), d0, 0.0)
+
+
+def bench_dissipation(design, windup, torque: float, step: float, friction: Friction):
+    """Friction dissipation per unit output rotation on the locked-input bench, (P,) N*mm/rad.
+
+    Of the modelled row (the caller scales it to the drive); also
+    returns the windup's stiffness ``dT/d theta`` (P,) N*mm/rad there, by
+    central differences over ``torque +- step`` (one-sided at a sign
+    change of the torque).
+    """
+    lo, hi = torque - step, torque + step
+    if torque > 0.0 and lo <= 0.0:
+        lo = torque
+    if torque < 0.0 and hi >= 0.0:
+        hi = torque
+    res = windup.forces(torque)
+    r_lo, r_hi = windup.forces(lo), windup.forces(hi)
+    th_lo, th_hi = windup.contact_theta(lo), windup.contact_theta(hi)
+    dth = th_hi - th_lo
+    stiffness = (hi - lo) / dth
+    dF = (r_hi.F_j - r_lo.F_j) / dth[:, None]
+    ddelta = dF * linear_compliance(design.roller_length, design.material.contact_modulus)
+    c = row_contacts(
+        design.tooth_count,
+        design.eccentricity,
+        design.cam_radius,
+        design.roller_radius,
+        res.crank_angles,
+        res.F_s,
+        crank_speed=0.0,
+    )
+    n = -c.d[:, :, 0]  # cam centre -> roller centre
+    ur = c.centre / np.linalg.norm(c.centre, axis=-1, keepdims=True)
+    o1 = c.cam_centre[:, None, :]
+    z_o1 = np.stack([-o1[..., 1], o1[..., 0]], axis=-1)
+    du = (-np.sum(z_o1 * n, axis=-1) - ddelta) / np.sum(n * ur, axis=-1)
+    z_h = np.stack([-c.centre[..., 1], c.centre[..., 0]], axis=-1)
+    c = replace(c, centre_velocity=z_h + du[..., None] * ur)
+    fr = row_friction(c, res.F_j, friction)
+    return fr.total_loss, stiffness
+
+
+def hysteresis_figures(
+    design, windup, rated_torque: float, friction: Friction, rows: int = 2
+) -> dict:
+    """Hysteresis loss, the loop's width at T_R and the starting torques, per position.
+
+    Returns arrays (P,) in rad (``loss``, ``width_at_rated``) and N*mm
+    (``starting_torque`` at the input, ``backdriving_torque`` at the output).
+    """
+    step = _STEP * rated_torque
+    zero = _ZERO * rated_torque
+    out = {}
+    width0 = np.zeros(len(windup.output_angles))
+    # At zero torque the forces are the preload, alike in both cams (rows = 2); under
+    # load the modelled cam carries load_share of the torque.
+    share = windup.load_share
+    for s in (1.0, -1.0):
+        # D at zero torque extrapolated from two small torques (Richardson): the part
+        # proportional to the torque drops out, the preload's stays.
+        D1, K = bench_dissipation(design, windup, s * zero, step, friction)
+        D2, _ = bench_dissipation(design, windup, 2.0 * s * zero, step, friction)
+        width0 = width0 + rows * _at_zero(D1, D2) / K
+    out["loss"] = width0
+    w = np.zeros_like(width0)
+    for s in (1.0, -1.0):
+        D, K = bench_dissipation(design, windup, s * rated_torque, step, friction)
+        w = w + 2.0 * D / share / K
+    out["width_at_rated"] = 0.5 * w
+
+    # Running at no load: the preload forces, crank driving (forward) and output driving,
+    # extrapolated to zero torque like D0.
+    def no_load(t: float) -> tuple[np.ndarray, np.ndarray]:
+        fwd = drive_friction(design, [row_loads_from_forces(design, windup.forces(-t))], friction)
+        back = drive_friction(design, [row_loads_from_forces(design, windup.forces(t))], friction)
+        return fwd[0].total_loss, back[0].total_loss
+
+    f1, b1 = no_load(zero)
+    f2, b2 = no_load(2.0 * zero)
+    out["starting_torque"] = rows * _at_zero(f1, f2) / float(design.roller_count)
+    out["backdriving_torque"] = rows * _at_zero(b1, b2)
+    return out
