@@ -128,8 +128,30 @@ def _hwm(pid: int) -> float:
     return 0.0
 
 
+def _rss_parts(pid: int) -> tuple[float, float]:
+    """Resident (anonymous + shared-memory, file-backed) bytes of ``pid`` now ((0, 0) if gone)."""
+    parts = {"RssAnon:": 0.0, "RssShmem:": 0.0, "RssFile:": 0.0}
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                key = line.split(maxsplit=1)[0] if line.strip() else ""
+                if key in parts:
+                    parts[key] = int(line.split()[1]) * 1024.0
+    except OSError:
+        pass
+    return parts["RssAnon:"] + parts["RssShmem:"], parts["RssFile:"]
+
+
 def measure(folder: Path, scene: str, args=(), timeout: float = 900) -> dict:
-    """Run ``scene`` from ``folder``; peak bytes of its process tree, seconds, bytes written."""
+    """Run ``scene`` from ``folder``; peak bytes of its process tree, seconds, bytes written.
+
+    ``peak``: the sum of each process's own peak RSS (the file pages every
+    forked pool worker maps, numba's and numpy's libraries, counted in each);
+    ``tree``: the memory the run held of the machine, the largest at one poll
+    of the processes' anonymous pages plus the file pages of the process
+    that maps most (the workers map the same library files), and at least
+    the main process's own peak RSS. The estimate is compared with ``tree``.
+    """
     (folder / "s.toml").write_text(scene)
     out = folder / "out"
     cmd = [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet", *args]
@@ -138,15 +160,19 @@ def measure(folder: Path, scene: str, args=(), timeout: float = 900) -> dict:
     t0 = time.monotonic()
     p = subprocess.Popen(cmd, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     peaks: dict[int, float] = {}
+    tree = [0.0]
     stop = threading.Event()
 
     def poll():
         while not stop.is_set():
-            todo = [p.pid]
+            todo, anon, files = [p.pid], 0.0, 0.0
             while todo:
                 pid = todo.pop()
                 peaks[pid] = max(peaks.get(pid, 0.0), _hwm(pid))
+                a, f = _rss_parts(pid)
+                anon, files = anon + a, max(files, f)
                 todo += _children(pid)
+            tree[0] = max(tree[0], anon + files)
             stop.wait(0.02)
 
     poller = threading.Thread(target=poll, daemon=True)
@@ -160,7 +186,8 @@ def measure(folder: Path, scene: str, args=(), timeout: float = 900) -> dict:
     if p.returncode not in (0, 1):
         raise RuntimeError(f"{scene!r} failed: {err.decode()[-400:]}")
     files = sum(f.stat().st_size for f in out.iterdir()) if out.exists() else 0
-    return {"peak": sum(peaks.values()), "seconds": seconds, "bytes": files}
+    tree[0] = max(tree[0], peaks.get(p.pid, 0.0))
+    return {"peak": sum(peaks.values()), "tree": tree[0], "seconds": seconds, "bytes": files}
 
 
 def _measured_file(folder: Path, rows: int) -> str:

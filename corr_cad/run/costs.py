@@ -373,51 +373,33 @@ def _interference(scene, env):
 
 
 # --- tolerances ----------------------------------------------------------------------
-def _per_sample_bytes(scene) -> float:
-    """Draws (both standard kinds of each tolerance), magnitudes, metrics, a CSV row."""
-    from corr_cad.tolerance.montecarlo import TOLERANCE_KINDS
-
-    R = _rollers(scene)
-    draws = sum(R if TOLERANCE_KINDS[k][0] else 1 for k in scene.tolerances)
-    return 8 * 3 * max(draws, 1) + 8 * 12 + 400
-
-
-def _chunk_bytes(samples: int, positions: int, R: int, kernel: bool) -> float:
-    """One Monte Carlo chunk in the process that solves it.
-
-    numpy path: blocks of ``max(1, 400 // positions)`` samples, ~700 bytes a
-    (sample, position, roller) cell; the kernel: the nominal geometry, ~300
-    bytes a cell, and per sample a row.
-    """
-    from corr_cad.tolerance.montecarlo import _BLOCK_ROWS
-
-    if kernel:
-        return 300.0 * positions * R + 64 * 50
-    block = max(1, _BLOCK_ROWS // max(positions, 1))
-    return 700.0 * min(block, max(samples, 1)) * positions * R
-
-
 def _mc_seconds(samples: int, positions: int, R: int, kernel: bool, workers: int) -> float:
     per_cell = 2.5e-7 if kernel else 6e-7
     return samples * positions * R * per_cell / workers + (2.0 if kernel else 0.0)
 
 
-def _sample_work(scene, env, samples: int, positions: int, kernel: bool) -> dict:
-    """Main-process and worker memory of sample work, its libraries."""
-    R = _rollers(scene)
-    chunk = _chunk_bytes(samples, positions, R, kernel)
-    local = env.local_workers
-    return {
-        "memory": 20 * MB
-        + _per_sample_bytes(scene) * samples
-        + (0 if local or env.remote else chunk),
-        "workers": local * (WORKER_BYTES + chunk + (LIBRARY_BYTES["numba"] if kernel else 0)),
-        "libraries": ("numba",) if kernel else (),
-    }
+def _sample_work(scene, env, samples: int, positions: int, kernel: bool, grid: int) -> dict:
+    """Main-process and worker memory of sample work, its libraries, its chunk
+    (:mod:`corr_cad.run.costs_montecarlo`)."""
+    from corr_cad.run.costs_montecarlo import sample_work
+    from corr_cad.tolerance.montecarlo import draw_width
+
+    return sample_work(
+        _rollers(scene),
+        draw_width(scene.tolerances, _rollers(scene)),
+        len(scene.tolerances),
+        samples,
+        positions,
+        kernel,
+        grid,
+        env.workers,
+        env.local_workers,
+        env.remote,
+    )
 
 
-def _datasheet_mc(scene, samples: int, workers: int) -> tuple[float, float]:
-    """Seconds and per-worker bytes of the samples' datasheet pass (0, 0 when not asked).
+def _datasheet_mc(scene, samples: int, workers: int) -> tuple[float, int]:
+    """Seconds and grid positions of the samples' datasheet pass (0, 0 when not asked).
 
     Six windup torques at each position of the sample's grid by the compiled
     kernel: 12.6 us a position at 26 rollers measured (2.47 ms a sample of 104
@@ -445,7 +427,7 @@ def _datasheet_mc(scene, samples: int, workers: int) -> tuple[float, float]:
         )
     )
     R = _rollers(scene)
-    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), 300.0 * grid * R
+    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), grid
 
 
 @stage_cost("montecarlo")
@@ -455,20 +437,17 @@ def _montecarlo(scene, env):
     mc, R = scene.montecarlo, _rollers(scene)
     n, pos = mc["samples"], mc["positions"]
     kernel = n * pos >= KERNEL_MIN_WORK
-    work = _sample_work(scene, env, n, pos, kernel)
+    sheet_s, grid = _datasheet_mc(scene, n, env.workers)
+    work = _sample_work(scene, env, n, pos, kernel, grid)
+    chunk = work.pop("chunk")
     # The nominal solve and the plots.
     work["memory"] += 240 * pos * R + 40 * MB
-    sheet_s, sheet_bytes = _datasheet_mc(scene, n, env.workers)
-    if sheet_s:
-        work["memory"] += 0 if env.local_workers or env.remote else sheet_bytes
-        work["workers"] += env.local_workers * sheet_bytes
-        work["libraries"] = tuple(dict.fromkeys(work["libraries"] + ("numba",)))
     return Cost(
         keeps=0.0,
         seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R + sheet_s,
         output={"montecarlo.csv": 70 * n, "montecarlo.png": 0.25 * MB},
         knobs=("[montecarlo] samples", "[montecarlo] positions"),
-        task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
+        task_seconds=_mc_seconds(chunk, pos, R, False, 1) + chunk * grid * R * 1e-6,
         **{**work, "libraries": work["libraries"] + ("matplotlib",)},
     )
 
@@ -486,13 +465,12 @@ def _allocation(scene, env):
     n, pos = mc["allocation_samples"], min(mc["positions"], 72)
     runs = 2 * len(scene.tolerances) * ALLOCATION_EVALUATIONS
     kernel = n * pos * ALLOCATION_EVALUATIONS >= KERNEL_MIN_WORK
-    work = _sample_work(scene, env, n, pos, kernel)
     per_run = _mc_seconds(n, pos, R, kernel, env.workers) - (2.0 if kernel else 0.0)
-    sheet_s, sheet_bytes = _datasheet_mc(scene, n, env.workers)
+    sheet_s, grid = _datasheet_mc(scene, n, env.workers)
+    work = _sample_work(scene, env, n, pos, kernel, grid)
+    chunk = work.pop("chunk")
     if sheet_s:
         per_run += sheet_s - 8.0
-        work["workers"] += env.local_workers * sheet_bytes
-        work["libraries"] = tuple(dict.fromkeys(work["libraries"] + ("numba",)))
     return Cost(
         seconds=0.5
         + runs * (0.02 + per_run)
@@ -500,7 +478,7 @@ def _allocation(scene, env):
         + (8.0 if sheet_s else 0.0),
         output={"allocation.*": 4e3 * len(scene.tolerances)},
         knobs=("[montecarlo] allocation_samples", "[montecarlo] positions"),
-        task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
+        task_seconds=_mc_seconds(chunk, pos, R, False, 1) + chunk * grid * R * 1e-6,
         **work,
     )
 

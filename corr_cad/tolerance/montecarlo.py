@@ -38,6 +38,7 @@ __all__ = [
     "draw_samples",
     "DrawStream",
     "chunk_size",
+    "draw_width",
     "monte_carlo",
     "SerialExecutor",
     "COUNT_METRICS",
@@ -174,9 +175,12 @@ CHUNKS_PER_WORKER = 4
 #: Bytes one chunk may take in the worker that solves it (its draws, errors,
 #: the datasheet pass's windup angles): this bounds the chunk, and so a
 #: worker's memory, whatever the sample count.
-CHUNK_BYTES = 32 * 1024**2
-#: No chunk has more samples than this (progress stays fine-grained).
-CHUNK_MAX = 20_000
+CHUNK_BYTES = 16 * 1024**2
+#: No chunk has more samples than this: a task of the compiled kernel is then
+#: about a second at 36 positions (its fixed cost a few milliseconds), and the
+#: chunks in flight (``IN_FLIGHT_PER_WORKER`` a worker, their draws and
+#: results held by the main process) stay small beside the summary's columns.
+CHUNK_MAX = 4_000
 
 
 def chunk_size(samples: int, workers: int, sample_bytes: float) -> int:
@@ -185,8 +189,10 @@ def chunk_size(samples: int, workers: int, sample_bytes: float) -> int:
 
     >>> chunk_size(100_000, 16, 2_000.0)
     1563
-    >>> chunk_size(1_000_000, 2, 2_000.0)   # bounded by CHUNK_BYTES
-    16777
+    >>> chunk_size(1_000_000, 2, 2_000.0)   # at most CHUNK_MAX
+    4000
+    >>> chunk_size(1_000_000, 2, 40_000.0)   # at most CHUNK_BYTES of work
+    419
     >>> chunk_size(30, 4, 2_000.0)
     50
     """
@@ -205,12 +211,18 @@ def executor_workers(executor) -> int:
     return max(1, int(n or 1))
 
 
-def sample_bytes(roller_count: int, kinds: int, grid: int = 0, torques: int = 0) -> float:
-    """Bytes a sample takes in the worker solving its chunk: its draws and errors
-    (both kinds of each tolerance, ``(z + 1)`` values a per-roller kind), its
-    metrics, and with the datasheet pass three copies of its windup angles
-    (``grid`` positions x ``torques``)."""
-    return 8.0 * (2 * kinds * roller_count + 3 * roller_count + 16) + 24.0 * grid * torques
+def sample_bytes(roller_count: int, width: int, grid: int = 0, torques: int = 0) -> float:
+    """Bytes a sample takes in the worker solving its chunk: its ``width`` standard
+    draws (``z + 1`` for a per-roller tolerance, else 1) as sent and as
+    received, its errors (five arrays, two of ``z + 1``), its metrics, and with
+    the datasheet pass three copies of its windup angles (``grid`` positions x
+    ``torques``)."""
+    return 8.0 * (2 * width + 2 * roller_count + 12) + 24.0 * grid * torques
+
+
+def draw_width(tolerances, roller_count: int) -> int:
+    """Standard draws a sample takes: ``z + 1`` a per-roller tolerance, else 1."""
+    return sum(roller_count if TOLERANCE_KINDS[k][0] else 1 for k in tolerances)
 
 
 def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> ManufacturingErrors:
@@ -521,7 +533,7 @@ def monte_carlo(
         grid = grid_positions(design, base, tolerances, datasheet.positions_per_mesh)
         torques = len(datasheet.torques()[0])
     if chunk is None:
-        per = sample_bytes(R, len(tolerances), 0 if grid is None else len(grid), torques)
+        per = sample_bytes(R, draw_width(tolerances, R), 0 if grid is None else len(grid), torques)
         chunk = chunk_size(samples, workers, per)
     args = (design, input_torque, angles, load_share, base, tolerances)
     pending: deque = deque()
