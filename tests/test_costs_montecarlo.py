@@ -65,3 +65,27 @@ def test_the_longest_task_is_a_whole_chunk(tmp_path):
     small = estimate(_scene(tmp_path, 400), 16, "dask").stages["montecarlo"].task_seconds
     large = estimate(_scene(tmp_path, 10**6), 16, "dask").stages["montecarlo"].task_seconds
     assert large > 10 * small
+
+
+def test_bench_worker_counts_default_to_powers_of_two_up_to_the_cores(monkeypatch):
+    from corr_cad.run import bench_scaling
+
+    monkeypatch.setattr(bench_scaling.os, "cpu_count", lambda: 12)
+    assert bench_scaling.default_worker_counts() == [1, 2, 4, 8, 12]
+    monkeypatch.setattr(bench_scaling.os, "cpu_count", lambda: 16)
+    assert bench_scaling.default_worker_counts() == [1, 2, 4, 8, 16]
+
+
+def test_bench_workers_flag_refuses_a_bad_count_in_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "bench", "--study", "montecarlo", "--workers", "0,2",
+         "--out", str(tmp_path / "b")],
+        capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert r.returncode == 2
+    assert "--workers: '0,2': worker counts from 1 to 1024, comma-separated" in r.stderr
+    assert not (tmp_path / "b").exists()
