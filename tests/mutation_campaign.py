@@ -913,6 +913,13 @@ M = [
         "Monte Carlo estimate: the magnitudes' columns left out",
         "tests/test_costs_montecarlo.py::test_the_columns_kept_are_those_the_result_holds",
     ),
+    (
+        "run/costs.py",
+        "CLASS_DATASHEETS = 1.0",
+        "CLASS_DATASHEETS = 0.1",
+        "selective assembly: a tenth of a datasheet a roller class",
+        "tests/test_estimate_modified.py::test_selective_assembly_of_a_measured_ring_counts_a_datasheet_per_class",
+    ),
 ]
 only = [int(x) for x in sys.argv[1:]]
 env = dict(os.environ, PYTHONPATH=str(WT))

@@ -105,3 +105,26 @@ def test_free_family_of_twenty_steps_is_estimated_from_its_candidates(tmp_path):
     budget = Budget(3 * 1024**3, 1024**3, 60.0, "default", "default", "default")
     line = time_warning(scene, est, budget, "serial")
     assert line is not None and "[modification.design] steps = 20" in line
+
+
+def test_selective_assembly_of_a_measured_ring_counts_a_datasheet_per_class(tmp_path):
+    """100 classes with a measured ring were estimated at 20 s and took 8 min, unwarned."""
+    from corr_cad.geometry.profile import working_profile
+    from corr_cad.run.resources import Budget, time_warning
+
+    t = np.linspace(0.0, 2 * np.pi, 5000, endpoint=False)
+    pts = working_profile(GearDesign()).points(t)
+    np.savetxt(tmp_path / "m.csv", pts, fmt="%.4f", delimiter=",", header="x,y", comments="")
+    classes = ", ".join(f"{c:.1f}" for c in np.linspace(-5.0, 5.0, 100))
+    (tmp_path / "s.toml").write_text(
+        '[export]\nformats = ["datasheet"]\n[load]\ninput_torque = 1.1e5\n'
+        '[errors]\nmeasured_profile = "m.csv"\n'
+        f"[assembly]\nroller_classes_um = [{classes}]\ntarget_backlash_arcmin = 1.0\n"
+    )
+    scene = load_scene(tmp_path / "s.toml")
+    est = estimate(scene, 1, "serial")
+    one = est.stages["datasheet"].seconds
+    assert est.stages["datasheet_files"].seconds >= 100 * one  # a datasheet a class
+    budget = Budget(3 * 1024**3, 1024**3, 60.0, "default", "default", "default")
+    line = time_warning(scene, est, budget, "serial")
+    assert line is not None and "[assembly] roller_classes_um = 100 classes:" in line

@@ -342,6 +342,16 @@ KNOBS = {
         True,
         10.0,
     ),
+    "[assembly] roller_classes_um": (
+        lambda s: len(s.assembly["roller_classes_um"]),
+        lambda s, v: replace(
+            s,
+            assembly={**s.assembly, "roller_classes_um": s.assembly["roller_classes_um"][:v]},
+        ),
+        True,
+        False,
+        None,
+    ),
     "[inspection] point_spacing": (
         lambda s: s.inspection["point_spacing"],
         _set("inspection", "point_spacing"),
@@ -428,6 +438,8 @@ def _blame(scene, est: Estimate, stages: list[str], fits) -> tuple[str, str]:
 def _show(v, key: str) -> str:
     if key in ("[solver] crank_angles_deg", "[export] assembly_angles_deg"):
         return f"{v} angles" if isinstance(v, int) else str(v)
+    if key == "[assembly] roller_classes_um":
+        return f"{v} classes"
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 
