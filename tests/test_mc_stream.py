@@ -12,6 +12,7 @@ from corr_cad import GearDesign
 from corr_cad.export.files import write_columns
 from corr_cad.tolerance.montecarlo import (
     CHUNK_BYTES,
+    CHUNK_MAX,
     IN_FLIGHT_PER_WORKER,
     Distribution,
     DrawStream,
@@ -94,10 +95,12 @@ def test_work_in_flight_is_bounded_and_rows_arrive_in_order_whatever_the_chunk()
 
 
 def test_chunk_is_bounded_whatever_the_sample_count():
-    per = 3000.0
+    per = 40_000.0  # bytes of a sample's work: CHUNK_BYTES binds before CHUNK_MAX
     cap = int(CHUNK_BYTES // per)
-    assert chunk_size(10**4, 16, per) == 157  # four chunks a worker: ceil(1e4 / 64)
+    assert cap < CHUNK_MAX
+    assert chunk_size(10**4, 16, 3000.0) == 157  # four chunks a worker: ceil(1e4 / 64)
     assert chunk_size(10**6, 2, per) == cap == chunk_size(10**8, 2, per)
+    assert chunk_size(10**6, 2, 100.0) == CHUNK_MAX == chunk_size(10**8, 64, 100.0)
     assert chunk_size(10, 2, per) == 50  # a task's fixed cost is worth 50 samples at least
 
 
