@@ -102,6 +102,9 @@ def test_chunk_is_bounded_whatever_the_sample_count():
     assert chunk_size(10**6, 2, per) == cap == chunk_size(10**8, 2, per)
     assert chunk_size(10**6, 2, 100.0) == CHUNK_MAX == chunk_size(10**8, 64, 100.0)
     assert chunk_size(10, 2, per) == 50  # a task's fixed cost is worth 50 samples at least
+    # Half a second of estimated work at most (a stalled worker is seen within seconds).
+    assert chunk_size(10**6, 2, 100.0, 1e-3) == 500
+    assert chunk_size(10**6, 2, 100.0, 1.0) == 50
 
 
 def test_streamed_montecarlo_csv_has_the_bytes_of_the_whole_table(tmp_path):

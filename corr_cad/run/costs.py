@@ -388,7 +388,9 @@ def _interference(scene, env):
 
 # --- tolerances ----------------------------------------------------------------------
 def _mc_seconds(samples: int, positions: int, R: int, kernel: bool, workers: int) -> float:
-    per_cell = 2.5e-7 if kernel else 6e-7
+    from corr_cad.tolerance.montecarlo import CELL_SECONDS
+
+    per_cell = CELL_SECONDS[bool(kernel)]
     return samples * positions * R * per_cell / workers + (2.0 if kernel else 0.0)
 
 
@@ -453,7 +455,8 @@ def _montecarlo(scene, env):
     kernel = n * pos >= KERNEL_MIN_WORK
     sheet_s, grid = _datasheet_mc(scene, n, env.workers)
     work = _sample_work(scene, env, n, pos, kernel, grid)
-    chunk = work.pop("chunk")
+    work.pop("chunk")
+    task = work.pop("task_seconds")
     # The nominal solve and the plots.
     work["memory"] += 240 * pos * R + 40 * MB
     return Cost(
@@ -461,7 +464,7 @@ def _montecarlo(scene, env):
         seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R + sheet_s,
         output={"montecarlo.csv": 70 * n, "montecarlo.png": 0.25 * MB},
         knobs=("[montecarlo] samples", "[montecarlo] positions"),
-        task_seconds=_mc_seconds(chunk, pos, R, False, 1) + chunk * grid * R * 1e-6,
+        task_seconds=task,
         **{**work, "libraries": work["libraries"] + ("matplotlib",)},
     )
 
@@ -482,7 +485,8 @@ def _allocation(scene, env):
     per_run = _mc_seconds(n, pos, R, kernel, env.workers) - (2.0 if kernel else 0.0)
     sheet_s, grid = _datasheet_mc(scene, n, env.workers)
     work = _sample_work(scene, env, n, pos, kernel, grid)
-    chunk = work.pop("chunk")
+    work.pop("chunk")
+    task = work.pop("task_seconds")
     if sheet_s:
         per_run += sheet_s - 8.0
     return Cost(
@@ -492,7 +496,7 @@ def _allocation(scene, env):
         + (8.0 if sheet_s else 0.0),
         output={"allocation.*": 4e3 * len(scene.tolerances)},
         knobs=("[montecarlo] allocation_samples", "[montecarlo] positions"),
-        task_seconds=_mc_seconds(chunk, pos, R, False, 1) + chunk * grid * R * 1e-6,
+        task_seconds=task,
         **work,
     )
 

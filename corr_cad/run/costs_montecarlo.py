@@ -75,10 +75,12 @@ def sample_work(
         IN_FLIGHT_PER_WORKER,
         chunk_size,
         sample_bytes,
+        sample_seconds,
     )
 
     per = sample_bytes(R, width, grid, DATASHEET_TORQUES if grid else 0)
-    chunk = chunk_size(samples, workers, per)
+    seconds = sample_seconds(positions, R, kernel, grid)
+    chunk = chunk_size(samples, workers, per, seconds)
     compiled = kernel or grid > 0
     if kernel:
         geometry = 300.0 * positions * R  # the nominal geometry of every position
@@ -108,4 +110,5 @@ def sample_work(
         "workers": local * worker,
         "libraries": ("numba",) if compiled else (),
         "chunk": chunk,
+        "task_seconds": chunk * seconds,
     }

@@ -38,6 +38,7 @@ __all__ = [
     "draw_samples",
     "DrawStream",
     "chunk_size",
+    "sample_seconds",
     "draw_width",
     "monte_carlo",
     "SerialExecutor",
@@ -176,16 +177,32 @@ CHUNKS_PER_WORKER = 4
 #: the datasheet pass's windup angles): this bounds the chunk, and so a
 #: worker's memory, whatever the sample count.
 CHUNK_BYTES = 16 * 1024**2
-#: No chunk has more samples than this: a task of the compiled kernel is then
-#: about a second at 36 positions (its fixed cost a few milliseconds), and the
-#: chunks in flight (``IN_FLIGHT_PER_WORKER`` a worker, their draws and
-#: results held by the main process) stay small beside the summary's columns.
+#: No chunk has more samples than this: the chunks in flight
+#: (``IN_FLIGHT_PER_WORKER`` a worker, their draws and results held by the
+#: main process) stay small beside the summary's columns.
 CHUNK_MAX = 4_000
+#: Estimated seconds of work a chunk is given at most: a task's fixed cost
+#: (a few milliseconds) is then small, while a stall is still seen within
+#: seconds and the progress moves (``corr_cad.run.dask_exec``'s stall
+#: time-out is at least three tasks).
+CHUNK_SECONDS = 0.5
+#: Estimated seconds a (sample, position, roller) cell takes: the compiled
+#: kernel, the numpy solver; and a (sample, datasheet position, roller) cell
+#: of the datasheet pass (six windup torques).
+CELL_SECONDS = {True: 2.5e-7, False: 6e-7}
+DATASHEET_CELL_SECONDS = 1e-6
 
 
-def chunk_size(samples: int, workers: int, sample_bytes: float) -> int:
+def sample_seconds(positions: int, roller_count: int, kernel: bool, grid: int = 0) -> float:
+    """Estimated seconds of one sample's work (:data:`CELL_SECONDS`)."""
+    cells = positions * roller_count
+    return cells * CELL_SECONDS[bool(kernel)] + grid * roller_count * DATASHEET_CELL_SECONDS
+
+
+def chunk_size(samples: int, workers: int, sample_bytes: float, seconds: float = 0.0) -> int:
     """Samples per chunk: ``CHUNKS_PER_WORKER`` chunks a worker at least, at most
-    ``CHUNK_BYTES`` of work each, at least 50 (a task's fixed cost).
+    ``CHUNK_BYTES`` of work each and ``CHUNK_SECONDS`` of estimated time (a
+    sample's ``seconds``), at least 50 (a task's fixed cost).
 
     >>> chunk_size(100_000, 16, 2_000.0)
     1563
@@ -193,11 +210,15 @@ def chunk_size(samples: int, workers: int, sample_bytes: float) -> int:
     4000
     >>> chunk_size(1_000_000, 2, 40_000.0)   # at most CHUNK_BYTES of work
     419
+    >>> chunk_size(1_000_000, 2, 2_000.0, 1e-3)   # at most CHUNK_SECONDS of work
+    500
     >>> chunk_size(30, 4, 2_000.0)
     50
     """
     want = math.ceil(samples / (CHUNKS_PER_WORKER * max(workers, 1)))
     cap = max(50, int(CHUNK_BYTES // max(sample_bytes, 1.0)))
+    if seconds > 0:
+        cap = min(cap, max(50, int(CHUNK_SECONDS / seconds)))
     return max(1, min(max(want, 50), cap, CHUNK_MAX))
 
 
@@ -533,8 +554,9 @@ def monte_carlo(
         grid = grid_positions(design, base, tolerances, datasheet.positions_per_mesh)
         torques = len(datasheet.torques()[0])
     if chunk is None:
-        per = sample_bytes(R, draw_width(tolerances, R), 0 if grid is None else len(grid), torques)
-        chunk = chunk_size(samples, workers, per)
+        n_grid = 0 if grid is None else len(grid)
+        per = sample_bytes(R, draw_width(tolerances, R), n_grid, torques)
+        chunk = chunk_size(samples, workers, per, sample_seconds(len(angles), R, kernel, n_grid))
     args = (design, input_torque, angles, load_share, base, tolerances)
     pending: deque = deque()
     state = {"next": 0}
