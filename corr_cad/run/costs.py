@@ -23,6 +23,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.costs_montecarlo import datasheet_pass
+
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
 
 MB = 1024.0**2
@@ -414,38 +416,6 @@ def _sample_work(scene, env, samples: int, positions: int, kernel: bool, grid: i
     )
 
 
-def _datasheet_mc(scene, samples: int, workers: int) -> tuple[float, int]:
-    """Seconds and grid positions of the samples' datasheet pass (0, 0 when not asked).
-
-    Six windup torques at each position of the sample's grid by the compiled
-    kernel: 12.6 us a position at 26 rollers measured (2.47 ms a sample of 104
-    positions with the 1.16 ms force pass, 18.0 ms at 1300; ``bench --study
-    datasheet``), taken as 1 us a (position, roller), about twice that; and
-    ~8 s to compile the kernel once per process.
-    """
-    from corr_cad.run.scene_montecarlo import wants_datasheet_metrics
-
-    if not wants_datasheet_metrics(scene):
-        return 0.0, 0.0
-    from dataclasses import replace as _replace
-
-    from corr_cad.tolerance.mc_datasheet import grid_positions
-
-    base = scene.errors
-    if scene.measured_profile is not None and base.profile_deviation is None:
-        base = _replace(base, profile_deviation=lambda t: 0.0 * t)
-    grid = len(
-        grid_positions(
-            scene.design,
-            base,
-            tuple(scene.tolerances),
-            scene.montecarlo["datasheet_positions_per_mesh"],
-        )
-    )
-    R = _rollers(scene)
-    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), grid
-
-
 @stage_cost("montecarlo")
 def _montecarlo(scene, env):
     from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
@@ -453,7 +423,7 @@ def _montecarlo(scene, env):
     mc, R = scene.montecarlo, _rollers(scene)
     n, pos = mc["samples"], mc["positions"]
     kernel = n * pos >= KERNEL_MIN_WORK
-    sheet_s, grid = _datasheet_mc(scene, n, env.workers)
+    sheet_s, grid = datasheet_pass(scene, n, env.workers)
     work = _sample_work(scene, env, n, pos, kernel, grid)
     work.pop("chunk")
     task = work.pop("task_seconds")
@@ -483,7 +453,7 @@ def _allocation(scene, env):
     runs = 2 * len(scene.tolerances) * ALLOCATION_EVALUATIONS
     kernel = n * pos * ALLOCATION_EVALUATIONS >= KERNEL_MIN_WORK
     per_run = _mc_seconds(n, pos, R, kernel, env.workers) - (2.0 if kernel else 0.0)
-    sheet_s, grid = _datasheet_mc(scene, n, env.workers)
+    sheet_s, grid = datasheet_pass(scene, n, env.workers)
     work = _sample_work(scene, env, n, pos, kernel, grid)
     work.pop("chunk")
     task = work.pop("task_seconds")

@@ -24,6 +24,7 @@ __all__ = [
     "WORKER_ANON_BYTES",
     "NUMBA_WORKER_BYTES",
     "kept_bytes_per_sample",
+    "datasheet_pass",
     "sample_work",
 ]
 
@@ -112,3 +113,35 @@ def sample_work(
         "chunk": chunk,
         "task_seconds": chunk * seconds,
     }
+
+
+def datasheet_pass(scene, samples: int, workers: int) -> tuple[float, int]:
+    """Seconds and grid positions of the samples' datasheet pass (0, 0 when not asked).
+
+    Six windup torques at each position of the sample's grid by the compiled
+    kernel: 12.6 us a position at 26 rollers measured (2.47 ms a sample of 104
+    positions with the 1.16 ms force pass, 18.0 ms at 1300; ``bench --study
+    datasheet``), taken as 1 us a (position, roller), about twice that; and
+    ~8 s to compile the kernel once per process.
+    """
+    from corr_cad.run.scene_montecarlo import wants_datasheet_metrics
+
+    if not wants_datasheet_metrics(scene):
+        return 0.0, 0
+    from dataclasses import replace as _replace
+
+    from corr_cad.tolerance.mc_datasheet import grid_positions
+
+    base = scene.errors
+    if scene.measured_profile is not None and base.profile_deviation is None:
+        base = _replace(base, profile_deviation=lambda t: 0.0 * t)
+    grid = len(
+        grid_positions(
+            scene.design,
+            base,
+            tuple(scene.tolerances),
+            scene.montecarlo["datasheet_positions_per_mesh"],
+        )
+    )
+    R = scene.design.roller_count
+    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), grid
