@@ -990,6 +990,41 @@ M = [
         "datasheet.html shows a figure 0.1 % off its datasheet.json value",
         "tests/test_datasheet.py::test_datasheet_html_is_written_and_its_numbers_are_datasheet_json_s",
     ),
+    (
+        "tolerance/montecarlo.py",
+        "            bits.advance(count)",
+        "            bits.advance(count - 1)",
+        "draw stream: a uniform block skipped one value short",
+        "tests/test_mc_stream.py::test_draw_stream_gives_the_draws_of_draw_samples_bit_for_bit",
+    ),
+    (
+        "run/limits.py",
+        "    return max(1.0, got.entity_vertex_count / nominal.entity_vertex_count)",
+        "    return max(1.0, nominal.entity_vertex_count / got.entity_vertex_count)",
+        "wavy normal table: vertex ratio inverted",
+        "tests/test_estimate_modified.py::test_vertex_estimate_follows_the_approximated_wavy_ring",
+    ),
+    (
+        "run/costs.py",
+        '"free": 0.015}',
+        '"free": 0.0015}',
+        "free modification design: the candidate's fixed cost in tenths of what it is",
+        "tests/test_estimate_modified.py::test_free_family_of_twenty_steps_is_estimated_from_its_candidates",
+    ),
+    (
+        "run/costs_montecarlo.py",
+        "    return 8.0 * (metrics + kinds) + SUMMARY_TEMP_BYTES",
+        "    return 8.0 * metrics + SUMMARY_TEMP_BYTES",
+        "Monte Carlo estimate: the magnitudes' columns left out",
+        "tests/test_costs_montecarlo.py::test_the_columns_kept_are_those_the_result_holds",
+    ),
+    (
+        "run/costs.py",
+        "CLASS_DATASHEETS = 1.0",
+        "CLASS_DATASHEETS = 0.1",
+        "selective assembly: a tenth of a datasheet a roller class",
+        "tests/test_estimate_modified.py::test_selective_assembly_of_a_measured_ring_counts_a_datasheet_per_class",
+    ),
 ]
 only = [int(x) for x in sys.argv[1:]]
 env = dict(os.environ, PYTHONPATH=str(WT))

@@ -57,7 +57,7 @@ def resources_png(path: Path, rows: list) -> Path:
     """Estimate over measured, per scene: memory (the guarantee: >= 1), time and files.
 
     ``rows``: ``[scene, est_MB, peak_MB, memory_ratio, est_s, s, time_ratio,
-    est_out_MB, out_MB, output_ratio]`` (``corr_cad.run.bench_resources``).
+    est_out_MB, out_MB, output_ratio, ...]`` (``corr_cad.run.bench_resources``).
     """
     import matplotlib
 

@@ -74,8 +74,18 @@ def check_bench_folder(out: Path) -> None:
         )
 
 
-def run(out: Path, studies: Sequence[str] = tuple(STUDIES), quick: bool = False) -> dict:
-    """Run the chosen studies, writing into ``out``; returns their rows."""
+def run(
+    out: Path,
+    studies: Sequence[str] = tuple(STUDIES),
+    quick: bool = False,
+    workers: Sequence[int] | None = None,
+) -> dict:
+    """Run the chosen studies, writing into ``out``; returns their rows.
+
+    ``workers``: the worker counts of the Monte Carlo study's sweep
+    (:func:`~corr_cad.run.bench_scaling.workers_sweep`; default 1, 2, 4, ...
+    up to the cores).
+    """
     import platform
 
     from corr_cad._version import __version__
@@ -95,4 +105,11 @@ def run(out: Path, studies: Sequence[str] = tuple(STUDIES), quick: bool = False)
             "quick": quick,
         },
     )
-    return {name: STUDIES[name](out, quick) for name in studies}
+    rows = {}
+    for name in studies:
+        rows[name] = STUDIES[name](out, quick)
+        if name == "montecarlo":
+            from corr_cad.run.bench_scaling import workers_sweep
+
+            rows[name] = rows[name] + workers_sweep(out, quick, list(workers) if workers else None)
+    return rows

@@ -30,6 +30,19 @@ def _out_arg(text: str) -> Path | str:
     return text if text == "" else Path(text)
 
 
+def _worker_list(text: str) -> list[int]:
+    """``bench --workers 1,2,16``: worker counts, each a whole number from 1 to 1024."""
+    try:
+        counts = [int(x) for x in text.split(",")]
+    except ValueError:
+        counts = []
+    if not counts or any(not 1 <= n <= 1024 for n in counts):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: worker counts from 1 to 1024, comma-separated (e.g. 1,2,4)"
+        )
+    return counts
+
+
 def _refuse_empty(args: argparse.Namespace) -> None:
     from corr_cad.errors import OutputError
 
@@ -107,6 +120,12 @@ def _parser() -> argparse.ArgumentParser:
         help="run only this study (repeatable); default all",
     )
     bench.add_argument("--quick", action="store_true", help="fewer settings and repeats")
+    bench.add_argument(
+        "--workers",
+        type=_worker_list,
+        metavar="N,N,...",
+        help="worker counts of the montecarlo study's sweep (default 1,2,4,... up to the cores)",
+    )
     schema = sub.add_parser(
         "schema", help="print the JSON Schema of scene files (for TOML editors)"
     )
@@ -458,7 +477,7 @@ def _dispatch(args: argparse.Namespace, state: dict) -> int:
     if args.command == "bench":
         from corr_cad.run.bench import STUDIES, run
 
-        run(args.out, args.study or list(STUDIES), quick=args.quick)
+        run(args.out, args.study or list(STUDIES), quick=args.quick, workers=args.workers)
         print(f"wrote the benchmark tables and plots to {args.out}")
         return 0
     if args.command == "schema":

@@ -23,6 +23,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.costs_montecarlo import datasheet_pass
+
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
 
 MB = 1024.0**2
@@ -269,22 +271,33 @@ def _datasheet(scene, env):
     )
 
 
+#: A selective-assembly class's datasheet against the datasheet stage's
+#: (the same ring, one roller size more): 85 s for 4 classes after a 23.4 s
+#: datasheet, a measured ring of 10,400 positions; 0.91, taken as 1.
+CLASS_DATASHEETS = 1.0
+
+
 @stage_cost("datasheet_files")
 def _datasheet_files(scene, env):
     positions, levels, _, te_rows = _datasheet_size(scene)
     rows = positions * levels
+    classes = len((getattr(scene, "assembly", None) or {}).get("roller_classes_um") or ())
+    # [assembly]: one full datasheet a roller class, one at a time.
+    sheet = _datasheet(scene, env) if classes else Cost()
     return Cost(
-        memory=30 * MB + 200 * rows + 200 * te_rows,
-        seconds=1.6 + 2e-6 * (rows + te_rows),
+        memory=max(30 * MB + 200 * rows + 200 * te_rows, sheet.memory),
+        seconds=1.6 + 2e-6 * (rows + te_rows) + classes * CLASS_DATASHEETS * sheet.seconds,
         output={
             "windup.csv": WINDUP_ROW_BYTES * rows,
             "transmission_error.csv": 40 * te_rows,
             "datasheet.json": 20e3,
             "datasheet plots": 0.4 * MB,
             "datasheet.html": 0.6 * MB,  # the plots again, as base64
+            **({"assembly.json": 20e3 + 2e3 * classes} if classes else {}),
         },
         libraries=("matplotlib", "jinja2"),
-        knobs=("[datasheet] positions_per_mesh",),
+        knobs=(("[assembly] roller_classes_um",) if classes else ())
+        + ("[datasheet] positions_per_mesh",),
     )
 
 
@@ -332,11 +345,14 @@ def _mesh_files(scene, env):
 def _step_files(scene, env):
     # The ring's spline: ~5 kB of STEP a control point, each assembly file
     # about the four parts again (3.4 MB ring, 4.0 MB assembly at 1e-3).
+    # Open CASCADE holds an edge a knot span: +100 MB and +39 s (load ~10) from
+    # 729 to 2757 control points (a wavy normal table), one assembly angle:
+    # ~50 kB and ~4 ms (unloaded) a control point in each file holding the ring.
     n = len(scene.assembly_angles_deg)
     parts = 0.6 * MB + 6e3 * env.spline_points
     return Cost(
-        memory=60 * MB + 3000 * env.spline_points,
-        seconds=2.0 + (4 + n) * (0.5 + 2e-4 * env.spline_points),
+        memory=60 * MB + 50e3 * env.spline_points,
+        seconds=2.0 + (4 + n) * 0.5 + (1 + n) * 4e-3 * env.spline_points,
         output={"*.step": (1 + n) * parts},
         libraries=("ocp",),
         knobs=("[export] assembly_angles_deg", "[export] chord_tolerance"),
@@ -374,79 +390,31 @@ def _interference(scene, env):
 
 
 # --- tolerances ----------------------------------------------------------------------
-def _per_sample_bytes(scene) -> float:
-    """Draws (both standard kinds of each tolerance), magnitudes, metrics, a CSV row."""
-    from corr_cad.tolerance.montecarlo import TOLERANCE_KINDS
-
-    R = _rollers(scene)
-    draws = sum(R if TOLERANCE_KINDS[k][0] else 1 for k in scene.tolerances)
-    return 8 * 3 * max(draws, 1) + 8 * 12 + 400
-
-
-def _chunk_bytes(samples: int, positions: int, R: int, kernel: bool) -> float:
-    """One Monte Carlo chunk in the process that solves it.
-
-    numpy path: blocks of ``max(1, 400 // positions)`` samples, ~700 bytes a
-    (sample, position, roller) cell; the kernel: the nominal geometry, ~300
-    bytes a cell, and per sample a row.
-    """
-    from corr_cad.tolerance.montecarlo import _BLOCK_ROWS
-
-    if kernel:
-        return 300.0 * positions * R + 64 * 50
-    block = max(1, _BLOCK_ROWS // max(positions, 1))
-    return 700.0 * min(block, max(samples, 1)) * positions * R
-
-
 def _mc_seconds(samples: int, positions: int, R: int, kernel: bool, workers: int) -> float:
-    per_cell = 2.5e-7 if kernel else 6e-7
+    from corr_cad.tolerance.montecarlo import CELL_SECONDS
+
+    per_cell = CELL_SECONDS[bool(kernel)]
     return samples * positions * R * per_cell / workers + (2.0 if kernel else 0.0)
 
 
-def _sample_work(scene, env, samples: int, positions: int, kernel: bool) -> dict:
-    """Main-process and worker memory of sample work, its libraries."""
-    R = _rollers(scene)
-    chunk = _chunk_bytes(samples, positions, R, kernel)
-    local = env.local_workers
-    return {
-        "memory": 20 * MB
-        + _per_sample_bytes(scene) * samples
-        + (0 if local or env.remote else chunk),
-        "workers": local * (WORKER_BYTES + chunk + (LIBRARY_BYTES["numba"] if kernel else 0)),
-        "libraries": ("numba",) if kernel else (),
-    }
+def _sample_work(scene, env, samples: int, positions: int, kernel: bool, grid: int) -> dict:
+    """Main-process and worker memory of sample work, its libraries, its chunk
+    (:mod:`corr_cad.run.costs_montecarlo`)."""
+    from corr_cad.run.costs_montecarlo import sample_work
+    from corr_cad.tolerance.montecarlo import draw_width
 
-
-def _datasheet_mc(scene, samples: int, workers: int) -> tuple[float, float]:
-    """Seconds and per-worker bytes of the samples' datasheet pass (0, 0 when not asked).
-
-    Six windup torques at each position of the sample's grid by the compiled
-    kernel: 12.6 us a position at 26 rollers measured (2.47 ms a sample of 104
-    positions with the 1.16 ms force pass, 18.0 ms at 1300; ``bench --study
-    datasheet``), taken as 1 us a (position, roller), about twice that; and
-    ~8 s to compile the kernel once per process.
-    """
-    from corr_cad.run.scene_montecarlo import wants_datasheet_metrics
-
-    if not wants_datasheet_metrics(scene):
-        return 0.0, 0.0
-    from dataclasses import replace as _replace
-
-    from corr_cad.tolerance.mc_datasheet import grid_positions
-
-    base = scene.errors
-    if scene.measured_profile is not None and base.profile_deviation is None:
-        base = _replace(base, profile_deviation=lambda t: 0.0 * t)
-    grid = len(
-        grid_positions(
-            scene.design,
-            base,
-            tuple(scene.tolerances),
-            scene.montecarlo["datasheet_positions_per_mesh"],
-        )
+    return sample_work(
+        _rollers(scene),
+        draw_width(scene.tolerances, _rollers(scene)),
+        len(scene.tolerances),
+        samples,
+        positions,
+        kernel,
+        grid,
+        env.workers,
+        env.local_workers,
+        env.remote,
     )
-    R = _rollers(scene)
-    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), 300.0 * grid * R
 
 
 @stage_cost("montecarlo")
@@ -456,20 +424,18 @@ def _montecarlo(scene, env):
     mc, R = scene.montecarlo, _rollers(scene)
     n, pos = mc["samples"], mc["positions"]
     kernel = n * pos >= KERNEL_MIN_WORK
-    work = _sample_work(scene, env, n, pos, kernel)
+    sheet_s, grid = datasheet_pass(scene, n, env.workers)
+    work = _sample_work(scene, env, n, pos, kernel, grid)
+    work.pop("chunk")
+    task = work.pop("task_seconds")
     # The nominal solve and the plots.
     work["memory"] += 240 * pos * R + 40 * MB
-    sheet_s, sheet_bytes = _datasheet_mc(scene, n, env.workers)
-    if sheet_s:
-        work["memory"] += 0 if env.local_workers or env.remote else sheet_bytes
-        work["workers"] += env.local_workers * sheet_bytes
-        work["libraries"] = tuple(dict.fromkeys(work["libraries"] + ("numba",)))
     return Cost(
         keeps=0.0,
         seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R + sheet_s,
         output={"montecarlo.csv": 70 * n, "montecarlo.png": 0.25 * MB},
         knobs=("[montecarlo] samples", "[montecarlo] positions"),
-        task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
+        task_seconds=task,
         **{**work, "libraries": work["libraries"] + ("matplotlib",)},
     )
 
@@ -487,13 +453,13 @@ def _allocation(scene, env):
     n, pos = mc["allocation_samples"], min(mc["positions"], 72)
     runs = 2 * len(scene.tolerances) * ALLOCATION_EVALUATIONS
     kernel = n * pos * ALLOCATION_EVALUATIONS >= KERNEL_MIN_WORK
-    work = _sample_work(scene, env, n, pos, kernel)
     per_run = _mc_seconds(n, pos, R, kernel, env.workers) - (2.0 if kernel else 0.0)
-    sheet_s, sheet_bytes = _datasheet_mc(scene, n, env.workers)
+    sheet_s, grid = datasheet_pass(scene, n, env.workers)
+    work = _sample_work(scene, env, n, pos, kernel, grid)
+    work.pop("chunk")
+    task = work.pop("task_seconds")
     if sheet_s:
         per_run += sheet_s - 8.0
-        work["workers"] += env.local_workers * sheet_bytes
-        work["libraries"] = tuple(dict.fromkeys(work["libraries"] + ("numba",)))
     return Cost(
         seconds=0.5
         + runs * (0.02 + per_run)
@@ -501,9 +467,16 @@ def _allocation(scene, env):
         + (8.0 if sheet_s else 0.0),
         output={"allocation.*": 4e3 * len(scene.tolerances)},
         knobs=("[montecarlo] allocation_samples", "[montecarlo] positions"),
-        task_seconds=_mc_seconds(min(n, 50), pos, R, False, 1),
+        task_seconds=task,
         **work,
     )
+
+
+#: Seconds a candidate takes besides its cells: its curve built and checked
+#: (8193 points), the exact clearance projected onto it. CPU time measured at
+#: 10 samples x 8 positions (2080 cells): 8.3 ms (equidistant), 8.7 ms (+shift),
+#: 11.5 ms (free: a spline table, a modified curve), rounded up 1.3 times.
+CANDIDATE_SECONDS = {"equidistant": 0.011, "equidistant+shift": 0.011, "free": 0.015}
 
 
 @stage_cost("modification_design")
@@ -511,7 +484,9 @@ def _modification_design(scene, env):
     # The samples' gaps are built once (~200 bytes a (sample, position, roller)
     # cell); each candidate projects its modification and re-reads them (~1 us a
     # cell: 49 candidates of 200 x 64 x 26 cells took 10.3 s with the start,
-    # 256 took 38 s); the feasible few get a force Monte Carlo each.
+    # 256 took 38 s), after building and checking its curve (CANDIDATE_SECONDS);
+    # the feasible few get a force Monte Carlo each. Every candidate's row is
+    # kept for modification.json (~2.3 kB of Python objects, then the text).
     md, R = scene.modification_design, _rollers(scene)
     steps = md["steps"]
     candidates = {"equidistant": steps, "equidistant+shift": steps**2, "free": steps**4}[
@@ -522,8 +497,8 @@ def _modification_design(scene, env):
         md["samples"], md["positions"], R, False, env.workers
     )
     return Cost(
-        memory=40 * MB + 200 * cells + 40 * cells,
-        seconds=2.0 + candidates * cells * 1e-6 + force,
+        memory=40 * MB + 200 * cells + 40 * cells + 4e3 * candidates,
+        seconds=2.0 + candidates * (CANDIDATE_SECONDS[md["family"]] + cells * 1e-6) + force,
         output={
             "modification.json": 2e3 * candidates,
             "modification_tradeoff.png": 0.3 * MB,
@@ -535,7 +510,7 @@ def _modification_design(scene, env):
             "[modification.design] samples",
             "[modification.design] positions",
         ),
-        task_seconds=candidates * cells * 1e-6 / max(candidates, 1),
+        task_seconds=CANDIDATE_SECONDS[md["family"]] + cells * 1e-6,
     )
 
 

@@ -20,6 +20,7 @@ __all__ = [
     "MAX_MESH_TRIANGLES",
     "polyline_segments",
     "profile_vertices",
+    "modified_ratio",
     "mesh_triangles",
     "check_structure",
     "tolerance_floors",
@@ -104,17 +105,61 @@ def _power(x: float, ratio: float, exponent: float) -> float:
 _REPR = {"polyline": (0.5, 1.9), "arcs": (1.0 / 3.0, 0.6), "spline": (0.25, 0.3)}
 
 
-def profile_vertices(design, representation: str, tol: float) -> float:
+def _closed_form_vertices(design, representation: str, tol: float) -> float:
     exponent, ratio = _REPR[representation]
     work, locus = _curvature_integrals(design)
     return _power(ratio * (max(work, locus) + 1.0), 1e-3 / tol, exponent)
 
 
-def mesh_triangles(design, chord: float) -> tuple[float, float]:
-    """Triangles of the assembly mesh and of the four part meshes at ``chord``."""
+#: The tolerance at which a modified ring is approximated to scale the estimate, mm.
+MODIFIED_REFERENCE_TOL = 1e-3
+
+
+@functools.lru_cache(maxsize=32)
+def modified_ratio(design, modification, representation: str) -> float:
+    """How many times the nominal ring's vertices the modified ring's approximation has.
+
+    A ``[modification] normal_table`` can wave along every tooth space, and
+    each wave takes vertices (a table oscillating tooth by tooth took 9
+    times the nominal spline's control points). The ring is approximated
+    here as the stage will do it (:func:`~corr_cad.geometry.sampling.approximate`
+    of :func:`~corr_cad.geometry.modification.modified_profile`), at
+    ``MODIFIED_REFERENCE_TOL``, and its vertex count divided by the nominal
+    ring's there (approximated alike); 1 without a table (the equidistant and
+    shift families leave the curvature as it is, to first order).
+    """
+    if modification is None or getattr(modification, "normal_table", None) is None:
+        return 1.0
+    from corr_cad.geometry.modification import modified_profile
+    from corr_cad.geometry.profile import working_profile
+    from corr_cad.geometry.sampling import approximate
+
+    tol = MODIFIED_REFERENCE_TOL
+    got = approximate(modified_profile(design, modification), representation, tol)
+    nominal = approximate(working_profile(design), representation, tol)
+    return max(1.0, got.entity_vertex_count / nominal.entity_vertex_count)
+
+
+def profile_vertices(design, representation: str, tol: float, modification=None) -> float:
+    """Vertices (polyline, arcs) or control points (spline) of the ring's DXF profile at ``tol``.
+
+    The closed form from the curvature, times :func:`modified_ratio` for a
+    ring with a ``[modification] normal_table``.
+    """
+    count = _closed_form_vertices(design, representation, tol)
+    return count * modified_ratio(design, modification, representation)
+
+
+def mesh_triangles(design, chord: float, modification=None) -> tuple[float, float]:
+    """Triangles of the assembly mesh and of the four part meshes at ``chord``.
+
+    The ring's outline follows a modification's waves as its polyline does
+    (:func:`modified_ratio`).
+    """
     work, _ = _curvature_integrals(design)
     R = design.roller_count
-    ring = _power(work, 1e-3 / chord, 0.5) + 1.0 + _circle(design.ring_outer_radius, chord)
+    wave = modified_ratio(design, modification, "polyline")
+    ring = wave * _power(work, 1e-3 / chord, 0.5) + 1.0 + _circle(design.ring_outer_radius, chord)
     cam = _circle(design.cam_radius, chord) + _circle(design.cam_bore_radius, chord)
     roller = _circle(design.roller_radius, chord)
     frame = (
@@ -146,9 +191,10 @@ def check_structure(scene) -> tuple[float, float]:
     ``MAX_MESH_TRIANGLES``; the two counts (0 where not made)."""
     _check_tolerances(scene)
     f = set(scene.formats)
-    verts = profile_vertices(scene.design, scene.representation, scene.tolerance)
+    mod = scene.modification
+    verts = profile_vertices(scene.design, scene.representation, scene.tolerance, mod)
     verts = verts if "dxf" in f else 0.0
-    tri = mesh_triangles(scene.design, scene.chord_tolerance)[0] if _meshes(scene) else 0.0
+    tri = mesh_triangles(scene.design, scene.chord_tolerance, mod)[0] if _meshes(scene) else 0.0
     return verts, tri
 
 
@@ -199,7 +245,7 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
         uses.append(("arcs", 0.7, "the wire-EDM path (arcs to 0.7 of it)"))
     budgets = []
     for rep, share, what in uses:
-        need = functools.partial(_share_vertices, d, rep, share)
+        need = functools.partial(_share_vertices, d, rep, share, scene.modification)
         budgets.append((need, MAX_PROFILE_VERTICES, what, "vertices"))
     if uses:
         out.append(_floor(scene.tolerance, "tolerance", profile, "profile", budgets))
@@ -207,7 +253,7 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
         size = max(d.ring_outer_radius, d.frame_outer_radius, profile)
         budget = [
             (
-                functools.partial(_assembly_triangles, d),
+                functools.partial(_assembly_triangles, d, scene.modification),
                 MAX_MESH_TRIANGLES,
                 "the assembly mesh",
                 "triangles",
@@ -217,12 +263,12 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
     return out
 
 
-def _share_vertices(design, rep: str, share: float, tol: float) -> float:
-    return profile_vertices(design, rep, share * tol)
+def _share_vertices(design, rep: str, share: float, modification, tol: float) -> float:
+    return profile_vertices(design, rep, share * tol, modification)
 
 
-def _assembly_triangles(design, chord: float) -> float:
-    return mesh_triangles(design, chord)[0]
+def _assembly_triangles(design, modification, chord: float) -> float:
+    return mesh_triangles(design, chord, modification)[0]
 
 
 def _floor(value: float, key: str, size: float, what_size: str, budgets) -> tuple:

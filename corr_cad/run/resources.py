@@ -183,9 +183,9 @@ def _duration(s: float) -> str:
 def _env(scene, workers: int, executor: str, vertices: float, stages: list[str]) -> Env:
     tri, parts = (0.0, 0.0)
     if {"solids", "step_files", "interference"} & set(stages):
-        tri, parts = mesh_triangles(scene.design, scene.chord_tolerance)
+        tri, parts = mesh_triangles(scene.design, scene.chord_tolerance, scene.modification)
     spline = (
-        profile_vertices(scene.design, "spline", scene.chord_tolerance)
+        profile_vertices(scene.design, "spline", scene.chord_tolerance, scene.modification)
         if "step_files" in stages
         else 0
     )
@@ -237,7 +237,9 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
 
     workers = workers or default_workers()
     stages = _stages(scene)
-    verts = profile_vertices(scene.design, scene.representation, scene.tolerance)
+    verts = profile_vertices(
+        scene.design, scene.representation, scene.tolerance, scene.modification
+    )
     env = _env(scene, workers, executor, verts, stages)
     costs = {name: ESTIMATORS.get(name, _unknown)(scene, env) for name in stages}
     aside = set()
@@ -340,6 +342,16 @@ KNOBS = {
         True,
         10.0,
     ),
+    "[assembly] roller_classes_um": (
+        lambda s: len(s.assembly["roller_classes_um"]),
+        lambda s, v: replace(
+            s,
+            assembly={**s.assembly, "roller_classes_um": s.assembly["roller_classes_um"][:v]},
+        ),
+        True,
+        False,
+        None,
+    ),
     "[inspection] point_spacing": (
         lambda s: s.inspection["point_spacing"],
         _set("inspection", "point_spacing"),
@@ -426,6 +438,8 @@ def _blame(scene, est: Estimate, stages: list[str], fits) -> tuple[str, str]:
 def _show(v, key: str) -> str:
     if key in ("[solver] crank_angles_deg", "[export] assembly_angles_deg"):
         return f"{v} angles" if isinstance(v, int) else str(v)
+    if key == "[assembly] roller_classes_um":
+        return f"{v} classes"
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 

@@ -29,9 +29,33 @@ def _datasheet_mc(scene):
     )
 
 
+class _RowStream:
+    """Writes ``montecarlo.csv`` a chunk of samples at a time, as the Monte Carlo returns them.
+
+    The columns: ``sample``, each tolerance's ``<kind>_magnitude``, then the
+    metrics; the bytes are those of :func:`~corr_cad.export.files.write_columns`
+    over the whole table (each row is formatted on its own).
+    """
+
+    def __init__(self, handle) -> None:
+        self.f = handle
+        self.fmts: list[str] | None = None
+
+    def __call__(self, lo: int, magnitudes: dict, metrics: dict) -> None:
+        from corr_cad.export.files import format_columns
+
+        n = len(next(iter(metrics.values())))
+        if self.fmts is None:
+            header = ["sample"] + [f"{k}_magnitude" for k in magnitudes] + list(metrics)
+            self.f.write(",".join(header) + "\n")
+            self.fmts = ["%d"] + ["%.9g"] * (len(header) - 1)
+        cols = [np.arange(lo, lo + n), *magnitudes.values(), *metrics.values()]
+        self.f.write(format_columns(cols, self.fmts))
+
+
 def _montecarlo(ctx: RunContext) -> None:
     from corr_cad.export import plots_tolerance
-    from corr_cad.export.files import write_columns, write_json
+    from corr_cad.export.files import atomic_writer, write_json
     from corr_cad.run.progress import Progress
     from corr_cad.tolerance.checks import evaluate_failure_probability
     from corr_cad.tolerance.montecarlo import monte_carlo
@@ -45,29 +69,25 @@ def _montecarlo(ctx: RunContext) -> None:
     def tick(done: int, total: int) -> None:
         bar.update(done - bar.done)
 
-    res = monte_carlo(
-        s.design,
-        s.load.input_torque,
-        s.tolerances,
-        n,
-        mc_cfg["seed"],
-        mc_cfg["positions"],
-        load_share=s.solver.load_share,
-        base_errors=scene_errors(ctx),
-        executor=ctx.executor,
-        progress=tick,
-        psi_contact_limit=psi_contact_limit(ctx),
-        datasheet=sheet,
-    )
-    bar.close()
-    if not res.success:
-        raise SolverError("Monte Carlo: the force solver did not converge for some samples")
-    names = list(res.metrics)
-    kinds = list(res.magnitudes)
-    header = ["sample"] + [f"{k}_magnitude" for k in kinds] + names
-    cols = [np.arange(n)] + [res.magnitudes[k] for k in kinds] + [res.metrics[m] for m in names]
-    fmts = ["%d"] + ["%.9g"] * (len(cols) - 1)
-    write_columns(ctx.out / "montecarlo.csv", header, cols, fmts)
+    with atomic_writer(ctx.out / "montecarlo.csv") as f:
+        res = monte_carlo(
+            s.design,
+            s.load.input_torque,
+            s.tolerances,
+            n,
+            mc_cfg["seed"],
+            mc_cfg["positions"],
+            load_share=s.solver.load_share,
+            base_errors=scene_errors(ctx),
+            executor=ctx.executor,
+            progress=tick,
+            psi_contact_limit=psi_contact_limit(ctx),
+            datasheet=sheet,
+            sink=_RowStream(f),
+        )
+        bar.close()
+        if not res.success:
+            raise SolverError("Monte Carlo: the force solver did not converge for some samples")
     summary = res.summary(s.checks)
     summary.update({"seed": mc_cfg["seed"], "positions": mc_cfg["positions"]})
     summary["tolerances"] = {k: d.__dict__ for k, d in s.tolerances.items()}

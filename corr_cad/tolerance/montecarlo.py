@@ -5,13 +5,20 @@ Monte Carlo sample draws every kind, perturbs the design's geometry and is
 solved by the force solver (many samples per vectorised call). Work goes
 through any ``concurrent.futures``-style executor (``submit`` returning
 futures): a process pool by default, or a Dask ``Client``. Samples are drawn
-up front from one seeded generator and split into fixed chunks, so results
-are identical whichever executor runs them.
+from one seeded generator in sample order and split into chunks, so results
+are identical whichever executor runs them and however they are chunked.
+
+Memory does not grow with the sample count but for what the summary needs
+of every sample (one float per metric and tolerance): the draws are made a
+chunk at a time as chunks are submitted (:class:`DrawStream`, the same
+numbers as :func:`draw_samples`), at most a few chunks per worker are in
+flight, and each chunk's rows go to ``sink`` as it comes back, in order.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -29,6 +36,10 @@ __all__ = [
     "Distribution",
     "MonteCarloResult",
     "draw_samples",
+    "DrawStream",
+    "chunk_size",
+    "sample_seconds",
+    "draw_width",
     "monte_carlo",
     "SerialExecutor",
     "COUNT_METRICS",
@@ -94,6 +105,145 @@ def draw_samples(
         if kind in tolerances:
             out[kind] = normal if tolerances[kind].kind == "normal" else uniform
     return out
+
+
+#: Standard draws skipped at a time while :class:`DrawStream` seeks a kind's block.
+_SKIP_VALUES = 1 << 20
+
+
+class DrawStream:
+    """The standard draws of :func:`draw_samples`, a chunk of samples at a time, in order.
+
+    :func:`draw_samples` draws, kind by kind, every sample's normal then
+    uniform values from one generator. Here the generator is run once over
+    those blocks (normals drawn and dropped a megavalue at a time, uniforms
+    skipped by ``advance``: one 64-bit step each), keeping a generator at
+    the start of each block a tolerance uses; :meth:`take` then draws the
+    next samples from each. The numbers are those of :func:`draw_samples`,
+    bit for bit, and the memory is that of one chunk.
+    """
+
+    def __init__(
+        self, tolerances: dict[str, Distribution], n: int, seed: int, roller_count: int
+    ) -> None:
+        rng = np.random.default_rng(seed)
+        bits = rng.bit_generator
+        self._gens: dict[str, tuple[np.random.Generator, str, tuple]] = {}
+        order = list(TOLERANCE_KINDS)  # draw_samples' order
+        last = max((order.index(k) for k in tolerances if k in order), default=-1)
+        for kind in order[: last + 1]:  # nothing drawn after the last used block is needed
+            per_roller, _ = TOLERANCE_KINDS[kind]
+            tail = (roller_count,) if per_roller else ()
+            count = n * (roller_count if per_roller else 1)
+            dist = tolerances[kind].kind if kind in tolerances else None
+            if dist == "normal":
+                self._gens[kind] = (self._copy(bits), "normal", tail)
+            for a in range(0, count, _SKIP_VALUES):
+                rng.standard_normal(min(_SKIP_VALUES, count - a))
+            if dist is not None and dist != "normal":
+                self._gens[kind] = (self._copy(bits), "uniform", tail)
+            bits.advance(count)
+
+    @staticmethod
+    def _copy(bits) -> np.random.Generator:
+        g = np.random.Generator(type(bits)())
+        g.bit_generator.state = bits.state
+        return g
+
+    @property
+    def kinds(self) -> list[str]:
+        """The kinds drawn, in :data:`TOLERANCE_KINDS` order."""
+        return list(self._gens)
+
+    def take(self, k: int) -> dict[str, np.ndarray]:
+        """The next ``k`` samples' draws, per kind (as :func:`draw_samples`)."""
+        out = {}
+        for kind, (g, dist, tail) in self._gens.items():
+            shape = (k, *tail)
+            out[kind] = (
+                g.standard_normal(shape) if dist == "normal" else g.uniform(-1.0, 1.0, shape)
+            )
+        return out
+
+
+#: Chunks in flight per worker: one running, the next ones queued (a worker
+#: never waits for the main process), and no more (their draws and results
+#: are what the main process holds besides the summary's columns).
+IN_FLIGHT_PER_WORKER = 2
+#: Chunks per worker a run is cut into at least, so that the last chunks do
+#: not leave most workers idle.
+CHUNKS_PER_WORKER = 4
+#: Bytes one chunk may take in the worker that solves it (its draws, errors,
+#: the datasheet pass's windup angles): this bounds the chunk, and so a
+#: worker's memory, whatever the sample count.
+CHUNK_BYTES = 16 * 1024**2
+#: No chunk has more samples than this: the chunks in flight
+#: (``IN_FLIGHT_PER_WORKER`` a worker, their draws and results held by the
+#: main process) stay small beside the summary's columns.
+CHUNK_MAX = 4_000
+#: Estimated seconds of work a chunk is given at most: a task's fixed cost
+#: (a few milliseconds) is then small, while a stall is still seen within
+#: seconds and the progress moves (``corr_cad.run.dask_exec``'s stall
+#: time-out is at least three tasks).
+CHUNK_SECONDS = 0.5
+#: Estimated seconds a (sample, position, roller) cell takes: the compiled
+#: kernel, the numpy solver; and a (sample, datasheet position, roller) cell
+#: of the datasheet pass (six windup torques).
+CELL_SECONDS = {True: 2.5e-7, False: 6e-7}
+DATASHEET_CELL_SECONDS = 1e-6
+
+
+def sample_seconds(positions: int, roller_count: int, kernel: bool, grid: int = 0) -> float:
+    """Estimated seconds of one sample's work (:data:`CELL_SECONDS`)."""
+    cells = positions * roller_count
+    return cells * CELL_SECONDS[bool(kernel)] + grid * roller_count * DATASHEET_CELL_SECONDS
+
+
+def chunk_size(samples: int, workers: int, sample_bytes: float, seconds: float = 0.0) -> int:
+    """Samples per chunk: ``CHUNKS_PER_WORKER`` chunks a worker at least, at most
+    ``CHUNK_BYTES`` of work each and ``CHUNK_SECONDS`` of estimated time (a
+    sample's ``seconds``), at least 50 (a task's fixed cost).
+
+    >>> chunk_size(100_000, 16, 2_000.0)
+    1563
+    >>> chunk_size(1_000_000, 2, 2_000.0)   # at most CHUNK_MAX
+    4000
+    >>> chunk_size(1_000_000, 2, 40_000.0)   # at most CHUNK_BYTES of work
+    419
+    >>> chunk_size(1_000_000, 2, 2_000.0, 1e-3)   # at most CHUNK_SECONDS of work
+    500
+    >>> chunk_size(30, 4, 2_000.0)
+    50
+    """
+    want = math.ceil(samples / (CHUNKS_PER_WORKER * max(workers, 1)))
+    cap = max(50, int(CHUNK_BYTES // max(sample_bytes, 1.0)))
+    if seconds > 0:
+        cap = min(cap, max(50, int(CHUNK_SECONDS / seconds)))
+    return max(1, min(max(want, 50), cap, CHUNK_MAX))
+
+
+def executor_workers(executor) -> int:
+    """How many tasks ``executor`` runs at once (a pool's workers, a Dask cluster's threads)."""
+    n = getattr(executor, "_max_workers", None)
+    if n is None and callable(getattr(executor, "workers", None)):
+        n = executor.workers()
+    elif n is None and callable(getattr(executor, "nthreads", None)):  # a Dask Client
+        n = sum(executor.nthreads().values())
+    return max(1, int(n or 1))
+
+
+def sample_bytes(roller_count: int, width: int, grid: int = 0, torques: int = 0) -> float:
+    """Bytes a sample takes in the worker solving its chunk: its ``width`` standard
+    draws (``z + 1`` for a per-roller tolerance, else 1) as sent and as
+    received, its errors (five arrays, two of ``z + 1``), its metrics, and with
+    the datasheet pass three copies of its windup angles (``grid`` positions x
+    ``torques``)."""
+    return 8.0 * (2 * width + 2 * roller_count + 12) + 24.0 * grid * torques
+
+
+def draw_width(tolerances, roller_count: int) -> int:
+    """Standard draws a sample takes: ``z + 1`` a per-roller tolerance, else 1."""
+    return sum(roller_count if TOLERANCE_KINDS[k][0] else 1 for k in tolerances)
 
 
 def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> ManufacturingErrors:
@@ -344,11 +494,12 @@ def monte_carlo(
     load_share: float = 0.55,
     base_errors: ManufacturingErrors | None = None,
     executor=None,
-    chunk: int = 50,
+    chunk: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     psi_contact_limit: float = math.pi,
     kernel: bool | None = None,
     datasheet=None,
+    sink: Callable[[int, dict, dict], None] | None = None,
 ) -> MonteCarloResult:
     """Seeded Monte Carlo over ``tolerances``; see the module docstring.
 
@@ -367,6 +518,12 @@ def monte_carlo(
     transmission error, binding; :mod:`corr_cad.tolerance.mc_datasheet`),
     always with the compiled kernel. The draws do not depend on it.
 
+    ``chunk``: samples per task (by default :func:`chunk_size` for the
+    executor's workers); the results do not depend on it. ``sink(lo,
+    magnitudes, metrics)`` receives each chunk's rows (samples ``lo`` on) as
+    they come back, in sample order: the per-sample table can be written
+    while the run goes on.
+
     >>> from corr_cad import GearDesign, monte_carlo, Distribution, Checks
     >>> tol = {"roller_radius": Distribution("normal", 0.001)}   # sigma 1 um per roller
     >>> mc = monte_carlo(GearDesign(), 1.1e5, tol, samples=40, seed=1, positions=36)
@@ -383,57 +540,55 @@ def monte_carlo(
         )
     base = base_errors or ManufacturingErrors()
     angles = cycle_angles(positions)
-    units = draw_samples(tolerances, samples, seed, design.roller_count)
+    R = design.roller_count
+    stream = DrawStream(tolerances, samples, seed, R)
     executor = executor or SerialExecutor()
-    bounds = [(lo, min(lo + chunk, samples)) for lo in range(0, samples, chunk)]
+    workers = executor_workers(executor)
     if kernel is None:
         kernel = samples * len(angles) >= KERNEL_MIN_WORK
     grid = None
+    torques = 0
     if datasheet is not None:
         from corr_cad.tolerance.mc_datasheet import grid_positions
 
         grid = grid_positions(design, base, tolerances, datasheet.positions_per_mesh)
-    if (kernel or datasheet is not None) and not isinstance(executor, SerialExecutor) and samples:
-        # Compile (or load from the cache) here, once, before the workers start:
-        # forked workers inherit it.
-        _chunk_task(
-            design,
-            input_torque,
-            angles[:1],
-            load_share,
-            base,
-            tolerances,
-            {k: u[:1] for k, u in units.items()},
-            1,
-            psi_contact_limit,
-            kernel,
-            datasheet,
-            None if grid is None else grid[:1],
+        torques = len(datasheet.torques()[0])
+    if chunk is None:
+        n_grid = 0 if grid is None else len(grid)
+        per = sample_bytes(R, draw_width(tolerances, R), n_grid, torques)
+        chunk = chunk_size(samples, workers, per, sample_seconds(len(angles), R, kernel, n_grid))
+    args = (design, input_torque, angles, load_share, base, tolerances)
+    pending: deque = deque()
+    state = {"next": 0}
+
+    def submit_next() -> None:
+        lo = state["next"]
+        hi = min(lo + chunk, samples)
+        draws = stream.take(hi - lo)
+        task = executor.submit(
+            _chunk_task, *args, draws, hi - lo, psi_contact_limit, kernel, datasheet, grid
         )
-    futures = [
-        executor.submit(
-            _chunk_task,
-            design,
-            input_torque,
-            angles,
-            load_share,
-            base,
-            tolerances,
-            {k: u[lo:hi] for k, u in units.items()},
-            hi - lo,
-            psi_contact_limit,
-            kernel,
-            datasheet,
-            grid,
-        )
-        for lo, hi in bounds
-    ]
-    parts, ok = [], True
-    for i, f in enumerate(futures):
-        metrics, success = f.result()
-        parts.append(metrics)
+        pending.append((lo, hi, _magnitudes(draws, tolerances), task))
+        state["next"] = hi
+
+    metrics: dict[str, np.ndarray] = {}
+    magnitudes = {k: np.empty(samples) for k in stream.kinds}
+    ok = True
+    window = workers * IN_FLIGHT_PER_WORKER
+    while state["next"] < samples or pending:
+        while state["next"] < samples and len(pending) < window:
+            submit_next()
+        lo, hi, mags, task = pending.popleft()
+        part, success = task.result()
         ok &= bool(success)
+        if not metrics:
+            metrics = {k: np.empty(samples, dtype=np.asarray(v).dtype) for k, v in part.items()}
+        for k, v in part.items():
+            metrics[k][lo:hi] = v
+        for k, v in mags.items():
+            magnitudes[k][lo:hi] = v
+        if sink is not None:
+            sink(lo, mags, part)
         if progress:
-            progress(bounds[i][1], samples)
-    metrics = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-    return MonteCarloResult(metrics, _magnitudes(units, tolerances), ok)
+            progress(hi, samples)
+    return MonteCarloResult(metrics, magnitudes, ok)
