@@ -20,6 +20,7 @@ from matplotlib.patches import PathPatch, Polygon  # noqa: E402
 from matplotlib.path import Path as MplPath  # noqa: E402
 
 from corr_cad.export.files import writing  # noqa: E402
+from corr_cad.figure_text import figure  # noqa: E402
 from corr_cad.geometry.design import GearDesign  # noqa: E402
 from corr_cad.geometry.kinematics import centre_distance, unit_radial  # noqa: E402
 from corr_cad.geometry.profile import ProfileCurve  # noqa: E402
@@ -48,7 +49,7 @@ def design_caption(design: GearDesign | None, input_torque: float | None = None)
     """One line naming the design and the load, e.g. for a figure's subtitle.
 
     >>> design_caption(GearDesign(), 1.1e5)
-    'z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm; M0 = 1.1e+05 N*mm'
+    'z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm; M0 = 110,000 N*mm'
     """
     if design is None:
         return ""
@@ -58,7 +59,7 @@ def design_caption(design: GearDesign | None, input_torque: float | None = None)
         f"l = {design.roller_length:g} mm"
     )
     if input_torque is not None:
-        text += f"; M0 = {input_torque:.3g} N*mm"
+        text += f"; M0 = {figure(input_torque, 3)} N*mm"
     return text
 
 

@@ -61,6 +61,7 @@ __all__ = [
     "with_modification",
     "FAMILIES",
     "describe_profile",
+    "amounts_text",
     "profile_record",
 ]
 
@@ -420,6 +421,11 @@ def describe_profile(design: GearDesign, mod: Modification | None) -> str:
     pid = f"profile id {profile_id(design, mod)}"
     if mod is None or mod.is_zero:
         return f"conjugate (exact, unmodified), {pid}"
+    return f"modified: {amounts_text(mod)} (+ = clearance, material removed from the ring), {pid}"
+
+
+def amounts_text(mod: Modification) -> str:
+    """Every family of ``mod`` with its amount: ``equidistant +0.01 mm, shift -0.002 mm``."""
     parts = []
     if mod.equidistant_mm:
         parts.append(f"equidistant {_amount(mod.equidistant_mm)} mm")
@@ -432,7 +438,7 @@ def describe_profile(design: GearDesign, mod: Modification | None) -> str:
             f"normal table {name} ({len(t.psi_deg)} rows, {_amount(min(t.normal_mm))} to "
             f"{_amount(max(t.normal_mm))} mm, sha256 {_table_digest(t)})"
         )
-    return f"modified: {', '.join(parts)} (+ = clearance, material removed from the ring), {pid}"
+    return ", ".join(parts)
 
 
 def profile_record(design: GearDesign, mod: Modification | None) -> dict:

@@ -1,0 +1,107 @@
+"""Plots that show what was computed, in catalogue numbers.
+
+Each plot function runs with ``plots._save`` replaced by a recorder, so the
+test reads what matplotlib was given: the panels, labels, legends and their
+places, the tick labels.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from corr_cad import GearDesign
+from corr_cad.export import plots, plots_tolerance
+from corr_cad.tolerance.checks import Checks
+from corr_cad.tolerance.mc_datasheet import binding_probability
+
+SCI = re.compile(r"\d[eE][+-]?\d")
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    got = []
+
+    def record(fig, path):
+        got.append(fig)
+        return path
+
+    monkeypatch.setattr(plots, "_save", record)
+    yield got
+    import matplotlib.pyplot as plt
+
+    for f in got:
+        plt.close(f)
+
+
+def _all_text(fig) -> list[str]:
+    fig.canvas.draw()
+    out = [t.get_text() for t in fig.texts]
+    for ax in fig.axes:
+        out += [ax.get_title(), ax.get_xlabel(), ax.get_ylabel()]
+        out += [t.get_text() for t in ax.texts]
+        out += [t.get_text() for t in ax.get_xticklabels() + ax.get_yticklabels()]
+        leg = ax.get_legend()
+        if leg:
+            out += [t.get_text() for t in leg.get_texts()]
+    for leg in fig.legends:
+        out += [t.get_text() for t in leg.get_texts()]
+    return out
+
+
+def _mc_metrics(n=300, seed=4):
+    rng = np.random.default_rng(seed)
+    binds = rng.random(n) < 0.1
+    return {
+        "peak_gear_force": rng.normal(9000, 900, n),
+        "peak_pressure": rng.normal(2000, 150, n),
+        "min_loaded_rollers": rng.integers(5, 9, n).astype(float),
+        "backlash_arcmin": rng.normal(0.9, 0.1, n),
+        "lost_motion_arcmin": rng.normal(0.95, 0.1, n),
+        "torsional_rigidity_Nm_per_arcmin": rng.normal(21256.0, 900.0, n),
+        "transmission_error_arcsec": rng.normal(6.0, 1.5, n),
+        "binding_pressure_MPa": np.where(binds, rng.uniform(4000, 6000, n), 0.0),
+    }, binds
+
+
+def test_montecarlo_png_shows_the_datasheet_metrics_and_binding(figures, tmp_path):
+    metrics, binds = _mc_metrics()
+    summary = {
+        "binding_probability": binding_probability(binds),
+        "failure_probability": {"min_torsional_rigidity_Nm_per_arcmin": 0.02},
+        "sensitivity": [
+            {"tolerance": "roller_radius", "spearman": dict.fromkeys(metrics, 0.3), "score": 0.3}
+        ],
+    }
+    checks = Checks(min_torsional_rigidity_Nm_per_arcmin=19000.0, max_lost_motion_arcmin=1.2)
+    plots_tolerance.montecarlo_png(
+        metrics, checks, tmp_path / "m.png", summary, None, GearDesign(), 1.1e5, None, 4000.0
+    )
+    (fig,) = figures
+    labelled = {ax.get_xlabel(): ax for ax in fig.axes if ax.get_xlabel()}
+    for name in metrics:  # one panel each: the sensitivity is ranked over all of them
+        assert plots_tolerance._LABEL[name] in labelled
+    sens = labelled["Spearman rank correlation with |drawn error| [-]"]
+    assert len(sens.patches) == len(metrics)
+    rig = labelled["torsional rigidity [N*m/arcmin]"]
+    assert "limit = 19,000" in [t.get_text() for t in rig.get_legend().get_texts()]
+    assert rig.get_title() == "P(fail) = 2.0 %"
+    bind = labelled["binding preload pressure [MPa]"]
+    assert bind.get_title().startswith(f"P(binds) = {100 * binds.mean():.3g} %")
+    assert any(ln.get_xdata()[0] == 4000.0 for ln in bind.get_lines())
+    # integer metric: whole-number ticks
+    rollers = labelled["fewest loaded rollers [-]"]
+    ticks = [t for t in rollers.get_xticks() if rollers.get_xlim()[0] <= t <= rollers.get_xlim()[1]]
+    assert ticks and all(float(t).is_integer() for t in ticks)
+    # legends below their panels: off the bars, the bands and the percentile lines
+    fig.canvas.draw()
+    for ax in labelled.values():
+        leg = ax.get_legend()
+        if ax is sens or leg is None:
+            continue
+        assert leg.get_window_extent().y1 < ax.get_window_extent().y0, ax.get_xlabel()
+    text = _all_text(fig)
+    assert not [t for t in text if SCI.search(t)], [t for t in text if SCI.search(t)]
+    assert any("21," in t for t in text)  # thousands separated
