@@ -28,7 +28,11 @@ def figures(monkeypatch):
         got.append(fig)
         return path
 
-    monkeypatch.setattr(plots, "_save", record)
+    from corr_cad.export import datasheet_plots, modification_plots
+
+    for module in (plots, datasheet_plots, modification_plots):
+        if hasattr(module, "_save"):
+            monkeypatch.setattr(module, "_save", record)
     yield got
     import matplotlib.pyplot as plt
 
@@ -105,3 +109,84 @@ def test_montecarlo_png_shows_the_datasheet_metrics_and_binding(figures, tmp_pat
     text = _all_text(fig)
     assert not [t for t in text if SCI.search(t)], [t for t in text if SCI.search(t)]
     assert any("21," in t for t in text)  # thousands separated
+
+
+@pytest.fixture(scope="module")
+def sheet():
+    from corr_cad.geometry.deviations import ManufacturingErrors
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+
+    spec = DatasheetSpec(
+        rated_torque=2.86e6,
+        positions_per_mesh=4,
+        transmission_error_positions_per_turn=26,
+        series_rigidity_Nm_per_arcmin=12000.0,
+    )
+    errors = ManufacturingErrors(roller_radius_errors=tuple([-0.0043] * 25 + [-0.002]))
+    return datasheet(GearDesign(), spec, errors=errors)
+
+
+def test_hysteresis_png_marks_the_catalogue_figures_where_they_are(figures, sheet, tmp_path):
+    from corr_cad.export.datasheet_plots import hysteresis_png
+    from corr_cad.figure_text import figure
+    from corr_cad.mechanics.windup import ARCMIN_PER_RAD
+
+    hysteresis_png(sheet, tmp_path / "h.png", GearDesign())
+    (fig,) = figures
+    full, zoom = fig.axes[:2]
+    fig_ = sheet.figures()
+    T_R = fig_["rated_torque_Nm"]
+    # the secant (the thick green line) stops at the rated torque
+    secant = [ln for ln in full.get_lines() if ln.get_linewidth() == 4]
+    assert len(secant) == 1 and np.max(np.abs(secant[0].get_ydata())) <= T_R * (1 + 1e-12)
+    # the rigidity label: the datasheet's catalogue figure, every number with its unit
+    label = next(t.get_text() for t in full.texts if t.get_text().startswith("rigidity"))
+    cat = fig_["torsional_rigidity_Nm_per_arcmin"]["catalogue"]
+    assert label.startswith(f"rigidity {figure(cat)} N*m/arcmin")
+    assert label.count("N*m/arcmin") == 2 and "contacts alone" in label
+    # the backlash label sits on the red bar it names, above zero torque, below the band
+    bar = next(
+        ln for ln in zoom.get_lines() if isinstance(ln.get_color(), str) and ln.get_color() == "C3"
+    )
+    text = next(t for t in zoom.texts if t.get_text().startswith("backlash"))
+    x, y = text.get_position()
+    lo, hi = sorted(bar.get_xdata())
+    assert lo < x < hi and 0.0 < y < fig_["lost_motion_arcmin"]["band"] * T_R
+    assert text.get_text() == f"backlash {figure(fig_['backlash_arcmin']['max'])} arcmin " + (
+        "(at zero torque)"
+    )
+    assert abs(hi - lo - fig_["backlash_arcmin"]["max"]) < 1e-9 * ARCMIN_PER_RAD
+    # every position drawn above the marked position's underlay, in its own colour
+    under = [ln for ln in full.get_lines() if ln.get_alpha() == 0.35]
+    each = [ln for ln in full.get_lines() if ln.get_linewidth() == 0.9]
+    assert len(under) == 1 and len(each) == sheet.windup.shape[1]
+    assert all(ln.get_zorder() > under[0].get_zorder() for ln in each)
+    assert len({ln.get_color() if isinstance(ln.get_color(), str) else tuple(ln.get_color())
+                for ln in each}) == len(each)  # fmt: skip
+    text = _all_text(fig)
+    assert not [t for t in text if SCI.search(t)], [t for t in text if SCI.search(t)]
+
+
+def test_transmission_error_png_each_direction_about_its_mean_on_its_own_scale(
+    figures, sheet, tmp_path
+):
+    from corr_cad.export.datasheet_plots import transmission_error_png
+    from corr_cad.mechanics.windup import ARCSEC_PER_RAD
+
+    transmission_error_png(sheet, tmp_path / "t.png", GearDesign())
+    (fig,) = figures
+    axes = np.array(fig.axes).reshape(2, 2)
+    for row, te in ((0, sheet.te_forward), (1, sheet.te_reverse)):
+        y = te * ARCSEC_PER_RAD
+        ptp = float(np.ptp(y))
+        first = axes[row, 1].get_lines()[0].get_ydata()
+        assert np.all(np.abs(first) <= ptp + 1e-12)  # the mean removed
+        lo, hi = axes[row, 0].get_ylim()
+        assert ptp / (hi - lo) > 0.5  # the ripple fills its own axis
+        assert f"about its mean {figure_of(float(y.mean()))} arcsec" in axes[row, 0].get_title()
+
+
+def figure_of(v):
+    from corr_cad.figure_text import figure
+
+    return figure(v)
