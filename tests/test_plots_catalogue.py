@@ -190,3 +190,89 @@ def figure_of(v):
     from corr_cad.figure_text import figure
 
     return figure(v)
+
+
+def _candidate(eq, sh, backlash, binding, solved=False, pressure=None):
+    row = {
+        "valid": True,
+        "equidistant_mm": eq,
+        "shift_mm": sh,
+        "backlash_arcmin": {"p95": {"value": backlash}},
+        "binding_probability": {"value": binding},
+        "force_solved": solved,
+    }
+    if solved:
+        row["peak_pressure_MPa"] = {"p95": {"value": pressure}}
+    return row
+
+
+def test_modification_tradeoff_scatters_labels_shades_and_flags_the_edge(figures, tmp_path):
+    from corr_cad.export.modification_plots import tradeoff_png
+    from corr_cad.run.stages_modification import range_edges
+
+    cands = [
+        _candidate(0.0, 0.02, 1.8, 0.0, True, 2708.0),
+        _candidate(0.01, 0.01, 1.94, 0.0, True, 2735.0),
+        _candidate(0.02, 0.0, 1.2, 0.0, True, 2650.0),
+        _candidate(0.0, -0.01, 0.0, 1.0),
+    ]
+    res = {
+        "targets": {
+            "backlash_percentile": 95.0,
+            "target_backlash_arcmin": 2.0,
+            "max_binding_probability": 0.05,
+        },
+        "candidates": cands,
+        "chosen": cands[0],
+        "objective": "peak_pressure",
+        "family": "equidistant+shift",
+        "samples": 60,
+        "met": True,
+    }
+    md = {
+        "family": "equidistant+shift",
+        "equidistant_range_mm": [0.0, 0.03],
+        "shift_range_mm": [-0.01, 0.02],
+    }
+    edges = range_edges(md, cands[0])
+    tradeoff_png(res, tmp_path / "t.png", GearDesign(), edges)
+    (fig,) = figures
+    a1, a2 = fig.axes
+    # different candidates are points, never joined by a line; each carries its amounts
+    assert not [ln for ln in a2.get_lines() if len(ln.get_xdata()) > 1]
+    notes = sorted(t.get_text() for t in a2.texts)
+    assert notes == ["eq 0 / sh 0.02", "eq 0.01 / sh 0.01", "eq 0.02 / sh 0"]
+    # the feasible region: up to both targets
+    (box,) = [p for p in a1.patches if p.get_label() == "feasible: both targets met"]
+    x0, y0 = box.get_xy()
+    assert x0 + box.get_width() == pytest.approx(2.0)
+    assert y0 + box.get_height() == pytest.approx(0.05)
+    # the choice at the top of its range: on the plot, and in the console's warnings
+    assert edges == [
+        "shift_mm = 0.02 at the top of shift_range_mm = [-0.01, 0.02]; widen it, e.g. "
+        "shift_range_mm = [-0.01, 0.035]"
+    ]
+    assert any(edges[0] in t.get_text() for t in fig.texts)
+    from corr_cad.run.console import warnings
+
+    (line,) = warnings({"modification_design": {"at_range_edge": edges}})
+    assert line.startswith("modification design: the chosen shift_mm = 0.02 at the top")
+
+
+def test_range_edges_top_always_bottom_unless_zero():
+    from corr_cad.run.stages_modification import range_edges
+
+    md = {
+        "family": "equidistant+shift",
+        "equidistant_range_mm": [0.0, 0.03],
+        "shift_range_mm": [-0.01, 0.02],
+    }
+    assert range_edges(md, {"equidistant_mm": 0.0, "shift_mm": 0.005}) == []  # 0: natural end
+    low = range_edges(md, {"equidistant_mm": 0.01, "shift_mm": -0.01})
+    assert len(low) == 1 and "bottom of shift_range_mm" in low[0]
+    top = range_edges(md, {"equidistant_mm": 0.03, "shift_mm": 0.0})
+    assert len(top) == 1 and "equidistant_mm = 0.03 at the top" in top[0]
+    assert range_edges({**md, "steps": 1}, {"equidistant_mm": 0.03, "shift_mm": 0.02}) == []
+    free = {**md, "family": "free"}
+    got = range_edges(free, {"equidistant_mm": 0.0, "shift_mm": 0.0, "normal_mm": [0, 0.03, 0]})
+    assert len(got) == 1 and got[0].startswith("normal_mm = 0.03 at the top")

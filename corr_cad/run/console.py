@@ -138,6 +138,11 @@ def warnings(manifest: dict) -> list[str]:
             f"{PRESSURE_BOUND_MPA:.0f} MPa: those samples are beyond the material and the "
             "elastic Hertz model; read them as 'fails', not as a pressure"
         )
+    for edge in (manifest.get("modification_design") or {}).get("at_range_edge", []):
+        out.append(
+            f"modification design: the chosen {edge} (the search looked no further; "
+            "the best may lie beyond)"
+        )
     return out
 
 

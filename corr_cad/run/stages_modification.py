@@ -17,6 +17,7 @@ __all__ = [
     "modification_png",
     "modification_design",
     "modified_toml",
+    "range_edges",
     "SHOP_FORMATS",
     "PLOT_POINTS",
 ]
@@ -158,6 +159,53 @@ def modified_toml(
     return "\n".join(head) + "\n\n" + tomli_w.dumps(data)
 
 
+def range_edges(md: dict, chosen: dict) -> list[str]:
+    """The chosen amounts that lie at the end of their ``[modification.design]`` range.
+
+    The search never looked beyond: the best may lie there. The top of a range
+    always counts; its bottom unless it is 0 (no modification of that family,
+    a natural end). A range of one value (``steps = 1`` or equal ends) never.
+
+    >>> md = {"family": "equidistant+shift", "equidistant_range_mm": [0.0, 0.03],
+    ...       "shift_range_mm": [-0.01, 0.02]}
+    >>> edge = range_edges(md, {"equidistant_mm": 0.0, "shift_mm": 0.02})[0]
+    >>> edge.startswith("shift_mm = 0.02 at the top of shift_range_mm = [-0.01, 0.02]")
+    True
+    >>> edge.endswith("e.g. shift_range_mm = [-0.01, 0.035]")
+    True
+    """
+    from corr_cad.figure_text import figure
+
+    family = md["family"]
+    amounts = {"equidistant_range_mm": [chosen["equidistant_mm"]]}
+    if family == "equidistant+shift":
+        amounts["shift_range_mm"] = [chosen["shift_mm"]]
+    if family == "free":  # every control point runs over the equidistant range
+        amounts["equidistant_range_mm"] = list(chosen.get("normal_mm", []))
+    out = []
+    for key, values in amounts.items():
+        lo, hi = (float(v) for v in md[key])
+        if not hi > lo or md.get("steps", 2) < 2:
+            continue
+        name = key.replace("_range", "") if family != "free" else "normal_mm"
+        span = hi - lo
+        for v in values:
+            if v >= hi - 1e-9 * span:
+                wider = f"[{figure(lo)}, {figure(hi + 0.5 * span)}]"
+                end = "top"
+            elif v <= lo + 1e-9 * span and lo != 0.0:
+                wider = f"[{figure(lo - 0.5 * span)}, {figure(hi)}]"
+                end = "bottom"
+            else:
+                continue
+            out.append(
+                f"{name} = {figure(v)} at the {end} of {key} = [{figure(lo)}, {figure(hi)}]; "
+                f"widen it, e.g. {key} = {wider}"
+            )
+            break
+    return out
+
+
 def _final_folder(out):
     """The folder the run's files end up in: the target of a CLI run's staging folder."""
     from corr_cad.run.outputs import _is_stage
@@ -208,8 +256,9 @@ def modification_design(ctx: RunContext) -> None:
     )
     bar.close()
     write_json(ctx.out / "modification.json", res)
-    tradeoff_png(res, ctx.out / "modification_tradeoff.png", s.design)
     c = res["chosen"]
+    edges = range_edges(md, c) if c is not None else []
+    tradeoff_png(res, ctx.out / "modification_tradeoff.png", s.design, edges)
     table = None
     if "normal_mm" in c:  # the free family: its curve as a normal table beside modified.toml
         table = "modified_normal.csv"
@@ -232,6 +281,8 @@ def modification_design(ctx: RunContext) -> None:
         f"backlash_{key}_arcmin": c["backlash_arcmin"][key]["value"],
         "binding_probability": c["binding_probability"]["value"],
     }
+    if edges:  # the console's warnings (corr_cad.run.console.warnings)
+        rec["at_range_edge"] = edges
     if not res["met"]:
         rec["failed"] = [f"modification design: targets unmet: {res['failed']}"]
     ctx.manifest["modification_design"] = rec
