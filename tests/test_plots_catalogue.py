@@ -276,3 +276,33 @@ def test_range_edges_top_always_bottom_unless_zero():
     free = {**md, "family": "free"}
     got = range_edges(free, {"equidistant_mm": 0.0, "shift_mm": 0.0, "normal_mm": [0, 0.03, 0]})
     assert len(got) == 1 and got[0].startswith("normal_mm = 0.03 at the top")
+
+
+def test_preview_png_labels_clear_legend_complete_and_a_modified_ring_named(figures, tmp_path):
+    from corr_cad.geometry.profile import theoretical_profile, working_profile
+
+    d = GearDesign()
+    plots.preview_png(
+        d,
+        working_profile(d),
+        theoretical_profile(d),
+        tmp_path / "p.png",
+        modification="equidistant +0.01 mm, shift +0.005 mm",
+    )
+    (fig,) = figures
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    labels = [t for t in ax.texts if t.get_text().startswith("roller")]
+    assert [t.get_text() for t in labels] == ["roller 1", "roller 2"]
+    outer = max(d.ring_outer_radius, d.frame_outer_radius)
+    boxes = []
+    for t in labels:  # outside the ring (and so off the cam), inside the axes, apart
+        assert np.hypot(*t.get_position()) > outer
+        box = t.get_window_extent()
+        assert ax.get_window_extent().contains(box.x0, box.y0)
+        boxes.append(box)
+    assert not boxes[0].overlaps(boxes[1])
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "frame plate rims (frame plane)" in legend
+    assert "working profile (gear, modified: equidistant +0.01 mm, shift +0.005 mm)" in legend
+    assert "modified ring: equidistant +0.01 mm" in fig._suptitle.get_text()

@@ -110,16 +110,26 @@ def preview_png(
     theoretical: ProfileCurve,
     path: Path,
     crank_angle_rad: float = 0.0,
+    modification: str = "",
 ) -> Path:
     """Second stage at one crank angle: ring, cam, rollers and frame, plus a tooth close-up.
 
     Shaded: the gear ring's material (outer rim to working profile) and the
     cam (minus its bore). The slotted frame plate, which lies in its own
-    plane beside the gear and cam, is drawn in outline.
+    plane beside the gear and cam, is drawn in outline. ``modification``: the
+    families and amounts of a modified ring
+    (:func:`corr_cad.geometry.modification.amounts_text`), named in the
+    profile's legend entry and the title. Roller labels stand outside the
+    ring, each with a leader to its roller.
     """
     from corr_cad.geometry.parts import slot_polygon
 
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 7))
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 7.4))
+    profile_label = (
+        f"working profile (gear, modified: {modification})"
+        if modification
+        else "working profile (gear)"
+    )
     wp = working.sample(max(400, 40 * design.tooth_count))
     tp = theoretical.sample(max(400, 40 * design.tooth_count))
     e, Rj, r = design.eccentricity, design.cam_radius, design.roller_radius
@@ -139,7 +149,7 @@ def preview_png(
         # paths as a Bezier curve (0.5 s of this figure). Same pixels.
         a.add_artist(PathPatch(ring, facecolor="#c9d7e8", edgecolor="none", zorder=0))
         a.add_artist(PathPatch(cam, facecolor="#f2d0cb", edgecolor="none", zorder=0))
-        a.plot(*np.vstack([wp, wp[:1]]).T, color="C0", lw=1.2, label="working profile (gear)")
+        a.plot(*np.vstack([wp, wp[:1]]).T, color="C0", lw=1.2, label=profile_label)
         a.plot(
             *np.vstack([tp, tp[:1]]).T,
             "--",
@@ -158,8 +168,9 @@ def preview_png(
                 lw=0.6,
                 label="frame slots (frame plane)" if k == 0 else None,
             )
-        for c in (design.frame_inner_radius, design.frame_outer_radius):
-            _circle(a, (0, 0), c, color="C4", lw=0.6, ls="-.")
+        for k, c in enumerate((design.frame_inner_radius, design.frame_outer_radius)):
+            _circle(a, (0, 0), c, color="C4", lw=0.6, ls="-.",
+                    label="frame plate rims (frame plane)" if k == 0 else None)  # fmt: skip
         for k, c in enumerate(centres):
             roller = _xy_circle(c, r, 181)
             a.add_artist(Polygon(roller, closed=True, color="#b9e0b5", zorder=1))
@@ -169,15 +180,24 @@ def preview_png(
         a.set_aspect("equal")
         a.set_xlabel("x [mm]")
         a.set_ylabel("y [mm]")
-    top = max(design.frame_outer_radius, design.ring_outer_radius) * 1.03
+    outer = max(design.frame_outer_radius, design.ring_outer_radius)
+    top = outer * 1.2  # room for the roller labels outside the ring
     ax.set_xlim(-top, top)
     ax.set_ylim(-top, top)
     ax.set_title(
         f"crank angle {np.degrees(crank_angle_rad):g} deg (relative to the frame)", fontsize=10
     )
-    for k in (0, 1):
-        c = centres[k] * (1 - 2.6 * r / np.linalg.norm(centres[k]))
-        ax.annotate(f"roller {k + 1}", c, fontsize=7, ha="center", va="center")
+    for k in (0, 1):  # outside the ring, one slot pitch apart, a leader to each roller
+        u = centres[k] / np.linalg.norm(centres[k])
+        ax.annotate(
+            f"roller {k + 1}",
+            centres[k],
+            xytext=u * outer * 1.1,
+            fontsize=8,
+            ha="center",
+            va="center",
+            arrowprops={"arrowstyle": "-", "color": "C2", "lw": 0.6},
+        )
     # Close-up around the tooth space on +y and its neighbours.
     span = 2.5 * (2 * np.pi / design.tooth_count)
     top2 = L + e + r
@@ -185,9 +205,12 @@ def preview_png(
     ax2.set_ylim(top2 - 4 * r - 2 * e, design.ring_outer_radius + 2)
     ax2.set_title("tooth close-up (tooth space on +y)", fontsize=10)
     handles, labels = ax.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
-    _title(fig, "Second stage (shaded: gear ring and cam material)", design, None)
-    fig.subplots_adjust(left=0.06, right=0.98, top=0.88, bottom=0.12, wspace=0.25)
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    title = "Second stage (shaded: gear ring and cam material)"
+    if modification:
+        title += f"; modified ring: {modification}"
+    _title(fig, title, design, None)
+    fig.subplots_adjust(left=0.06, right=0.98, top=0.88, bottom=0.14, wspace=0.25)
     return _save(fig, path)
 
 
