@@ -314,7 +314,7 @@ def test_clearance_png_one_panel_per_contact_with_band_and_backlash_side(figures
         assert lo < um.min() and hi > um.max() and hi - lo < 4 * (um.max() - um.min()) + 1
     # the design line, as on every plot
     assert "z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm" in fig._suptitle.get_text()
-    assert neighbour.get_ylabel() == "clearance [mm]"
+    assert neighbour.get_ylabel() == "clearance [um]"  # one unit for every panel
 
 
 def test_clearance_png_exact_contact_is_said_not_drawn_as_three_lines(figures, tmp_path):

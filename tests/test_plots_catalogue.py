@@ -306,3 +306,30 @@ def test_preview_png_labels_clear_legend_complete_and_a_modified_ring_named(figu
     assert "frame plate rims (frame plane)" in legend
     assert "working profile (gear, modified: equidistant +0.01 mm, shift +0.005 mm)" in legend
     assert "modified ring: equidistant +0.01 mm" in fig._suptitle.get_text()
+
+
+def test_clearance_png_one_unit_and_no_dead_space(figures, tmp_path):
+    from corr_cad.geometry.clearance import clearance
+    from corr_cad.geometry.deviations import ManufacturingErrors
+
+    d = GearDesign()
+    err = ManufacturingErrors(roller_radius_error=-0.002)  # 2 um play everywhere, no contact
+    clr = clearance(d, np.radians(np.arange(0.0, 360.0, 4.0)), err)
+    plots.clearance_png(clr, tmp_path / "c.png", d)
+    (fig,) = figures
+    fig.canvas.draw()
+    assert {ax.get_ylabel() for ax in fig.axes} == {"clearance [um]"}
+    for ax, arr in zip(fig.axes, (clr.cam, clr.ring, clr.slot, clr.neighbour), strict=True):
+        um = arr * 1e3
+        lo, hi = ax.get_ylim()
+        # the band far from zero fills its axis: no empty strip down to zero
+        assert 0.0 < lo < um.min() and hi > um.max()
+        leg = ax.get_legend().get_window_extent()  # inside the panel, above the band
+        box = ax.get_window_extent()
+        assert box.x0 <= leg.x0 and leg.x1 <= box.x1
+        y_band_top = ax.transData.transform((0.0, um.max()))[1]
+        assert leg.y0 >= y_band_top - 1
+    assert max(ax.get_position().x1 for ax in fig.axes) > 0.9  # no column left for legends
+    neighbour = fig.axes[3]
+    smallest = next(ln for ln in neighbour.get_lines() if ln.get_label().startswith("smallest"))
+    assert smallest.get_label() == f"smallest {figure_of(float(clr.neighbour.min() * 1e3))} um"

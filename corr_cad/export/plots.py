@@ -18,6 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import PathPatch, Polygon  # noqa: E402
 from matplotlib.path import Path as MplPath  # noqa: E402
+from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 from corr_cad.export.files import writing  # noqa: E402
 from corr_cad.figure_text import figure  # noqa: E402
@@ -459,15 +460,29 @@ _CONTACT_NAMES = (
 )
 
 
+def _clearance_ylim(ax, lo: np.ndarray, hi: np.ndarray) -> None:
+    """The band's own range, room above it for the legend; zero (interference) only when
+    the band reaches near it, so a band far from zero is not squeezed into a line."""
+    bottom, top = float(lo.min()), float(hi.max())
+    span = max(top - bottom, 0.05 * max(abs(top), abs(bottom)), 1e-3)
+    if bottom <= 2.0 * span:
+        bottom = min(bottom, 0.0)
+        span = max(top - bottom, 1e-3)
+    ax.set_ylim(bottom - 0.15 * span, top + 0.55 * span)
+
+
 def clearance_png(clr, path: Path, design: GearDesign | None = None) -> Path:
-    """Exact clearances over the cycle, one panel per contact (um), neighbours (mm).
+    """Exact clearances over the cycle, one panel per contact and one for the neighbours,
+    all in um.
 
     Each panel shows the band over all rollers at each crank angle: its lower
     edge (smallest clearance, solid: interference when negative) and its upper
     edge (largest clearance, dashed: the backlash side, free play of the
-    loosest roller). Values within 1e-9 mm of zero (the closed forms'
-    round-off) are drawn as 0; a contact that is exact everywhere says so in
-    words instead of drawing three lines on the zero line.
+    loosest roller), on the band's own range (zero, the interference line, in
+    view when the band comes near it), the legend above the band. Values
+    within 1e-9 mm of zero (the closed forms' round-off) are drawn as 0; a
+    contact that is exact everywhere says so in words instead of drawing three
+    lines on the zero line.
     """
     ang = np.degrees(clr.crank_angles)
     order = np.argsort(ang)
@@ -500,7 +515,7 @@ def clearance_png(clr, path: Path, design: GearDesign | None = None) -> Path:
                 lo,
                 color=f"C{i}",
                 lw=1.2,
-                label=f"smallest {a[k_lo]:.4g} um (roller {k_lo[1] + 1}, {ang[k_lo[0]]:g} deg)",
+                label=f"smallest {figure(a[k_lo])} um (roller {k_lo[1] + 1}, {ang[k_lo[0]]:g} deg)",
             )
             ax.plot(
                 x,
@@ -508,24 +523,24 @@ def clearance_png(clr, path: Path, design: GearDesign | None = None) -> Path:
                 color=f"C{i}",
                 lw=1.0,
                 ls="--",
-                label=f"largest {a[k_hi]:.4g} um (roller {k_hi[1] + 1}),\nbacklash side",
+                label=f"largest {figure(a[k_hi])} um (roller {k_hi[1] + 1}), backlash side",
             )
-            span = max(float(np.abs(a).max()), 1e-3)
-            ax.set_ylim(
-                min(float(lo.min()), 0.0) - 0.15 * span, max(float(hi.max()), 0.0) + 0.3 * span
-            )
+            _clearance_ylim(ax, lo, hi)
         ax.set_ylabel("clearance [um]")
         ax.set_title(f"{what} (negative: interference)", fontsize=9)
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+        ax.legend(fontsize=7, loc="upper center", ncol=3, frameon=False)
     ax = axes[3]
-    x, lo, hi = _envelope(ang, clr.neighbour[order])
+    x, lo, hi = _envelope(ang, clr.neighbour[order] * 1e3)
     ax.fill_between(x, lo, hi, color="C3", alpha=0.2, lw=0, label="band: all rollers")
-    ax.plot(x, lo, color="C3", lw=1.2, label=f"smallest {float(lo.min()):.4g} mm")
-    ax.plot(x, hi, color="C3", lw=0.8, ls="--", label=f"largest {float(hi.max()):.4g} mm")
+    ax.plot(x, lo, color="C3", lw=1.2, label=f"smallest {figure(float(lo.min()))} um")
+    ax.plot(x, hi, color="C3", lw=0.8, ls="--", label=f"largest {figure(float(hi.max()))} um")
+    _clearance_ylim(ax, lo, hi)
     ax.set_title("roller vs its neighbours", fontsize=9)
-    ax.set_ylabel("clearance [mm]")
+    ax.set_ylabel("clearance [um]")
     ax.set_xlabel("crank angle relative to the frame [deg]")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    ax.legend(fontsize=7, loc="upper center", ncol=3, frameon=False)
+    for a in axes:
+        a.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
     _title(fig, f"Exact clearance over {len(ang)} crank positions (row A)", design, None)
-    fig.subplots_adjust(left=0.1, right=0.7, top=0.9, bottom=0.06, hspace=0.35)
+    fig.subplots_adjust(left=0.11, right=0.97, top=0.9, bottom=0.06, hspace=0.35)
     return _save(fig, path)
