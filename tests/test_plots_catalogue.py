@@ -333,3 +333,45 @@ def test_clearance_png_one_unit_and_no_dead_space(figures, tmp_path):
     neighbour = fig.axes[3]
     smallest = next(ln for ln in neighbour.get_lines() if ln.get_label().startswith("smallest"))
     assert smallest.get_label() == f"smallest {figure_of(float(clr.neighbour.min() * 1e3))} um"
+
+
+def _class(c, bmin, bmax, binds, inter, meets):
+    return {
+        "class_um": c,
+        "binds": binds,
+        "interference_um": inter,
+        "backlash_arcmin": {"min": bmin, "mean": 0.5 * (bmin + bmax), "max": bmax},
+        "meets_target": meets,
+    }
+
+
+def test_assembly_png_each_class_against_the_target(figures, tmp_path):
+    from corr_cad.export.datasheet_plots import assembly_png
+    from corr_cad.run.names import is_output_name
+
+    res = {
+        "ring": "modified ring, equidistant +0.004 mm",
+        "target_backlash_arcmin": 0.6,
+        "chosen_class_um": 0.0,
+        "classes": [
+            _class(-2.0, 0.77, 0.78, False, -8.0, False),
+            _class(0.0, 0.35, 0.3552, False, -4.0, True),
+            _class(2.0, 0.0, 0.0, True, 1.3e-11, False),
+            _class(4.0, 0.0, 0.0, True, 4.0, False),
+        ],
+    }
+    assembly_png(res, tmp_path / "assembly.png", GearDesign())
+    (fig,) = figures
+    a1, a2 = fig.axes
+    bars = [p for p in a1.patches if p.get_width() > 0]
+    assert [round(p.get_height(), 6) for p in bars] == [0.78, 0.3552, 0.0, 0.0]
+    assert [p.get_hatch() for p in bars] == [None, None, "//", "//"]  # binding classes
+    assert bars[1].get_linewidth() == 2.0  # the chosen class
+    assert any(ln.get_ydata()[0] == 0.6 for ln in a1.get_lines())  # the target
+    assert [t.get_text() for t in a1.texts] == ["0.78", "0.3552\nchosen", "binds", "binds"]
+    heights = [p.get_height() for p in a2.patches if p.get_width() > 0]
+    assert heights == [-8.0, -4.0, 0.0, 4.0]  # round-off below 1e-6 um drawn as exact contact
+    assert "0 (exact contact)" in [t.get_text() for t in a2.texts]
+    assert "fit roller class +0 um" in fig._suptitle.get_text()
+    assert "modified ring" in fig._suptitle.get_text()
+    assert is_output_name("assembly.png", ["datasheet"])

@@ -1,4 +1,5 @@
-"""The datasheet's figures: the hysteresis curve and the transmission error (PNG).
+"""The datasheet's figures: the hysteresis curve, the transmission error and the
+selective assembly (PNG).
 
 Drawn as the RV catalogues draw them: windup (torsion angle, arcmin) across,
 output torque up, the lost-motion band, the backlash and the rigidity slope
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 from matplotlib.ticker import FuncFormatter
 
 from corr_cad.export.plots import _save, _title, plt
@@ -19,7 +21,13 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.datasheet import Datasheet
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD, ARCSEC_PER_RAD, NMM_PER_NM
 
-__all__ = ["MAX_CURVES", "TE_FLAT_ARCSEC", "hysteresis_png", "transmission_error_png"]
+__all__ = [
+    "MAX_CURVES",
+    "TE_FLAT_ARCSEC",
+    "hysteresis_png",
+    "transmission_error_png",
+    "assembly_png",
+]
 
 #: Half height (arcsec) of a transmission-error axis at the least: a curve flatter than
 #: this (round-off) is drawn flat, not blown up.
@@ -253,4 +261,76 @@ def transmission_error_png(
         title += f"\n{note}"
     _title(fig, title, design, None)
     fig.tight_layout()
+    return _save(fig, path)
+
+
+def assembly_png(res: dict, path: Path, design: GearDesign | None = None) -> Path:
+    """Selective assembly: each roller class's backlash and binding against the target.
+
+    ``res``: ``assembly.json``. Left: the backlash of every class (max over the
+    positions, the catalogue figure; the bar from the least), the target line,
+    the chosen class ringed; a class that binds is drawn hatched red. Right:
+    the binding measure (``interference_um``: > 0 binds; <= 0 the room on the
+    tightest roller) against zero.
+    """
+    rows = res["classes"]
+    cls = np.array([r["class_um"] for r in rows])
+    bmax = np.array([r["backlash_arcmin"]["max"] for r in rows])
+    bmin = np.array([r["backlash_arcmin"]["min"] for r in rows])
+    binds = np.array([r["binds"] for r in rows])
+    inter = np.array([r["interference_um"] for r in rows])
+    target = res["target_backlash_arcmin"]
+    chosen = res.get("chosen_class_um")
+    inter = np.where(np.abs(inter) < 1e-6, 0.0, inter)  # below 1e-9 mm: exact contact
+    width = 0.6 * (float(np.min(np.diff(np.sort(cls)))) if len(cls) > 1 else 1.0)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 5.2))
+    top = max(float(bmax.max()), target)
+    for k, row in enumerate(rows):
+        style = {"color": "C2" if row["meets_target"] else "C0", "alpha": 0.75}
+        if binds[k]:
+            style = {"facecolor": "C3", "alpha": 0.35, "hatch": "//", "edgecolor": "C3"}
+        if cls[k] == chosen:
+            style.update(edgecolor="k", lw=2.0)
+        a1.bar(cls[k], bmax[k], width=width, **style)
+        a2.bar(cls[k], inter[k], width=width, **style)
+        a1.plot([cls[k]] * 2, [bmin[k], bmax[k]], color="k", lw=1.0,
+                marker="_", ms=8)  # fmt: skip
+        note = "binds" if binds[k] else figure(bmax[k])
+        if cls[k] == chosen:
+            note += "\nchosen"
+        a1.annotate(note, (cls[k], bmax[k]), xytext=(0, 3), textcoords="offset points",
+                    ha="center", va="bottom", fontsize=7)  # fmt: skip
+        a2.annotate(figure(inter[k]) if inter[k] else "0 (exact contact)", (cls[k], inter[k]),
+                    xytext=(0, 3 if inter[k] >= 0 else -3), textcoords="offset points",
+                    ha="center", va="bottom" if inter[k] >= 0 else "top", fontsize=7)  # fmt: skip
+    for ax in (a1, a2):
+        ax.set_xticks(cls, [f"{c:+g}" for c in cls])
+        ax.set_xlabel("roller class [um] (radius deviation)")
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
+        ax.grid(axis="y", alpha=0.3)
+    a1.set_ylim(0.0, 1.2 * top)
+    a1.axhline(target, color="C1", ls="--", lw=1.5)
+    a1.set_ylabel("backlash [arcmin]")
+    a2.axhline(0.0, color="k", lw=0.8)
+    a2.margins(y=0.15)
+    a2.set_ylabel("binding interference [um] (> 0: binds)")
+    handles = [
+        Patch(color="C2", alpha=0.75, label="meets the target, fits"),
+        Patch(color="C0", alpha=0.75, label="fits, backlash above the target"),
+        Patch(facecolor="C3", alpha=0.35, hatch="//", edgecolor="C3", label="binds"),
+        Line2D([], [], color="k", marker="_", ms=8, label="least to largest over the positions"),
+        Line2D([], [], color="C1", ls="--", label=f"target {figure(target)} arcmin"),
+    ]
+    if chosen is not None:
+        handles.append(Patch(facecolor="none", edgecolor="k", lw=2.0,
+                             label=f"chosen: class {chosen:+g} um"))  # fmt: skip
+        verdict = f"fit roller class {chosen:+g} um"
+    else:
+        verdict = f"NO CLASS FITS: {res.get('reason')}"
+    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    a1.set_title("backlash of each class against the target", fontsize=9)
+    a2.set_title("binding of each class (gaps only, no force solve)", fontsize=9)
+    ring = res.get("ring", "")
+    _title(fig, f"Selective assembly ({ring}): {verdict}", design, None)
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.84, bottom=0.22, wspace=0.3)
     return _save(fig, path)

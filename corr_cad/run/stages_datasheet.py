@@ -207,7 +207,10 @@ def _assembly(ctx: RunContext) -> None:
     )
     res = {"ring": ring, **res}
     write_json(ctx.out / "assembly.json", res)
-    ctx.files.append("assembly.json")
+    from corr_cad.export.datasheet_plots import assembly_png
+
+    assembly_png(res, ctx.out / "assembly.png", s.design)
+    ctx.files.extend(["assembly.json", "assembly.png"])
     ctx.manifest["assembly"] = {
         k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")
     }
