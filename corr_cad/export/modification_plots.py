@@ -38,7 +38,7 @@ def modification_png(
         ls = "-" if name == "total" else "--"
         lw = 2.0 if name == "total" else 1.2
         color = "k" if name == "total" else f"C{i}"
-        label = f"{_LABELS.get(name, name)}: {um.min():.4g} to {um.max():.4g} um"
+        label = f"{_LABELS.get(name, name)}: {figure(um.min())} to {figure(um.max())} um"
         ax.plot(psi_deg, um, ls=ls, lw=lw, color=color, label=label)
     ax.set_xlim(-180.0, 180.0)
     ax.set_xticks(np.arange(-180, 181, 45))
