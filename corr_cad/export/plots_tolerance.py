@@ -197,7 +197,7 @@ def montecarlo_png(
     fig.subplots_adjust(
         left=0.05,
         right=0.98,
-        top=0.93,
+        top=0.93 if big else 0.88,
         bottom=0.08 if big else 0.15,
         hspace=0.85 if big else 0.75,
         wspace=0.3,
