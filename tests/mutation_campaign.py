@@ -446,9 +446,9 @@ M = [
     ),
     (
         "export/plots_tolerance.py",
-        '        _legend_above_bars(ax, ax.legend(fontsize=7, loc="upper right"))',
+        "        _legend_below(ax)",
         '        ax.legend(fontsize=7, loc="upper right")',
-        "Monte Carlo legend may cover bars",
+        "Monte Carlo legend back on the bars and percentile lines",
         "tests/test_plots.py::test_montecarlo_png_pressure_axis_and_whole_roller_counts",
     ),
     (

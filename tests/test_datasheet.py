@@ -663,8 +663,8 @@ def test_checks_console_and_report_show_the_datasheet(run_dir):
         max(te["forward_peak_to_peak"], te["reverse_peak_to_peak"])
     )
     assert 0.4 < c["max_backlash_arcmin"]["value"] < c["max_lost_motion_arcmin"]["value"]
-    assert "datasheet at T_R = 2860 N*m" in r.stdout
-    assert "rigidity, contacts" in r.stdout and "series 1200 included" in r.stdout
+    assert "datasheet at T_R = 2,860 N*m" in r.stdout
+    assert "rigidity, contacts" in r.stdout and "series 1,200 included" in r.stdout
     assert "warning" not in r.stderr  # a scene with [datasheet] is not warned about the rename
     html = (out / "report.html").read_text()
     assert 'id="datasheet"' in html and "torsional rigidity, contacts alone" in html

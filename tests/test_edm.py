@@ -279,6 +279,7 @@ def test_cmm_points_on_exact_curve_with_inward_normals(edm_run):
     out, man = edm_run
     with open(out / "inner_gear_nominal.csv") as f:
         rd = csv.reader(f)
+        assert next(rd)[0].startswith("# corr_cad CMM nominal points")  # names the profile
         assert next(rd) == ["tooth", "t_deg", "x", "y", "nx", "ny"]
         rows = np.array([[float(v) for v in r] for r in rd])
     tooth, t = rows[:, 0].astype(int), np.radians(rows[:, 1])

@@ -20,6 +20,7 @@ LAYERS = {
     "_version": 0,
     "errors": 0,
     "bounds": 0,
+    "figure_text": 0,
     "geometry": 1,
     "mechanics": 2,
     "tolerance": 3,

@@ -220,6 +220,7 @@ def test_edm_path_clears_by_equidistant_less_the_wire_offset(shop):
 
 def test_cmm_points_sit_at_r_plus_equidistant_from_the_roller_locus(shop):
     with open(shop / "inner_gear_nominal.csv") as f:
+        assert f.readline().startswith("# corr_cad CMM nominal points")  # the profile line
         rows = list(csv.DictReader(f))
     p = np.array([[float(r["x"]), float(r["y"])] for r in rows])
     n = np.array([[float(r["nx"]), float(r["ny"])] for r in rows])

@@ -110,8 +110,8 @@ def test_modified_toml_meets_the_targets_with_a_fresh_seed(designed):
     from corr_cad.tolerance.modification_design import design_modification
 
     _, out = designed
-    scene = load_scene(out / "modified.toml")
-    mod = scene.modification
+    mod = load_scene(out / "modified.toml").modification
+    scene = load_scene(out.parent / "s.toml")  # the tolerances it was designed under
     chosen = json.loads((out / "modification.json").read_text())["chosen"]
     assert (mod.equidistant_mm, mod.shift_mm) == (chosen["equidistant_mm"], chosen["shift_mm"])
     res = design_modification(

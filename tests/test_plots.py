@@ -11,6 +11,7 @@ import pytest
 
 from corr_cad import GearDesign, solve_forces
 from corr_cad.export import plots, plots_tolerance
+from corr_cad.figure_text import figure
 from corr_cad.geometry.profile import theoretical_profile, working_profile
 from corr_cad.tolerance.checks import Checks
 
@@ -75,7 +76,7 @@ def test_forces_png_shows_the_envelope_over_all_rollers(figures, res, tmp_path):
     np.testing.assert_array_equal(p["cam: max over rollers"], res.p_cam[order].max(1))
     np.testing.assert_array_equal(p["slot wall: max over rollers"], res.p_slot[order].max(1))
     text = _texts(fig)
-    for must in ("z = 25", "Rj = 135 mm", "M0 = 1.1e+05 N*mm", "[N]", "[MPa]", "[deg]"):
+    for must in ("z = 25", "Rj = 135 mm", "M0 = 110,000 N*mm", "[N]", "[MPa]", "[deg]"):
         assert must in text, must
     k, j = np.unravel_index(np.argmax(res.F_n), res.F_n.shape)
     assert f"roller {j + 1} at" in text
@@ -106,7 +107,7 @@ def test_load_distribution_numbers_rollers_and_marks_the_eccentric(figures, res,
     # The radial scale labels sit halfway between two rollers, not on a bar.
     half = np.mod(ax.get_rlabel_position() / (360 / 26) - 0.5, 1.0)
     assert half == pytest.approx(0.0, abs=1e-9) or half == pytest.approx(1.0, abs=1e-9)
-    assert "eccentric" in _texts(fig) and "M0 = 1.1e+05 N*mm" in _texts(fig)
+    assert "eccentric" in _texts(fig) and "M0 = 110,000 N*mm" in _texts(fig)
 
 
 def _boxes(fig, texts):
@@ -216,8 +217,8 @@ def test_montecarlo_png_percentiles_limits_nominal_and_no_spike(figures, tmp_pat
     vlines = {ln.get_label(): ln.get_xdata()[0] for ln in ax.get_lines()}
     for q in (5, 50, 95, 99):
         v = np.percentile(metrics["peak_gear_force"], q)
-        assert vlines[f"p{q} = {v:.4g}"] == pytest.approx(v)
-    assert vlines["limit = 5500"] == 5500.0 and vlines["nominal = 4000"] == 4000.0
+        assert vlines[f"p{q} = {figure(v)}"] == pytest.approx(v)
+    assert vlines["limit = 5,500"] == 5500.0 and vlines["nominal = 4,000"] == 4000.0
     pf = summary["failure_probability"]["max_gear_force"]
     assert ax.get_title() == f"P(fail) = {100 * pf:.1f} %"
     text = _texts(fig)
@@ -252,7 +253,7 @@ def test_sweep_png_states_range_and_clipping(figures, tmp_path):
     (fig,) = figures
     text = _texts(fig)
     assert "high end clipped at 10.053 mm (undercut)" in text and "7 .. 20 mm" in text
-    assert "M0 = 1.1e+05 N*mm" in text
+    assert "M0 = 110,000 N*mm" in text
     for ax in fig.axes:  # few enough ticks that the labels cannot overlap
         assert len(ax.get_xticks()) <= 7
 
@@ -313,7 +314,7 @@ def test_clearance_png_one_panel_per_contact_with_band_and_backlash_side(figures
         assert lo < um.min() and hi > um.max() and hi - lo < 4 * (um.max() - um.min()) + 1
     # the design line, as on every plot
     assert "z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm" in fig._suptitle.get_text()
-    assert neighbour.get_ylabel() == "clearance [mm]"
+    assert neighbour.get_ylabel() == "clearance [um]"  # one unit for every panel
 
 
 def test_clearance_png_exact_contact_is_said_not_drawn_as_three_lines(figures, tmp_path):

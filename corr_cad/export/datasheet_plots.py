@@ -1,4 +1,5 @@
-"""The datasheet's figures: the hysteresis curve and the transmission error (PNG).
+"""The datasheet's figures: the hysteresis curve, the transmission error and the
+selective assembly (PNG).
 
 Drawn as the RV catalogues draw them: windup (torsion angle, arcmin) across,
 output torque up, the lost-motion band, the backlash and the rigidity slope
@@ -10,15 +11,29 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+from matplotlib.ticker import FuncFormatter
 
 from corr_cad.export.plots import _save, _title, plt
+from corr_cad.figure_text import figure
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.datasheet import Datasheet
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD, ARCSEC_PER_RAD, NMM_PER_NM
 
-__all__ = ["MAX_CURVES", "hysteresis_png", "transmission_error_png"]
+__all__ = [
+    "MAX_CURVES",
+    "TE_FLAT_ARCSEC",
+    "hysteresis_png",
+    "transmission_error_png",
+    "assembly_png",
+]
 
-#: Most grey curves drawn (evenly spread over the positions; the worst one always in blue).
+#: Half height (arcsec) of a transmission-error axis at the least: a curve flatter than
+#: this (round-off) is drawn flat, not blown up.
+TE_FLAT_ARCSEC = 1e-3
+
+#: Most position curves drawn (evenly spread over the positions; the worst one always in blue).
 MAX_CURVES = 200
 
 
@@ -28,11 +43,16 @@ def _curve(ds: Datasheet, j: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
-    """The lost-motion band and, near zero torque, the lost motion and the backlash; on the
-    full curve, the rigidity secant."""
+    """The lost-motion band; near zero torque the lost motion (on position ``j``, the
+    largest) and the backlash (on the position of the largest); on the full curve the
+    rigidity secant on the position and branch of the catalogue (least) rigidity.
+
+    Every number is the datasheet's catalogue figure (``datasheet.json``, the console and
+    the checks print the same)."""
     sp = ds.spec
     T_R = sp.rated_torque / NMM_PER_NM
     b = sp.lost_motion_band
+    fig_ = ds.figures()
     for y in (-b * T_R, b * T_R):
         ax.axhline(y, color="C1", lw=0.8, ls="--")
     if zoom:
@@ -46,38 +66,51 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
             xytext=(lm_lo, 2.2 * b * T_R),
             arrowprops={"arrowstyle": "<->", "color": "C1", "lw": 1.2},
         )
+        lm = fig_["lost_motion_arcmin"]["max"]
         ax.text(
             0.5 * (lm_lo + lm_hi),
             2.3 * b * T_R,
-            f"lost motion {lm_hi - lm_lo:.4g} arcmin (between $\\pm${100 * b:g} % $T_R$)",
+            f"lost motion {figure(lm)} arcmin (between $\\pm${100 * b:g} % $T_R$)",
             color="C1",
             ha="center",
             va="bottom",
             fontsize=8,
         )
-        bl_lo, bl_hi = ds.at(-0.0)[j] * ARCMIN_PER_RAD, ds.at(0.0)[j] * ARCMIN_PER_RAD
+        jb = int(np.argmax(ds.backlash()))
+        bl_lo, bl_hi = ds.at(-0.0)[jb] * ARCMIN_PER_RAD, ds.at(0.0)[jb] * ARCMIN_PER_RAD
         ax.plot([bl_lo, bl_hi], [0.0, 0.0], color="C3", lw=3, solid_capstyle="butt", zorder=4)
-        ax.text(
+        ax.text(  # on the red bar it names, between it and the band line above
             0.5 * (bl_lo + bl_hi),
-            -1.3 * b * T_R,
-            f"backlash {bl_hi - bl_lo:.4g} arcmin (at zero torque)",
+            0.2 * b * T_R,
+            f"backlash {figure(fig_['backlash_arcmin']['max'])} arcmin (at zero torque)",
             color="C3",
             ha="center",
-            va="top",
+            va="bottom",
             fontsize=8,
         )
         return
     t1, t2 = sp.rigidity_range
-    x1, x2 = ds.at(t1)[j] * ARCMIN_PER_RAD, ds.at(t2)[j] * ARCMIN_PER_RAD
-    k = (t2 - t1) * T_R / (x2 - x1)
-    xs = np.array([x1 - 0.6 * (x2 - x1), x2 + 0.15 * (x2 - x1)])
-    ax.plot(xs, t1 * T_R + k * (xs - x1), color="C2", lw=4, alpha=0.45, zorder=1)
-    ax.plot([x1, x2], [t1 * T_R, t2 * T_R], "o", color="C2", ms=5, zorder=5)
-    series = sp.series_rigidity_Nm_per_arcmin
-    contact = float(ds.rigidity(contact_only=True)[0, j])
-    text = f"rigidity {k:.4g} N*m/arcmin\n(secant {100 * t1:g}-{100 * t2:g} % $T_R$"
-    text += f"; contacts alone {contact:.4g})" if series is not None else "; contacts only)"
-    ax.text(x1, t2 * T_R, text + "  ", color="C2", ha="right", va="top", fontsize=8)
+    rig = ds.rigidity()  # (2, P): branches +T, -T
+    branch, jr = np.unravel_index(int(np.argmin(rig)), rig.shape)
+    sign = 1.0 if branch == 0 else -1.0
+    x1, x2 = (ds.at(sign * t)[jr] * ARCMIN_PER_RAD for t in (t1, t2))
+    y1, y2 = sign * t1 * T_R, sign * t2 * T_R
+    k = float(rig[branch, jr])  # = the catalogue figure, the least over branches and positions
+    # The secant from below T_1 to T_2: never past the rated torque.
+    xs = np.array([x1 - 0.6 * (x2 - x1), x2])
+    ax.plot(xs, y1 + (y2 - y1) / (x2 - x1) * (xs - x1), color="C2", lw=4, alpha=0.45, zorder=1)
+    ax.plot([x1, x2], [y1, y2], "o", color="C2", ms=5, zorder=5)
+    text = (
+        f"rigidity {figure(k)} N*m/arcmin\n(secant {figure(t1 * T_R)} to {figure(t2 * T_R)} N*m"
+        f" = {100 * t1:g}-{100 * t2:g} % $T_R$"
+    )
+    if sp.series_rigidity_Nm_per_arcmin is not None:
+        contact = float(ds.rigidity(contact_only=True)[branch, jr])
+        text += f";\ncontacts alone {figure(contact)} N*m/arcmin)"
+    else:
+        text += "; contacts only)"
+    # In the upper left quadrant, which the curve never enters (+T: windup > 0).
+    ax.text(0.02, 0.97, text, transform=ax.transAxes, color="C2", ha="left", va="top", fontsize=8)
     ax.text(
         0.98,
         0.04,
@@ -92,33 +125,54 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
 def hysteresis_png(
     ds: Datasheet, path: Path, design: GearDesign | None = None, note: str = ""
 ) -> Path:
-    """The torque-windup curve at every position, the worst one marked (largest lost motion)."""
+    """The torque-windup curve at every position, the worst one marked (largest lost motion).
+
+    Each position in its own colour (by output angle), drawn over the marked one
+    (black, dashed), so that none hides another.
+    """
     T_R = ds.spec.rated_torque / NMM_PER_NM
     j = int(np.argmax(ds.lost_motion()))
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5.4))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.6))
     b = ds.spec.lost_motion_band
+    P = ds.windup.shape[1]
+    shown = np.unique(np.linspace(0, P - 1, min(P, MAX_CURVES)).round().astype(int))
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.9, len(shown)))
     for ax, zoom in zip(axes, (False, True), strict=True):
-        P = ds.windup.shape[1]
-        for i in np.unique(np.linspace(0, P - 1, min(P, MAX_CURVES)).round().astype(int)):
-            x, y = _curve(ds, i)
-            ax.plot(x, y, color="0.75", lw=0.6)
         x, y = _curve(ds, j)
-        ax.plot(x, y, color="C0", lw=1.6, marker="." if zoom else None, ms=4)
+        ax.plot(x, y, color="k", lw=2.2, alpha=0.35, zorder=2)
+        for c, i in zip(colours, shown, strict=True):
+            x, y = _curve(ds, i)
+            ax.plot(x, y, color=c, lw=0.9, zorder=3)
+        x, y = _curve(ds, j)
+        ax.plot(x, y, color="k", lw=1.0, ls=(0, (4, 3)), marker="." if zoom else None, ms=4,
+                zorder=4)  # fmt: skip
         ax.axhline(0.0, color="0.3", lw=0.5)
         ax.axvline(0.0, color="0.3", lw=0.5)
         _marks(ax, ds, j, zoom)
         ax.set_xlabel("output windup (torsion angle) [arcmin]")
         ax.set_ylabel("output torque [N*m]")
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
         ax.grid(alpha=0.3)
         sec = ax.secondary_yaxis(
             "right", functions=(lambda t: 100 * t / T_R, lambda p: p * T_R / 100)
         )
         sec.set_ylabel("% of rated torque $T_R$")
-    axes[0].set_title(
-        f"-$T_R$ .. +$T_R$, $T_R$ = {T_R:.4g} N*m; grey: {ds.windup.shape[1]} positions over "
-        f"{ds.span.split(' (')[0]}\nblue: the position of the largest lost motion",
-        fontsize=9,
+    span = ds.span.split(" (")[0]
+    handles = [
+        Line2D([], [], color=colours[len(colours) // 2], lw=0.9),
+        Line2D([], [], color="k", lw=1.0, ls=(0, (4, 3))),
+    ]
+    axes[0].legend(
+        handles,
+        [
+            f"each of {P} positions over {span}\n(colour: output angle, dark first)",
+            "the position of the largest lost motion",
+        ],
+        loc="lower right",
+        bbox_to_anchor=(1.0, 0.09),
+        fontsize=8,
     )
+    axes[0].set_title(f"-$T_R$ .. +$T_R$, $T_R$ = {figure(T_R)} N*m", fontsize=9)
     y = 4.0 * b * T_R
     keep = np.abs(ds.torques / NMM_PER_NM) <= y * (1 + 1e-9)
     x = ds.windup[keep] * ARCMIN_PER_RAD
@@ -133,6 +187,26 @@ def hysteresis_png(
     _title(fig, title, design, None)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _revolution(ax, x: np.ndarray, y: np.ndarray, colour: str) -> None:
+    """One output revolution: with more than four points a degree (a ripple no line
+    resolves across the panel), the band from least to largest per degree and its mean;
+    else the curve itself."""
+    k = np.floor(x).astype(int)
+    if len(x) <= 4 * 360:
+        ax.plot(x, y, color=colour, lw=0.8)
+        return
+    edges = np.unique(k)
+    lo = np.array([y[k == e].min() for e in edges])
+    hi = np.array([y[k == e].max() for e in edges])
+    mean = np.array([y[k == e].mean() for e in edges])
+    centre = edges + 0.5
+    ax.fill_between(
+        centre, lo, hi, color=colour, alpha=0.3, lw=0, label="least to largest per degree"
+    )
+    ax.plot(centre, mean, color=colour, lw=1.0, label="mean per degree")
+    ax.legend(fontsize=7, loc="lower right", ncol=2, framealpha=0.9)
 
 
 def transmission_error_png(
@@ -157,16 +231,20 @@ def transmission_error_png(
         (1, "reverse", ds.te_reverse, "C3"),
     ):
         y = te * ARCSEC_PER_RAD
-        ptp = float(np.ptp(y))
+        ptp, mean = float(np.ptp(y)), float(y.mean())
+        y = y - mean  # the ripple about this direction's own mean, on its own scale
         mid = 0.5 * (float(y.max()) + float(y.min()))
-        half = max(0.6 * ptp, 0.5)  # a flat curve stays flat: at least +-0.5 arcsec shown
-        for ax, sel in ((axes[row, 0], slice(None)), (axes[row, 1], first)):
-            ax.plot(x[sel], y[sel], color=colour, lw=0.8)
-            ax.set_ylim(mid - half, mid + half)
+        half = max(0.6 * ptp, TE_FLAT_ARCSEC)  # a flat curve stays flat
+        _revolution(axes[row, 0], x, y, colour)
+        axes[row, 1].plot(x[first], y[first], color=colour, lw=0.8)
+        for ax in axes[row]:
+            ax.set_ylim(mid - 1.35 * half, mid + half)  # room for the legend below the band
+            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
             ax.grid(alpha=0.3)
-        axes[row, 0].set_ylabel("TE [arcsec]")
+        axes[row, 0].set_ylabel("TE - mean [arcsec]")
         axes[row, 0].set_title(
-            f"{name}: peak-to-peak {ptp:.4g} arcsec (mean {float(y.mean()):.4g} arcsec)",
+            f"{name}: peak-to-peak {figure(ptp)} arcsec about its mean {figure(mean)} arcsec "
+            "(the windup at the driving torque)",
             fontsize=9,
         )
         axes[row, 1].set_title(f"{name}, first tooth pitch", fontsize=9)
@@ -177,10 +255,82 @@ def transmission_error_png(
         axes[r, 1].set_xlim(0.0, pitch)
     title = (
         "Transmission error theta_out - theta_in/(z+1), one output revolution, "
-        f"driving torque {T:.4g} N*m (forward: the load resists + rotation)"
+        f"driving torque {figure(T)} N*m (forward: the load resists + rotation)"
     )
     if note:
         title += f"\n{note}"
     _title(fig, title, design, None)
     fig.tight_layout()
+    return _save(fig, path)
+
+
+def assembly_png(res: dict, path: Path, design: GearDesign | None = None) -> Path:
+    """Selective assembly: each roller class's backlash and binding against the target.
+
+    ``res``: ``assembly.json``. Left: the backlash of every class (max over the
+    positions, the catalogue figure; the bar from the least), the target line,
+    the chosen class ringed; a class that binds is drawn hatched red. Right:
+    the binding measure (``interference_um``: > 0 binds; <= 0 the room on the
+    tightest roller) against zero.
+    """
+    rows = res["classes"]
+    cls = np.array([r["class_um"] for r in rows])
+    bmax = np.array([r["backlash_arcmin"]["max"] for r in rows])
+    bmin = np.array([r["backlash_arcmin"]["min"] for r in rows])
+    binds = np.array([r["binds"] for r in rows])
+    inter = np.array([r["interference_um"] for r in rows])
+    target = res["target_backlash_arcmin"]
+    chosen = res.get("chosen_class_um")
+    inter = np.where(np.abs(inter) < 1e-6, 0.0, inter)  # below 1e-9 mm: exact contact
+    width = 0.6 * (float(np.min(np.diff(np.sort(cls)))) if len(cls) > 1 else 1.0)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 5.2))
+    top = max(float(bmax.max()), target)
+    for k, row in enumerate(rows):
+        style = {"color": "C2" if row["meets_target"] else "C0", "alpha": 0.75}
+        if binds[k]:
+            style = {"facecolor": "C3", "alpha": 0.35, "hatch": "//", "edgecolor": "C3"}
+        if cls[k] == chosen:
+            style.update(edgecolor="k", lw=2.0)
+        a1.bar(cls[k], bmax[k], width=width, **style)
+        a2.bar(cls[k], inter[k], width=width, **style)
+        a1.plot([cls[k]] * 2, [bmin[k], bmax[k]], color="k", lw=1.0,
+                marker="_", ms=8)  # fmt: skip
+        note = "binds" if binds[k] else figure(bmax[k])
+        if cls[k] == chosen:
+            note += "\nchosen"
+        a1.annotate(note, (cls[k], bmax[k]), xytext=(0, 3), textcoords="offset points",
+                    ha="center", va="bottom", fontsize=7)  # fmt: skip
+        a2.annotate(figure(inter[k]) if inter[k] else "0 (exact contact)", (cls[k], inter[k]),
+                    xytext=(0, 3 if inter[k] >= 0 else -3), textcoords="offset points",
+                    ha="center", va="bottom" if inter[k] >= 0 else "top", fontsize=7)  # fmt: skip
+    for ax in (a1, a2):
+        ax.set_xticks(cls, [f"{c:+g}" for c in cls])
+        ax.set_xlabel("roller class [um] (radius deviation)")
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
+        ax.grid(axis="y", alpha=0.3)
+    a1.set_ylim(0.0, 1.2 * top)
+    a1.axhline(target, color="C1", ls="--", lw=1.5)
+    a1.set_ylabel("backlash [arcmin]")
+    a2.axhline(0.0, color="k", lw=0.8)
+    a2.margins(y=0.15)
+    a2.set_ylabel("binding interference [um] (> 0: binds)")
+    handles = [
+        Patch(color="C2", alpha=0.75, label="meets the target, fits"),
+        Patch(color="C0", alpha=0.75, label="fits, backlash above the target"),
+        Patch(facecolor="C3", alpha=0.35, hatch="//", edgecolor="C3", label="binds"),
+        Line2D([], [], color="k", marker="_", ms=8, label="least to largest over the positions"),
+        Line2D([], [], color="C1", ls="--", label=f"target {figure(target)} arcmin"),
+    ]
+    if chosen is not None:
+        handles.append(Patch(facecolor="none", edgecolor="k", lw=2.0,
+                             label=f"chosen: class {chosen:+g} um"))  # fmt: skip
+        verdict = f"fit roller class {chosen:+g} um"
+    else:
+        verdict = f"NO CLASS FITS: {res.get('reason')}"
+    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    a1.set_title("backlash of each class against the target", fontsize=9)
+    a2.set_title("binding of each class (gaps only, no force solve)", fontsize=9)
+    ring = res.get("ring", "")
+    _title(fig, f"Selective assembly ({ring}): {verdict}", design, None)
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.84, bottom=0.22, wspace=0.3)
     return _save(fig, path)

@@ -314,12 +314,15 @@ def _header(
         f"part: inner gear, z = {dg.tooth_count}, e = {dg.eccentricity:g}, "
         f"Rj = {dg.cam_radius:g}, r = {dg.roller_radius:g}, L = Rj + r = {dg.link_length:g} mm"
     )
+    kind = "modified" if prog.modified else "conjugate"
+    if prog.profile:
+        w.comment(f"profile: {prog.profile}")
     w.comment("units mm, absolute, XY plane, origin on the gear axis, tooth space 1 on +Y")
     w.comment(f"wire diameter {spec.wire_diameter:g} mm + spark gap {spec.spark_gap:g} mm")
     if comp == "path":
         w.comment(f"wire centre offset {off:g} mm into the opening, the scrap side")
         w.comment("offset already in the path: no G41/G42 compensation")
-        w.comment(f"contour: exact offset of the exact working profile by {off:g} mm")
+        w.comment(f"contour: exact offset of the exact {kind} working profile by {off:g} mm")
         curve = "the exact offset curve"
     else:
         side = "left" if comp == "G41" else "right"
@@ -333,7 +336,7 @@ def _header(
             )
         else:
             w.comment(f"set {reg} to wire radius + spark gap = {off:g} mm, below {limit:.4g} mm")
-        w.comment("contour: the exact working profile, the finished part")
+        w.comment(f"contour: the exact {kind} working profile, the finished part")
         curve = "the exact profile"
     w.comment(f"tangent-continuous arcs, tolerance {prog.tolerance:g} mm")
     w.comment(f"measured max deviation of this path from {curve}: {prog.written_deviation:.3g} mm")

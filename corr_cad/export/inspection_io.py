@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 from pathlib import Path
 
 import numpy as np
 
-from corr_cad.export.files import write_csv, write_json
+from corr_cad.export.files import _atomic_text, write_csv, write_json
 from corr_cad.geometry.design import GearDesign
 from corr_cad.tolerance.inspection import InspectionResult
 
@@ -47,14 +49,27 @@ CSV_COLUMNS = (
 _NUMBERS = CSV_COLUMNS[1 : CSV_COLUMNS.index("points")]
 
 
-def write_nominal_csv(tooth, t, points, normals, path: Path) -> Path:
-    """CMM nominal points: ``tooth, t_deg, x, y, nx, ny`` (12 decimals, mm)."""
+def write_nominal_csv(tooth, t, points, normals, path: Path, profile: str = "") -> Path:
+    """CMM nominal points: ``tooth, t_deg, x, y, nx, ny`` (12 decimals, mm).
+
+    With ``profile`` (:func:`corr_cad.geometry.modification.describe_profile`)
+    the file starts with one ``#`` comment line naming the profile the points
+    lie on, before the column names.
+    """
     rows = (
         [str(int(k)), f"{math.degrees(tt):.12f}", f"{p[0]:.12f}", f"{p[1]:.12f}"]
         + [f"{n[0]:.15f}", f"{n[1]:.15f}"]
         for k, tt, p, n in zip(tooth, t, points, normals, strict=True)
     )
-    return write_csv(path, ["tooth", "t_deg", "x", "y", "nx", "ny"], rows)
+    cols = ["tooth", "t_deg", "x", "y", "nx", "ny"]
+    if not profile:
+        return write_csv(path, cols, rows)
+    buf = io.StringIO()
+    buf.write(f"# corr_cad CMM nominal points of the inner gear, mm; profile: {profile}\n")
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(cols)
+    w.writerows(rows)
+    return _atomic_text(path, buf.getvalue())
 
 
 def _flag(ok) -> str:

@@ -84,7 +84,8 @@ def read_measured_points(
     and its inner loop taken (:mod:`corr_cad.export.measured_mesh`); it needs
     the ``design`` (face width and rim to check the mesh against).
 
-    The CSV may start with a UTF-8 byte-order mark; header names are read
+    The CSV may start with a UTF-8 byte-order mark and ``#`` comment lines
+    (as ``inner_gear_nominal.csv`` does); header names are read
     without surrounding blanks and case (``x, y``, ``X,Y``). For a DXF the
     contour is taken from layer ``MEASURED_PROFILE`` if present, else
     ``WORKING_PROFILE``, and scaled to mm by the header's ``$INSUNITS``. Only
@@ -203,6 +204,9 @@ def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray
     try:
         with open(path, "rb") as fh:
             head = fh.readline(_MAX_HEADER)
+            first = 1  # the header's line number: leading "#" comment lines are skipped
+            while head.lstrip(b"\xef\xbb\xbf").startswith(b"#") and first < 100:
+                head, first = fh.readline(_MAX_HEADER), first + 1
             body_start = fh.tell()
             text = head.decode("utf-8-sig")
             header = [h.strip().lower() for h in next(csv.reader([text]), [])]
@@ -217,7 +221,7 @@ def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray
                 lines += block.count(b"\n") + (not block.endswith(b"\n"))
             stride = _stride(lines, max_points)
             fh.seek(body_start)
-            kept, rows, line = [], 0, 2  # line: the file's line number of the block's start
+            kept, rows, line = [], 0, first + 1  # the file's line number of the block's start
             for block in _lines(fh):
                 decoded = block.decode("utf-8")
                 rows_text = [r for r in decoded.splitlines() if r.strip(" \t,")]

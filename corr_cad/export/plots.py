@@ -18,8 +18,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import PathPatch, Polygon  # noqa: E402
 from matplotlib.path import Path as MplPath  # noqa: E402
+from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 from corr_cad.export.files import writing  # noqa: E402
+from corr_cad.figure_text import figure  # noqa: E402
 from corr_cad.geometry.design import GearDesign  # noqa: E402
 from corr_cad.geometry.kinematics import centre_distance, unit_radial  # noqa: E402
 from corr_cad.geometry.profile import ProfileCurve  # noqa: E402
@@ -48,7 +50,7 @@ def design_caption(design: GearDesign | None, input_torque: float | None = None)
     """One line naming the design and the load, e.g. for a figure's subtitle.
 
     >>> design_caption(GearDesign(), 1.1e5)
-    'z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm; M0 = 1.1e+05 N*mm'
+    'z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm; M0 = 110,000 N*mm'
     """
     if design is None:
         return ""
@@ -58,7 +60,7 @@ def design_caption(design: GearDesign | None, input_torque: float | None = None)
         f"l = {design.roller_length:g} mm"
     )
     if input_torque is not None:
-        text += f"; M0 = {input_torque:.3g} N*mm"
+        text += f"; M0 = {figure(input_torque, 3)} N*mm"
     return text
 
 
@@ -109,16 +111,26 @@ def preview_png(
     theoretical: ProfileCurve,
     path: Path,
     crank_angle_rad: float = 0.0,
+    modification: str = "",
 ) -> Path:
     """Second stage at one crank angle: ring, cam, rollers and frame, plus a tooth close-up.
 
     Shaded: the gear ring's material (outer rim to working profile) and the
     cam (minus its bore). The slotted frame plate, which lies in its own
-    plane beside the gear and cam, is drawn in outline.
+    plane beside the gear and cam, is drawn in outline. ``modification``: the
+    families and amounts of a modified ring
+    (:func:`corr_cad.geometry.modification.amounts_text`), named in the
+    profile's legend entry and the title. Roller labels stand outside the
+    ring, each with a leader to its roller.
     """
     from corr_cad.geometry.parts import slot_polygon
 
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 7))
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 7.4))
+    profile_label = (
+        f"working profile (gear, modified: {modification})"
+        if modification
+        else "working profile (gear)"
+    )
     wp = working.sample(max(400, 40 * design.tooth_count))
     tp = theoretical.sample(max(400, 40 * design.tooth_count))
     e, Rj, r = design.eccentricity, design.cam_radius, design.roller_radius
@@ -138,7 +150,7 @@ def preview_png(
         # paths as a Bezier curve (0.5 s of this figure). Same pixels.
         a.add_artist(PathPatch(ring, facecolor="#c9d7e8", edgecolor="none", zorder=0))
         a.add_artist(PathPatch(cam, facecolor="#f2d0cb", edgecolor="none", zorder=0))
-        a.plot(*np.vstack([wp, wp[:1]]).T, color="C0", lw=1.2, label="working profile (gear)")
+        a.plot(*np.vstack([wp, wp[:1]]).T, color="C0", lw=1.2, label=profile_label)
         a.plot(
             *np.vstack([tp, tp[:1]]).T,
             "--",
@@ -157,8 +169,9 @@ def preview_png(
                 lw=0.6,
                 label="frame slots (frame plane)" if k == 0 else None,
             )
-        for c in (design.frame_inner_radius, design.frame_outer_radius):
-            _circle(a, (0, 0), c, color="C4", lw=0.6, ls="-.")
+        for k, c in enumerate((design.frame_inner_radius, design.frame_outer_radius)):
+            _circle(a, (0, 0), c, color="C4", lw=0.6, ls="-.",
+                    label="frame plate rims (frame plane)" if k == 0 else None)  # fmt: skip
         for k, c in enumerate(centres):
             roller = _xy_circle(c, r, 181)
             a.add_artist(Polygon(roller, closed=True, color="#b9e0b5", zorder=1))
@@ -168,15 +181,24 @@ def preview_png(
         a.set_aspect("equal")
         a.set_xlabel("x [mm]")
         a.set_ylabel("y [mm]")
-    top = max(design.frame_outer_radius, design.ring_outer_radius) * 1.03
+    outer = max(design.frame_outer_radius, design.ring_outer_radius)
+    top = outer * 1.2  # room for the roller labels outside the ring
     ax.set_xlim(-top, top)
     ax.set_ylim(-top, top)
     ax.set_title(
         f"crank angle {np.degrees(crank_angle_rad):g} deg (relative to the frame)", fontsize=10
     )
-    for k in (0, 1):
-        c = centres[k] * (1 - 2.6 * r / np.linalg.norm(centres[k]))
-        ax.annotate(f"roller {k + 1}", c, fontsize=7, ha="center", va="center")
+    for k in (0, 1):  # outside the ring, one slot pitch apart, a leader to each roller
+        u = centres[k] / np.linalg.norm(centres[k])
+        ax.annotate(
+            f"roller {k + 1}",
+            centres[k],
+            xytext=u * outer * 1.1,
+            fontsize=8,
+            ha="center",
+            va="center",
+            arrowprops={"arrowstyle": "-", "color": "C2", "lw": 0.6},
+        )
     # Close-up around the tooth space on +y and its neighbours.
     span = 2.5 * (2 * np.pi / design.tooth_count)
     top2 = L + e + r
@@ -184,9 +206,12 @@ def preview_png(
     ax2.set_ylim(top2 - 4 * r - 2 * e, design.ring_outer_radius + 2)
     ax2.set_title("tooth close-up (tooth space on +y)", fontsize=10)
     handles, labels = ax.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
-    _title(fig, "Second stage (shaded: gear ring and cam material)", design, None)
-    fig.subplots_adjust(left=0.06, right=0.98, top=0.88, bottom=0.12, wspace=0.25)
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    title = "Second stage (shaded: gear ring and cam material)"
+    if modification:
+        title += f"; modified ring: {modification}"
+    _title(fig, title, design, None)
+    fig.subplots_adjust(left=0.06, right=0.98, top=0.88, bottom=0.14, wspace=0.25)
     return _save(fig, path)
 
 
@@ -435,15 +460,29 @@ _CONTACT_NAMES = (
 )
 
 
+def _clearance_ylim(ax, lo: np.ndarray, hi: np.ndarray) -> None:
+    """The band's own range, room above it for the legend; zero (interference) only when
+    the band reaches near it, so a band far from zero is not squeezed into a line."""
+    bottom, top = float(lo.min()), float(hi.max())
+    span = max(top - bottom, 0.05 * max(abs(top), abs(bottom)), 1e-3)
+    if bottom <= 2.0 * span:
+        bottom = min(bottom, 0.0)
+        span = max(top - bottom, 1e-3)
+    ax.set_ylim(bottom - 0.15 * span, top + 0.55 * span)
+
+
 def clearance_png(clr, path: Path, design: GearDesign | None = None) -> Path:
-    """Exact clearances over the cycle, one panel per contact (um), neighbours (mm).
+    """Exact clearances over the cycle, one panel per contact and one for the neighbours,
+    all in um.
 
     Each panel shows the band over all rollers at each crank angle: its lower
     edge (smallest clearance, solid: interference when negative) and its upper
     edge (largest clearance, dashed: the backlash side, free play of the
-    loosest roller). Values within 1e-9 mm of zero (the closed forms'
-    round-off) are drawn as 0; a contact that is exact everywhere says so in
-    words instead of drawing three lines on the zero line.
+    loosest roller), on the band's own range (zero, the interference line, in
+    view when the band comes near it), the legend above the band. Values
+    within 1e-9 mm of zero (the closed forms' round-off) are drawn as 0; a
+    contact that is exact everywhere says so in words instead of drawing three
+    lines on the zero line.
     """
     ang = np.degrees(clr.crank_angles)
     order = np.argsort(ang)
@@ -476,7 +515,7 @@ def clearance_png(clr, path: Path, design: GearDesign | None = None) -> Path:
                 lo,
                 color=f"C{i}",
                 lw=1.2,
-                label=f"smallest {a[k_lo]:.4g} um (roller {k_lo[1] + 1}, {ang[k_lo[0]]:g} deg)",
+                label=f"smallest {figure(a[k_lo])} um (roller {k_lo[1] + 1}, {ang[k_lo[0]]:g} deg)",
             )
             ax.plot(
                 x,
@@ -484,24 +523,24 @@ def clearance_png(clr, path: Path, design: GearDesign | None = None) -> Path:
                 color=f"C{i}",
                 lw=1.0,
                 ls="--",
-                label=f"largest {a[k_hi]:.4g} um (roller {k_hi[1] + 1}),\nbacklash side",
+                label=f"largest {figure(a[k_hi])} um (roller {k_hi[1] + 1}), backlash side",
             )
-            span = max(float(np.abs(a).max()), 1e-3)
-            ax.set_ylim(
-                min(float(lo.min()), 0.0) - 0.15 * span, max(float(hi.max()), 0.0) + 0.3 * span
-            )
+            _clearance_ylim(ax, lo, hi)
         ax.set_ylabel("clearance [um]")
         ax.set_title(f"{what} (negative: interference)", fontsize=9)
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+        ax.legend(fontsize=7, loc="upper center", ncol=3, frameon=False)
     ax = axes[3]
-    x, lo, hi = _envelope(ang, clr.neighbour[order])
+    x, lo, hi = _envelope(ang, clr.neighbour[order] * 1e3)
     ax.fill_between(x, lo, hi, color="C3", alpha=0.2, lw=0, label="band: all rollers")
-    ax.plot(x, lo, color="C3", lw=1.2, label=f"smallest {float(lo.min()):.4g} mm")
-    ax.plot(x, hi, color="C3", lw=0.8, ls="--", label=f"largest {float(hi.max()):.4g} mm")
+    ax.plot(x, lo, color="C3", lw=1.2, label=f"smallest {figure(float(lo.min()))} um")
+    ax.plot(x, hi, color="C3", lw=0.8, ls="--", label=f"largest {figure(float(hi.max()))} um")
+    _clearance_ylim(ax, lo, hi)
     ax.set_title("roller vs its neighbours", fontsize=9)
-    ax.set_ylabel("clearance [mm]")
+    ax.set_ylabel("clearance [um]")
     ax.set_xlabel("crank angle relative to the frame [deg]")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    ax.legend(fontsize=7, loc="upper center", ncol=3, frameon=False)
+    for a in axes:
+        a.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
     _title(fig, f"Exact clearance over {len(ang)} crank positions (row A)", design, None)
-    fig.subplots_adjust(left=0.1, right=0.7, top=0.9, bottom=0.06, hspace=0.35)
+    fig.subplots_adjust(left=0.11, right=0.97, top=0.9, bottom=0.06, hspace=0.35)
     return _save(fig, path)

@@ -9,9 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from corr_cad.export import plots
+from corr_cad.figure_text import figure
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.contact import PRESSURE_BOUND_MPA
 from corr_cad.tolerance.montecarlo import COUNT_METRICS, metric_percentile
@@ -25,19 +26,38 @@ _LIMIT_OF = {
     "peak_gear_force": "max_gear_force",
     "min_loaded_rollers": "min_loaded_rollers",
     "backlash_arcmin": "max_backlash_arcmin",
+    "lost_motion_arcmin": "max_lost_motion_arcmin",
+    "torsional_rigidity_Nm_per_arcmin": "min_torsional_rigidity_Nm_per_arcmin",
+    "transmission_error_arcsec": "max_transmission_error_arcsec",
+    "binding_pressure_MPa": None,  # gated by probability: max_binding_probability
 }
 _LABEL = {
-    "peak_pressure": "peak contact pressure [MPa]",
     "peak_gear_force": "peak gear force $F_n$ [N]",
+    "peak_pressure": "peak contact pressure [MPa]",
     "min_loaded_rollers": "fewest loaded rollers [-]",
     "backlash_arcmin": "output backlash [arcmin]",
+    "lost_motion_arcmin": "lost motion [arcmin]",
+    "torsional_rigidity_Nm_per_arcmin": "torsional rigidity [N*m/arcmin]",
+    "transmission_error_arcsec": "transmission error, peak to peak [arcsec]",
+    "binding_pressure_MPa": "binding preload pressure [MPa]",
 }
 _SHORT = {
     "peak_pressure": "pressure",
     "peak_gear_force": "$F_n$",
     "min_loaded_rollers": "loaded rollers",
     "backlash_arcmin": "backlash",
+    "lost_motion_arcmin": "lost motion",
+    "torsional_rigidity_Nm_per_arcmin": "rigidity",
+    "transmission_error_arcsec": "transm. error",
+    "binding_pressure_MPa": "binding",
 }
+#: Panel order: the force metrics, then the datasheet metrics and binding when present.
+ORDER = tuple(_LABEL)
+
+
+def _figure_ticks(ax) -> None:
+    """x tick labels as catalogue figures: ``13,000``, never an offset or ``1e4``."""
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
 
 
 def _bins(values: np.ndarray, integer: bool):
@@ -93,7 +113,7 @@ def _histogram(ax, name: str, values: np.ndarray, marks: list, pct: dict | None)
     for q, ls in ((5, ":"), (50, "-"), (95, "--"), (99, "-.")):
         v = float(pct[f"p{q}"]) if pct else metric_percentile(values, q, name)
         off = " (off scale)" if cap is not None and v > cap else ""
-        ax.axvline(v, color="0.25", ls=ls, lw=1.0, label=f"p{q} = {v:.4g}{off}")
+        ax.axvline(v, color="0.25", ls=ls, lw=1.0, label=f"p{q} = {figure(v)}{off}")
     if bound is not None and float(values.max()) > bound:
         ax.axvspan(bound, hi * 10, color="0.5", alpha=0.12, lw=0)
         ax.axvline(
@@ -111,24 +131,42 @@ def _histogram(ax, name: str, values: np.ndarray, marks: list, pct: dict | None)
     return xlim
 
 
-def _legend_above_bars(ax, legend) -> None:
-    """Raise the y axis until the bars under the legend sit below it (it covers no data)."""
-    renderer = ax.figure.canvas.get_renderer()
-    box = legend.get_window_extent(renderer)
-    (x0, y0), (x1, _) = ax.transData.inverted().transform([(box.x0, box.y0), (box.x1, box.y1)])
-    tops = [
-        p.get_y() + p.get_height()
-        for p in ax.patches
-        if p.get_data_transform() == ax.transData  # bars, not the shaded spans
-        and p.get_height() > 0
-        and p.get_x() < x1
-        and p.get_x() + p.get_width() > x0
-    ]
-    lo, hi = ax.get_ylim()
-    if not tops or max(tops) < y0:
-        return
-    bottom = (y0 - lo) / (hi - lo)  # the legend's lower edge, axes fraction
-    ax.set_ylim(lo, lo + (max(tops) - lo) / max(bottom - 0.03, 0.1))
+def _legend_below(ax) -> None:
+    """The panel's legend under its x label: off the bars, the bands and the lines."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        ax.legend(
+            handles,
+            labels,
+            fontsize=7,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.2),
+            ncol=3,
+            frameon=False,
+            handlelength=2.2,
+            columnspacing=1.2,
+        )
+
+
+def _layout(fig, panels: int):
+    """Histogram axes, the sensitivity axes and the text axes.
+
+    Up to four histograms: two rows of three, the sensitivity top right.
+    More (the datasheet metrics and binding): a 3 x 3 block of histograms
+    (the text in its last free cell) and the sensitivity down the right.
+    """
+    if panels <= 4:
+        axes = fig.subplots(2, 3).ravel()
+        return (
+            [axes[i] for i in (0, 1, 3, 4)][:panels],
+            axes[2],
+            axes[5],
+            [axes[i] for i in (0, 1, 3, 4)][panels:],
+        )
+    gs = fig.add_gridspec(3, 4, width_ratios=(1, 1, 1, 1.15))
+    cells = [fig.add_subplot(gs[r, c]) for r in range(3) for c in range(3)]
+    sens = fig.add_subplot(gs[:2, 3])  # its legend below, in the column's last cell
+    return cells[:panels], sens, cells[panels] if panels < 9 else None, cells[panels + 1 :]
 
 
 def montecarlo_png(
@@ -140,30 +178,48 @@ def montecarlo_png(
     design: GearDesign | None = None,
     input_torque: float | None = None,
     tolerances: dict | None = None,
+    binding_pressure_MPa: float | None = None,
 ) -> Path:
     """Histograms of the per-sample metrics with percentiles, limits and the nominal
-    design's value, the failure probability, and the sensitivity ranking."""
-    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
-    # The layout first: the legends' room is measured against the final axes.
-    fig.subplots_adjust(left=0.05, right=0.98, top=0.9, bottom=0.07, hspace=0.35, wspace=0.28)
-    flat = axes.ravel()
-    n = len(next(iter(metrics.values())))
-    for ax, (name, values) in zip(flat[[0, 1, 3, 4]], metrics.items(), strict=False):
-        values = np.asarray(values, dtype=float)
+    design's value, the failure probability, and the sensitivity ranking.
+
+    Every metric of ``metrics`` gets a panel (the force metrics, and the
+    datasheet metrics and the binding preload pressure when the Monte Carlo
+    computed them: the sensitivity ranks all of them); ``binds`` (0/1) is
+    shown as the binding panel's probability. Whole-number metrics get whole
+    ticks; each legend sits below its panel, off the data.
+    """
+    names = [k for k in ORDER if k in metrics]
+    big = len(names) > 4
+    fig = plt.figure(figsize=(18, 14) if big else (15, 9.5))
+    hist_axes, sens_ax, text_ax, spare = _layout(fig, len(names))
+    # The layout first: the legends' room is set against the final axes.
+    fig.subplots_adjust(
+        left=0.05,
+        right=0.98,
+        top=0.93 if big else 0.88,
+        bottom=0.08 if big else 0.15,
+        hspace=0.85 if big else 0.75,
+        wspace=0.3,
+    )
+    n = len(metrics[names[0]])
+    binding = (summary or {}).get("binding_probability")
+    for ax, name in zip(hist_axes, names, strict=True):
+        values = np.asarray(metrics[name], dtype=float)
         lim_key = _LIMIT_OF[name]
-        limit = getattr(checks, lim_key)
+        limit = getattr(checks, lim_key) if lim_key else None
         scale = max(abs(float(values.max())), abs(float(values.min())), abs(limit or 0.0), 1.0)
         xlim = None
         if float(values.max() - values.min()) <= 1e-6 * scale:
             # One value for every sample: a histogram would be a one-pixel spike.
             ax.axvline(
-                values[0], color="C0", lw=8, alpha=0.6, label=f"all samples: {values[0]:.4g}"
+                values[0], color="C0", lw=8, alpha=0.6, label=f"all samples: {figure(values[0])}"
             )
             ax.set_ylim(0, n * 1.1)
             ax.text(
                 0.5,
                 0.55,
-                f"all {n} samples: {values[0]:.4g}\n(spread below {1e-6 * scale:.1g})",
+                f"all {n} samples: {figure(values[0])}\n(spread below {figure(1e-6 * scale, 1)})",
                 transform=ax.transAxes,
                 ha="center",
                 fontsize=10,
@@ -174,28 +230,50 @@ def montecarlo_png(
             pct = ((summary or {}).get("percentiles") or {}).get(name)
             xlim = _histogram(ax, name, values, marks, pct)
         if nominal and name in nominal:
-            ax.axvline(nominal[name], color="C2", lw=2.0, label=f"nominal = {nominal[name]:.4g}")
+            ax.axvline(
+                nominal[name], color="C2", lw=2.0, label=f"nominal = {figure(nominal[name])}"
+            )
         if limit is not None:
-            ax.axvline(limit, color="C3", lw=2.0, label=f"limit = {limit:g}")
+            ax.axvline(limit, color="C3", lw=2.0, label=f"limit = {figure(limit)}")
             pf = (summary or {}).get("failure_probability", {}).get(lim_key)
             if pf is not None:
                 ax.set_title(
                     f"P(fail) = {100 * pf:.1f} %", fontsize=10, color="C3" if pf > 0 else "C2"
                 )
+        elif name == "binding_pressure_MPa":
+            if binding_pressure_MPa is not None:
+                ax.axvline(
+                    binding_pressure_MPa,
+                    color="C3",
+                    lw=2.0,
+                    label=f"binds above {figure(binding_pressure_MPa)} MPa",
+                )
+            if binding:
+                lo, hi = binding["wilson_interval"]
+                ax.set_title(
+                    f"P(binds) = {figure(100 * binding['probability'], 3)} % "
+                    f"(95 %: {figure(100 * lo, 3)} to {figure(100 * hi, 3)} %)",
+                    fontsize=10,
+                    color="C3" if binding["probability"] > 0 else "C2",
+                )
         else:
             ax.set_title("no limit set in [checks]", fontsize=9, color="0.4")
         ax.set_xlabel(_LABEL[name])
         ax.set_ylabel("samples")
-        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.xaxis.set_major_locator(MaxNLocator(6, integer=name in COUNT_METRICS))
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        _figure_ticks(ax)
         ax.margins(x=0.08)
         if xlim is not None:
             ax.set_xlim(*xlim)
-        _legend_above_bars(ax, ax.legend(fontsize=7, loc="upper right"))
-    ax = flat[2]
+        _legend_below(ax)
+    for ax in spare:
+        ax.axis("off")
+    ax = sens_ax
     sens = (summary or {}).get("sensitivity") or []
     if sens:
         kinds = [s["tolerance"] for s in sens]
-        ms = list(metrics)
+        ms = [m for m in names if m in sens[0]["spearman"]]
         y = np.arange(len(kinds))
         h = 0.8 / len(ms)
         for j, m in enumerate(ms):
@@ -212,20 +290,28 @@ def montecarlo_png(
         ax.axvline(0, color="k", lw=0.6)
         ax.set_xlim(-1, 1)
         ax.set_xlabel("Spearman rank correlation with |drawn error| [-]")
-        ax.legend(fontsize=7, loc="lower right")
+        ax.legend(
+            fontsize=8 if big else 7,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.12 if big else -0.2),
+            ncol=2 if big else 4,
+            frameon=False,
+        )
     ax.set_title("sensitivity (most influential first)", fontsize=10)
-    ax = flat[5]
-    ax.axis("off")
     lines = ["Tolerances (centred on the [errors] values):"]
     for k, d in (tolerances or {}).items():
         kind, scale = (d.kind, d.scale) if hasattr(d, "kind") else (d["kind"], d["scale"])
         what = "sigma" if kind == "normal" else "uniform +-"
         unit = "deg" if k in ("cam_phase", "slot_angle") else "mm"
-        lines.append(f"  {k.replace('_', ' ')}: {what} {scale:g} {unit}")
+        lines.append(f"  {k.replace('_', ' ')}: {what} {figure(scale)} {unit}")
     lines.append("")
-    lines.append("Lines: p5 dotted, p50 solid, p95 dashed, p99 dash-dot;")
-    lines.append("green = nominal design, red = limit from [checks].")
-    ax.text(0.0, 1.0, "\n".join(lines), va="top", fontsize=9, family="monospace")
+    lines.append("Lines: p5 dotted, p50 solid,")
+    lines.append("p95 dashed, p99 dash-dot;")
+    lines.append("green = nominal design,")
+    lines.append("red = limit from [checks].")
+    if text_ax is not None:
+        text_ax.axis("off")
+        text_ax.text(0.0, 1.0, "\n".join(lines), va="top", fontsize=9, family="monospace")
     plots._title(fig, f"Monte Carlo over the tolerances, {n} samples", design, input_torque)
     return plots._save(fig, path)
 

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad.export.files import writing
+from corr_cad.figure_text import figure
 
 __all__ = ["ring_line", "report_context", "render_report", "write_report"]
 
@@ -52,15 +53,8 @@ def _fmt(v, digits: int = 4) -> str:
         return "yes" if v else "no"
     if isinstance(v, (int, np.integer)):
         return f"{int(v):,}"
-    if isinstance(v, (float, np.floating)):
-        v = float(v)
-        if not math.isfinite(v):
-            return str(v)
-        if v == 0:
-            return "0"
-        if 1e-3 <= abs(v) < 1e6:
-            return f"{v:,.{digits}g}" if abs(v) < 1e4 else f"{v:,.0f}"
-        return f"{v:.{digits}g}"
+    if isinstance(v, (float, np.floating)):  # the console's and the plots' formatter
+        return figure(float(v), digits)
     return str(v)
 
 

@@ -33,7 +33,9 @@ sign).
 
 from __future__ import annotations
 
+import hashlib
 import math
+import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -58,6 +60,9 @@ __all__ = [
     "modification_gap",
     "with_modification",
     "FAMILIES",
+    "describe_profile",
+    "amounts_text",
+    "profile_record",
 ]
 
 #: The families, in the order the plot and the manifest list them.
@@ -375,3 +380,77 @@ def with_modification(errors: ManufacturingErrors, gap: ModificationGap | None):
         return errors
     dev = errors.profile_deviation
     return replace(errors, profile_deviation=gap if dev is None else CombinedDeviation((dev, gap)))
+
+
+def _amount(v: float) -> str:
+    """A length in mm, positional, with the digits that identify the float (never ``1e-05``)."""
+    return np.format_float_positional(float(v), unique=True, trim="-", sign=True)
+
+
+def _table_digest(table: NormalTable) -> str:
+    text = ";".join(f"{p!r},{n!r}" for p, n in zip(table.psi_deg, table.normal_mm, strict=True))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def profile_id(design: GearDesign, mod: Modification | None) -> str:
+    """12 hex digits of a SHA-256 over what fixes the ring's working profile.
+
+    ``z, e, L, r`` of the design and the modification's amounts (a normal
+    table's every row), each as its shortest exact repr: two different rings
+    never share it.
+    """
+    vals = [design.tooth_count, design.eccentricity, design.link_length, design.roller_radius]
+    text = ";".join(repr(v) for v in vals)
+    if mod is not None and not mod.is_zero:
+        text += f";eq={mod.equidistant_mm!r};sh={mod.shift_mm!r}"
+        if mod.normal_table is not None:
+            text += ";nt=" + _table_digest(mod.normal_table)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def describe_profile(design: GearDesign, mod: Modification | None) -> str:
+    """One line naming the working profile a shop or inspection file describes.
+
+    ``conjugate (exact, unmodified)`` or ``modified: equidistant +0.01 mm, ...``
+    with every family and its amount, then the :func:`profile_id`.
+
+    >>> from corr_cad.geometry.design import GearDesign
+    >>> describe_profile(GearDesign(), Modification(equidistant_mm=0.01))[:56]
+    'modified: equidistant +0.01 mm (+ = clearance, material '
+    """
+    pid = f"profile id {profile_id(design, mod)}"
+    if mod is None or mod.is_zero:
+        return f"conjugate (exact, unmodified), {pid}"
+    return f"modified: {amounts_text(mod)} (+ = clearance, material removed from the ring), {pid}"
+
+
+def amounts_text(mod: Modification) -> str:
+    """Every family of ``mod`` with its amount: ``equidistant +0.01 mm, shift -0.002 mm``."""
+    parts = []
+    if mod.equidistant_mm:
+        parts.append(f"equidistant {_amount(mod.equidistant_mm)} mm")
+    if mod.shift_mm:
+        parts.append(f"shift {_amount(mod.shift_mm)} mm")
+    t = mod.normal_table
+    if t is not None:
+        name = re.sub(r"[^A-Za-z0-9._-]+", "_", t.source.removeprefix("normal_table "))[:32]
+        parts.append(
+            f"normal table {name} ({len(t.psi_deg)} rows, {_amount(min(t.normal_mm))} to "
+            f"{_amount(max(t.normal_mm))} mm, sha256 {_table_digest(t)})"
+        )
+    return ", ".join(parts)
+
+
+def profile_record(design: GearDesign, mod: Modification | None) -> dict:
+    """The manifest's record of the profile a shop file describes (``profile`` key)."""
+    out: dict = {
+        "kind": "conjugate" if mod is None or mod.is_zero else "modified",
+        "description": describe_profile(design, mod),
+        "profile_id": profile_id(design, mod),
+    }
+    if out["kind"] == "modified":
+        out["families"] = list(mod.families())
+        out.update({k: v for k, v in mod.as_dict().items() if k != "sign"})
+        if mod.normal_table is not None:
+            out["normal_table"]["sha256_12"] = _table_digest(mod.normal_table)
+    return out

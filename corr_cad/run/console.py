@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from corr_cad.figure_text import figure, unit_of
 from corr_cad.mechanics import contact
 
 __all__ = [
@@ -25,6 +26,7 @@ __all__ = [
     "warnings",
     "failed_checks",
     "datasheet_lines",
+    "assembly_line",
     "summary_lines",
 ]
 
@@ -136,6 +138,11 @@ def warnings(manifest: dict) -> list[str]:
             f"{PRESSURE_BOUND_MPA:.0f} MPa: those samples are beyond the material and the "
             "elastic Hertz model; read them as 'fails', not as a pressure"
         )
+    for edge in (manifest.get("modification_design") or {}).get("at_range_edge", []):
+        out.append(
+            f"modification design: the chosen {edge} (the search looked no further; "
+            "the best may lie beyond)"
+        )
     return out
 
 
@@ -156,11 +163,11 @@ def failed_checks(manifest: dict) -> list[str]:
             for lim, g in r.items():
                 if not g["passed"]:
                     out.append(
-                        f"montecarlo {lim} (failure probability {g['probability']:.4g} > "
-                        f"allowed {g['allowed']:.4g})"
+                        f"montecarlo {lim} (failure probability {figure(g['probability'])} > "
+                        f"allowed {figure(g['allowed'])})"
                     )
         elif not r["passed"]:
-            line = f"{name} (value {r['value']:.4g}, limit {r['limit']:.4g})"
+            line = f"{name} (value {figure(r['value'])}, limit {figure(r['limit'])})"
             if "passes_with" in r:
                 line += "; " + passes_with_text(r["passes_with"])
             out.append(line)
@@ -179,7 +186,7 @@ def datasheet_lines(d: dict | None) -> list[str]:
     lm, te = d["lost_motion_arcmin"], d["transmission_error_arcsec"]
 
     def mmm(x: dict) -> str:
-        return f"{x['min']:.4g} / {x['mean']:.4g} / {x['max']:.4g}"
+        return f"{figure(x['min'])} / {figure(x['mean'])} / {figure(x['max'])}"
 
     ring = d.get("ring") or {}
     of = (
@@ -188,31 +195,31 @@ def datasheet_lines(d: dict | None) -> list[str]:
         else ""
     )
     out = [
-        f"datasheet{of} at T_R = {d['rated_torque_Nm']:.5g} N*m, {p['count']} positions over "
-        f"{p['span']} (min / mean / max):",
+        f"datasheet{of} at T_R = {figure(d['rated_torque_Nm'], 5)} N*m, {p['count']} positions "
+        f"over {p['span']} (min / mean / max):",
         f"  backlash            {mmm(d['backlash_arcmin'])} arcmin",
         f"  lost motion         {mmm(lm)} arcmin (at +-{100 * lm['band']:g} % T_R)",
     ]
     if rig["with_series"] is not None:
         out.append(
             f"  torsional rigidity  {mmm(rig['with_series'])} N*m/arcmin (series "
-            f"{rig['series_rigidity_Nm_per_arcmin']:.4g} included)"
+            f"{figure(rig['series_rigidity_Nm_per_arcmin'])} included)"
         )
     out.append(
         f"  rigidity, contacts  {mmm(rig['contact_only'])} N*m/arcmin "
-        f"({rig['from_torque_Nm']:.4g}-{rig['to_torque_Nm']:.4g} N*m; the contacts alone: "
+        f"({figure(rig['from_torque_Nm'])}-{figure(rig['to_torque_Nm'])} N*m; the contacts alone: "
         "bearings, crank and housing are not in it)"
     )
     k = d["stiffness_Nm_per_arcmin"]
     out.append(
-        f"  K1 / K2 / K3 (min)  {k['K1']['min']:.4g} / {k['K2']['min']:.4g} / "
-        f"{k['K3']['min']:.4g} N*m/arcmin (breakpoints "
-        + ", ".join(f"{b:.4g}" for b in k["breakpoints_Nm"])
+        f"  K1 / K2 / K3 (min)  {figure(k['K1']['min'])} / {figure(k['K2']['min'])} / "
+        f"{figure(k['K3']['min'])} N*m/arcmin (breakpoints "
+        + "; ".join(figure(b) for b in k["breakpoints_Nm"])
         + " N*m)"
     )
     out.append(
-        f"  transmission error  forward {te['forward_peak_to_peak']:.4g}, reverse "
-        f"{te['reverse_peak_to_peak']:.4g} arcsec peak-to-peak over one output revolution"
+        f"  transmission error  forward {figure(te['forward_peak_to_peak'])}, reverse "
+        f"{figure(te['reverse_peak_to_peak'])} arcsec peak-to-peak over one output revolution"
     )
     if "efficiency_forward" in d:
         out.extend(friction_lines(d))
@@ -221,8 +228,8 @@ def datasheet_lines(d: dict | None) -> list[str]:
     rp = d.get("rated_torque_from_contact_pressure")
     if rp:
         out.append(
-            f"  rated torque from contact pressure {rp['torque_Nm']:.5g} N*m "
-            f"(peak Hertz pressure {rp['allowable_MPa']:.4g} MPa)"
+            f"  rated torque from contact pressure {figure(rp['torque_Nm'], 5)} N*m "
+            f"(peak Hertz pressure {figure(rp['allowable_MPa'])} MPa)"
         )
     return out
 
@@ -231,35 +238,52 @@ def friction_lines(d: dict) -> list[str]:
     """Efficiency, hysteresis, starting torque and life rows of the datasheet table."""
 
     def mmm(x: dict) -> str:
-        return f"{x['min']:.4g} / {x['mean']:.4g} / {x['max']:.4g}"
+        return f"{figure(x['min'], 4)} / {figure(x['mean'], 4)} / {figure(x['max'], 4)}"
 
     fw, bk = d["efficiency_forward"], d["efficiency_backdriving"]
     out = [
         f"  efficiency forward  {mmm(fw)} over the map",
         f"  efficiency backdriving {mmm(bk)}"
         + (" (SELF-LOCKING at some torques)" if bk["self_locking"] else ""),
-        f"  hysteresis loss     {d['hysteresis_loss_arcmin']:.4g} arcmin (width at T_R "
-        f"{d['hysteresis_width_at_rated_arcmin']['max']:.4g} arcmin)",
-        f"  starting torque     {d['starting_torque_Nm']['max']:.4g} N*m at the input",
+        f"  hysteresis loss     {figure(d['hysteresis_loss_arcmin'], 4)} arcmin (width at T_R "
+        f"{figure(d['hysteresis_width_at_rated_arcmin']['max'], 4)} arcmin)",
+        f"  starting torque     {figure(d['starting_torque_Nm']['max'], 4)} N*m at the input",
     ]
     life = d.get("life_h")
     if life:
         parts = ", ".join(
-            f"{k} {'inf' if v is None else f'{v:.4g}'}"
+            f"{k} {'inf' if v is None else f'{figure(v, 4)}'}"
             for k, v in life.items()
             if isinstance(v, (int, float)) or v is None
             if k not in ("at_torque_Nm", "at_output_speed_rpm")
         )
         rt = d["rated_torque_from_life_Nm"]
         out.append(
-            f"  life L10, h         {parts} (at {life['at_torque_Nm']:.5g} N*m, "
+            f"  life L10, h         {parts} (at {figure(life['at_torque_Nm'], 5)} N*m, "
             f"{life['at_output_speed_rpm']:g} rpm out)"
         )
         out.append(
-            f"  rated torque from life {rt['value']:.5g} N*m (L10 {rt['rated_life_h']:g} h at "
+            f"  rated torque from life {figure(rt['value'], 5)} N*m (L10 {rt['rated_life_h']:g} h at "
             f"{rt['rated_speed_rpm']:g} rpm)"
         )
     return out
+
+
+def assembly_line(a: dict) -> str:
+    """The selective assembly's verdict: the roller class to fit, on which ring.
+
+    >>> assembly_line({"ring": "nominal ring", "chosen_class_um": -2.0,
+    ...     "chosen_backlash_arcmin": 0.81234, "target_backlash_arcmin": 1.0})
+    'selective assembly (nominal ring): fit roller class -2 um, backlash 0.8123 arcmin (target 1)'
+    """
+    head = f"selective assembly ({a['ring']}): "
+    if a.get("chosen_class_um") is None:
+        return head + f"NO CLASS FITS: {a.get('reason')}"
+    return head + (
+        f"fit roller class {a['chosen_class_um']:+g} um, backlash "
+        f"{figure(a['chosen_backlash_arcmin'])} arcmin (target "
+        f"{figure(a['target_backlash_arcmin'])})"
+    )
 
 
 def summary_lines(manifest: dict, out) -> list[str]:
@@ -292,20 +316,24 @@ def summary_lines(manifest: dict, out) -> list[str]:
             f"F_s peak-to-peak {f['F_s_peak_to_peak']:.1f} N"
         )
     lines.extend(datasheet_lines(manifest.get("datasheet")))
+    if manifest.get("assembly"):
+        lines.append(assembly_line(manifest["assembly"]))
     mc = manifest.get("montecarlo")
     if mc:
         lines.append(f"Monte Carlo, {mc['samples']} samples:")
         for metric, qs in (mc.get("percentiles") or {}).items():
-            vals = ", ".join(f"{q} {v:.4g}" for q, v in qs.items() if v is not None)
-            lines.append(f"  {metric}: {vals}")
+            vals = ", ".join(f"{q} {figure(v)}" for q, v in qs.items() if v is not None)
+            unit = unit_of(metric)
+            lines.append(f"  {metric}{f' ({unit})' if unit else ''}: {vals}")
         for name, prob in (mc.get("failure_probability") or {}).items():
-            lines.append(f"  P(fail {name}) = {prob:.4g}")
+            lines.append(f"  P(fail {name}) = {figure(prob)}")
         b = mc.get("binding_probability")
         if b:
             lo, hi = b["wilson_interval"]
             lines.append(
-                f"  P(binds) = {b['probability']:.4g} ({b['binding_samples']} of {b['samples']}; "
-                f"{100 * b['confidence']:g} % Wilson interval {lo:.4g}-{hi:.4g})"
+                f"  P(binds) = {figure(b['probability'])} ({b['binding_samples']} of "
+                f"{b['samples']}; {100 * b['confidence']:g} % Wilson interval "
+                f"{figure(lo)} to {figure(hi)})"
             )
     c = manifest.get("clearance")
     if c:
@@ -339,11 +367,11 @@ def summary_lines(manifest: dict, out) -> list[str]:
                 state = "pass" if g["passed"] else "FAIL"
                 lines.append(
                     f"check montecarlo {lim}: {state} (failure probability "
-                    f"{g['probability']:.4g}, allowed {g['allowed']:.4g})"
+                    f"{figure(g['probability'])}, allowed {figure(g['allowed'])})"
                 )
         else:
             state = "pass" if r["passed"] else "FAIL"
-            line = f"check {name}: {state} (value {r['value']:.4g}, limit {r['limit']:.4g})"
+            line = f"check {name}: {state} (value {figure(r['value'])}, limit {figure(r['limit'])})"
             if "passes_with" in r:
                 line += "; " + passes_with_text(r["passes_with"])
             lines.append(line)

@@ -54,7 +54,7 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     ),
     "datasheet": (
         r"datasheet\.(?:json|html)",
-        r"assembly\.json",
+        r"assembly\.(?:json|png)",
         r"(?:windup|transmission_error)\.csv",
         r"(?:hysteresis|transmission_error)\.png",
         r"efficiency\.(?:csv|png)",

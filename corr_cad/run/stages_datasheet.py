@@ -19,7 +19,13 @@ from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import NMM_PER_NM
 from corr_cad.run.context import RunContext, modified_curve, psi_contact_limit, scene_errors
 
-__all__ = ["datasheet_spec", "rated_torque_Nmm", "datasheet_errors", "ring_description"]
+__all__ = [
+    "datasheet_spec",
+    "rated_torque_Nmm",
+    "datasheet_errors",
+    "ring_description",
+    "ring_label",
+]
 
 
 def rated_torque_Nmm(scene) -> float:
@@ -87,11 +93,16 @@ def ring_description(ctx: RunContext) -> dict:
     reg = ctx.results.registration
     if reg is None:
         errs = _set_errors(ctx.scene.errors)
-        return {
+        out = {
             "profile": "nominal" if "profile_deviation" not in errs else "nominal with deviation",
             "errors_applied": errs,
             "other_parts": "as [errors] gives them" if errs else "nominal",
         }
+        label = ring_label(ctx.scene)
+        if label.startswith("modified"):  # the designed clearance is in the windup
+            out["profile"] = out["profile"].replace("nominal", "modified", 1)
+            out["modification"] = label.removeprefix("modified ring, ")
+        return out
     m = ctx.manifest.get("measured_profile", {})
     ignored = [k for k in _set_errors(ctx.scene.errors) if k != "profile_deviation"]
     return {
@@ -272,13 +283,25 @@ def _datasheet_html(ctx: RunContext, sheet: dict) -> None:
     write_datasheet_html(sheet, ctx.scene.design, ctx.out, ctx.scene.name, text, __version__)
 
 
+def ring_label(scene) -> str:
+    """Which ring the selective assembly fits: measured, modified (its amounts) or nominal."""
+    if scene.measured_profile is not None:
+        return "measured ring"
+    mod = scene.modification
+    if mod is not None and not mod.is_zero:
+        from corr_cad.geometry.modification import amounts_text
+
+        return f"modified ring, {amounts_text(mod)}"
+    return "nominal ring"
+
+
 def _assembly(ctx: RunContext) -> None:
     """``[assembly]``: the roller class to fit, with each class's datasheet (assembly.json)."""
     from corr_cad.export.files import write_json
     from corr_cad.tolerance.assembly import selective_assembly
 
     s = ctx.scene
-    ring = "measured ring" if s.measured_profile is not None else "nominal ring"
+    ring = ring_label(s)
     ctx.progress(
         f"      selective assembly ({ring}): {len(s.assembly['roller_classes_um'])} classes"
     )
@@ -295,9 +318,15 @@ def _assembly(ctx: RunContext) -> None:
     )
     res = {"ring": ring, **res}
     write_json(ctx.out / "assembly.json", res)
-    ctx.files.append("assembly.json")
+    from corr_cad.export.datasheet_plots import assembly_png
+
+    assembly_png(res, ctx.out / "assembly.png", s.design)
+    ctx.files.extend(["assembly.json", "assembly.png"])
     ctx.manifest["assembly"] = {
         k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")
     }
+    chosen = [r for r in res["classes"] if r["class_um"] == res["chosen_class_um"]]
+    if chosen:
+        ctx.manifest["assembly"]["chosen_backlash_arcmin"] = chosen[0]["backlash_arcmin"]["max"]
     if res["chosen_class_um"] is None:
         ctx.manifest["assembly"]["failed"] = [f"selective assembly failed: {res['reason']}"]

@@ -122,6 +122,7 @@ def check_values(res) -> dict[str, float]:
 
 
 def _checks(ctx: RunContext) -> None:
+    from corr_cad.figure_text import figure
     from corr_cad.tolerance.checks import evaluate_checks
 
     values = check_values(ctx.results.forces)
@@ -133,7 +134,9 @@ def _checks(ctx: RunContext) -> None:
     ctx.manifest.setdefault("checks", {}).update(report)
     for name, r in report.items():
         state = "pass" if r["passed"] else "FAIL"
-        nums = f"value {r['value']:.4g}, limit {r['limit']:.4g}, margin {r['margin']:.4g}"
+        nums = (
+            f"value {figure(r['value'])}, limit {figure(r['limit'])}, margin {figure(r['margin'])}"
+        )
         ctx.progress(f"      check {name}: {state} ({nums})")
     # The remedy search re-solves the forces only: datasheet figures get none.
     sheet = ctx.scene.checks.datasheet_active()

@@ -17,6 +17,8 @@ __all__ = [
     "modification_png",
     "modification_design",
     "modified_toml",
+    "range_edges",
+    "SHOP_FORMATS",
     "PLOT_POINTS",
 ]
 
@@ -59,48 +61,156 @@ def modification_png(ctx: RunContext) -> None:
     ctx.files.append(p.name)
 
 
+#: ``modified.toml``'s formats: the shop files of the designed ring.
+SHOP_FORMATS = ("dxf", "edm", "cmm", "step")
+
+#: Sections ``modified.toml`` may carry over from the design scene (non-default
+#: keys only); the studies, checks and forces that designed it are left behind.
+_CARRIED = ("design", "export", "errors", "edm", "inspection", "budget")
+
+
+def _shop_formats() -> list[str]:
+    """:data:`SHOP_FORMATS`, without ``step`` where Open CASCADE is not installed."""
+    import importlib.util
+
+    ocp = importlib.util.find_spec("OCP") is not None
+    return [f for f in SHOP_FORMATS if f != "step" or ocp]
+
+
+def _without_no_effect(data: dict, formats: tuple[str, ...]) -> dict:
+    """``data`` less every section and key the loader would call without effect."""
+    from corr_cad.run.scene_text import no_effect_warnings
+
+    while True:
+        found = False
+        for line in no_effect_warnings(data, formats, False):
+            what = line.split(" has no effect", 1)[0]  # "[section]" or "[section] key"
+            section, _, key = what.partition("] ")
+            section = section.lstrip("[").rstrip("]")
+            if key and key in data.get(section, {}):
+                del data[section][key]
+                found = True
+            elif not key and section in data:
+                del data[section]
+                found = True
+            if section in data and not data[section]:
+                del data[section]
+        if not found:
+            return data
+
+
 def modified_toml(
-    scene, equidistant_mm: float, shift_mm: float, normal_table: str | None = None
+    scene,
+    equidistant_mm: float,
+    shift_mm: float,
+    normal_table: str | None = None,
+    folder=None,
 ) -> str:
-    """The user's scene (its parsed values) with the chosen ``[modification]`` written in.
+    """The scene that writes the shop files of the chosen modification (``modified.toml``).
 
-    Paths become absolute (the file lives in the output folder); the design
-    search and the ``modification`` format are left out, so the file runs
-    the shop files of the chosen design.
+    Formats :data:`SHOP_FORMATS`; of the design scene only the keys of
+    ``design``, ``export``, ``errors``, ``edm``, ``inspection`` and
+    ``budget`` whose values differ from the defaults, less every key the
+    loader would call without effect with those formats; then the chosen
+    ``[modification]`` (zero amounts left out). Written by ``tomli_w``, so
+    every string is escaped (a scene or file name cannot add a line); the
+    only path, ``measured_profile``, is relative to ``folder`` (where the
+    file is written), so the same scene gives the same bytes anywhere.
     """
-    import json
+    import os
+    from pathlib import Path
 
-    from corr_cad.run.scene_text import _toml_value
+    import tomli_w
 
-    def value(section: str, key: str, v) -> str:
-        if section == "tolerances" and isinstance(v, dict):
-            return f"{{ {v['kind']} = {v['scale']!r} }}"
-        if isinstance(v, str):
-            if key == "measured_profile" and scene.measured_profile is not None:
-                v = str(scene.measured_profile.resolve())
-            return json.dumps(v)
-        return _toml_value(v)
+    from corr_cad.run.scene_schema import SCHEMA
 
-    lines = [
-        f"# {scene.name} with the modification corr-cad designed ([modification.design]);",
-        "# run it for the shop files: corr-cad run modified.toml",
-    ]
-    for section, vals in scene.source.items():
-        if section in ("modification", "modification.design") or not vals:
-            continue
+    formats = _shop_formats()
+    data: dict = {}
+    for section in _CARRIED:
+        vals = scene.source.get(section, {})
+        keys = SCHEMA.get(section, {})
+        kept = {k: v for k, v in vals.items() if k in keys and v != keys[k].default}
+        if section == "errors" and "measured_profile" in kept:
+            path = Path(scene.measured_profile).resolve()
+            try:
+                kept["measured_profile"] = os.path.relpath(path, Path(folder or ".").resolve())
+            except ValueError:  # another drive: no relative path exists
+                kept["measured_profile"] = str(path)
         if section == "export":
-            vals = {**vals, "formats": [f for f in vals["formats"] if f != "modification"]}
-            vals["formats"] = vals["formats"] or ["dxf", "png"]
-        lines.append(f"\n[{section}]")
-        lines += [f"{k} = {value(section, k, v)}" for k, v in vals.items()]
-    lines += [
-        "\n[modification]",
-        f"equidistant_mm = {equidistant_mm!r}",
-        f"shift_mm = {shift_mm!r}",
-    ]
+            kept.pop("formats", None)
+            kept = {"formats": formats, **kept}
+        if kept:
+            data[section] = kept
+    data = _without_no_effect(data, tuple(formats))
+    mod = {
+        k: v for k, v in (("equidistant_mm", equidistant_mm), ("shift_mm", shift_mm)) if v != 0.0
+    }
     if normal_table is not None:  # beside modified.toml in the output folder
-        lines += [f"normal_table = {json.dumps(normal_table)}"]
-    return "\n".join(lines) + "\n"
+        mod["normal_table"] = normal_table
+    data["modification"] = mod
+    head = [
+        "# The scene of the modification corr-cad designed ([modification.design] of the",
+        "# scene in this folder's manifest.json): run it for the shop files,",
+        "#   corr-cad run modified.toml --out shop",
+        "# Only keys that differ from the defaults are listed.",
+    ]
+    if "step" not in formats:
+        head.append("# step left out: Open CASCADE is not installed (pip install -e '.[step]')")
+    return "\n".join(head) + "\n\n" + tomli_w.dumps(data)
+
+
+def range_edges(md: dict, chosen: dict) -> list[str]:
+    """The chosen amounts that lie at the end of their ``[modification.design]`` range.
+
+    The search never looked beyond: the best may lie there. The top of a range
+    always counts; its bottom unless it is 0 (no modification of that family,
+    a natural end). A range of one value (``steps = 1`` or equal ends) never.
+
+    >>> md = {"family": "equidistant+shift", "equidistant_range_mm": [0.0, 0.03],
+    ...       "shift_range_mm": [-0.01, 0.02]}
+    >>> edge = range_edges(md, {"equidistant_mm": 0.0, "shift_mm": 0.02})[0]
+    >>> edge.startswith("shift_mm = 0.02 at the top of shift_range_mm = [-0.01, 0.02]")
+    True
+    >>> edge.endswith("e.g. shift_range_mm = [-0.01, 0.035]")
+    True
+    """
+    from corr_cad.figure_text import figure
+
+    family = md["family"]
+    amounts = {"equidistant_range_mm": [chosen["equidistant_mm"]]}
+    if family == "equidistant+shift":
+        amounts["shift_range_mm"] = [chosen["shift_mm"]]
+    if family == "free":  # every control point runs over the equidistant range
+        amounts["equidistant_range_mm"] = list(chosen.get("normal_mm", []))
+    out = []
+    for key, values in amounts.items():
+        lo, hi = (float(v) for v in md[key])
+        if not hi > lo or md.get("steps", 2) < 2:
+            continue
+        name = key.replace("_range", "") if family != "free" else "normal_mm"
+        span = hi - lo
+        for v in values:
+            if v >= hi - 1e-9 * span:
+                wider = f"[{figure(lo)}, {figure(hi + 0.5 * span)}]"
+                end = "top"
+            elif v <= lo + 1e-9 * span and lo != 0.0:
+                wider = f"[{figure(lo - 0.5 * span)}, {figure(hi)}]"
+                end = "bottom"
+            else:
+                continue
+            out.append(
+                f"{name} = {figure(v)} at the {end} of {key} = [{figure(lo)}, {figure(hi)}]; "
+                f"widen it, e.g. {key} = {wider}"
+            )
+            break
+    return out
+
+
+def _final_folder(out):
+    """The folder the run's files end up in: the target of a CLI run's staging folder."""
+    from corr_cad.run.outputs import _is_stage
+
+    return out.parent if _is_stage(out) else out
 
 
 def modification_design(ctx: RunContext) -> None:
@@ -146,8 +256,9 @@ def modification_design(ctx: RunContext) -> None:
     )
     bar.close()
     write_json(ctx.out / "modification.json", res)
-    tradeoff_png(res, ctx.out / "modification_tradeoff.png", s.design)
     c = res["chosen"]
+    edges = range_edges(md, c) if c is not None else []
+    tradeoff_png(res, ctx.out / "modification_tradeoff.png", s.design, edges)
     table = None
     if "normal_mm" in c:  # the free family: its curve as a normal table beside modified.toml
         table = "modified_normal.csv"
@@ -157,7 +268,9 @@ def modification_design(ctx: RunContext) -> None:
             tmp.write_text("psi_deg,normal_mm\n" + rows + "\n")
         ctx.files.append(table)
     with writing(ctx.out / "modified.toml") as tmp:
-        tmp.write_text(modified_toml(s, c["equidistant_mm"], c["shift_mm"], table))
+        tmp.write_text(
+            modified_toml(s, c["equidistant_mm"], c["shift_mm"], table, _final_folder(ctx.out))
+        )
     ctx.files.extend(["modification.json", "modification_tradeoff.png", "modified.toml"])
     key = f"p{int(md['backlash_percentile'])}"
     rec = {
@@ -168,6 +281,8 @@ def modification_design(ctx: RunContext) -> None:
         f"backlash_{key}_arcmin": c["backlash_arcmin"][key]["value"],
         "binding_probability": c["binding_probability"]["value"],
     }
+    if edges:  # the console's warnings (corr_cad.run.console.warnings)
+        rec["at_range_edge"] = edges
     if not res["met"]:
         rec["failed"] = [f"modification design: targets unmet: {res['failed']}"]
     ctx.manifest["modification_design"] = rec

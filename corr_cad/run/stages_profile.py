@@ -90,11 +90,18 @@ def _dxf_files(ctx: RunContext) -> None:
 def _preview_png(ctx: RunContext) -> None:
     from corr_cad.export import plots
 
+    mod = ctx.scene.modification
+    label = ""
+    if mod is not None and not mod.is_zero:
+        from corr_cad.geometry.modification import amounts_text
+
+        label = amounts_text(mod)
     p = plots.preview_png(
         ctx.scene.design,
         ctx.results.working,
         ctx.results.theoretical,
         ctx.out / "preview.png",
+        modification=label,
     )
     ctx.files.append(p.name)
     if ctx.scene.modification is not None:

@@ -21,6 +21,7 @@ _PLAY = ("backlash_arcmin", "lost_motion_arcmin", "transmission_error_arcsec")
 def edm_files(ctx: RunContext) -> None:
     from corr_cad.export.edm_io import write_edm_dxf
     from corr_cad.export.gcode import DIALECTS, GcodeOptions, write_gcode
+    from corr_cad.geometry.modification import describe_profile, profile_record
     from corr_cad.shop.edm import EdmSpec, plan_cut
 
     s = ctx.scene
@@ -45,11 +46,17 @@ def edm_files(ctx: RunContext) -> None:
     )
     # I and J words beyond the control's range: nearly straight arcs, written as lines.
     reach = dialect.max_abs - 10.0 ** (1 - dialect.max_decimals)
-    prog, _ = plan_cut(ctx.results.working, spec, s.tolerance, ctx.results.forces, reach)
+    # The lead-in reuses the forces this run solved (format "forces"); without them it
+    # goes to the tooth tip by geometry: the EDM stage never solves forces itself.
+    profile = describe_profile(s.design, s.modification)
+    prog, _ = plan_cut(
+        ctx.results.working, spec, s.tolerance, ctx.results.forces, reach, profile=profile
+    )
     write_edm_dxf(s.design, prog, ctx.out / "inner_gear_edm.dxf")
     write_gcode(s.design, prog, s.name, ctx.out / "inner_gear_edm.nc", options)
     ctx.files.extend(["inner_gear_edm.dxf", "inner_gear_edm.nc"])
     ctx.manifest["edm"] = prog.as_dict()
+    ctx.manifest["edm"]["profile"] = profile_record(s.design, s.modification)
     ctx.manifest["edm"]["gcode"] = {
         "dialect": dialect.name,
         "coordinate_decimals": prog.decimals,
@@ -68,6 +75,7 @@ def edm_files(ctx: RunContext) -> None:
 
 def cmm_points(ctx: RunContext) -> None:
     from corr_cad.export.inspection_io import write_nominal_csv
+    from corr_cad.geometry.modification import describe_profile, profile_record
     from corr_cad.geometry.projection import arc_length_parameters
 
     s = ctx.scene
@@ -81,9 +89,11 @@ def cmm_points(ctx: RunContext) -> None:
     tooth = np.repeat(np.arange(1, z + 1), len(t0))
     pts = w.points(t)
     normals = -w.normals(t)
-    write_nominal_csv(tooth, t, pts, normals, ctx.out / "inner_gear_nominal.csv")
+    profile = describe_profile(s.design, s.modification)
+    write_nominal_csv(tooth, t, pts, normals, ctx.out / "inner_gear_nominal.csv", profile)
     ctx.files.append("inner_gear_nominal.csv")
     ctx.manifest["cmm"] = {
+        "profile": profile_record(s.design, s.modification),
         "points": int(len(t)),
         "points_per_tooth": int(len(t0)),
         "point_spacing_mm": step,
@@ -217,6 +227,7 @@ def _force_comparison(ctx: RunContext) -> dict:
 def inspection(ctx: RunContext) -> None:
     from corr_cad.export.inspection_io import inspection_png, verdict_line, write_inspection
     from corr_cad.geometry import kinematics as kin
+    from corr_cad.geometry.modification import describe_profile
     from corr_cad.tolerance.inspection import (
         LIMITS,
         evaluate_limits,
@@ -243,6 +254,9 @@ def inspection(ctx: RunContext) -> None:
     ctx.progress("      fitting e, L, phase and centre to the measured profile")
     fit = fit_design_family(w, raw)
     summary = {
+        "nominal_profile": describe_profile(
+            s.design, None if against == "conjugate" else s.modification
+        ),
         "teeth": len(res.teeth),
         "registration": reg.as_dict(),
         "evaluation_psi_deg": s.inspection["evaluation_psi_deg"],
@@ -267,7 +281,7 @@ def inspection(ctx: RunContext) -> None:
     ctx.files.extend(files + ["inspection.png"])
     ctx.manifest["inspection"] = {
         k: summary[k]
-        for k in ("passed", "limits", "profile_deviation_max_mm", "runout_mm")
+        for k in ("nominal_profile", "passed", "limits", "profile_deviation_max_mm", "runout_mm")
         + ("cumulative_pitch_total_arcsec", "predicted")
     }
     ctx.manifest["inspection"]["failed"] = [

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from corr_cad.errors import SceneError, SolverError
+from corr_cad.figure_text import figure
 from corr_cad.mechanics.solver import solve_forces
 from corr_cad.run.context import RunContext, expected_seconds, psi_contact_limit, scene_errors
 
@@ -102,10 +103,9 @@ def _montecarlo(ctx: RunContext) -> None:
     if s.life:
         summary["life_h"] = _life_under_tolerances(ctx)
     write_json(ctx.out / "montecarlo_summary.json", summary)
-    from corr_cad.tolerance.mc_datasheet import DATASHEET_MC_METRICS
 
-    plots_tolerance.montecarlo_png(  # the force metrics (the datasheet's are in the CSV)
-        {k: v for k, v in res.metrics.items() if k not in DATASHEET_MC_METRICS},
+    plots_tolerance.montecarlo_png(  # every metric the sensitivity ranks (binds: a probability)
+        {k: v for k, v in res.metrics.items() if k in plots_tolerance.ORDER},
         s.checks,
         ctx.out / "montecarlo.png",
         summary,
@@ -113,6 +113,7 @@ def _montecarlo(ctx: RunContext) -> None:
         s.design,
         s.load.input_torque,
         s.tolerances,
+        s.montecarlo["binding_pressure_MPa"] if "binds" in res.metrics else None,
     )
     ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
     ctx.manifest["montecarlo"] = {
@@ -145,7 +146,7 @@ def _montecarlo(ctx: RunContext) -> None:
             state = "pass" if g["passed"] else "FAIL"
             ctx.progress(
                 f"      check montecarlo {name}: {state} (failure probability "
-                f"{g['probability']:.4g}, allowed {g['allowed']:.4g})"
+                f"{figure(g['probability'])}, allowed {figure(g['allowed'])})"
             )
 
 

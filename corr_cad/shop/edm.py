@@ -211,17 +211,29 @@ class EdmProgram:
     start_hole_clearance: float = 0.0
     lead_in_kink_deg: float = 0.0
     slug_stop_index: int | None = None
+    #: The working profile cut: ``conjugate ...`` or ``modified: <families and amounts>``
+    #: (:func:`corr_cad.geometry.modification.describe_profile`); empty if not given.
+    profile: str = ""
+
+    @property
+    def modified(self) -> bool:
+        return self.profile.startswith("modified")
 
     def as_dict(self) -> dict:
         comp = self.spec.compensation
+        path_side = (
+            "the modified working profile offset by wire_offset"
+            if self.modified
+            else "locus offset by roller_radius - wire_offset"
+        )
         side = (
-            "into the opening (the scrap slug); wire centre path = locus offset "
-            "by roller_radius - wire_offset"
+            f"into the opening (the scrap slug); wire centre path = {path_side}"
             if comp == "path"
             else f"into the opening (the scrap slug), by the control: {comp} keeps the wire "
             f"{'left' if comp == 'G41' else 'right'} of the programmed working profile"
         )
         return {
+            **({"profile": self.profile} if self.profile else {}),
             "wire_diameter_mm": self.spec.wire_diameter,
             "spark_gap_mm": self.spec.spark_gap,
             "wire_offset_mm": self.spec.offset,
@@ -407,6 +419,7 @@ def plan_cut(
     tolerance: float,
     forces=None,
     max_centre_offset: float = math.inf,
+    profile: str = "",
 ) -> tuple[EdmProgram, ProfileCurve]:
     """The wire path for the opening of ``working``; returns it and the exact path curve.
 
@@ -414,7 +427,10 @@ def plan_cut(
     working profile itself (G41/G42). An arc whose centre lies more than
     ``max_centre_offset`` from its start in X or Y (an I or J word the
     control cannot take; nearly straight) is written as a line; the measured
-    deviation includes that. Raises :class:`SceneError` when the wire cannot
+    deviation includes that. ``profile`` names the working profile for the
+    files (:attr:`EdmProgram.profile`). ``forces``: a solver result the run
+    already has, or None (the lead-in then goes to the tooth tip, by
+    geometry; no forces are solved here). Raises :class:`SceneError` when the wire cannot
     reach the tooth spaces, the start hole does not fit in the opening, the
     lead-in is too short for the compensation or the slug stop too long.
     """
@@ -540,5 +556,6 @@ def plan_cut(
         clearance,
         kink,
         slug_index,
+        profile,
     )
     return prog, path

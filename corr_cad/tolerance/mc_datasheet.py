@@ -228,6 +228,10 @@ def binding_probability(binds: np.ndarray, confidence: float = 0.95) -> dict:
         "binding_samples": int(k),
         "samples": n,
         "standard_error": math.sqrt(p * (1 - p) / n),
-        "wilson_interval": [max(0.0, centre - half), min(1.0, centre + half)],
+        # exactly 0 (1) when no (every) sample binds: the closed form's round-off is ~1e-18
+        "wilson_interval": [
+            0.0 if k == 0 else max(0.0, centre - half),
+            1.0 if k == n else min(1.0, centre + half),
+        ],
         "confidence": confidence,
     }
