@@ -263,8 +263,8 @@ def friction_lines(d: dict) -> list[str]:
             f"{life['at_output_speed_rpm']:g} rpm out)"
         )
         out.append(
-            f"  rated torque from life {figure(rt['value'], 5)} N*m (L10 {rt['rated_life_h']:g} h at "
-            f"{rt['rated_speed_rpm']:g} rpm)"
+            f"  rated torque from life {figure(rt['value'], 5)} N*m "
+            f"(L10 {rt['rated_life_h']:g} h at {rt['rated_speed_rpm']:g} rpm)"
         )
     return out
 
