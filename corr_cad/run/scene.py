@@ -23,6 +23,7 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
+from corr_cad.run.scene_drive import SolverSpec, parse_drive, recorded, split_drive_tables
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
@@ -72,14 +73,6 @@ class LoadSpec:
 
 
 @dataclass(frozen=True)
-class SolverSpec:
-    positions: int = 3600
-    load_share: float = 0.55
-    crank_angles_deg: tuple[float, ...] | None = None
-    variants: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
 class Scene:
     """A validated scene."""
 
@@ -102,6 +95,11 @@ class Scene:
     load: LoadSpec | None = None
     solver: SolverSpec = field(default_factory=SolverSpec)
     errors: ErrorSpec = field(default_factory=ErrorSpec)
+    #: ``[errors.row_b]`` under ``model = "drive"`` (None: ``[errors]`` is both rows').
+    errors_b: ErrorSpec | None = None
+    #: ``[bearings.eccentric]`` and cam B's (None: the cams are fixed).
+    bearing: Any = None
+    bearing_b: Any = None
     checks: Checks = field(default_factory=Checks)
     measured_profile: Path | None = None
     measured_exaggeration: float = 200.0
@@ -231,7 +229,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
-    data = split_design_table(data)
+    data = split_drive_tables(split_design_table(data))
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -310,7 +308,10 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         load_share=sv["load_share"],
         crank_angles_deg=tuple(angles) if angles is not None else None,
         variants=tuple(sv["variants"]),
+        model=sv["model"],
+        contact_law=sv["contact_law"],
     )
+    drive = parse_drive(values, data, design)
 
     er = values["errors"]
     per = er["roller_radius_errors"]
@@ -452,6 +453,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         load=load,
         solver=solver,
         errors=errors,
+        errors_b=drive["errors_b"],
+        bearing=drive["bearing"],
+        bearing_b=drive["bearing_b"],
         checks=checks,
         measured_profile=(
             (Path(base_dir or ".") / er["measured_profile"])
@@ -474,12 +478,14 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
                 for k, v in vals.items()
-                if v is not None
+                if v is not None and recorded(s, k, data)
             }
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given, [modification] and
             # [assembly] where they act (the inputs of scenes without them stay as they were).
-            if (s != "datasheet" or sheet) and acts(s, modification, assembly, search)
+            if (s != "datasheet" or sheet)
+            and acts(s, modification, assembly, search)
+            and recorded(s, "", data)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

@@ -15,7 +15,13 @@ from dataclasses import fields
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import NMM_PER_NM
-from corr_cad.run.context import RunContext, modified_curve, psi_contact_limit, scene_errors
+from corr_cad.run.context import (
+    RunContext,
+    modified_curve,
+    psi_contact_limit,
+    scene_errors,
+    scene_errors_b,
+)
 
 __all__ = ["datasheet_spec", "rated_torque_Nmm", "datasheet_errors", "ring_description"]
 
@@ -109,9 +115,19 @@ def _datasheet(ctx: RunContext) -> None:
         datasheet_spec(s),
         errors=datasheet_errors(ctx),
         load_share=s.solver.load_share,
+        contact_model=s.solver.contact_model,
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
+        drive=drive_settings(ctx),
     )
+
+
+def drive_settings(ctx: RunContext) -> dict | None:
+    """The datasheet's ``drive`` argument under ``model = "drive"`` (None: the paper's row)."""
+    s = ctx.scene
+    if not s.solver.drive:
+        return None
+    return {"errors_b": scene_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
 
 
 def _meta(ctx: RunContext) -> dict:
@@ -122,8 +138,7 @@ def _meta(ctx: RunContext) -> dict:
         "rated_torque_source": (
             "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"
         ),
-        "load_share": s.solver.load_share,
-        "contact_model": "nonlinear",
+        **_model_meta(s),
         "variants": list(s.solver.variants),
         "units": {"torque": "N*m", "windup": "arcmin", "transmission_error": "arcsec"},
         "conventions": {
@@ -138,6 +153,22 @@ def _meta(ctx: RunContext) -> dict:
             "transmission error; the minimum for rigidities",
         },
     }
+
+
+def _model_meta(s) -> dict:
+    """The model, contact law and bearing as ``datasheet.json`` states them.
+
+    The paper's model with its contact law keeps the two keys it always had.
+    """
+    if not s.solver.drive and s.solver.contact_law == "paper":
+        return {"load_share": s.solver.load_share, "contact_model": "nonlinear"}
+    from corr_cad.run.stages_drive import model_description
+
+    out = model_description(s)
+    if not s.solver.drive:
+        out["load_share"] = s.solver.load_share
+        out.pop("bearing", None)
+    return out
 
 
 def _datasheet_files(ctx: RunContext) -> None:
@@ -157,6 +188,8 @@ def _datasheet_files(ctx: RunContext) -> None:
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
+    if s.solver.drive or s.solver.contact_law != "paper":
+        ctx.manifest["datasheet"].update(_model_meta(s))
     if s.assembly:
         _assembly(ctx)
 

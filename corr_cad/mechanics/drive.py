@@ -1,0 +1,456 @@
+"""The drive: both rows of rollers and both cams solved together (``[solver] model = "drive"``).
+
+The paper's model (:mod:`corr_cad.mechanics.solver`) solves one row carrying
+a fixed ``load_share`` of the crank moment. A CORR drive has two cams on one
+crank, 180 degrees apart, each driving its own row of rollers in the same
+slotted frame against its own ring. Here both rows are solved together.
+
+Model
+-----
+At crank angle ``phi`` (relative to the frame, as in the one-row solver):
+
+* cam A at ``phi``, row A in slots ``k`` at ``psi_k = phi - theta_k``;
+* cam B at ``phi + pi + dphi`` (``dphi`` = ``cam_phase_error_deg``: cam B's
+  eccentric leads cam A's by ``dphi`` in the sense of positive crank
+  rotation); roller ``k`` of row B sits in the same slot ``k`` with
+  ``psi_k + pi``; ring B is ring A turned by ``pi / z``, so row B's geometry
+  is the one-row geometry at ``phi + pi``. The phase error enters row B's
+  initial interference exactly as a rotation of its eccentric
+  (:func:`corr_cad.mechanics.solver_geometry._error_gaps`); to first order it
+  adds ``dphi a_k``, i.e. it pre-turns cam B by ``dphi``.
+* one crank rotation ``tau`` shared by both cams, and the whole crank moment
+  ``M0`` carried by both rows together:
+
+      sum over both rows of a_k F_k = M0      (no load_share);
+
+* each roller: the compliance of its three contacts in series, as in the
+  one-row solver, with the overlap ``a_k tau + h_k + u_c . n_k``; ``n_k`` is the
+  unit vector from the cam centre to the roller centre, ``u_c`` the
+  displacement of its cam's centre on the eccentric bearing
+  (:mod:`corr_cad.mechanics.bearing`; zero without bearings: rigid cams);
+* each cam with a bearing: ``sum_k F_k n_k = sum_j Q_j e_j`` (the needles
+  carry the rollers' resultant).
+
+The row A share is ``sum_A a_k F_k / M0``. The roller forces pass through
+the cam centre, so a cam's displacement changes no moment arm.
+
+Numerics: rigid cams are the one-row problem with ``2 (z + 1)`` rollers
+(the one-row solver's Newton-bisection on ``tau``). With bearings, a joint
+Newton on ``(tau, u_A, u_B)`` per position, started from the rigid solution
+with each cam displaced along its load by the Stribeck estimate, with a
+backtracking line search on the scaled residual; the Jacobian is exact
+(the potential energy of the contacts is convex, so it is symmetric and
+positive semi-definite).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from corr_cad.errors import SolverError
+from corr_cad.geometry.design import GearDesign
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.solver import CONTACT_MODELS, ForceResult, _result
+from corr_cad.mechanics.solver_geometry import RollerGeometry, cycle_angles, roller_geometry
+from corr_cad.mechanics.solver_numerics import _RTOL, _solve_positions, make_compliance
+
+__all__ = ["DriveResult", "row_errors", "drive_geometry", "solve_drive", "DriveSolver"]
+
+#: Relative residual of the moment and of each cam's force balance the bearing solve reaches.
+DRIVE_RTOL = 1e-12
+
+
+def row_errors(
+    errors: ManufacturingErrors | None, errors_b: ManufacturingErrors | None = None
+) -> tuple[ManufacturingErrors, ManufacturingErrors]:
+    """Row A's and row B's error models from ``[errors]`` and ``[errors.row_b]``.
+
+    ``[errors]`` describes both rows unless ``errors_b`` is given. The slot
+    errors are the frame's: row B takes row A's. The cam phase error is cam
+    B's against cam A: row A gets none, row B the scene's.
+    """
+    errors = errors or ManufacturingErrors()
+    b = errors if errors_b is None else errors_b
+    phase = errors.cam_phase_error
+    a = replace(errors, cam_phase_error=0.0)
+    b = replace(b, cam_phase_error=phase, slot_angle_errors=errors.slot_angle_errors)
+    return a, b
+
+
+def drive_geometry(
+    design: GearDesign,
+    crank_angles: np.ndarray,
+    errors_a: ManufacturingErrors,
+    errors_b: ManufacturingErrors,
+    variants: tuple[str, ...] = (),
+    psi_contact_limit: float = math.pi,
+) -> tuple[RollerGeometry, RollerGeometry]:
+    """Row A's and row B's geometry at crank angles (P,) (row B at ``phi + pi``)."""
+    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
+    ga = roller_geometry(design, phi, errors_a, variants, psi_contact_limit)
+    gb = roller_geometry(design, phi + np.pi, errors_b, variants, psi_contact_limit)
+    return ga, gb
+
+
+def joined(ga: RollerGeometry, gb: RollerGeometry) -> RollerGeometry:
+    """Both rows as one geometry of ``2 (z + 1)`` rollers (row A first)."""
+    out = {}
+    for k in RollerGeometry.__dataclass_fields__:
+        a, b = getattr(ga, k), getattr(gb, k)
+        if np.ndim(a) == 2:
+            out[k] = np.concatenate([a, b], axis=1)
+        else:  # k_cam: one per cam
+            out[k] = np.concatenate(
+                [np.full(ga.psi.shape, float(a)), np.full(gb.psi.shape, float(b))], axis=1
+            )
+    return RollerGeometry(**out)
+
+
+def roller_directions(design: GearDesign, geo: RollerGeometry) -> np.ndarray:
+    """``n_k`` (P, R, 2): unit vector from the cam centre to roller ``k``, eccentric's frame.
+
+    In the frame that turns with the eccentric (eccentric along +y), roller
+    ``k`` sits at ``s_k (-sin psi_k, cos psi_k)`` and the cam centre at
+    ``(0, e)``; their distance is ``L``.
+    """
+    e, L = design.eccentricity, design.link_length
+    s, psi = geo.s, geo.psi
+    return np.stack([-s * np.sin(psi) / L, (s * np.cos(psi) - e) / L], axis=-1)
+
+
+@dataclass
+class DriveResult:
+    """Both rows' forces over crank positions (arrays: row 0 = A, row 1 = B).
+
+    ``F_j``, ``F_n``, ``F_s`` (2, P, R) N with the one-row solver's signs;
+    ``row_a_share`` (P,); ``bearing_load`` (2, P) N: each cam's radial
+    bearing load ``|sum_k F_k n_k|``; ``needle_load_max`` (2, P) N (NaN for
+    rigid cams); ``needle_loads``: each cam's (P, Z) needle loads, N (None for
+    rigid cams; needle ``j`` at the eccentric's direction ``+ 2 pi j / Z``); ``cam_displacement``
+    (2, P, 2) mm in each eccentric's frame; ``cam_rotation`` (P,) rad: the
+    crank rotation ``tau``; ``rows``: each row as a :class:`ForceResult`
+    (row B's ``crank_angles`` and ``psi`` are its own, ``phi + pi``).
+    """
+
+    success: bool
+    message: str
+    iterations: int
+    moment_residual: float
+    crank_angles: np.ndarray
+    F_j: np.ndarray
+    F_n: np.ndarray
+    F_s: np.ndarray
+    row_a_share: np.ndarray
+    bearing_load: np.ndarray
+    needle_load_max: np.ndarray
+    needle_loads: tuple[np.ndarray, np.ndarray] | None
+    cam_displacement: np.ndarray
+    cam_rotation: np.ndarray
+    input_torque: float
+    rows: tuple[ForceResult, ForceResult] = field(repr=False)
+    bearings: tuple[EccentricBearing | None, EccentricBearing | None] = (None, None)
+
+    @property
+    def force(self) -> np.ndarray:
+        """The cam forces ``F_j`` (2, P, R), N."""
+        return self.F_j
+
+    @property
+    def row(self) -> tuple[ForceResult, ForceResult]:
+        """Alias of :attr:`rows`."""
+        return self.rows
+
+
+class DriveSolver:
+    """Both rows at fixed crank angles; solve for any crank moment (geometry built once)."""
+
+    def __init__(
+        self,
+        design: GearDesign,
+        crank_angles: np.ndarray,
+        *,
+        errors: ManufacturingErrors | None = None,
+        errors_b: ManufacturingErrors | None = None,
+        bearing: EccentricBearing | None = None,
+        bearing_b: EccentricBearing | None = None,
+        contact_model: str = "nonlinear",
+        variants: tuple[str, ...] = (),
+        psi_contact_limit: float = math.pi,
+        geometry: tuple[RollerGeometry, RollerGeometry] | None = None,
+        rtol: float = _RTOL,
+    ):
+        if contact_model not in CONTACT_MODELS:
+            raise SolverError(
+                f"contact_model = {contact_model!r}: must be one of {', '.join(CONTACT_MODELS)}"
+            )
+        self.design = design
+        self.crank_angles = np.asarray(crank_angles, dtype=float).reshape(-1)
+        self.errors = row_errors(errors, errors_b)
+        if geometry is None:
+            geometry = drive_geometry(
+                design, self.crank_angles, *self.errors, variants, psi_contact_limit
+            )
+        self.geo = geometry
+        self.geo_joined = joined(*geometry)
+        self.comp = make_compliance(self.geo_joined, design, contact_model)
+        if bearing_b is None:
+            bearing_b = bearing
+        self.bearings = (bearing, bearing_b)
+        if (bearing is None) != (bearing_b is None):
+            raise SolverError("eccentric bearings: give both cams a bearing or neither")
+        self.rtol = rtol
+        self.R = design.roller_count
+        self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
+
+    # ------------------------------------------------------------------ solve
+
+    def solve(self, target: float):
+        """``(tau, F (P, 2R), u (2, P, 2), Q list, rel, iterations)`` at crank moment ``target``."""
+        geo, comp = self.geo_joined, self.comp
+        tau, F, iterations, _, rel = _solve_positions(geo, comp, target, self.rtol)
+        P = len(tau)
+        u = np.zeros((2, P, 2))
+        if self.bearings[0] is None:
+            return tau, F, u, None, rel, iterations
+        return self._with_bearings(target, tau, F, iterations)
+
+    def _forces(self, h, F_prev, h_prev, k_prev):
+        """Roller forces and ``dF/dh`` at overlaps ``h`` (P, 2R)."""
+        comp = self.comp
+        if getattr(comp, "explicit", False):
+            return comp.force_and_stiffness(h)
+        start = h / comp.slope0
+        if F_prev is not None:
+            pred = F_prev + (h - h_prev) * k_prev
+            start = np.where(F_prev > 0, np.maximum(pred, 0.0), start)
+        F, dg = comp.invert(h, start)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = np.where(F > 0, 1.0 / dg, 0.0)
+        return F, k
+
+    def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
+        geo, R = self.geo_joined, self.R
+        a_c = np.where(geo.loadable, geo.advance, 0.0)
+        a_m = np.where(geo.loadable, geo.arm, 0.0)
+        h0 = np.where(geo.loadable, geo.gap, -1e300)
+        n = self.n
+        P = len(tau)
+        dirs = [b.directions() for b in self.bearings]
+        rows = (slice(0, R), slice(R, 2 * R))
+        # Start: each cam displaced along its load by the clearance and Stribeck's approach.
+        u = np.zeros((2, P, 2))
+        for c, (b, sl) in enumerate(zip(self.bearings, rows, strict=True)):
+            push = np.einsum("pk,pkx->px", F[:, sl], n[:, sl])  # sum F n: the needles' share
+            mag = np.linalg.norm(push, axis=1)
+            q = b.stribeck_max_load(1.0) * mag
+            depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
+            with np.errstate(divide="ignore", invalid="ignore"):
+                u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
+        scale_m = abs(target) + 1e-300
+        scale_f = scale_m / self.design.eccentricity
+
+        def state(tau, u, F_prev=None, h_prev=None, k_prev=None):
+            uu = np.concatenate(
+                [np.repeat(u[0][:, None, :], R, 1), np.repeat(u[1][:, None, :], R, 1)], 1
+            )
+            nu = np.sum(n * uu, axis=-1)
+            h = a_c * tau[:, None] + h0 + nu
+            Fx, kf = self._forces(h, F_prev, h_prev, k_prev)
+            gf = np.where(
+                h0 > -1e300, (np.abs(a_c * tau[:, None]) + np.abs(h0) + np.abs(nu)) * kf, 0.0
+            )
+            r = np.empty((P, 5))
+            r[:, 0] = np.sum(a_m * Fx, axis=1) - target
+            Qs, kqs = [], []
+            gq = []
+            for c, (b, sl) in enumerate(zip(self.bearings, rows, strict=True)):
+                Q, kq = b.loads(u[c])
+                r[:, 1 + 2 * c : 3 + 2 * c] = (
+                    np.einsum("pk,pkx->px", Fx[:, sl], n[:, sl]) - Q @ dirs[c]
+                )
+                Qs.append(Q)
+                kqs.append(kq)
+                gq.append(kq * (np.linalg.norm(u[c], axis=1) + b.diametral_clearance)[:, None])
+            return h, Fx, kf, Qs, kqs, r, (gf, gq)
+
+        def merit(r):
+            return (r[:, 0] / scale_m) ** 2 + np.sum((r[:, 1:] / scale_f) ** 2, axis=1)
+
+        h, F, kf, Qs, kqs, r, gross = state(tau, u)
+        it = 0
+        for it in range(1, max_iter + 1):
+            done = self._converged(r, F, a_m, Qs, target, gross)
+            if np.all(done):
+                break
+            J = np.zeros((P, 5, 5))
+            J[:, 0, 0] = np.sum(a_m * a_c * kf, axis=1)
+            for c, sl in enumerate(rows):
+                i = slice(1 + 2 * c, 3 + 2 * c)
+                kn = kf[:, sl, None] * n[:, sl]
+                J[:, 0, i] = np.sum(a_m[:, sl, None] * kn, axis=1)
+                J[:, i, 0] = np.sum(a_c[:, sl, None] * kn, axis=1)
+                kuu = np.einsum("pkx,pky->pxy", kn, n[:, sl])
+                kuu += np.einsum("pj,jx,jy->pxy", kqs[c], dirs[c], dirs[c])
+                tr = np.trace(kuu, axis1=1, axis2=2)
+                kuu += (1e-12 * tr + 1e-9)[:, None, None] * np.eye(2)
+                J[:, i, i] = kuu
+            J[:, 0, 0] += 1e-300
+            step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
+            step[done] = 0.0
+            m0 = merit(r)
+            alpha = np.ones(P)
+            for _ in range(40):
+                t_tau = tau + alpha * step[:, 0]
+                t_u = u + (alpha[:, None] * step[:, 1:]).reshape(P, 2, 2).transpose(1, 0, 2)
+                th, tF, tkf, tQ, tkq, tr_, tg = state(t_tau, t_u, F, h, kf)
+                ok = merit(tr_) <= (1.0 - 1e-4 * alpha) * m0
+                if np.all(ok | done):
+                    break
+                alpha = np.where(ok | done, alpha, 0.5 * alpha)
+            tau, u, h, F, kf, Qs, kqs, r, gross = t_tau, t_u, th, tF, tkf, tQ, tkq, tr_, tg
+        done = self._converged(r, F, a_m, Qs, target, gross)
+        rel = self._relative(r, F, a_m, Qs, target, gross)
+        if not np.all(done):
+            rel = np.maximum(rel, np.where(done, 0.0, np.inf))
+        return tau, F, u, Qs, rel, iterations + it
+
+    @staticmethod
+    def _scales(F, a_m, Qs, target, R, gross):
+        """Scales of the residuals: the forces, and the forces the gross terms of each
+        overlap (``|a tau| + |gap| + |n . u|``, which cancel to leave it) and of each needle's
+        approach (``|u|``) would give: their round-off is all a residual can reach."""
+        gf, gq = gross
+        sm = abs(target) + np.sum(np.abs(a_m) * (np.abs(F) + gf), axis=1)
+        sf = [
+            np.sum(F[:, c * R : (c + 1) * R] + gf[:, c * R : (c + 1) * R], axis=1)
+            + np.sum(Qs[c] + gq[c], axis=1)
+            for c in (0, 1)
+        ]
+        return sm, sf
+
+    def _relative(self, r, F, a_m, Qs, target, gross):
+        sm, sf = self._scales(F, a_m, Qs, target, self.R, gross)
+        rel = np.abs(r[:, 0]) / (sm + 1e-300)
+        for c in (0, 1):
+            rel = np.maximum(
+                rel, np.linalg.norm(r[:, 1 + 2 * c : 3 + 2 * c], axis=1) / (sf[c] + 1e-300)
+            )
+        return rel
+
+    def _converged(self, r, F, a_m, Qs, target, gross):
+        return self._relative(r, F, a_m, Qs, target, gross) <= DRIVE_RTOL
+
+    def share(self, F: np.ndarray) -> np.ndarray:
+        """Row A's share of the moment from both rows' cam forces (P, 2R); 0.5 where no moment."""
+        a_m = np.where(self.geo_joined.loadable, self.geo_joined.arm, 0.0)
+        mom_a = np.sum(a_m[:, : self.R] * F[:, : self.R], axis=1)
+        mom = np.sum(a_m * F, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(mom != 0, mom_a / mom, 0.5)
+
+    # ------------------------------------------------------------------ result
+
+    def result(self, target: float) -> DriveResult:
+        """The :class:`DriveResult` at crank moment ``target`` (N*mm)."""
+        tau, F, u, Qs, rel, iterations = self.solve(target)
+        return self._build(target, tau, F, u, Qs, rel, iterations)
+
+    def _build(self, target, tau, F, u, Qs, rel, iterations) -> DriveResult:
+        R, P = self.R, len(tau)
+        ga, gb = self.geo
+        angles = self.crank_angles
+        parts = []
+        for g, sl, ang in ((ga, slice(0, R), angles), (gb, slice(R, 2 * R), angles + np.pi)):
+            parts.append(_result(self.design, g, F[:, sl], tau, rel, iterations, ang, target, P))
+        share = self.share(F)
+        push = np.stack(
+            [
+                np.linalg.norm(np.einsum("pk,pkx->px", F[:, sl], self.n[:, sl]), axis=1)
+                for sl in (slice(0, R), slice(R, 2 * R))
+            ]
+        )
+        if Qs is None:
+            needle_max = np.full((2, P), np.nan)
+            needles = None
+        else:
+            needle_max = np.stack([q.max(axis=1) for q in Qs])
+            needles = (Qs[0], Qs[1])
+        limit = max(self.rtol, 1e-9)
+        worst = float(rel.max()) if rel.size else 0.0
+        ok = bool(np.all(rel <= limit))
+        return DriveResult(
+            success=ok,
+            message="converged"
+            if ok
+            else f"equilibrium not reached to {limit:g} (worst relative residual {worst:.3g})",
+            iterations=int(iterations),
+            moment_residual=worst,
+            crank_angles=angles,
+            F_j=np.stack([p.F_j for p in parts]),
+            F_n=np.stack([p.F_n for p in parts]),
+            F_s=np.stack([p.F_s for p in parts]),
+            row_a_share=share,
+            bearing_load=push,
+            needle_load_max=needle_max,
+            needle_loads=needles,
+            cam_displacement=u,
+            cam_rotation=tau,
+            input_torque=float(target),
+            rows=(parts[0], parts[1]),
+            bearings=self.bearings,
+        )
+
+
+def solve_drive(
+    design: GearDesign,
+    input_torque: float,
+    crank_angles: np.ndarray | None = None,
+    *,
+    positions: int = 3600,
+    errors: ManufacturingErrors | None = None,
+    errors_b: ManufacturingErrors | None = None,
+    bearing: EccentricBearing | None = None,
+    bearing_b: EccentricBearing | None = None,
+    contact_model: str = "nonlinear",
+    variants: tuple[str, ...] = (),
+    psi_contact_limit: float = math.pi,
+) -> DriveResult:
+    """Both rows' forces at each crank angle under the crank moment ``input_torque`` (N*mm).
+
+    ``errors`` describes both rows unless ``errors_b`` is given (then row B);
+    the slot errors are ``errors``'s, ``errors.cam_phase_error`` is cam B's
+    phase against cam A. ``bearing`` floats both cams on needle bearings
+    (``bearing_b`` overrides cam B's); without it the cams are fixed.
+
+    >>> import numpy as np
+    >>> from corr_cad import GearDesign
+    >>> from corr_cad.mechanics.drive import solve_drive
+    >>> res = solve_drive(GearDesign(), 1.1e5, np.radians([0.0, 5.0]))
+    >>> np.round(res.row_a_share, 12)          # identical rows, z + 1 even: exactly half
+    array([0.5, 0.5])
+    """
+    v = input_torque
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise SolverError(f"input_torque = {v!r}: must be a finite number")
+    if crank_angles is None:
+        angles = cycle_angles(positions)
+    else:
+        angles = np.asarray(crank_angles, dtype=float).reshape(-1)
+        if angles.size == 0 or not np.all(np.isfinite(angles)):
+            raise SolverError("crank_angles must be a non-empty array of finite angles (rad)")
+    solver = DriveSolver(
+        design,
+        angles,
+        errors=errors,
+        errors_b=errors_b,
+        bearing=bearing,
+        bearing_b=bearing_b,
+        contact_model=contact_model,
+        variants=variants,
+        psi_contact_limit=psi_contact_limit,
+    )
+    return solver.result(float(input_torque))
