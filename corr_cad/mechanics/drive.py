@@ -60,6 +60,10 @@ from corr_cad.mechanics.solver_numerics import _RTOL, _solve_positions, make_com
 
 __all__ = ["DriveResult", "row_errors", "drive_geometry", "solve_drive", "DriveSolver"]
 
+#: At zero moment, rollers below this force (N) are touching, not loaded (round-off of
+#: the rigid solve of rows that just touch): the cams then stay centred.
+_IDLE_FORCE = 1e-9
+
 #: Relative residual of the moment and of each cam's force balance the bearing solve reaches.
 DRIVE_RTOL = 1e-12
 
@@ -250,8 +254,9 @@ class DriveSolver:
             depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
             with np.errstate(divide="ignore", invalid="ignore"):
                 u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
-        scale_m = abs(target) + 1e-300
-        scale_f = scale_m / self.design.eccentricity
+        # Fixed residual scales (a zero moment with preload has forces, not M0, as its scale).
+        scale_m = abs(target) + np.sum(np.abs(a_m * F), axis=1) + 1e-300
+        scale_f = (scale_m / self.design.eccentricity)[:, None]
 
         def state(tau, u, F_prev=None, h_prev=None, k_prev=None):
             uu = np.concatenate(
@@ -281,9 +286,13 @@ class DriveSolver:
             return (r[:, 0] / scale_m) ** 2 + np.sum((r[:, 1:] / scale_f) ** 2, axis=1)
 
         h, F, kf, Qs, kqs, r, gross = state(tau, u)
+        # No moment and no preload (rows just touching): the cams stay centred, nothing to solve.
+        idle = np.zeros(P, dtype=bool)
+        if target == 0.0:
+            idle = np.max(F, axis=1) <= _IDLE_FORCE
         it = 0
         for it in range(1, max_iter + 1):
-            done = self._converged(r, F, a_m, Qs, target, gross)
+            done = self._converged(r, F, a_m, Qs, target, gross) | idle
             if np.all(done):
                 break
             J = np.zeros((P, 5, 5))
@@ -312,8 +321,8 @@ class DriveSolver:
                     break
                 alpha = np.where(ok | done, alpha, 0.5 * alpha)
             tau, u, h, F, kf, Qs, kqs, r, gross = t_tau, t_u, th, tF, tkf, tQ, tkq, tr_, tg
-        done = self._converged(r, F, a_m, Qs, target, gross)
-        rel = self._relative(r, F, a_m, Qs, target, gross)
+        done = self._converged(r, F, a_m, Qs, target, gross) | idle
+        rel = np.where(idle, 0.0, self._relative(r, F, a_m, Qs, target, gross))
         if not np.all(done):
             rel = np.maximum(rel, np.where(done, 0.0, np.inf))
         return tau, F, u, Qs, rel, iterations + it

@@ -140,35 +140,14 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
 
 
 def parse_drive(values: dict[str, dict[str, Any]], data: dict, design) -> dict:
-    """The drive's settings: model, contact law, row B's errors and the bearings (a dict)."""
+    """The drive's settings: model, contact law, row B's errors and the bearings (a dict).
+
+    The sections' values are checked first, whatever the model (a bad value is
+    named as such), then whether the model uses them.
+    """
     sv = values["solver"]
     model, law = sv["model"], sv["contact_law"]
     given = data.get("solver") or {}
-    drive_sections = [s for s in SECTIONS if s in data]
-    if model != "drive":
-        if drive_sections:
-            raise SceneError(
-                f'[{drive_sections[0]}] acts under [solver] model = "drive" only; '
-                'set model = "drive" or remove the section'
-            )
-        return {
-            "model": model,
-            "contact_law": law,
-            "errors_b": None,
-            "bearing": None,
-            "bearing_b": None,
-        }
-    if "load_share" in given:
-        raise SceneError(
-            f'[solver] load_share = {sv["load_share"]:g}: has no meaning under model = "drive" '
-            "(both rows carry M0 together; the share is a result); remove it, or use "
-            'model = "paper"'
-        )
-    if sv["variants"]:
-        raise SceneError(
-            f"[solver] variants = {sv['variants']!r}: the printed-paper variants reproduce the "
-            'paper\'s one-row model; remove them, or use model = "paper"'
-        )
     errors_b = _row_b_errors(values["errors.row_b"], design) if "errors.row_b" in data else None
     bearing = bearing_b = None
     if "bearings.eccentric" in data:
@@ -183,6 +162,23 @@ def parse_drive(values: dict[str, dict[str, Any]], data: dict, design) -> dict:
         raise SceneError(
             "[bearings.eccentric_b] overrides [bearings.eccentric] for cam B; give "
             "[bearings.eccentric] too (both cams float on bearings, or neither)"
+        )
+    drive_sections = [s for s in SECTIONS if s in data]
+    if model != "drive" and drive_sections:
+        raise SceneError(
+            f'[{drive_sections[0]}] acts under [solver] model = "drive" only; '
+            'set model = "drive" or remove the section'
+        )
+    if model == "drive" and "load_share" in given:
+        raise SceneError(
+            f'[solver] load_share = {sv["load_share"]:g}: has no meaning under model = "drive" '
+            "(both rows carry M0 together; the share is a result); remove it, or use "
+            'model = "paper"'
+        )
+    if model == "drive" and sv["variants"]:
+        raise SceneError(
+            f"[solver] variants = {sv['variants']!r}: the printed-paper variants reproduce the "
+            'paper\'s one-row model; remove them, or use model = "paper"'
         )
     return {
         "model": model,

@@ -1,0 +1,138 @@
+"""The drive's scene keys and files: ``[solver] model``, ``contact_law``, ``[errors.row_b]``,
+``[bearings.eccentric(_b)]``, and what ``forces`` and ``datasheet`` write under them."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from corr_cad.errors import SceneError
+from corr_cad.run.scene import parse_scene
+
+BEARING = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
+
+
+def _drive(**extra):
+    data = {"solver": {"model": "drive"}, "load": {"input_torque": 1.1e5}}
+    for k, v in extra.items():
+        data.setdefault(k, {}).update(v)
+    return data
+
+
+@pytest.mark.parametrize(
+    "data,pattern",
+    [
+        (
+            _drive(solver={"load_share": 0.55}),
+            r'^\[solver\] load_share = 0.55: has no meaning under model = "drive"',
+        ),
+        (
+            {"bearings": {"eccentric": BEARING}},
+            r'^\[bearings.eccentric\] acts under \[solver\] model = "drive" only',
+        ),
+        (_drive(bearings={"needle": BEARING}), r"unknown table 'needle' in \[bearings\]"),
+        (
+            _drive(bearings={"eccentric": {"needles": 40}}),
+            r"\[bearings.eccentric\] needle_diameter is not set",
+        ),
+        (
+            _drive(bearings={"eccentric": {**BEARING, "needles": 2}}),
+            r"\[bearings.eccentric\] needles = 2: allowed range is \[3, 1000\]",
+        ),
+        (
+            _drive(bearings={"eccentric_b": BEARING}),
+            r"\[bearings.eccentric_b\] overrides \[bearings.eccentric\] for cam B",
+        ),
+        (
+            _drive(errors={"row_b": {"roller_radius_errors": [0.0]}}),
+            r"\[errors.row_b\] roller_radius_errors has 1 values",
+        ),
+        (
+            _drive(errors={"row_b": {"slot_angle_errors_deg": [0.0] * 26}}),
+            r"unknown key 'slot_angle_errors_deg' in \[errors.row_b\]",
+        ),
+        (_drive(solver={"variants": ["eq3_printed"]}), r"\[solver\] variants = \['eq3_printed'\]"),
+        ({"solver": {"model": "both"}}, r"\[solver\] model = 'both': must be one of paper, drive"),
+    ],
+)
+def test_refusals_are_one_line(data, pattern):
+    with pytest.raises(SceneError, match=pattern) as info:
+        parse_scene(data)
+    assert "\n" not in str(info.value)
+
+
+def test_sections_reach_the_scene_and_cam_b_overrides_its_bearing():
+    scene = parse_scene(
+        _drive(
+            errors={"cam_phase_error_deg": 0.01, "row_b": {"roller_radius_error": -0.001}},
+            bearings={"eccentric": BEARING, "eccentric_b": {"diametral_clearance": 0.004}},
+        )
+    )
+    assert scene.solver.drive and scene.solver.contact_model == "nonlinear"
+    assert scene.errors_b.roller_radius_error == -0.001
+    assert scene.bearing.needles == scene.bearing_b.needles == 40
+    assert scene.bearing.diametral_clearance == 0.0
+    assert scene.bearing_b.diametral_clearance == 0.004
+    assert scene.source["bearings.eccentric_b"] == {"diametral_clearance": 0.004}
+    plain = parse_scene({"load": {"input_torque": 1.1e5}})
+    assert plain.errors_b is None and plain.bearing is None
+    assert not any(s.startswith(("bearings", "errors.row_b")) for s in plain.source)
+
+
+def test_drive_run_writes_both_rows_and_the_share(tmp_path):
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "drive.toml"
+    scene.write_text(
+        "[export]\nformats = ['forces', 'datasheet']\n[load]\ninput_torque = 1.1e5\n"
+        "[solver]\nmodel = 'drive'\ncontact_law = 'palmgren'\npositions = 52\n"
+        "[errors]\ncam_phase_error_deg = 0.005\n[errors.row_b]\nroller_radius_error = -0.0005\n"
+        "[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\nneedle_length = 12.0\n"
+        "[datasheet]\npositions_per_mesh = 2\ntransmission_error_positions_per_turn = 4\n"
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--quiet", "--workers", "1"]) == 0
+    with open(out / "forces.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 2 * 52 * 26
+    assert {r["row"] for r in rows} == {"A", "B"}
+    for r in rows[:3]:
+        assert float(r["needle_load_max"]) > 0 and float(r["bearing_load"]) > 0
+    share = np.array([float(r["row_share"]) for r in rows if r["roller"] == "1"])
+    np.testing.assert_allclose(share[:52] + share[52:], 1.0, rtol=1e-12)
+    summary = json.loads((out / "forces_summary.json").read_text())
+    assert summary["model"] == "drive" and summary["contact_law"] == "palmgren"
+    assert set(summary["rows"]) == {"A", "B"}
+    assert summary["rows"]["B"]["needle_load_max_N"]["max"] > 0
+    # Row B's rollers are small and cam B leads: row A carries more than half.
+    assert 0.5 < summary["row_a_share"]["min"] <= summary["row_a_share"]["max"] < 1.0
+    sheet = json.loads((out / "datasheet.json").read_text())
+    assert sheet["model"] == "drive" and sheet["bearing"]["needles"] == 40
+    assert 0.5 < sheet["row_a_share"]["mean"] < 1.0
+    with open(out / "windup.csv") as f:
+        header = f.readline().strip().split(",")
+    assert header == ["output_torque_Nm", "output_angle_deg", "windup_arcmin", "row_a_share"]
+
+
+def test_prototype_rigidity_table_of_the_physics_page():
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+
+    spec = DatasheetSpec(
+        rated_torque=2.86e6, positions_per_mesh=2, transmission_error_positions_per_turn=4
+    )
+    needles = EccentricBearing(40, 6.0, 12.0)
+    table = {
+        ("nonlinear", None): 26000,
+        ("nonlinear", needles): 7300,
+        ("palmgren", None): 5300,
+        ("palmgren", needles): 3500,
+    }
+    for (law, bearing), quoted in table.items():
+        drive = {"errors_b": None, "bearing": bearing, "bearing_b": None}
+        ds = datasheet(GearDesign(), spec, contact_model=law, drive=drive)
+        rig = ds.figures()["torsional_rigidity_Nm_per_arcmin"]["contact_only"]["min"]
+        assert rig == pytest.approx(quoted, rel=0.02)
+        np.testing.assert_allclose(ds.row_a_share, 0.5, atol=1e-12)
