@@ -212,8 +212,8 @@ def test_bearing_clearance_adds_lost_motion_within_the_hand_bound():
     Pd = 0.01
     x = np.radians([0.0, 0.1])
     loose_bearing = EccentricBearing(40, 6.0, 12.0, Pd)
-    tight = DriveWindup(design, x, bearing=NEEDLES, torque_scale=T_R)
-    loose = DriveWindup(design, x, bearing=loose_bearing, torque_scale=T_R)
+    tight = DriveWindup(design, x, bearing=NEEDLES)
+    loose = DriveWindup(design, x, bearing=loose_bearing)
     ratio = design.eccentricity * design.roller_count
     free = Pd / ratio
     assert np.all(tight.backlash() == 0.0)
@@ -247,3 +247,62 @@ def test_row_errors_share_the_slots_and_give_the_phase_to_cam_b():
     assert b.slot_angle_errors == slots and b.cam_radius_error == 1e-3
     both = row_errors(ME(roller_radius_error=2e-3))
     assert both[0].roller_radius_error == both[1].roller_radius_error == 2e-3
+
+
+def test_slot_clearance_frees_the_frame_by_c_over_the_largest_radius():
+    """A diametral slot clearance c opens each flank by c/2: the frame turns until the roller
+    at the largest centre distance s on each side touches its flank, w = c / (2 s) per side
+    (s from the crank-slider formula, both rows' rollers; those at psi = 0 or pi, with no
+    arm, take no part)."""
+    design = GearDesign()
+    c = 0.004
+    x = np.radians([0.0, 0.07])
+    w = DriveWindup(design, x, errors=ME(slot_clearance=c))
+    e, L, z1 = design.eccentricity, design.cam_radius + design.roller_radius, 26
+    expected = []
+    for phi in design.tooth_count * x:
+        psi = np.concatenate(
+            [phi - 2 * np.pi * np.arange(z1) / z1, phi + np.pi - 2 * np.pi * np.arange(z1) / z1]
+        )
+        s = e * np.cos(psi) + np.sqrt(L**2 - (e * np.sin(psi)) ** 2)
+        sn = np.sin(psi)
+        up, down = sn > 1e-12, sn < -1e-12
+        expected.append(c / (2 * s[up].max()) + c / (2 * s[down].max()))
+    np.testing.assert_allclose(w.backlash(), expected, rtol=1e-9)
+
+
+def test_slot_fit_puts_an_oversize_roller_into_both_flanks_under_the_drive():
+    """Paper convention: an oversize roller is taken up by its slot; the drive's: the flank
+    gap is c/2 - dr, an interference |rho_s| dr more in the roller's chain at c = 0."""
+    from corr_cad.mechanics.solver_geometry import roller_geometry
+
+    design = GearDesign()
+    angles = np.radians([10.0])
+    dr = 0.002
+    paper = roller_geometry(design, angles, ME(roller_radius_error=dr))
+    drive = roller_geometry(design, angles, ME(roller_radius_error=dr, slot_clearance=0.0))
+    np.testing.assert_allclose(drive.gap - paper.gap, np.abs(paper.rho_s) * dr, rtol=1e-12)
+    loose = roller_geometry(design, angles, ME(roller_radius_error=dr, slot_clearance=0.01))
+    np.testing.assert_allclose(
+        loose.gap - paper.gap, -np.abs(paper.rho_s) * (0.005 - dr), rtol=1e-12
+    )
+
+
+def test_free_rotation_of_a_preloaded_row_on_a_loose_bearing():
+    """A row pressed by oversize rollers holds its cam centre v where their forces balance;
+    the crank still turns while the eccentric stays within Pd/2 of it: the free output
+    rotation is 2 sqrt((Pd/2)^2 - v_y^2) / (e (z + 1)), at most Pd / (e (z + 1)), and
+    close to it since the preload centres the cam to within a fraction of Pd/2."""
+    design = GearDesign()
+    Pd = 0.006
+    res = solve_drive(
+        design,
+        M0,
+        np.radians([3.0, 8.0]),
+        errors=ME(roller_radius_error=0.001),
+        bearing=EccentricBearing(40, 6.0, 12.0, Pd),
+    )
+    full = Pd / (design.eccentricity * design.roller_count)
+    assert np.all((0.99 * full < res.backlash) & (res.backlash <= full * (1 + 1e-12)))
+    rigid = solve_drive(design, M0, np.radians([3.0]), errors=ME(roller_radius_error=0.001))
+    assert rigid.backlash[0] == 0.0

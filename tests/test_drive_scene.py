@@ -136,3 +136,49 @@ def test_prototype_rigidity_table_of_the_physics_page():
         rig = ds.figures()["torsional_rigidity_Nm_per_arcmin"]["contact_only"]["min"]
         assert rig == pytest.approx(quoted, rel=0.02)
         np.testing.assert_allclose(ds.row_a_share, 0.5, atol=1e-12)
+
+
+def test_drive_monte_carlo_draws_row_b_on_its_own_stream():
+    """Row A's draws are the seed's own (as for one row); row B's come from [seed, 1]; each
+    sample equals a direct drive solve of the errors rebuilt from the draws by hand."""
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.drive import DriveSolver
+    from corr_cad.mechanics.solver import cycle_angles
+    from corr_cad.tolerance.montecarlo import Distribution, draw_samples, monte_carlo
+    from corr_cad.tolerance.montecarlo_drive import drive_metrics
+
+    tol = {
+        "roller_radius": Distribution("normal", 0.001),
+        "slot_clearance": Distribution("uniform", 0.002),
+    }
+    only_a = draw_samples({"roller_radius": tol["roller_radius"]}, 3, 7, 26)
+    both = draw_samples(tol, 3, 7, 26)
+    np.testing.assert_array_equal(only_a["roller_radius"], both["roller_radius"])
+    design = GearDesign()
+    mc = monte_carlo(design, 1.1e5, tol, 3, 7, 13, drive={"contact_model": "palmgren"})
+    assert mc.success and set(mc.magnitudes) == {
+        "roller_radius",
+        "slot_clearance",
+        "roller_radius_row_b",
+    }
+    # Row B's generator, in the fixed order of the kinds (cam_radius, eccentricity,
+    # cam_phase, roller_radius), a normal and a uniform draw of each.
+    rng_b = np.random.default_rng([7, 1])
+    for _ in range(3):
+        rng_b.standard_normal(3)
+        rng_b.uniform(-1.0, 1.0, 3)
+    b_normal = rng_b.standard_normal((3, 26))
+    for k in range(3):
+        from corr_cad.geometry.deviations import ManufacturingErrors as ME
+
+        ea = ME(
+            roller_radius_errors=tuple(0.001 * both["roller_radius"][k]),
+            slot_clearance=0.002 * float(both["slot_clearance"][k]),
+        )
+        eb = ME(roller_radius_errors=tuple(0.001 * b_normal[k]))
+        solver = DriveSolver(
+            design, cycle_angles(13), errors=ea, errors_b=eb, contact_model="palmgren"
+        )
+        m = drive_metrics(solver.result(1.1e5), solver.free_interval(), 26.0)
+        for name, v in m.items():
+            assert mc.metrics[name][k] == pytest.approx(v, rel=1e-12, abs=1e-12)

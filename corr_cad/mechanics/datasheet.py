@@ -401,7 +401,7 @@ def datasheet(
         "psi_contact_limit": psi_contact_limit,
         "series_rigidity_Nm_per_arcmin": spec.series_rigidity_Nm_per_arcmin,
     }
-    make = _windup_factory(common, drive, spec.rated_torque)
+    make = _windup_factory(common, drive)
     period = result_period_rad(design, errors, variants)
     mesh = mesh_period_rad(design)
     n = int(round(period / mesh)) * spec.positions_per_mesh
@@ -444,14 +444,14 @@ def datasheet(
     return out
 
 
-def _windup_factory(common: dict, drive: dict | None, torque_scale: float):
+def _windup_factory(common: dict, drive: dict | None):
     """``make(design, output_angles)``: the one-row windup, or the drive's."""
     if drive is None:
         return lambda design, x: Windup(design, x, **common)
     from corr_cad.mechanics.drive_windup import DriveWindup
 
     kw = {k: v for k, v in common.items() if k != "load_share"}
-    return lambda design, x: DriveWindup(design, x, **kw, **drive, torque_scale=torque_scale)
+    return lambda design, x: DriveWindup(design, x, **kw, **drive)
 
 
 def play_figures(
@@ -486,7 +486,7 @@ def play_figures(
         "psi_contact_limit": psi_contact_limit,
         "series_rigidity_Nm_per_arcmin": spec.series_rigidity_Nm_per_arcmin,
     }
-    w = _windup_factory(common, drive, spec.rated_torque)(design, x)
+    w = _windup_factory(common, drive)(design, x)
     T_R = spec.rated_torque
     b, b_te = spec.lost_motion_band, spec.transmission_error_torque_band
     lo, hi = w.free_ends()

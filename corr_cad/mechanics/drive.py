@@ -64,6 +64,9 @@ __all__ = ["DriveResult", "row_errors", "drive_geometry", "solve_drive", "DriveS
 #: the rigid solve of rows that just touch): the cams then stay centred.
 _IDLE_FORCE = 1e-9
 
+#: ``|n_x|`` below which a roller's normal counts as along the eccentric (:func:`free_row`).
+_FLAT = 1e-9
+
 #: Relative residual of the moment and of each cam's force balance the bearing solve reaches.
 DRIVE_RTOL = 1e-12
 
@@ -74,14 +77,19 @@ def row_errors(
     """Row A's and row B's error models from ``[errors]`` and ``[errors.row_b]``.
 
     ``[errors]`` describes both rows unless ``errors_b`` is given. The slot
-    errors are the frame's: row B takes row A's. The cam phase error is cam
-    B's against cam A: row A gets none, row B the scene's.
+    errors and the slots' clearance (``slot_clearance``, 0 when None: the
+    drive's slot fit) are the frame's: row B takes row A's. The cam phase
+    error is cam B's against cam A: row A gets none, row B the scene's.
     """
     errors = errors or ManufacturingErrors()
     b = errors if errors_b is None else errors_b
     phase = errors.cam_phase_error
-    a = replace(errors, cam_phase_error=0.0)
-    b = replace(b, cam_phase_error=phase, slot_angle_errors=errors.slot_angle_errors)
+    # The slots' fit is the frame's too; the drive puts the roller error into it both ways.
+    fit = 0.0 if errors.slot_clearance is None else errors.slot_clearance
+    a = replace(errors, cam_phase_error=0.0, slot_clearance=fit)
+    b = replace(
+        b, cam_phase_error=phase, slot_angle_errors=errors.slot_angle_errors, slot_clearance=fit
+    )
     return a, b
 
 
@@ -112,6 +120,110 @@ def joined(ga: RollerGeometry, gb: RollerGeometry) -> RollerGeometry:
                 [np.full(ga.psi.shape, float(a)), np.full(gb.psi.shape, float(b))], axis=1
             )
     return RollerGeometry(**out)
+
+
+def free_row(a, g, n, half_clearance: float, e: float, want_centre: bool = False):
+    """One row's free crank interval ``(rev, fwd)`` (P,) at no load, rad.
+
+    Roller ``k`` stays clear while ``a_k tau + g_k + n_k . u <= 0``; the cam's
+    centre may sit anywhere with ``|u| <= half_clearance``. Since ``a_k = e
+    n_k,x``, with ``v = u + e tau x`` the rollers ask ``n_k . v <= -g_k`` (a
+    convex polygon of ``v``) and the bearing ``|v - e tau x| <= Pd/2``, so
+
+        e fwd = max over the polygon of v_x + sqrt((Pd/2)^2 - v_y^2)
+
+    (and ``e rev`` the min of ``v_x - sqrt(...)``): concave in ``v_y``, found by
+    golden-section searches over the polygon's horizontal slices. An empty
+    interval (``rev > fwd``): the row is preloaded (no ``v`` leaves every roller
+    clear). ``want_centre``: also the least-pressed ``v`` found, (P, 2), a start
+    for the preloaded cam's own equilibrium.
+    """
+    up, down = a > 0, a < 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -g / a
+        fwd = np.min(np.where(up, t, np.inf), axis=1)
+        rev = np.max(np.where(down, t, -np.inf), axis=1)
+    if half_clearance == 0.0:
+        return (rev, fwd, np.zeros((a.shape[0], 2))) if want_centre else (rev, fwd)
+    c = half_clearance
+    nx, ny = n[..., 0], n[..., 1]
+    # A roller whose normal is (nearly) along the eccentric, psi = 0 or pi, bounds v_y only:
+    # its slice bound -g / n_x would be a round-off quotient.
+    right, left = nx > _FLAT, nx < -_FLAT
+    flat = ~(right | left) & np.isfinite(g)
+
+    def slice_at(y):
+        """``(x_left, x_right, press)`` (P,) of the polygon's slice at ``v_y = y``."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = (-g - ny * y[:, None]) / nx
+        xr = np.min(np.where(right, bound, np.inf), axis=1)
+        xl = np.max(np.where(left, bound, -np.inf), axis=1)
+        # How far a roller with no arm (psi = 0 or pi) is pressed: <= 0 to stay clear.
+        press = np.max(np.where(flat, ny * y[:, None] + g, -np.inf), axis=1)
+        return xl, xr, press
+
+    def golden(fun, lo, hi, iterations=90):
+        """Argmax of a concave ``fun`` on ``[lo, hi]`` (P,)."""
+        ratio = 0.5 * (math.sqrt(5.0) - 1.0)
+        x1, x2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+        f1, f2 = fun(x1), fun(x2)
+        for _ in range(iterations):
+            left_better = f1 >= f2
+            hi = np.where(left_better, x2, hi)
+            lo = np.where(left_better, lo, x1)
+            x2n = np.where(left_better, x1, lo + ratio * (hi - lo))
+            x1n = np.where(left_better, hi - ratio * (hi - lo), x2)
+            x1, x2 = x1n, x2n
+            f1, f2 = fun(x1), fun(x2)
+        return 0.5 * (lo + hi)
+
+    def width(y):
+        """Concave in ``y``; >= 0 where the slice is not empty."""
+        xl, xr, press = slice_at(y)
+        return np.minimum(np.minimum(xr - xl, 1e300), -press)
+
+    P = a.shape[0]
+    lo0, hi0 = np.full(P, -c), np.full(P, c)
+    # Round-off allowance of the polygon: a nominal row pins v to one point.
+    tol = 1e-12 * (c + np.max(np.where(np.isfinite(g), np.abs(g), 0.0), axis=1))
+    y_mid = golden(width, lo0, hi0)
+    feasible = width(y_mid) >= -tol
+
+    def edge(inside, outside, iterations=80):
+        for _ in range(iterations):
+            mid = 0.5 * (inside + outside)
+            ok = width(mid) >= -tol
+            inside = np.where(ok, mid, inside)
+            outside = np.where(ok, outside, mid)
+        return inside
+
+    y1, y2 = edge(y_mid, lo0), edge(y_mid, hi0)
+
+    def reach(sense):
+        def fun(y):
+            xl, xr, _ = slice_at(y)
+            arc = np.sqrt(np.maximum(c * c - y * y, 0.0))
+            return (xr + arc) if sense > 0 else -(xl - arc)
+
+        return sense * fun(golden(fun, y1, y2))
+
+    e_fwd, e_rev = reach(1.0), reach(-1.0)
+    fwd = np.where(feasible, e_fwd / e, -np.inf)
+    rev = np.where(feasible, e_rev / e, np.inf)
+    if want_centre:
+        xl, xr, _ = slice_at(y_mid)
+        mid = np.where(np.isfinite(xl + xr), 0.5 * (xl + xr), np.where(np.isfinite(xl), xl, xr))
+        return rev, fwd, np.stack([np.where(np.isfinite(mid), mid, 0.0), y_mid], axis=1)
+    return rev, fwd
+
+
+def _forces_of(comp, h):
+    """Roller forces and ``dF/dh`` at overlaps ``h`` for either contact law."""
+    if getattr(comp, "explicit", False):
+        return comp.force_and_stiffness(h)
+    F, dg = comp.invert(h, np.maximum(h, 0.0) / comp.slope0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return F, np.where(F > 0, 1.0 / dg, 0.0)
 
 
 def roller_directions(design: GearDesign, geo: RollerGeometry) -> np.ndarray:
@@ -157,6 +269,8 @@ class DriveResult:
     input_torque: float
     rows: tuple[ForceResult, ForceResult] = field(repr=False)
     bearings: tuple[EccentricBearing | None, EccentricBearing | None] = (None, None)
+    #: The drive's free output rotation at no load (P,), rad (:func:`solve_drive` fills it).
+    backlash: np.ndarray | None = None
 
     @property
     def force(self) -> np.ndarray:
@@ -353,6 +467,98 @@ class DriveSolver:
     def _converged(self, r, F, a_m, Qs, target, gross):
         return self._relative(r, F, a_m, Qs, target, gross) <= DRIVE_RTOL
 
+    def free_interval(self) -> tuple[np.ndarray, np.ndarray]:
+        """The crank rotations ``(rev, fwd)`` (P,) each, rad, the drive turns freely between.
+
+        The intersection of both rows' free intervals (the crank is one). A row
+        without a bearing clearance closes a roller at ``tau = -g_k / a_k``
+        (a cam on needles without clearance stays centred at no load). With a
+        clearance ``Pd`` the cam may shift anywhere within ``Pd / 2``
+        (:func:`free_row`). Where no free rotation is left (a preload) both ends
+        are the equilibrium at zero moment.
+        """
+        R = self.R
+        geo = self.geo_joined
+        a = np.where(geo.loadable, geo.advance, 0.0)
+        g = np.where(geo.loadable, geo.gap, -np.inf)
+        e = self.design.eccentricity
+        revs, fwds = [], []
+        for c, sl in enumerate((slice(0, R), slice(R, 2 * R))):
+            b = self.bearings[c]
+            half = 0.5 * b.diametral_clearance if b is not None else 0.0
+            rev, fwd, v0 = free_row(a[:, sl], g[:, sl], self.n[:, sl], half, e, True)
+            locked = ~(fwd > rev)
+            if half > 0 and np.any(locked):
+                # A preloaded row holds its cam centre at v*, where its rollers' forces
+                # balance; the crank turns freely while the eccentric stays within
+                # Pd/2 of it: |v* - e tau x| <= Pd/2.
+                idx = np.flatnonzero(locked)
+                v = self._row_centre(c, idx, v0[idx])
+                arc = np.sqrt(np.maximum(half * half - v[:, 1] ** 2, 0.0))
+                reach = np.abs(v[:, 1]) <= half
+                fwd[idx] = np.where(reach, (v[:, 0] + arc) / e, -np.inf)
+                rev[idx] = np.where(reach, (v[:, 0] - arc) / e, np.inf)
+            revs.append(rev)
+            fwds.append(fwd)
+        rev, fwd = np.maximum(*revs), np.minimum(*fwds)
+        tight = ~(fwd > rev)
+        if np.any(tight):
+            zero = self._checked(0.0)[0]
+            fwd = np.where(tight, zero, fwd)
+            rev = np.where(tight, zero, rev)
+        return rev, fwd
+
+    def _row_centre(self, c: int, idx: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Where row ``c``'s rollers hold its cam centre (``v``, (len(idx), 2)) at positions
+        ``idx`` with no bearing load: ``sum_k F_k(g_k + n_k . v) n_k = 0``, by Newton
+        with backtracking from ``v``."""
+        R, geo = self.R, self.geo_joined
+        sl = slice(c * R, (c + 1) * R)
+        comp = self.comp.take(idx)
+        g = np.where(geo.loadable, geo.gap, -1e300)[idx]
+        n = self.n[idx]
+        other = np.ones(2 * R, dtype=bool)
+        other[sl] = False
+
+        def residual(v):
+            h = g + np.einsum("pkx,px->pk", n, v)
+            h[:, other] = -1e300
+            F, k = _forces_of(comp, h)
+            r = np.einsum("pk,pkx->px", F, n)
+            return r, F, k
+
+        r, F, k = residual(v)
+        for _ in range(100):
+            scale = np.sum(F, axis=1) + 1e-300
+            if np.all(np.linalg.norm(r, axis=1) <= DRIVE_RTOL * scale):
+                break
+            J = np.einsum("pk,pkx,pky->pxy", k, n, n)
+            J += (1e-12 * np.trace(J, axis1=1, axis2=2) + 1e-9)[:, None, None] * np.eye(2)
+            step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
+            alpha = np.ones(len(idx))
+            m0 = np.linalg.norm(r, axis=1)
+            for _ in range(40):
+                rt, Ft, kt = residual(v + alpha[:, None] * step)
+                ok = np.linalg.norm(rt, axis=1) <= (1.0 - 1e-4 * alpha) * m0
+                if np.all(ok):
+                    break
+                alpha = np.where(ok, alpha, 0.5 * alpha)
+            v = v + alpha[:, None] * step
+            r, F, k = rt, Ft, kt
+        return v
+
+    def _checked(self, target: float):
+        """:meth:`solve`, raising where equilibrium is not reached."""
+        sol = self.solve(target)
+        rel = sol[4]
+        limit = max(self.rtol, 1e-9)
+        if not np.all(rel <= limit):
+            raise SolverError(
+                f"drive at crank moment {target:g} N*mm: equilibrium not reached to {limit:g} "
+                f"(worst relative residual {float(rel.max()):.3g})"
+            )
+        return sol
+
     def share(self, F: np.ndarray) -> np.ndarray:
         """Row A's share of the moment from both rows' cam forces (P, 2R); 0.5 where no moment."""
         a_m = np.where(self.geo_joined.loadable, self.geo_joined.arm, 0.0)
@@ -462,4 +668,7 @@ def solve_drive(
         variants=variants,
         psi_contact_limit=psi_contact_limit,
     )
-    return solver.result(float(input_torque))
+    res = solver.result(float(input_torque))
+    rev, fwd = solver.free_interval()
+    res.backlash = (fwd - rev) / design.roller_count
+    return res

@@ -10,15 +10,10 @@ with ``tau`` the crank rotation shared by both cams.
 
 Free rotation (backlash). The crank rotations each row allows without load
 form an interval; the drive's is the intersection of both rows' intervals,
-since the crank is one. Without bearings the ends come from the gaps alone,
-as for one row (also with bearings without clearance: at no load a cam
-stays centred on its needles). With a bearing clearance each cam may also
-shift within it, which widens its row's interval where that lets the cam move;
-the ends are then found as the equilibrium at a vanishing torque
-(``1e-12`` of the windup's torque scale, where the contacts' elastic
-approach is below ``1e-10`` of its value at that scale, by the power laws
-``Q^0.9`` of the needles and of Palmgren's contact and the linear onset of
-the paper's law).
+since the crank is one. The ends come from the gaps alone
+(:meth:`~corr_cad.mechanics.drive.DriveSolver.free_interval`): with a bearing
+clearance each cam may also shift within it, which widens its row's interval
+where that lets the cam move.
 """
 
 from __future__ import annotations
@@ -38,16 +33,10 @@ from corr_cad.mechanics.windup import crank_angles_of, series_rigidity_Nmm_per_r
 __all__ = ["DriveWindup"]
 
 _BLOCK_ELEMENTS = 6000
-#: The vanishing torque of the free ends with bearings, share of the torque scale.
-_FREE_END_SHARE = 1e-12
 
 
 class DriveWindup:
-    """:class:`~corr_cad.mechanics.windup.Windup` of the two-row drive (same methods).
-
-    ``torque_scale`` (N*mm): the torque the free ends with bearings are
-    taken at a ``1e-12`` share of (the datasheet passes ``T_R``).
-    """
+    """:class:`~corr_cad.mechanics.windup.Windup` of the two-row drive (same methods)."""
 
     def __init__(
         self,
@@ -62,7 +51,6 @@ class DriveWindup:
         variants: tuple[str, ...] = (),
         psi_contact_limit: float = math.pi,
         series_rigidity_Nm_per_arcmin: float | None = None,
-        torque_scale: float = 1e6,
         rtol: float = _RTOL,
     ):
         if "working_half_only" in variants:
@@ -77,7 +65,6 @@ class DriveWindup:
         self.output_angles = x
         self.crank_angles = crank_angles_of(x, design)
         self.series_rigidity_Nm_per_arcmin = series_rigidity_Nm_per_arcmin
-        self.torque_scale = float(torque_scale)
         self.bearings = (bearing, bearing_b if bearing_b is not None else bearing)
         self._ratio = float(design.roller_count)
         step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
@@ -129,27 +116,14 @@ class DriveWindup:
         return out
 
     def free_ends(self) -> tuple[np.ndarray, np.ndarray]:
-        """``theta(0-)`` and ``theta(0+)`` of the drive, rad (P,) each."""
-        if any(b is not None and b.diametral_clearance > 0 for b in self.bearings):
-            eps = _FREE_END_SHARE * self.torque_scale
-            return self._solve(-eps)[0], self._solve(eps)[0]
-        fwd = np.empty(len(self.crank_angles))
-        rev = np.empty_like(fwd)
+        """``theta(0-)`` and ``theta(0+)`` of the drive, rad (P,) each
+        (:meth:`~corr_cad.mechanics.drive.DriveSolver.free_interval`)."""
+        lo = np.empty(len(self.crank_angles))
+        hi = np.empty_like(lo)
         for sl, solver in self._blocks:
-            geo = solver.geo_joined  # both rows: the intersection of their intervals
-            a = np.where(geo.loadable, geo.advance, 0.0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = -geo.gap / a
-            fwd[sl] = np.min(np.where(a > 0, t, np.inf), axis=1)
-            rev[sl] = np.max(np.where(a < 0, t, -np.inf), axis=1)
-        if not (np.all(np.isfinite(fwd)) and np.all(np.isfinite(rev))):
-            raise SolverError("no roller resists the output torque in one direction")
-        lo, hi = -fwd / self._ratio, -rev / self._ratio
-        tight = fwd <= rev
-        if np.any(tight):
-            zero = self._solve(0.0)[0]
-            lo = np.where(tight, zero, lo)
-            hi = np.where(tight, zero, hi)
+            rev, fwd = solver.free_interval()
+            # T > 0 turns the crank backwards (tau < 0): theta(0-) is the forward end.
+            lo[sl], hi[sl] = -fwd / self._ratio, -rev / self._ratio
         return lo, hi
 
     def backlash(self) -> np.ndarray:

@@ -23,7 +23,14 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
-from corr_cad.run.scene_drive import SolverSpec, parse_drive, recorded, split_drive_tables
+from corr_cad.run.scene_drive import (
+    SolverSpec,
+    check_drive_tolerances,
+    parse_drive,
+    recorded,
+    split_drive_tables,
+    with_slot_fit,
+)
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
@@ -252,7 +259,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for k, spec in keys.items()
         }
 
-    d, m = values["design"], values["material"]
+    d = {k: v for k, v in values["design"].items() if k != "slot_clearance"}
+    m = values["material"]
     try:
         material = Material(m["young_modulus"], m["poisson_ratio"])
         design = GearDesign(material=material, **d)
@@ -352,6 +360,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         math.radians(er["cam_phase_error_deg"]),
         harmonic_deviation(harmonics) if harmonics else None,
     )
+    errors = with_slot_fit(errors, values["design"]["slot_clearance"], solver.model)
     checks = Checks(**{k: v for k, v in values["checks"].items()})
     if checks.min_loaded_rollers is not None:
         _check(
@@ -370,7 +379,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         "roller_radius": (half_r, True),
         "slot_angle": (quarter_pitch, True),
         "cam_phase": (180.0, False),
+        "slot_clearance": (1.0, False),
     }
+    check_drive_tolerances(tolerances, formats, solver, checks)
     for kind, dist in tolerances.items():
         high, open_ = tol_high[kind]
         _check(_where("tolerances", kind), dist.scale, 0.0, high, low_open=False, high_open=open_)

@@ -13,7 +13,14 @@ from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.run.scene_schema_drive import SECTIONS
 
-__all__ = ["SolverSpec", "split_drive_tables", "parse_drive", "recorded"]
+__all__ = [
+    "check_drive_tolerances",
+    "with_slot_fit",
+    "SolverSpec",
+    "split_drive_tables",
+    "parse_drive",
+    "recorded",
+]
 
 
 @dataclass(frozen=True)
@@ -137,6 +144,64 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
         )
     except CorrCadError as exc:
         raise SceneError(f"[{section}] {exc}") from exc
+
+
+#: Formats whose sample solves run the paper's one-row model only (compiled kernels,
+#: the batch solver): refused under the drive model and under Palmgren's law.
+ONE_ROW_FORMATS = ("allocation", "sweeps", "modification")
+
+
+def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks) -> None:
+    """What the drive model and Palmgren's law do not reach yet, refused in one line."""
+    if "slot_clearance" in tolerances and not solver.drive:
+        raise SceneError(
+            "[tolerances] slot_clearance: the slots' fit acts under [solver] model = "
+            '"drive" only; set model = "drive" or remove it'
+        )
+    what = (
+        'model = "drive"'
+        if solver.drive
+        else ('contact_law = "palmgren"' if solver.contact_law != "paper" else None)
+    )
+    if what is None:
+        return
+    for fmt in ONE_ROW_FORMATS:
+        if fmt in formats:
+            raise SceneError(
+                f"[export] formats lists {fmt!r}, which solves the paper's one row with its "
+                f'contact law only; with [solver] {what} remove it, or use model = "paper" '
+                'and contact_law = "paper"'
+            )
+    if "montecarlo" in formats and not solver.drive:
+        raise SceneError(
+            "[export] formats lists 'montecarlo', which solves the paper's contact law only; "
+            'with [solver] contact_law = "palmgren" use model = "drive" (its Monte Carlo '
+            "takes the law) or remove it"
+        )
+    gated = checks.datasheet_active() or (
+        ["max_binding_probability"] if checks.max_binding_probability is not None else []
+    )
+    if "montecarlo" in formats and gated and checks.max_failure_probability is not None:
+        raise SceneError(
+            f"[checks] {next(iter(gated))} with max_failure_probability: the drive's Monte "
+            "Carlo gates the force metrics only (contact pressure, gear force, loaded rollers, "
+            "backlash); remove it or max_failure_probability"
+        )
+
+
+def with_slot_fit(errors: ManufacturingErrors, slot_clearance, model: str):
+    """The scene's errors with the slots' fit of ``[design] slot_clearance`` (the drive's)."""
+    from dataclasses import replace
+
+    if model != "drive":
+        if slot_clearance:
+            raise SceneError(
+                f"[design] slot_clearance = {slot_clearance:g}: acts under [solver] model = "
+                '"drive" only (the paper\'s row takes an oversize roller up in its slot); set '
+                'model = "drive" or remove it'
+            )
+        return errors
+    return replace(errors, slot_clearance=float(slot_clearance or 0.0))
 
 
 def parse_drive(values: dict[str, dict[str, Any]], data: dict, design) -> dict:

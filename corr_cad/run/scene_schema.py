@@ -133,6 +133,16 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "allow_undercut": Key(
             "bool", False, "accept an undercut design; the profile is then the swept boundary"
         ),
+        "slot_clearance": Key(
+            "float",
+            None,
+            'diametral clearance of each frame slot over its roller (model = "drive"; '
+            "default 0: a roller error goes into both flanks), mm",
+            low=-1.0,
+            low_open=False,
+            high=1.0,
+            example=0.0,
+        ),
     },
     "material": {
         "young_modulus": Key("float", 2.06e5, "E, MPa", **_dk("young_modulus")),

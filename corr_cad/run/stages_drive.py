@@ -59,12 +59,15 @@ def _stats(v: np.ndarray) -> dict:
 def drive_check_values(res: DriveResult, check_values) -> dict[str, float]:
     """The check metrics over both rows (names of ``CHECK_METRICS``), ``check_values`` of
     each row's :class:`~corr_cad.mechanics.solver.ForceResult` combined."""
+    from corr_cad.tolerance.checks import ARCMIN_PER_RAD
+
     per_row = [check_values(r) for r in res.rows]
     return {
         "peak_gear_force": max(v["peak_gear_force"] for v in per_row),
         "peak_pressure": max(v["peak_pressure"] for v in per_row),
         "min_loaded_rollers": min(v["min_loaded_rollers"] for v in per_row),
-        "backlash_arcmin": max(v["backlash_arcmin"] for v in per_row),
+        # The drive's own free rotation: both rows' intersection, with the bearings.
+        "backlash_arcmin": float(res.backlash.max() * ARCMIN_PER_RAD),
     }
 
 

@@ -9,15 +9,21 @@ import numpy as np
 
 from corr_cad.errors import SceneError, SolverError
 from corr_cad.mechanics.solver import solve_forces
-from corr_cad.run.context import RunContext, expected_seconds, psi_contact_limit, scene_errors
+from corr_cad.run.context import (
+    RunContext,
+    drive_kwargs,
+    expected_seconds,
+    psi_contact_limit,
+    scene_errors,
+)
 
 
 def _datasheet_mc(scene):
     """The Monte Carlo's datasheet pass of a scene, or None when it does not ask for it."""
     from corr_cad.run.scene_montecarlo import wants_datasheet_metrics
 
-    if not wants_datasheet_metrics(scene):
-        return None
+    if not wants_datasheet_metrics(scene) or scene.solver.drive:
+        return None  # the drive's Monte Carlo keeps the force metrics
     from corr_cad.run.stages_datasheet import datasheet_spec
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
 
@@ -27,6 +33,15 @@ def _datasheet_mc(scene):
         binding_pressure_MPa=mc["binding_pressure_MPa"],
         positions_per_mesh=mc["datasheet_positions_per_mesh"],
     )
+
+
+def _drive_mc(ctx: RunContext) -> dict | None:
+    """The Monte Carlo's ``drive`` argument under ``model = "drive"`` (None: the paper's row)."""
+    s = ctx.scene
+    if not s.solver.drive:
+        return None
+    kw = drive_kwargs(ctx)
+    return {k: kw[k] for k in ("errors_b", "bearing", "bearing_b", "contact_model")}
 
 
 def _montecarlo(ctx: RunContext) -> None:
@@ -58,6 +73,7 @@ def _montecarlo(ctx: RunContext) -> None:
         progress=tick,
         psi_contact_limit=psi_contact_limit(ctx),
         datasheet=sheet,
+        drive=_drive_mc(ctx),
     )
     bar.close()
     if not res.success:
@@ -132,6 +148,16 @@ def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
     from corr_cad.tolerance.checks import sample_metrics
 
     s = ctx.scene
+    if s.solver.drive:
+        from corr_cad.mechanics.drive import DriveSolver
+        from corr_cad.tolerance.montecarlo_drive import drive_metrics
+
+        kw = drive_kwargs(ctx)
+        kw.pop("variants")
+        solver = DriveSolver(s.design, cycle_angles(positions), **kw)
+        res = solver.result(s.load.input_torque)
+        interval = solver.free_interval()
+        return drive_metrics(res, interval, float(s.design.roller_count))
     res = solve_forces(
         s.design,
         s.load.input_torque,

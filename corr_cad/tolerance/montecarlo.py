@@ -65,6 +65,8 @@ TOLERANCE_KINDS = {
     "cam_phase": (False, "deg"),
     "roller_radius": (True, "mm"),
     "slot_angle": (True, "deg"),
+    # Last: the draws of the kinds above do not move. The drive model only.
+    "slot_clearance": (False, "mm"),
 }
 
 
@@ -81,10 +83,14 @@ class Distribution:
 
 
 def draw_samples(
-    tolerances: dict[str, Distribution], n: int, seed: int, roller_count: int
+    tolerances: dict[str, Distribution], n: int, seed: int, roller_count: int, stream: int = 0
 ) -> dict[str, np.ndarray]:
-    """Standard draws per kind (normal or uniform(-1, 1)), (n,) or (n, z+1); seeded."""
-    rng = np.random.default_rng(seed)
+    """Standard draws per kind (normal or uniform(-1, 1)), (n,) or (n, z+1); seeded.
+
+    ``stream`` 0 is the seed's own generator; another stream (the drive's row B,
+    :mod:`corr_cad.tolerance.montecarlo_drive`) seeds ``[seed, stream]``.
+    """
+    rng = np.random.default_rng(seed if stream == 0 else [seed, stream])
     out = {}
     for kind in TOLERANCE_KINDS:  # fixed order: same draws whatever the dict order
         per_roller, _ = TOLERANCE_KINDS[kind]
@@ -111,6 +117,8 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
     if "slot_angle" in v:
         per = np.asarray(base.slot_angle_errors or np.zeros(len(v["slot_angle"])))
         kw["slot_angle_errors"] = tuple((per + np.radians(v["slot_angle"])).tolist())
+    if "slot_clearance" in v:
+        kw["slot_clearance"] = (base.slot_clearance or 0.0) + float(v["slot_clearance"])
     return replace(base, **kw)
 
 
@@ -349,6 +357,7 @@ def monte_carlo(
     psi_contact_limit: float = math.pi,
     kernel: bool | None = None,
     datasheet=None,
+    drive: dict | None = None,
 ) -> MonteCarloResult:
     """Seeded Monte Carlo over ``tolerances``; see the module docstring.
 
@@ -386,6 +395,23 @@ def monte_carlo(
     units = draw_samples(tolerances, samples, seed, design.roller_count)
     executor = executor or SerialExecutor()
     bounds = [(lo, min(lo + chunk, samples)) for lo in range(0, samples, chunk)]
+    if drive is not None:
+        return _drive_monte_carlo(
+            design,
+            input_torque,
+            tolerances,
+            samples,
+            seed,
+            angles,
+            base,
+            units,
+            executor,
+            bounds,
+            progress,
+            psi_contact_limit,
+            datasheet,
+            drive,
+        )
     if kernel is None:
         kernel = samples * len(angles) >= KERNEL_MIN_WORK
     grid = None
@@ -437,3 +463,60 @@ def monte_carlo(
             progress(bounds[i][1], samples)
     metrics = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return MonteCarloResult(metrics, _magnitudes(units, tolerances), ok)
+
+
+def _drive_monte_carlo(
+    design,
+    input_torque,
+    tolerances,
+    samples,
+    seed,
+    angles,
+    base,
+    units,
+    executor,
+    bounds,
+    progress,
+    psi_contact_limit,
+    datasheet,
+    drive,
+) -> MonteCarloResult:
+    """:func:`monte_carlo` under the drive model (:mod:`corr_cad.tolerance.montecarlo_drive`)."""
+    from corr_cad.tolerance import montecarlo_drive as md
+
+    if datasheet is not None:
+        raise SolverError(
+            'the Monte Carlo\'s datasheet metrics are solved for model = "paper" only; '
+            "gate the drive's Monte Carlo on force metrics"
+        )
+    tol_b = md.row_b_tolerances(tolerances)
+    units_b = draw_samples(tol_b, samples, seed, design.roller_count, stream=md.ROW_B_STREAM)
+    base_b = drive.get("errors_b") or base
+    futures = [
+        executor.submit(
+            md.drive_chunk,
+            design,
+            input_torque,
+            angles,
+            base,
+            base_b,
+            tolerances,
+            {k: u[lo:hi] for k, u in units.items()},
+            {k: u[lo:hi] for k, u in units_b.items()},
+            hi - lo,
+            psi_contact_limit,
+            drive,
+        )
+        for lo, hi in bounds
+    ]
+    parts, ok = [], True
+    for i, f in enumerate(futures):
+        metrics, success = f.result()
+        parts.append(metrics)
+        ok &= bool(success)
+        if progress:
+            progress(bounds[i][1], samples)
+    metrics = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    magnitudes = _magnitudes(units, tolerances)
+    magnitudes.update({f"{k}_row_b": v for k, v in _magnitudes(units_b, tol_b).items()})
+    return MonteCarloResult(metrics, magnitudes, ok)
