@@ -54,6 +54,28 @@ def _drive(**extra):
         ),
         (_drive(solver={"variants": ["eq3_printed"]}), r"\[solver\] variants = \['eq3_printed'\]"),
         ({"solver": {"model": "both"}}, r"\[solver\] model = 'both': must be one of paper, drive"),
+        (
+            _drive(export={"formats": ["sweeps"]}),
+            r"formats lists 'sweeps', which solves the paper's one row",
+        ),
+        (
+            {
+                "solver": {"contact_law": "palmgren"},
+                "export": {"formats": ["montecarlo"]},
+                "tolerances": {"cam_radius": {"normal": 0.001}},
+                "load": {"input_torque": 1e5},
+            },
+            r"formats lists 'montecarlo', which solves the paper's contact law only",
+        ),
+        (
+            _drive(assembly={"roller_classes_um": [0.0, 2.0]}),
+            r"^\[assembly\] solves the paper's one row",
+        ),
+        (
+            {"tolerances": {"slot_clearance": {"normal": 0.001}}},
+            r"\[tolerances\] slot_clearance: the slots' fit acts under",
+        ),
+        ({"design": {"slot_clearance": 0.01}}, r"\[design\] slot_clearance = 0.01: acts under"),
     ],
 )
 def test_refusals_are_one_line(data, pattern):
@@ -85,7 +107,7 @@ def test_drive_run_writes_both_rows_and_the_share(tmp_path):
 
     scene = tmp_path / "drive.toml"
     scene.write_text(
-        "[export]\nformats = ['forces', 'datasheet']\n[load]\ninput_torque = 1.1e5\n"
+        "[export]\nformats = ['forces', 'datasheet', 'report']\n[load]\ninput_torque = 1.1e5\n"
         "[solver]\nmodel = 'drive'\ncontact_law = 'palmgren'\npositions = 52\n"
         "[errors]\ncam_phase_error_deg = 0.005\n[errors.row_b]\nroller_radius_error = -0.0005\n"
         "[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\nneedle_length = 12.0\n"
@@ -113,6 +135,8 @@ def test_drive_run_writes_both_rows_and_the_share(tmp_path):
     with open(out / "windup.csv") as f:
         header = f.readline().strip().split(",")
     assert header == ["output_torque_Nm", "output_angle_deg", "windup_arcmin", "row_a_share"]
+    report = (out / "report.html").read_text()
+    assert "share of M0 on row A" in report and "palmgren" in report
 
 
 def test_prototype_rigidity_table_of_the_physics_page():

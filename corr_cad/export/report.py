@@ -172,6 +172,21 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             "input_torque": _fmt(scene.load.input_torque),
             "load_share": _fmt(scene.solver.load_share),
         }
+        f = manifest.get("forces") or {}
+        if f.get("model") == "drive":  # the drive model states its model, law and bearing
+            b = f.get("bearing")
+            sh = f.get("row_a_share") or {}
+            ctx["load"].update(
+                model="drive (both rows, both cams)",
+                contact_law=f.get("contact_law"),
+                bearing=(
+                    f"{b['needles']} needles {_fmt(b['needle_diameter_mm'])} x "
+                    f"{_fmt(b['needle_length_mm'])} mm, Pd {_fmt(b['diametral_clearance_mm'])} mm"
+                    if isinstance(b, dict)
+                    else b
+                ),
+                row_a_share=" / ".join(_fmt(sh.get(k)) for k in ("min", "mean", "max")),
+            )
     u = manifest.get("undercut")
     if u:
         adm = u["admissible_roller_radius_mm"]

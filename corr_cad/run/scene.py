@@ -381,7 +381,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         "cam_phase": (180.0, False),
         "slot_clearance": (1.0, False),
     }
-    check_drive_tolerances(tolerances, formats, solver, checks)
+    check_drive_tolerances(tolerances, formats, solver, checks, data)
     for kind, dist in tolerances.items():
         high, open_ = tol_high[kind]
         _check(_where("tolerances", kind), dist.scale, 0.0, high, low_open=False, high_open=open_)

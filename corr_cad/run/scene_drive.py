@@ -148,10 +148,10 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
 
 #: Formats whose sample solves run the paper's one-row model only (compiled kernels,
 #: the batch solver): refused under the drive model and under Palmgren's law.
-ONE_ROW_FORMATS = ("allocation", "sweeps", "modification")
+ONE_ROW_FORMATS = ("allocation", "sweeps", "modification", "inspection")
 
 
-def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks) -> None:
+def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data) -> None:
     """What the drive model and Palmgren's law do not reach yet, refused in one line."""
     if "slot_clearance" in tolerances and not solver.drive:
         raise SceneError(
@@ -165,6 +165,11 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks) -> 
     )
     if what is None:
         return
+    if data.get("assembly"):
+        raise SceneError(
+            "[assembly] solves the paper's one row with its contact law only; with [solver] "
+            f"{what} remove it"
+        )
     for fmt in ONE_ROW_FORMATS:
         if fmt in formats:
             raise SceneError(
@@ -181,6 +186,11 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks) -> 
     gated = checks.datasheet_active() or (
         ["max_binding_probability"] if checks.max_binding_probability is not None else []
     )
+    if "montecarlo" in formats and checks.max_binding_probability is not None:
+        raise SceneError(
+            "[checks] max_binding_probability: the drive's Monte Carlo computes the force "
+            'metrics only (no binding); remove it, or use model = "paper"'
+        )
     if "montecarlo" in formats and gated and checks.max_failure_probability is not None:
         raise SceneError(
             f"[checks] {next(iter(gated))} with max_failure_probability: the drive's Monte "
