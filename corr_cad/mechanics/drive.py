@@ -221,7 +221,28 @@ def _forces_of(comp, h):
     """Roller forces and ``dF/dh`` at overlaps ``h`` for either contact law."""
     if getattr(comp, "explicit", False):
         return comp.force_and_stiffness(h)
-    F, dg = comp.invert(h, np.maximum(h, 0.0) / comp.slope0)
+    return _invert_convex(comp, h, np.maximum(h, 0.0) / comp.slope0)
+
+
+def _invert_convex(comp, h, start):
+    """``F`` with ``G(F) = h`` (0 where ``h <= 0``) and ``dF/dh``, for the paper's law.
+
+    Newton from ``start``, to the right of the root (``G`` is convex and
+    increasing, so the iterates decrease monotonically onto it), until every
+    step is below ``1e-15`` of its force (a few iterations from a tangent
+    predictor; the one-row solver's own inversion asks for steps below
+    round-off, which a few elements never reach).
+    """
+    pos = h > 0
+    F = np.where(pos, start, 0.0)
+    for _ in range(60):
+        g, dg = comp.value_and_slope(F)
+        step = np.where(pos, (g - h) / dg, 0.0)
+        F = np.maximum(F - step, 0.0)
+        if np.all(np.abs(step) <= 1e-15 * F + 1e-300):
+            break
+    _, dg = comp.value_and_slope(F)
+    F = np.where(pos, F, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return F, np.where(F > 0, 1.0 / dg, 0.0)
 
@@ -345,10 +366,7 @@ class DriveSolver:
         if F_prev is not None:
             pred = F_prev + (h - h_prev) * k_prev
             start = np.where(F_prev > 0, np.maximum(pred, 0.0), start)
-        F, dg = comp.invert(h, start)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            k = np.where(F > 0, 1.0 / dg, 0.0)
-        return F, k
+        return _invert_convex(comp, h, start)
 
     def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
         geo, R = self.geo_joined, self.R
