@@ -306,3 +306,17 @@ def test_free_rotation_of_a_preloaded_row_on_a_loose_bearing():
     assert np.all((0.99 * full < res.backlash) & (res.backlash <= full * (1 + 1e-12)))
     rigid = solve_drive(design, M0, np.radians([3.0]), errors=ME(roller_radius_error=0.001))
     assert rigid.backlash[0] == 0.0
+
+
+def test_full_cycle_shortcut_equals_solving_every_angle():
+    from corr_cad.mechanics.solver import cycle_angles
+
+    b = EccentricBearing(40, 6.0, 12.0, 0.003)
+    e = ME(roller_radius_error=-0.001, cam_phase_error=1e-4)
+    short = solve_drive(GearDesign(), M0, positions=104, bearing=b, errors=e)
+    every = solve_drive(GearDesign(), M0, cycle_angles(104), bearing=b, errors=e)
+    assert short.success and every.success
+    np.testing.assert_allclose(short.F_j, every.F_j, rtol=1e-9, atol=1e-9 * every.F_j.max())
+    for name in ("row_a_share", "bearing_load", "needle_load_max", "backlash", "cam_rotation"):
+        np.testing.assert_allclose(getattr(short, name), getattr(every, name), rtol=1e-9)
+    np.testing.assert_allclose(short.rows[1].p_gear, every.rows[1].p_gear, rtol=1e-9, atol=1e-6)

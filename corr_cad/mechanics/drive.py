@@ -67,6 +67,9 @@ _IDLE_FORCE = 1e-9
 #: ``|n_x|`` below which a roller's normal counts as along the eccentric (:func:`free_row`).
 _FLAT = 1e-9
 
+#: Largest Newton step of the crank rotation (rad) and of a cam centre (mm) with bearings.
+_MAX_TAU_STEP, _MAX_U_STEP = 1e-2, 1e-2
+
 #: Relative residual of the moment and of each cam's force balance the bearing solve reaches.
 DRIVE_RTOL = 1e-12
 
@@ -440,19 +443,49 @@ class DriveSolver:
                 kuu += (1e-12 * tr + 1e-9)[:, None, None] * np.eye(2)
                 J[:, i, i] = kuu
             J[:, 0, 0] += 1e-300
-            step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
+            with np.errstate(invalid="ignore", over="ignore"):
+                step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
+            step = np.where(np.isfinite(step), step, 0.0)
             step[done] = 0.0
+            # No step beyond 0.01 rad of crank or 0.01 mm of a cam: far outside the
+            # small-displacement model, where a near-singular Jacobian (needles in their
+            # clearance) would throw it.
+            big = np.maximum(
+                np.abs(step[:, 0]) / _MAX_TAU_STEP,
+                np.maximum(
+                    np.linalg.norm(step[:, 1:3], axis=1), np.linalg.norm(step[:, 3:5], axis=1)
+                )
+                / _MAX_U_STEP,
+            )
+            step = step / np.maximum(big, 1.0)[:, None]
             m0 = merit(r)
             alpha = np.ones(P)
-            for _ in range(40):
+            ok = done.copy()
+            for _ in range(50):
                 t_tau = tau + alpha * step[:, 0]
                 t_u = u + (alpha[:, None] * step[:, 1:]).reshape(P, 2, 2).transpose(1, 0, 2)
-                th, tF, tkf, tQ, tkq, tr_, tg = state(t_tau, t_u, F, h, kf)
-                ok = merit(tr_) <= (1.0 - 1e-4 * alpha) * m0
+                with np.errstate(all="ignore"):
+                    trial = state(t_tau, t_u, F, h, kf)
+                    ok = merit(trial[5]) <= (1.0 - 1e-4 * alpha) * m0
                 if np.all(ok | done):
                     break
                 alpha = np.where(ok | done, alpha, 0.5 * alpha)
-            tau, u, h, F, kf, Qs, kqs, r, gross = t_tau, t_u, th, tF, tkf, tQ, tkq, tr_, tg
+            # A position whose step found no decrease keeps its state (it counts as not
+            # converged if it stays so).
+            keep = ~ok | done
+            th, tF, tkf, tQ, tkq, tr_, tg = trial
+            tau = np.where(keep, tau, t_tau)
+            u = np.where(keep[None, :, None], u, t_u)
+            h, F, kf, r = (
+                np.where(keep[:, None], old, new)
+                for old, new in ((h, th), (F, tF), (kf, tkf), (r, tr_))
+            )
+            Qs = [np.where(keep[:, None], a, b) for a, b in zip(Qs, tQ, strict=True)]
+            kqs = [np.where(keep[:, None], a, b) for a, b in zip(kqs, tkq, strict=True)]
+            gross = (
+                np.where(keep[:, None], gross[0], tg[0]),
+                [np.where(keep[:, None], a, b) for a, b in zip(gross[1], tg[1], strict=True)],
+            )
         done = self._converged(r, F, a_m, Qs, target, gross) | idle
         rel = np.where(idle, 0.0, self._relative(r, F, a_m, Qs, target, gross))
         if not np.all(done):
@@ -669,8 +702,18 @@ def solve_drive(
     v = input_torque
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         raise SolverError(f"input_torque = {v!r}: must be a finite number")
+    inverse = None
     if crank_angles is None:
         angles = cycle_angles(positions)
+        ea, eb = row_errors(errors, errors_b)
+        if not (ea.per_roller or eb.per_roller):
+            # Each class of the 2 pi / (z + 1) periodicity solved once, as for one row.
+            N, R = len(angles), design.roller_count
+            cls = (np.arange(N) * R) % N
+            _, first, inverse = np.unique(cls, return_index=True, return_inverse=True)
+            inverse = inverse.reshape(-1)
+            shift = ((np.arange(N) - first[inverse]) * R // N) % R
+            full, angles = angles, angles[first]
     else:
         angles = np.asarray(crank_angles, dtype=float).reshape(-1)
         if angles.size == 0 or not np.all(np.isfinite(angles)):
@@ -689,4 +732,32 @@ def solve_drive(
     res = solver.result(float(input_torque))
     rev, fwd = solver.free_interval()
     res.backlash = (fwd - rev) / design.roller_count
+    if inverse is not None:
+        res = _expand_drive(res, full, inverse, shift, design.slot_pitch_rad)
     return res
+
+
+def _expand_drive(res: DriveResult, angles, idx, shift, pitch: float) -> DriveResult:
+    """The full cycle from its solved classes (:func:`corr_cad.mechanics.solver._expand`
+    for each row; the cams' quantities, in the eccentrics' frames, repeat as they are)."""
+    from corr_cad.mechanics.solver import _expand
+
+    rows = (
+        _expand(res.rows[0], angles, idx, shift, pitch),
+        _expand(res.rows[1], angles + np.pi, idx, shift, pitch),
+    )
+    return replace(
+        res,
+        crank_angles=angles,
+        F_j=np.stack([r.F_j for r in rows]),
+        F_n=np.stack([r.F_n for r in rows]),
+        F_s=np.stack([r.F_s for r in rows]),
+        row_a_share=res.row_a_share[idx],
+        bearing_load=res.bearing_load[:, idx],
+        needle_load_max=res.needle_load_max[:, idx],
+        needle_loads=None if res.needle_loads is None else tuple(q[idx] for q in res.needle_loads),
+        cam_displacement=res.cam_displacement[:, idx],
+        cam_rotation=res.cam_rotation[idx],
+        backlash=res.backlash[idx],
+        rows=rows,
+    )

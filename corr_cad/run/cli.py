@@ -102,6 +102,7 @@ def _parser() -> argparse.ArgumentParser:
             "coldstart",
             "datasheet",
             "resources",
+            "drive",
         ),
         help="run only this study (repeatable); default all",
     )
