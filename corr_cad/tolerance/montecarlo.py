@@ -506,6 +506,7 @@ def _drive_monte_carlo(
             hi - lo,
             psi_contact_limit,
             drive,
+            _errors_for,
         )
         for lo, hi in bounds
     ]

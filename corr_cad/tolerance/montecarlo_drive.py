@@ -45,19 +45,32 @@ def drive_metrics(res, interval: tuple[np.ndarray, np.ndarray], ratio: float) ->
 
 
 def drive_chunk(
-    design, input_torque, angles, base, base_b, tolerances, draws, draws_b, n, psi_limit, drive
+    design,
+    input_torque,
+    angles,
+    base,
+    base_b,
+    tolerances,
+    draws,
+    draws_b,
+    n,
+    psi_limit,
+    drive,
+    errors_for,
 ):
-    """Solve ``n`` samples of the drive (runs in a worker); returns ``(metrics, ok)``."""
-    from corr_cad.tolerance.montecarlo import _errors_for
+    """Solve ``n`` samples of the drive (runs in a worker); returns ``(metrics, ok)``.
 
+    ``errors_for(base, tolerances, draws, k)``: sample ``k``'s errors (the Monte
+    Carlo's own mapping of draws to errors).
+    """
     tol_b = row_b_tolerances(tolerances)
     names = ("peak_gear_force", "peak_pressure", "min_loaded_rollers", "backlash_arcmin")
     out = {k: np.empty(n) for k in names}
     ok = True
     ratio = float(design.roller_count)
     for k in range(n):
-        ea = _errors_for(base, tolerances, draws, k)
-        eb = _errors_for(base_b, tol_b, draws_b, k)
+        ea = errors_for(base, tolerances, draws, k)
+        eb = errors_for(base_b, tol_b, draws_b, k)
         solver = DriveSolver(
             design,
             angles,
