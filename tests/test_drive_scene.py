@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from corr_cad.errors import SceneError
+from corr_cad.geometry.deviations import ManufacturingErrors as ME
 from corr_cad.run.scene import parse_scene
 
 BEARING = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
@@ -55,8 +56,8 @@ def _drive(**extra):
         (_drive(solver={"variants": ["eq3_printed"]}), r"\[solver\] variants = \['eq3_printed'\]"),
         ({"solver": {"model": "both"}}, r"\[solver\] model = 'both': must be one of paper, drive"),
         (
-            _drive(export={"formats": ["sweeps"]}),
-            r"formats lists 'sweeps', which solves the paper's one row",
+            _drive(export={"formats": ["allocation"]}),
+            r"formats lists 'allocation', which solves the paper's one row",
         ),
         (
             {
@@ -206,3 +207,26 @@ def test_drive_monte_carlo_draws_row_b_on_its_own_stream():
         m = drive_metrics(solver.result(1.1e5), solver.free_interval(), 26.0)
         for name, v in m.items():
             assert mc.metrics[name][k] == pytest.approx(v, rel=1e-12, abs=1e-12)
+
+
+def test_sweeps_run_on_the_drive_and_under_palmgren():
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.mechanics.solver import solve_forces
+    from corr_cad.tolerance.sweeps import sweep_point
+
+    d = GearDesign()
+    rec = sweep_point(d, "roller_radius_error", -0.001, 1.1e5, 26, 0.55, {"model": "drive"})
+    row_a = solve_drive(d, 1.1e5, positions=26, errors=ME(roller_radius_error=-0.001)).rows[0]
+    assert rec["F_j_peak"] == pytest.approx(row_a.summary()["F_j_peak"], rel=1e-12)
+    rec = sweep_point(
+        d,
+        "roller_radius_error",
+        0.0,
+        1.1e5,
+        26,
+        0.55,
+        {"model": "paper", "contact_model": "palmgren"},
+    )
+    one = solve_forces(d, 1.1e5, positions=26, load_share=0.55, contact_model="palmgren")
+    assert rec["F_j_peak"] == pytest.approx(one.summary()["F_j_peak"], rel=1e-12)

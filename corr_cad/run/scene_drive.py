@@ -148,7 +148,7 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
 
 #: Formats whose sample solves run the paper's one-row model only (compiled kernels,
 #: the batch solver): refused under the drive model and under Palmgren's law.
-ONE_ROW_FORMATS = ("allocation", "sweeps", "modification", "inspection")
+ONE_ROW_FORMATS = ("allocation", "modification", "inspection")
 
 
 def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data) -> None:

@@ -44,6 +44,21 @@ def _drive_mc(ctx: RunContext) -> dict | None:
     return {k: kw[k] for k in ("errors_b", "bearing", "bearing_b", "contact_model")}
 
 
+def _sweep_model(ctx: RunContext) -> dict | None:
+    """The sweeps' ``drive`` argument: the model and contact law (None: the paper's row)."""
+    s = ctx.scene
+    if s.solver.drive:
+        return {
+            "model": "drive",
+            "bearing": s.bearing,
+            "bearing_b": s.bearing_b,
+            "contact_model": s.solver.contact_model,
+        }
+    if s.solver.contact_law != "paper":
+        return {"model": "paper", "contact_model": s.solver.contact_model}
+    return None
+
+
 def _montecarlo(ctx: RunContext) -> None:
     from corr_cad.export import plots_tolerance
     from corr_cad.export.files import write_columns, write_json
@@ -297,6 +312,7 @@ def _sweeps(ctx: RunContext) -> None:
         executor=ctx.executor,
         ranges=ranges,
         progress=bar.update,
+        drive=_sweep_model(ctx),
     )
     bar.close()
     header = ["value", "status", *METRICS, "loaded_rollers_min", "loaded_rollers_max"]
