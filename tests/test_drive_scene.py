@@ -69,10 +69,6 @@ def _drive(**extra):
             r"formats lists 'montecarlo', which solves the paper's contact law only",
         ),
         (
-            _drive(assembly={"roller_classes_um": [0.0, 2.0]}),
-            r"^\[assembly\] solves the paper's one row",
-        ),
-        (
             {"tolerances": {"slot_clearance": {"normal": 0.001}}},
             r"\[tolerances\] slot_clearance: the slots' fit acts under",
         ),
@@ -230,3 +226,29 @@ def test_sweeps_run_on_the_drive_and_under_palmgren():
     )
     one = solve_forces(d, 1.1e5, positions=26, load_share=0.55, contact_model="palmgren")
     assert rec["F_j_peak"] == pytest.approx(one.summary()["F_j_peak"], rel=1e-12)
+
+
+def test_selective_assembly_on_the_drive_fits_both_rows():
+    """Rollers 3 um small in both rows (the ring as made); the class fitted to both rows.
+    +7 um presses both rows (binds); +3 um closes the gap exactly (no binding); -2 um
+    leaves play, more than +3 um."""
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.datasheet import DatasheetSpec
+    from corr_cad.tolerance.assembly import selective_assembly
+
+    spec = DatasheetSpec(
+        rated_torque=2.86e6, positions_per_mesh=2, transmission_error_positions_per_turn=4
+    )
+    out = selective_assembly(
+        GearDesign(),
+        spec,
+        ME(roller_radius_error=-0.003),
+        [-2.0, 3.0, 7.0],
+        5.0,
+        contact_model="palmgren",
+        drive={"errors_b": None, "bearing": None, "bearing_b": None},
+    )
+    rows = {r["class_um"]: r for r in out["classes"]}
+    assert rows[7.0]["binds"] and not rows[3.0]["binds"] and not rows[-2.0]["binds"]
+    assert rows[-2.0]["backlash_arcmin"]["max"] > rows[3.0]["backlash_arcmin"]["max"]
+    assert out["chosen_class_um"] == 3.0

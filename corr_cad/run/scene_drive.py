@@ -151,7 +151,7 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
 ONE_ROW_FORMATS = ("allocation", "modification", "inspection")
 
 
-def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data) -> None:
+def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data=None) -> None:
     """What the drive model and Palmgren's law do not reach yet, refused in one line."""
     if "slot_clearance" in tolerances and not solver.drive:
         raise SceneError(
@@ -165,11 +165,6 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
     )
     if what is None:
         return
-    if data.get("assembly"):
-        raise SceneError(
-            "[assembly] solves the paper's one row with its contact law only; with [solver] "
-            f"{what} remove it"
-        )
     for fmt in ONE_ROW_FORMATS:
         if fmt in formats:
             raise SceneError(

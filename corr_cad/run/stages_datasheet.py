@@ -214,6 +214,8 @@ def _assembly(ctx: RunContext) -> None:
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
         progress=ctx.progress,
+        contact_model=s.solver.contact_model,
+        drive=drive_settings(ctx),
     )
     res = {"ring": ring, **res}
     write_json(ctx.out / "assembly.json", res)
