@@ -134,6 +134,9 @@ def test_drive_run_writes_both_rows_and_the_share(tmp_path):
     assert header == ["output_torque_Nm", "output_angle_deg", "windup_arcmin", "row_a_share"]
     report = (out / "report.html").read_text()
     assert "share of M0 on row A" in report and "palmgren" in report
+    assert "both rows&#39; contacts and the cams&#39; eccentric bearings" in report or (
+        "both rows' contacts and the cams' eccentric bearings" in report
+    )
 
 
 def test_prototype_rigidity_table_of_the_physics_page():

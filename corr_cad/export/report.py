@@ -402,14 +402,19 @@ def _datasheet_rows(d: dict) -> dict:
                 "N*m/arcmin included; catalogue: min",
             )
         )
-    rows.append(
-        row(
-            "torsional rigidity, contacts alone",
-            rig["contact_only"],
-            "N*m/arcmin",
-            f"{span}; without bearings, crank, frame and housing: not the reducer's rigidity",
+    if d.get("model") == "drive":
+        what = (
+            "both rows' contacts and the cams' eccentric bearings"
+            if isinstance(d.get("bearing"), dict)
+            else "both rows' contacts, cams fixed"
         )
-    )
+        note = f"{span}; {what}; without crank, output bearings and housing"
+    else:
+        note = (
+            f"{span}; one row's contacts only (model = paper, at load_share): an upper bound, "
+            "not the reducer's rigidity"
+        )
+    rows.append(row("torsional rigidity, contacts alone", rig["contact_only"], "N*m/arcmin", note))
     bp = ", ".join(_fmt(b) for b in k["breakpoints_Nm"])
     for name in ("K1", "K2", "K3"):
         rows.append(row(name, k[name], "N*m/arcmin", f"slopes between 0, {bp} N*m"))
