@@ -56,8 +56,8 @@ def _drive(**extra):
         (_drive(solver={"variants": ["eq3_printed"]}), r"\[solver\] variants = \['eq3_printed'\]"),
         ({"solver": {"model": "both"}}, r"\[solver\] model = 'both': must be one of paper, drive"),
         (
-            _drive(export={"formats": ["allocation"]}),
-            r"formats lists 'allocation', which solves the paper's one row",
+            _drive(export={"formats": ["modification"]}),
+            r"formats lists 'modification', which solves the paper's one row",
         ),
         (
             {
@@ -66,7 +66,7 @@ def _drive(**extra):
                 "tolerances": {"cam_radius": {"normal": 0.001}},
                 "load": {"input_torque": 1e5},
             },
-            r"formats lists 'montecarlo', which solves the paper's contact law only",
+            r"formats lists montecarlo or allocation, which solve the paper's contact law only",
         ),
         (
             {"tolerances": {"slot_clearance": {"normal": 0.001}}},
@@ -255,3 +255,19 @@ def test_selective_assembly_on_the_drive_fits_both_rows():
     assert rows[7.0]["binds"] and not rows[3.0]["binds"] and not rows[-2.0]["binds"]
     assert rows[-2.0]["backlash_arcmin"]["max"] > rows[3.0]["backlash_arcmin"]["max"]
     assert out["chosen_class_um"] == 3.0
+
+
+def test_allocation_runs_on_the_drive():
+    """A tighter roller tolerance is allocated for a tighter pressure limit, on the drive."""
+    from corr_cad import GearDesign
+    from corr_cad.tolerance.allocation import allocate
+    from corr_cad.tolerance.checks import Checks
+
+    kw = {"samples": 8, "positions": 13, "drive": {"contact_model": "palmgren"}}
+    loose = allocate(
+        GearDesign(), 1.1e5, {}, Checks(max_contact_pressure=2000.0), "roller_radius", **kw
+    )
+    tight = allocate(
+        GearDesign(), 1.1e5, {}, Checks(max_contact_pressure=1600.0), "roller_radius", **kw
+    )
+    assert 0 < tight["tolerance"] < loose["tolerance"]

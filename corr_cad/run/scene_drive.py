@@ -148,7 +148,7 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
 
 #: Formats whose sample solves run the paper's one-row model only (compiled kernels,
 #: the batch solver): refused under the drive model and under Palmgren's law.
-ONE_ROW_FORMATS = ("allocation", "modification", "inspection")
+ONE_ROW_FORMATS = ("modification", "inspection")
 
 
 def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data=None) -> None:
@@ -172,15 +172,22 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
                 f'contact law only; with [solver] {what} remove it, or use model = "paper" '
                 'and contact_law = "paper"'
             )
-    if "montecarlo" in formats and not solver.drive:
+    if {"montecarlo", "allocation"} & set(formats) and not solver.drive:
         raise SceneError(
-            "[export] formats lists 'montecarlo', which solves the paper's contact law only; "
+            "[export] formats lists montecarlo or allocation, which solve the paper's contact "
+            "law only; "
             'with [solver] contact_law = "palmgren" use model = "drive" (its Monte Carlo '
             "takes the law) or remove it"
         )
     gated = checks.datasheet_active() or (
         ["max_binding_probability"] if checks.max_binding_probability is not None else []
     )
+    if "allocation" in formats and gated:
+        raise SceneError(
+            f"[checks] {next(iter(gated))} with allocation: the drive's Monte Carlo gates the "
+            "force metrics only (contact pressure, gear force, loaded rollers, backlash); "
+            "remove it"
+        )
     if "montecarlo" in formats and checks.max_binding_probability is not None:
         raise SceneError(
             "[checks] max_binding_probability: the drive's Monte Carlo computes the force "

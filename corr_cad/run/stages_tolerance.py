@@ -211,6 +211,7 @@ def _allocation(ctx: RunContext) -> None:
         "base_errors": scene_errors(ctx),
         "psi_contact_limit": psi_contact_limit(ctx),
         "datasheet": _datasheet_mc(s),
+        "drive": _drive_mc(ctx),
     }
     d, m0 = s.design, s.load.input_torque
     rows = []
