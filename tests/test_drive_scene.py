@@ -271,3 +271,18 @@ def test_allocation_runs_on_the_drive():
         GearDesign(), 1.1e5, {}, Checks(max_contact_pressure=1600.0), "roller_radius", **kw
     )
     assert 0 < tight["tolerance"] < loose["tolerance"]
+
+
+def test_paper_rigidity_check_says_it_is_one_row_upper_bound(tmp_path, capsys):
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "paper.toml"
+    scene.write_text(
+        "[export]\nformats = ['forces']\n[load]\ninput_torque = 1.1e5\n[solver]\n"
+        "positions = 52\n[checks]\nmin_torsional_rigidity_Nm_per_arcmin = 1000.0\n"
+        "[datasheet]\npositions_per_mesh = 2\ntransmission_error_positions_per_turn = 4\n"
+    )
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"), "--workers", "1"]) == 0
+    text = capsys.readouterr()
+    lines = [ln for ln in (text.out + text.err).splitlines() if "one row only" in ln]
+    assert len(lines) == 1 and "upper bound" in lines[0]
