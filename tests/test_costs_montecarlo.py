@@ -66,7 +66,7 @@ def test_the_longest_task_is_a_whole_chunk(tmp_path):
     large = estimate(_scene(tmp_path, 10**6), 16, "dask").stages["montecarlo"].task_seconds
     assert large > 10 * small
     # ... of at most half a second: a --dask-stall-timeout of a few seconds holds.
-    from corr_cad.tolerance.montecarlo import CHUNK_SECONDS
+    from corr_cad.tolerance.mc_chunks import CHUNK_SECONDS
 
     assert large <= CHUNK_SECONDS * (1 + 1e-9)
 

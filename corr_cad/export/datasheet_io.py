@@ -8,7 +8,8 @@ CSV files (``docs/datasheet.md`` shows how):
   ``+T_R``. Zero torque has two rows, ``-0`` (the end of the free rotation
   reached from negative torque, ``theta(0-)``) then ``0`` (``theta(0+)``).
   The levels of the lost-motion band, the rigidity range and the K
-  breakpoints are rows of it.
+  breakpoints are rows of it. Under ``[solver] model = "drive"`` a fourth
+  column ``row_a_share`` gives row A's share of the moment at that level.
 * ``transmission_error.csv``: ``output_angle_deg, forward_arcsec,
   reverse_arcsec`` over one output revolution.
 
@@ -42,16 +43,16 @@ def write_datasheet_files(ds: Datasheet, out: Path, meta: dict | None = None) ->
     """
     out = Path(out)
     L, P = ds.windup.shape
-    write_columns(
-        out / "windup.csv",
-        WINDUP_COLUMNS,
-        [
-            np.tile(ds.torques / NMM_PER_NM, P),
-            np.repeat(np.degrees(ds.output_angles), L),
-            (ds.windup.T * ARCMIN_PER_RAD).ravel(),
-        ],
-        ("%.9g", "%.12g", "%.12g"),
-    )
+    columns = [
+        np.tile(ds.torques / NMM_PER_NM, P),
+        np.repeat(np.degrees(ds.output_angles), L),
+        (ds.windup.T * ARCMIN_PER_RAD).ravel(),
+    ]
+    names, fmts = WINDUP_COLUMNS, ("%.9g", "%.12g", "%.12g")
+    if ds.row_a_share is not None:  # the drive model: row A's share at each level
+        columns.append(ds.row_a_share.T.ravel())
+        names, fmts = (*names, "row_a_share"), (*fmts, "%.12g")
+    write_columns(out / "windup.csv", names, columns, fmts)
     write_columns(
         out / "transmission_error.csv",
         TE_COLUMNS,

@@ -166,6 +166,21 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             "input_torque": _fmt(scene.load.input_torque),
             "load_share": _fmt(scene.solver.load_share),
         }
+        f = manifest.get("forces") or {}
+        if f.get("model") == "drive":  # the drive model states its model, law and bearing
+            b = f.get("bearing")
+            sh = f.get("row_a_share") or {}
+            ctx["load"].update(
+                model="drive (both rows, both cams)",
+                contact_law=f.get("contact_law"),
+                bearing=(
+                    f"{b['needles']} needles {_fmt(b['needle_diameter_mm'])} x "
+                    f"{_fmt(b['needle_length_mm'])} mm, Pd {_fmt(b['diametral_clearance_mm'])} mm"
+                    if isinstance(b, dict)
+                    else b
+                ),
+                row_a_share=" / ".join(_fmt(sh.get(k)) for k in ("min", "mean", "max")),
+            )
     u = manifest.get("undercut")
     if u:
         adm = u["admissible_roller_radius_mm"]
@@ -381,14 +396,19 @@ def _datasheet_rows(d: dict) -> dict:
                 "N*m/arcmin included; catalogue: min",
             )
         )
-    rows.append(
-        row(
-            "torsional rigidity, contacts alone",
-            rig["contact_only"],
-            "N*m/arcmin",
-            f"{span}; without bearings, crank, frame and housing: not the reducer's rigidity",
+    if d.get("model") == "drive":
+        what = (
+            "both rows' contacts and the cams' eccentric bearings"
+            if isinstance(d.get("bearing"), dict)
+            else "both rows' contacts, cams fixed"
         )
-    )
+        note = f"{span}; {what}; without crank, output bearings and housing"
+    else:
+        note = (
+            f"{span}; one row's contacts only (model = paper, at load_share): an upper bound, "
+            "not the reducer's rigidity"
+        )
+    rows.append(row("torsional rigidity, contacts alone", rig["contact_only"], "N*m/arcmin", note))
     bp = ", ".join(_fmt(b) for b in k["breakpoints_Nm"])
     for name in ("K1", "K2", "K3"):
         rows.append(row(name, k[name], "N*m/arcmin", f"slopes between 0, {bp} N*m"))

@@ -59,6 +59,12 @@ class ManufacturingErrors:
     profile_deviation : callable or None
         ``dev(t)``: normal deviation of the gear's working profile at polar
         angle ``t`` (rad, vectorised), mm; + = material added.
+    slot_clearance : float or None, mm
+        The slots' diametral clearance (``[design] slot_clearance``, the drive
+        model): each flank of a centred roller's slot opens by
+        ``slot_clearance / 2 - dr`` (negative: interference on both flanks,
+        the paper's Eq. 26 for 0). None: the one-row convention, an oversize
+        roller taken up by its slot and an undersize one opening ``|dr|``.
     """
 
     cam_radius_error: float = 0.0
@@ -68,6 +74,7 @@ class ManufacturingErrors:
     slot_angle_errors: tuple[float, ...] | None = None
     cam_phase_error: float = 0.0
     profile_deviation: Callable[[np.ndarray], np.ndarray] | None = None
+    slot_clearance: float | None = None
 
     @property
     def any(self) -> bool:
@@ -81,6 +88,7 @@ class ManufacturingErrors:
             or (per is not None and any(per))
             or (slots is not None and any(slots))
             or self.profile_deviation is not None
+            or bool(self.slot_clearance)
         )
 
     @property

@@ -187,17 +187,23 @@ class Datasheet:
     te_positions_solved: int
     rated_from_pressure: dict | None = None
     peak_pressure_at_rated: np.ndarray | None = field(default=None, repr=False)
+    #: ``model = "drive"``: row A's share of the moment, (L, P) at each torque level.
+    row_a_share: np.ndarray | None = field(default=None, repr=False)
 
-    def at(self, share: float, contact_only: bool = False) -> np.ndarray:
-        """Windup (P,) rad at ``share`` of T_R (``-0.0``, ``+0.0`` for the ends at zero)."""
-        w = self.contact_windup if contact_only else self.windup
+    def _level(self, share: float) -> int:
+        """Index of the torque level at ``share`` of T_R."""
         T = share * self.spec.rated_torque
         # The levels are shares rounded to 12 digits (spec.torques): match to 1e-9 of T_R.
         near = np.abs(self.torques - T) <= 1e-9 * self.spec.rated_torque
         hit = np.flatnonzero(near & (np.signbit(self.torques) == (math.copysign(1.0, T) < 0)))
         if hit.size == 0:
             raise KeyError(f"torque {T:g} N*mm is not a level of the curve")
-        return w[hit[0]]
+        return int(hit[0])
+
+    def at(self, share: float, contact_only: bool = False) -> np.ndarray:
+        """Windup (P,) rad at ``share`` of T_R (``-0.0``, ``+0.0`` for the ends at zero)."""
+        w = self.contact_windup if contact_only else self.windup
+        return w[self._level(share)]
 
     def _rigidity(self, a: float, b: float, contact_only: bool) -> np.ndarray:
         """Secant slopes on [a, b] T_R of both branches, N*m/arcmin, (2, P)."""
@@ -305,6 +311,13 @@ class Datasheet:
             "hysteresis_loss_arcmin": 0.0,
             "hysteresis_loss_note": HYSTERESIS_NOTE,
         }
+        if self.row_a_share is not None:
+            at_rated = np.stack([self._level(1.0), self._level(-1.0)])
+            out["row_a_share"] = {
+                **_stats(self.row_a_share[at_rated]),
+                "definition": "share of the crank moment carried by row A at +-T_R, over the "
+                "positions (row B carries the rest)",
+            }
         if self.peak_pressure_at_rated is not None:
             out["peak_contact_pressure_at_rated_MPa"] = float(self.peak_pressure_at_rated.max())
         if self.rated_from_pressure is not None:
@@ -361,6 +374,7 @@ def datasheet(
     contact_model: str = "nonlinear",
     variants: tuple[str, ...] = (),
     psi_contact_limit: float = math.pi,
+    drive: dict | None = None,
 ) -> Datasheet:
     """The windup curve at every position, the transmission error and the figures.
 
@@ -372,6 +386,11 @@ def datasheet(
     (0.0, 'one mesh period')
     >>> round(f["torsional_rigidity_Nm_per_arcmin"]["contact_only"]["min"], -2)
     23600.0
+
+    ``drive``: the two-row drive model (``[solver] model = "drive"``) with
+    the keyword arguments of :class:`~corr_cad.mechanics.drive_windup.DriveWindup`
+    (``errors_b``, ``bearing``, ``bearing_b``); ``load_share`` is then unused
+    and the datasheet records row A's share at each torque level.
     """
     errors = errors or ManufacturingErrors()
     common = {
@@ -382,6 +401,7 @@ def datasheet(
         "psi_contact_limit": psi_contact_limit,
         "series_rigidity_Nm_per_arcmin": spec.series_rigidity_Nm_per_arcmin,
     }
+    make = _windup_factory(common, drive)
     period = result_period_rad(design, errors, variants)
     mesh = mesh_period_rad(design)
     n = int(round(period / mesh)) * spec.positions_per_mesh
@@ -389,15 +409,16 @@ def datasheet(
         int(round(period / mesh)), "one output revolution"
     )
     x = period * np.arange(n) / n
-    w = Windup(design, x, **common)
+    w = make(design, x)
     torques = spec.torques()
     contact = np.stack([w.contact_theta(T) for T in torques])
+    share = np.stack([w.row_a_share(T) for T in torques]) if drive is not None else None
     k_series = series_rigidity_Nmm_per_rad(spec.series_rigidity_Nm_per_arcmin)
     total = contact + torques[:, None] / k_series
     te_x, index = revolution_classes(
         design, spec.transmission_error_positions_per_turn, errors, variants
     )
-    wt = Windup(design, te_x, **common)
+    wt = make(design, te_x)
     T_te = spec.transmission_error_torque_band * spec.rated_torque
     N = len(index)
     out = Datasheet(
@@ -414,12 +435,23 @@ def datasheet(
         peak_pressure_at_rated=np.maximum(
             w.peak_pressure(spec.rated_torque), w.peak_pressure(-spec.rated_torque)
         ),
+        row_a_share=share,
     )
     if spec.allowable_contact_pressure is not None:
         out.rated_from_pressure = rated_torque_from_pressure(
             w, spec.allowable_contact_pressure, spec.rated_torque
         )
     return out
+
+
+def _windup_factory(common: dict, drive: dict | None):
+    """``make(design, output_angles)``: the one-row windup, or the drive's."""
+    if drive is None:
+        return lambda design, x: Windup(design, x, **common)
+    from corr_cad.mechanics.drive_windup import DriveWindup
+
+    kw = {k: v for k, v in common.items() if k != "load_share"}
+    return lambda design, x: DriveWindup(design, x, **kw, **drive)
 
 
 def play_figures(
@@ -431,6 +463,7 @@ def play_figures(
     contact_model: str = "nonlinear",
     variants: tuple[str, ...] = (),
     psi_contact_limit: float = math.pi,
+    drive: dict | None = None,
 ) -> dict:
     """Backlash, lost motion and transmission error without the windup curve (catalogue units).
 
@@ -445,16 +478,15 @@ def play_figures(
     x, index = revolution_classes(
         design, spec.transmission_error_positions_per_turn, errors, variants
     )
-    w = Windup(
-        design,
-        x,
-        errors=errors,
-        load_share=load_share,
-        contact_model=contact_model,
-        variants=variants,
-        psi_contact_limit=psi_contact_limit,
-        series_rigidity_Nm_per_arcmin=spec.series_rigidity_Nm_per_arcmin,
-    )
+    common = {
+        "errors": errors,
+        "load_share": load_share,
+        "contact_model": contact_model,
+        "variants": variants,
+        "psi_contact_limit": psi_contact_limit,
+        "series_rigidity_Nm_per_arcmin": spec.series_rigidity_Nm_per_arcmin,
+    }
+    w = _windup_factory(common, drive)(design, x)
     T_R = spec.rated_torque
     b, b_te = spec.lost_motion_band, spec.transmission_error_torque_band
     lo, hi = w.free_ends()

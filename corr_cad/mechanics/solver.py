@@ -72,6 +72,7 @@ from corr_cad.mechanics.solver_numerics import (  # noqa: F401  (re-exported: th
     _nested,
     _newton,
     _solve_positions,
+    make_compliance,
 )
 
 __all__ = [
@@ -85,8 +86,10 @@ __all__ = [
 ]
 
 #: ``nonlinear``: the paper's overlap model (Eqs. 9-12, corrected);
-#: ``linear``: its small-half-width limit ``delta = 2 F / (pi l E')``.
-CONTACT_MODELS = ("nonlinear", "linear")
+#: ``linear``: its small-half-width limit ``delta = 2 F / (pi l E')``;
+#: ``palmgren``: Palmgren's steel line contact ``delta = 3.84e-5 Q^0.9 / l^0.8``
+#: (:mod:`corr_cad.mechanics.palmgren`, ``[solver] contact_law = "palmgren"``).
+CONTACT_MODELS = ("nonlinear", "linear", "palmgren")
 
 #: A roller counts as loaded when its cam force exceeds this share of the
 #: largest cam force at the same position. A roller exactly at the edge of
@@ -249,7 +252,8 @@ def solve_forces(
     errors : ManufacturingErrors, optional
     variants : tuple of str
         Printed-paper forms to switch on (:data:`VARIANTS`).
-    contact_model : {"nonlinear", "linear"}
+    contact_model : {"nonlinear", "linear", "palmgren"}
+        The contact law (:data:`CONTACT_MODELS`).
     psi_contact_limit : float, rad
         Rollers with ``|psi|`` beyond it (wrapped, 0 at the tooth space) find
         no gear flank and carry nothing: the trimmed tips of an allowed undercut.
@@ -306,7 +310,12 @@ def solve_forces(
     # Without errors (or with the working-half switch only) the closed-form
     # fast path; a block it declines (zero moment, a position no roller can
     # carry) takes the general path, which answers or raises.
-    nominal = not errors.any and set(variants) <= {"working_half_only"} and target != 0.0
+    nominal = (
+        not errors.any
+        and set(variants) <= {"working_half_only"}
+        and target != 0.0
+        and contact_model != "palmgren"
+    )
     block = max(1, (_NOMINAL_BLOCK_ELEMENTS if nominal else _BLOCK_ELEMENTS) // R)
     stack = _Stack(len(solve_angles))
     for a in range(0, len(solve_angles), block):
@@ -320,7 +329,7 @@ def solve_forces(
             geo = roller_geometry(design, ang, errors, variants, psi_contact_limit)
             if "working_half_only" in variants:
                 geo = replace(geo, loadable=geo.loadable & (sign * geo.arm > 0))
-            comp = _Compliance(geo, design, contact_model)
+            comp = make_compliance(geo, design, contact_model)
             tau, Fj, iterations, _, rel = _solve_positions(geo, comp, target, rtol)
             piece = _result(design, geo, Fj, tau, rel, iterations, ang, target, 0, comp=comp)
         stack.add(piece)

@@ -153,5 +153,8 @@ def _error_gaps(design, errors, phi, theta, psi, s, rho_n, rho_s):
         # Polar angle of roller i on the fixed gear: frame angle phi/z + slot angle.
         t_abs = phi[:, None] / z + theta[None, :]
         g_n = g_n + np.asarray(errors.profile_deviation(t_abs), dtype=float)
-    clearance_slot = np.maximum(-dr, 0.0)
+    if errors.slot_clearance is None:  # one row: an oversize roller is taken up by its slot
+        clearance_slot = np.maximum(-dr, 0.0)
+    else:  # the slot's fit: each flank opens by c/2 - dr (negative: interference)
+        clearance_slot = 0.5 * errors.slot_clearance - dr
     return g_j + rho_n * g_n - np.abs(rho_s) * clearance_slot, dr

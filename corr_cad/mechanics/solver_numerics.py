@@ -13,6 +13,7 @@ import numpy as np
 from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics import contact
+from corr_cad.mechanics.palmgren import PalmgrenCompliance
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 
 _RTOL = 1e-13
@@ -117,6 +118,15 @@ class _Compliance:
             F = F_new
         _, dg = self.value_and_slope(F, sel)
         return np.where(pos, F, 0.0), dg
+
+
+def make_compliance(geo: RollerGeometry, design: GearDesign, model: str):
+    """The rollers' compliance for a contact model: the paper's law
+    (``"nonlinear"``, ``"linear"``) or Palmgren's (``"palmgren"``,
+    :mod:`corr_cad.mechanics.palmgren`)."""
+    if model == "palmgren":
+        return PalmgrenCompliance(geo, design)
+    return _Compliance(geo, design, model)
 
 
 def _linear_tau(a_c, a_m, h0, k0, target):
@@ -289,8 +299,13 @@ def _solve_positions(geo: RollerGeometry, comp: _Compliance, target: float, rtol
     a_c = np.where(geo.loadable, geo.advance, 0.0)
     a_m = np.where(geo.loadable, geo.arm, 0.0)
     h0 = np.where(geo.loadable, geo.gap, -1e300)
-    tau = _linear_tau(a_c, a_m, h0, comp.slope0, target)
-    tau, F, iterations, ok = _newton(a_c, a_m, h0, comp, target, tau, rtol=rtol)
+    if getattr(comp, "explicit", False):
+        # A law with a closed-form inverse (Palmgren's): Newton-bisection on tau alone.
+        tau, F, iterations = _nested(a_c, a_m, h0, comp, target, rtol=rtol)
+        ok = np.ones(len(tau), dtype=bool)
+    else:
+        tau = _linear_tau(a_c, a_m, h0, comp.slope0, target)
+        tau, F, iterations, ok = _newton(a_c, a_m, h0, comp, target, tau, rtol=rtol)
     if not np.all(ok):
         bad = np.flatnonzero(~ok)
         sub = comp.take(bad)

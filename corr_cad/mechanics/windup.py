@@ -58,7 +58,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.solver import CONTACT_MODELS, ForceResult, _result
 from corr_cad.mechanics.solver_geometry import VARIANTS, roller_geometry
-from corr_cad.mechanics.solver_numerics import _RTOL, _Compliance, _solve_positions
+from corr_cad.mechanics.solver_numerics import _RTOL, _solve_positions, make_compliance
 
 __all__ = [
     "ARCMIN_PER_RAD",
@@ -272,7 +272,7 @@ class Windup:
                 if key:
                     # Solver sign: the cam moment is -T, so -sign loads the working half.
                     geo = replace(geo, loadable=geo.loadable & (-key * geo.arm > 0))
-                out.append((sl, geo, _Compliance(geo, self.design, self.contact_model)))
+                out.append((sl, geo, make_compliance(geo, self.design, self.contact_model)))
             self._blocks[key] = out
         return self._blocks[key]
 

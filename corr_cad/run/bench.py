@@ -15,6 +15,7 @@ import numpy as np
 
 from corr_cad.run.bench_accuracy import fidelity, interference, profile_export, solids
 from corr_cad.run.bench_datasheet import datasheet_speed
+from corr_cad.run.bench_drive import drive_speed
 from corr_cad.run.bench_friction import friction_speed
 from corr_cad.run.bench_resources import resources
 from corr_cad.run.bench_speed import (
@@ -41,6 +42,7 @@ STUDIES = {
     "datasheet": datasheet_speed,
     "friction": friction_speed,
     "resources": resources,
+    "drive": drive_speed,
 }
 
 

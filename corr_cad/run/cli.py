@@ -116,6 +116,7 @@ def _parser() -> argparse.ArgumentParser:
             "datasheet",
             "friction",
             "resources",
+            "drive",
         ),
         help="run only this study (repeatable); default all",
     )

@@ -50,6 +50,29 @@ def _at(res, arr: np.ndarray, index: int) -> dict:
     }
 
 
+def drive_lines(f: dict) -> list[str]:
+    """The drive model's lines: model, contact law, bearings, row A's share and bearing loads."""
+    b = f.get("bearing")
+    bearing = (
+        f"{b['needles']} needles {b['needle_diameter_mm']:g} x {b['needle_length_mm']:g} mm, "
+        f"Pd {b['diametral_clearance_mm']:g} mm"
+        if isinstance(b, dict)
+        else str(b)
+    )
+    sh = f["row_a_share"]
+    out = [
+        f"drive model (both rows), contact law {f['contact_law']}, eccentric bearing: {bearing}",
+        f"drive: row A share {sh['min']:.4f}-{sh['max']:.4f} (mean {sh['mean']:.4f})",
+    ]
+    for name, row in (f.get("rows") or {}).items():
+        if "needle_load_max_N" in row:
+            out.append(
+                f"drive: cam {name} bearing load up to {row['bearing_load_N']['max']:.0f} N, "
+                f"largest needle load {row['needle_load_max_N']['max']:.0f} N"
+            )
+    return out
+
+
 def force_peaks(res, design) -> dict:
     """Peaks over all rollers and positions of a :class:`ForceResult`, as a JSON-ready dict.
 
@@ -178,6 +201,13 @@ def _where(p: dict) -> str:
     return f"roller {p['roller']} at crank angle {p['crank_angle_deg']:.2f} deg"
 
 
+#: Said wherever the paper model's rigidity is shown or checked.
+PAPER_RIGIDITY_NOTE = (
+    'note: model = "paper" counts the contacts of one row only (at load_share): the rigidity '
+    'is an upper bound, not a catalogue figure (model = "drive" solves both rows and bearings)'
+)
+
+
 def datasheet_lines(d: dict | None) -> list[str]:
     """The datasheet table of the console summary (catalogue units), from its manifest entry."""
     if not d:
@@ -205,11 +235,21 @@ def datasheet_lines(d: dict | None) -> list[str]:
             f"  torsional rigidity  {mmm(rig['with_series'])} N*m/arcmin (series "
             f"{figure(rig['series_rigidity_Nm_per_arcmin'])} included)"
         )
+    if d.get("model") == "drive":
+        what = (
+            "the contacts of both rows and the cams' eccentric bearings: crank, output "
+            "bearings and housing are not in it"
+            if isinstance(d.get("bearing"), dict)
+            else "the contacts of both rows, cams fixed: bearings, crank and housing are not in it"
+        )
+    else:
+        what = "the contacts alone: bearings, crank and housing are not in it"
     out.append(
         f"  rigidity, contacts  {mmm(rig['contact_only'])} N*m/arcmin "
-        f"({figure(rig['from_torque_Nm'])}-{figure(rig['to_torque_Nm'])} N*m; the contacts alone: "
-        "bearings, crank and housing are not in it)"
+        f"({figure(rig['from_torque_Nm'])}-{figure(rig['to_torque_Nm'])} N*m; {what})"
     )
+    if d.get("model") != "drive":
+        out.append(f"  {PAPER_RIGIDITY_NOTE}")
     k = d["stiffness_Nm_per_arcmin"]
     out.append(
         f"  K1 / K2 / K3 (min)  {figure(k['K1']['min'])} / {figure(k['K2']['min'])} / "
@@ -310,6 +350,8 @@ def summary_lines(manifest: dict, out) -> list[str]:
                 f"contact, {_where(p)}; loaded rollers {pk['loaded_rollers']['min']}-"
                 f"{pk['loaded_rollers']['max']}"
             )
+        if f.get("model") == "drive":
+            lines.extend(drive_lines(f))
         lines.append(
             f"roller 1: F_j mean {f['F_j_mean']:.1f} N, peak {f['F_j_peak']:.1f} N; "
             f"F_n mean {f['F_n_mean']:.1f} N, peak {f['F_n_peak']:.1f} N; "

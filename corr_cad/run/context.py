@@ -56,6 +56,8 @@ class Results:
     errors: ManufacturingErrors | None = None
     #: ``forces``: the mesh-force solution over the cycle.
     forces: ForceResult | None = None
+    #: ``forces`` under ``[solver] model = "drive"``: both rows (``forces`` is row A's).
+    drive: Any = None
     #: ``solids``: part outlines, manifold solids and their meshes, by part name.
     outlines: dict[str, Any] | None = None
     solids: dict[str, Any] | None = None
@@ -134,6 +136,36 @@ def scene_errors(ctx: RunContext) -> ManufacturingErrors:
     if ctx.results.modification_gap is None:
         ctx.results.modification_gap = modification_gap(ctx.scene.design, curve)
     return with_modification(base, ctx.results.modification_gap)
+
+
+def scene_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
+    """Row B's ``[errors.row_b]`` with the designed clearance of ``[modification]`` (None
+    without the section: ``[errors]`` describes both rows)."""
+    eb = getattr(ctx.scene, "errors_b", None)
+    if eb is None:
+        return None
+    curve = modified_curve(ctx)
+    if curve is None:
+        return eb
+    from corr_cad.geometry.modification import modification_gap, with_modification
+
+    if ctx.results.modification_gap is None:
+        ctx.results.modification_gap = modification_gap(ctx.scene.design, curve)
+    return with_modification(eb, ctx.results.modification_gap)
+
+
+def drive_kwargs(ctx: RunContext) -> dict:
+    """The drive model's keyword arguments (errors of both rows, bearings, contact law)."""
+    s = ctx.scene
+    return {
+        "errors": scene_errors(ctx),
+        "errors_b": scene_errors_b(ctx),
+        "bearing": s.bearing,
+        "bearing_b": s.bearing_b,
+        "contact_model": s.solver.contact_model,
+        "variants": s.solver.variants,
+        "psi_contact_limit": psi_contact_limit(ctx),
+    }
 
 
 def psi_contact_limit(ctx: RunContext) -> float:

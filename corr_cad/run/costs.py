@@ -391,7 +391,7 @@ def _interference(scene, env):
 
 # --- tolerances ----------------------------------------------------------------------
 def _mc_seconds(samples: int, positions: int, R: int, kernel: bool, workers: int) -> float:
-    from corr_cad.tolerance.montecarlo import CELL_SECONDS
+    from corr_cad.tolerance.mc_chunks import CELL_SECONDS
 
     per_cell = CELL_SECONDS[bool(kernel)]
     return samples * positions * R * per_cell / workers + (2.0 if kernel else 0.0)

@@ -23,6 +23,14 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
+from corr_cad.run.scene_drive import (
+    SolverSpec,
+    check_drive_tolerances,
+    parse_drive,
+    recorded,
+    split_drive_tables,
+    with_slot_fit,
+)
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
@@ -73,14 +81,6 @@ class LoadSpec:
 
 
 @dataclass(frozen=True)
-class SolverSpec:
-    positions: int = 3600
-    load_share: float = 0.55
-    crank_angles_deg: tuple[float, ...] | None = None
-    variants: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
 class Scene:
     """A validated scene."""
 
@@ -103,6 +103,11 @@ class Scene:
     load: LoadSpec | None = None
     solver: SolverSpec = field(default_factory=SolverSpec)
     errors: ErrorSpec = field(default_factory=ErrorSpec)
+    #: ``[errors.row_b]`` under ``model = "drive"`` (None: ``[errors]`` is both rows').
+    errors_b: ErrorSpec | None = None
+    #: ``[bearings.eccentric]`` and cam B's (None: the cams are fixed).
+    bearing: Any = None
+    bearing_b: Any = None
     checks: Checks = field(default_factory=Checks)
     measured_profile: Path | None = None
     measured_exaggeration: float = 200.0
@@ -236,7 +241,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
-    data = split_design_table(data)
+    data = split_drive_tables(split_design_table(data))
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -259,7 +264,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for k, spec in keys.items()
         }
 
-    d, m = values["design"], values["material"]
+    d = {k: v for k, v in values["design"].items() if k != "slot_clearance"}
+    m = values["material"]
     try:
         material = Material(m["young_modulus"], m["poisson_ratio"])
         design = GearDesign(material=material, **d)
@@ -315,7 +321,10 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         load_share=sv["load_share"],
         crank_angles_deg=tuple(angles) if angles is not None else None,
         variants=tuple(sv["variants"]),
+        model=sv["model"],
+        contact_law=sv["contact_law"],
     )
+    drive = parse_drive(values, data, design)
 
     er = values["errors"]
     per = er["roller_radius_errors"]
@@ -356,6 +365,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         math.radians(er["cam_phase_error_deg"]),
         harmonic_deviation(harmonics) if harmonics else None,
     )
+    errors = with_slot_fit(errors, values["design"]["slot_clearance"], solver.model)
     checks = Checks(**{k: v for k, v in values["checks"].items()})
     if checks.min_loaded_rollers is not None:
         _check(
@@ -374,7 +384,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         "roller_radius": (half_r, True),
         "slot_angle": (quarter_pitch, True),
         "cam_phase": (180.0, False),
+        "slot_clearance": (1.0, False),
     }
+    check_drive_tolerances(tolerances, formats, solver, checks, data)
     for kind, dist in tolerances.items():
         high, open_ = tol_high[kind]
         _check(_where("tolerances", kind), dist.scale, 0.0, high, low_open=False, high_open=open_)
@@ -457,6 +469,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         load=load,
         solver=solver,
         errors=errors,
+        errors_b=drive["errors_b"],
+        bearing=drive["bearing"],
+        bearing_b=drive["bearing_b"],
         checks=checks,
         measured_profile=(
             (Path(base_dir or ".") / er["measured_profile"])
@@ -480,14 +495,14 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
                 for k, v in vals.items()
-                if v is not None
+                if v is not None and recorded(s, k, data)
             }
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given, [modification] and
             # [assembly] where they act (the inputs of scenes without them stay as they were).
             if (s != "datasheet" or sheet)
-            and (s not in ("friction", "life") or s in data)
             and acts(s, modification, assembly, search)
+            and recorded(s, "", data)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

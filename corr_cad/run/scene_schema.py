@@ -11,6 +11,7 @@ from corr_cad.geometry.design import BOUNDS as DESIGN_BOUNDS
 from corr_cad.geometry.sampling import REPRESENTATIONS
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run import (
+    scene_schema_drive,
     scene_schema_friction,
     scene_schema_modification,
     scene_schema_run,
@@ -48,6 +49,11 @@ FORMATS = (
     "modification",
     "report",
 )
+
+#: ``[solver] model``: the paper's one row, or both rows of the drive together.
+SOLVER_MODELS = ("paper", "drive")
+#: ``[solver] contact_law``: the paper's Eqs. 9-12, or Palmgren's line contact.
+CONTACT_LAWS = ("paper", "palmgren")
 
 #: ``formats = ["all"]``: every format the scene can make (those that need an
 #: input the scene lacks are left out, and the run says which and why).
@@ -127,6 +133,16 @@ SCHEMA: dict[str, dict[str, Key]] = {
         ),
         "allow_undercut": Key(
             "bool", False, "accept an undercut design; the profile is then the swept boundary"
+        ),
+        "slot_clearance": Key(
+            "float",
+            None,
+            'diametral clearance of each frame slot over its roller (model = "drive"; '
+            "default 0: a roller error goes into both flanks), mm",
+            low=-1.0,
+            low_open=False,
+            high=1.0,
+            example=0.0,
         ),
     },
     "material": {
@@ -222,7 +238,27 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=10_000_000,
             note="and within the memory budget ([budget] memory_gb, default 3 GB)",
         ),
-        "load_share": Key("float", 0.55, "share of M0 carried by one cam (Eq. 8)", low=0, high=1),
+        "model": Key(
+            "str",
+            "paper",
+            'the force model: "paper", one row carrying load_share of M0 (Eq. 8); "drive", '
+            "both rows and both cams together (no load_share)",
+            choices=SOLVER_MODELS,
+        ),
+        "contact_law": Key(
+            "str",
+            "paper",
+            'roller contact law: "paper" (Eqs. 9-12), "palmgren" (steel line contact, '
+            "delta = 3.84e-5 Q^0.9 / l^0.8)",
+            choices=CONTACT_LAWS,
+        ),
+        "load_share": Key(
+            "float",
+            0.55,
+            'share of M0 carried by one cam (Eq. 8), model = "paper" only',
+            low=0,
+            high=1,
+        ),
         "crank_angles_deg": Key(
             "list[float]",
             None,
@@ -285,6 +321,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
             note="order an integer in [1, 10000], amplitude in (-r/2, r/2), phase in [-3600, 3600]",
         ),
     },
+    **scene_schema_drive.SECTIONS,
     "checks": {
         "max_contact_pressure": Key(
             "float", None, "allowable Hertz pressure, MPa", low=0, high=1e6, example=1500.0

@@ -15,6 +15,7 @@ _TOL_NOTE = {
     "roller_radius": "[0, r/2)",
     "slot_angle": "[0, 90/(z+1)) deg",
     "cam_phase": "[0, 180] deg",
+    "slot_clearance": '[0, 1] (model = "drive")',
 }
 
 SECTIONS: dict[str, dict[str, Key]] = {

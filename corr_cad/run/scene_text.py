@@ -9,6 +9,7 @@ import tomllib
 from typing import Any
 
 from corr_cad.run.scene_schema import MAX_LIST, MAX_STR, SCHEMA, key_range
+from corr_cad.run.scene_schema_drive import SECTIONS as DRIVE_SECTIONS
 
 #: Which formats make each section, or key, have an effect. ``None`` for a
 #: section means "see the keys"; a key not listed follows its section.
@@ -232,6 +233,18 @@ def _derived_defaults() -> dict[str, tuple[float, str]]:
     }
 
 
+#: What ``corr-cad new`` says about the two force models, above ``[solver]``.
+MODEL_COMMENT = (
+    '# Two force models. model = "paper" is the paper\'s: one row of rollers carrying',
+    "# load_share of the crank moment M0 on a fixed cam; use it to reproduce and compare",
+    '# with the paper. model = "drive" solves both rows and both cams together: the row',
+    "# share is a result, [errors.row_b] gives row B its own errors and the cams float on",
+    "# [bearings.eccentric]; use it for the datasheet of a reducer you mean to build,",
+    '# with contact_law = "palmgren" (bearing practice\'s steel line contact). Under',
+    '# "drive" leave load_share out. The drive\'s sections follow [errors], commented out.',
+)
+
+
 def template_text() -> str:
     """A commented scene with every section and key (optional ones commented out).
 
@@ -249,7 +262,9 @@ def template_text() -> str:
             "",
         ]
         for section, keys in SCHEMA.items():
-            off = f"[{section}]" in quiet
+            off = f"[{section}]" in quiet or section in DRIVE_SECTIONS
+            if section == "solver":
+                lines.extend(MODEL_COMMENT)
             lines.append(f"{'# ' if off else ''}[{section}]")
             for k, spec in keys.items():
                 choices = f" (one of: {', '.join(spec.choices)})" if spec.choices else ""

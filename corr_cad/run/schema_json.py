@@ -116,7 +116,11 @@ def scene_json_schema() -> dict:
     # A dotted section ([modification.design]) is a table inside its parent in TOML.
     for section in [s for s in SCHEMA if "." in s]:
         parent, child = section.split(".", 1)
-        nested = out["properties"][parent].setdefault("patternProperties", {})
+        holder = out["properties"].setdefault(  # [bearings] holds tables only
+            parent,
+            {"type": "object", "description": f"[{parent}]", "additionalProperties": False},
+        )
+        nested = holder.setdefault("patternProperties", {})
         nested[f"^{child}$"] = dict(out["properties"][section])
     return out
 

@@ -17,7 +17,13 @@ import numpy as np
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import NMM_PER_NM
-from corr_cad.run.context import RunContext, modified_curve, psi_contact_limit, scene_errors
+from corr_cad.run.context import (
+    RunContext,
+    modified_curve,
+    psi_contact_limit,
+    scene_errors,
+    scene_errors_b,
+)
 
 __all__ = [
     "datasheet_spec",
@@ -122,8 +128,10 @@ def _datasheet(ctx: RunContext) -> None:
         datasheet_spec(s),
         errors=datasheet_errors(ctx),
         load_share=s.solver.load_share,
+        contact_model=s.solver.contact_model,
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
+        drive=drive_settings(ctx),
     )
     if s.friction:
         ctx.results.friction = _friction_figures(ctx)
@@ -204,6 +212,14 @@ def _friction_figures(ctx: RunContext):
     return ff
 
 
+def drive_settings(ctx: RunContext) -> dict | None:
+    """The datasheet's ``drive`` argument under ``model = "drive"`` (None: the paper's row)."""
+    s = ctx.scene
+    if not s.solver.drive:
+        return None
+    return {"errors_b": scene_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+
+
 def _meta(ctx: RunContext) -> dict:
     s = ctx.scene
     given = s.datasheet.get("rated_torque_Nm") is not None
@@ -212,8 +228,7 @@ def _meta(ctx: RunContext) -> dict:
         "rated_torque_source": (
             "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"
         ),
-        "load_share": s.solver.load_share,
-        "contact_model": "nonlinear",
+        **_model_meta(s),
         "variants": list(s.solver.variants),
         "units": {"torque": "N*m", "windup": "arcmin", "transmission_error": "arcsec"},
         "conventions": {
@@ -228,6 +243,22 @@ def _meta(ctx: RunContext) -> dict:
             "transmission error; the minimum for rigidities",
         },
     }
+
+
+def _model_meta(s) -> dict:
+    """The model, contact law and bearing as ``datasheet.json`` states them.
+
+    The paper's model with its contact law keeps the two keys it always had.
+    """
+    if not s.solver.drive and s.solver.contact_law == "paper":
+        return {"load_share": s.solver.load_share, "contact_model": "nonlinear"}
+    from corr_cad.run.stages_drive import model_description
+
+    out = model_description(s)
+    if not s.solver.drive:
+        out["load_share"] = s.solver.load_share
+        out.pop("bearing", None)
+    return out
 
 
 def _datasheet_files(ctx: RunContext) -> None:
@@ -260,6 +291,8 @@ def _datasheet_files(ctx: RunContext) -> None:
         efficiency_png(ff, ctx.out / "efficiency.png", note)
         ctx.files.append("efficiency.png")
         ctx.manifest["datasheet"].update(figs)
+    if s.solver.drive or s.solver.contact_law != "paper":
+        ctx.manifest["datasheet"].update(_model_meta(s))
     if s.assembly:
         _assembly(ctx)
 
@@ -315,6 +348,8 @@ def _assembly(ctx: RunContext) -> None:
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
         progress=ctx.progress,
+        contact_model=s.solver.contact_model,
+        drive=drive_settings(ctx),
     )
     res = {"ring": ring, **res}
     write_json(ctx.out / "assembly.json", res)

@@ -28,12 +28,18 @@ def _solve(ctx: RunContext, design, input_torque: float, psi_limit: float):
         load_share=s.solver.load_share,
         errors=scene_errors(ctx),
         variants=s.solver.variants,
+        contact_model=s.solver.contact_model,
         psi_contact_limit=psi_limit,
     )
 
 
 def _forces(ctx: RunContext) -> None:
     s = ctx.scene
+    if s.solver.drive:
+        from corr_cad.run.stages_drive import drive_forces
+
+        drive_forces(ctx, psi_contact_limit(ctx))
+        return
     res = _solve(ctx, s.design, s.load.input_torque, psi_contact_limit(ctx))
     if not res.success:
         raise SolverError(f"force solver: {res.message}")
@@ -45,6 +51,11 @@ def _force_files(ctx: RunContext) -> None:
     from corr_cad.export.files import write_columns, write_json
     from corr_cad.run.console import force_peaks
 
+    if ctx.results.drive is not None:
+        from corr_cad.run.stages_drive import drive_force_files
+
+        drive_force_files(ctx)
+        return
     res = ctx.results.forces
     s = ctx.scene
     P, R = res.F_j.shape
@@ -125,7 +136,12 @@ def _checks(ctx: RunContext) -> None:
     from corr_cad.figure_text import figure
     from corr_cad.tolerance.checks import evaluate_checks
 
-    values = check_values(ctx.results.forces)
+    if ctx.results.drive is not None:
+        from corr_cad.run.stages_drive import drive_check_values
+
+        values = drive_check_values(ctx.results.drive, check_values)
+    else:
+        values = check_values(ctx.results.forces)
     if ctx.results.datasheet is not None:
         values.update(ctx.results.datasheet.check_values())
     if ctx.results.friction is not None:
@@ -138,6 +154,10 @@ def _checks(ctx: RunContext) -> None:
             f"value {figure(r['value'])}, limit {figure(r['limit'])}, margin {figure(r['margin'])}"
         )
         ctx.progress(f"      check {name}: {state} ({nums})")
+        if name == "min_torsional_rigidity_Nm_per_arcmin" and not ctx.scene.solver.drive:
+            from corr_cad.run.console import PAPER_RIGIDITY_NOTE
+
+            ctx.progress(f"      {PAPER_RIGIDITY_NOTE}")
     # The remedy search re-solves the forces only: datasheet figures get none.
     sheet = ctx.scene.checks.datasheet_active()
     failed = [name for name, r in report.items() if not r["passed"] and name not in sheet]
@@ -169,7 +189,15 @@ def _what_passes(ctx: RunContext, failed: list[str]) -> None:
         info = undercut_analysis(design)
         trimmed = info.undercut and info.trimmed_psi_deg
         limit = math.radians(info.trimmed_psi_deg) if trimmed else math.pi
-        res = _solve(ctx, design, input_torque, limit)
+        if s.solver.drive:
+            from corr_cad.run.stages_drive import drive_check_values, solve_scene_drive
+
+            dres = solve_scene_drive(ctx, design, input_torque, limit)
+            if dres.success:
+                return drive_check_values(dres, check_values)
+            res = dres.rows[0]
+        else:
+            res = _solve(ctx, design, input_torque, limit)
         if not res.success:
             return {k: math.nan for k in ("peak_gear_force", "peak_pressure")} | {
                 "min_loaded_rollers": -1.0,

@@ -10,15 +10,21 @@ import numpy as np
 from corr_cad.errors import SceneError, SolverError
 from corr_cad.figure_text import figure
 from corr_cad.mechanics.solver import solve_forces
-from corr_cad.run.context import RunContext, expected_seconds, psi_contact_limit, scene_errors
+from corr_cad.run.context import (
+    RunContext,
+    drive_kwargs,
+    expected_seconds,
+    psi_contact_limit,
+    scene_errors,
+)
 
 
 def _datasheet_mc(scene):
     """The Monte Carlo's datasheet pass of a scene, or None when it does not ask for it."""
     from corr_cad.run.scene_montecarlo import wants_datasheet_metrics
 
-    if not wants_datasheet_metrics(scene):
-        return None
+    if not wants_datasheet_metrics(scene) or scene.solver.drive:
+        return None  # the drive's Monte Carlo keeps the force metrics
     from corr_cad.run.stages_datasheet import datasheet_spec
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
 
@@ -54,6 +60,30 @@ class _RowStream:
         self.f.write(format_columns(cols, self.fmts))
 
 
+def _drive_mc(ctx: RunContext) -> dict | None:
+    """The Monte Carlo's ``drive`` argument under ``model = "drive"`` (None: the paper's row)."""
+    s = ctx.scene
+    if not s.solver.drive:
+        return None
+    kw = drive_kwargs(ctx)
+    return {k: kw[k] for k in ("errors_b", "bearing", "bearing_b", "contact_model")}
+
+
+def _sweep_model(ctx: RunContext) -> dict | None:
+    """The sweeps' ``drive`` argument: the model and contact law (None: the paper's row)."""
+    s = ctx.scene
+    if s.solver.drive:
+        return {
+            "model": "drive",
+            "bearing": s.bearing,
+            "bearing_b": s.bearing_b,
+            "contact_model": s.solver.contact_model,
+        }
+    if s.solver.contact_law != "paper":
+        return {"model": "paper", "contact_model": s.solver.contact_model}
+    return None
+
+
 def _montecarlo(ctx: RunContext) -> None:
     from corr_cad.export import plots_tolerance
     from corr_cad.export.files import atomic_writer, write_json
@@ -85,6 +115,7 @@ def _montecarlo(ctx: RunContext) -> None:
             psi_contact_limit=psi_contact_limit(ctx),
             datasheet=sheet,
             sink=_RowStream(f),
+            drive=_drive_mc(ctx),
         )
         bar.close()
         if not res.success:
@@ -183,6 +214,16 @@ def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
     from corr_cad.tolerance.checks import sample_metrics
 
     s = ctx.scene
+    if s.solver.drive:
+        from corr_cad.mechanics.drive import DriveSolver
+        from corr_cad.tolerance.montecarlo_drive import drive_metrics
+
+        kw = drive_kwargs(ctx)
+        kw.pop("variants")
+        solver = DriveSolver(s.design, cycle_angles(positions), **kw)
+        res = solver.result(s.load.input_torque)
+        interval = solver.free_interval()
+        return drive_metrics(res, interval, float(s.design.roller_count))
     res = solve_forces(
         s.design,
         s.load.input_torque,
@@ -221,6 +262,7 @@ def _allocation(ctx: RunContext) -> None:
         "base_errors": scene_errors(ctx),
         "psi_contact_limit": psi_contact_limit(ctx),
         "datasheet": _datasheet_mc(s),
+        "drive": _drive_mc(ctx),
     }
     d, m0 = s.design, s.load.input_torque
     rows = []
@@ -322,6 +364,7 @@ def _sweeps(ctx: RunContext) -> None:
         executor=ctx.executor,
         ranges=ranges,
         progress=bar.update,
+        drive=_sweep_model(ctx),
     )
     bar.close()
     header = ["value", "status", *METRICS, "loaded_rollers_min", "loaded_rollers_max"]

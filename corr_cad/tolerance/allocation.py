@@ -41,6 +41,7 @@ def allocate(
     progress: Callable[[int, int, float], None] | None = None,
     distribution: str | None = None,
     datasheet=None,
+    drive: dict | None = None,
 ) -> dict:
     """Largest symmetric tolerance ``T`` of ``kind`` that keeps the checks.
 
@@ -54,6 +55,9 @@ def allocate(
     until a check fails, then bisect (geometrically) to ``rel_precision``.
     Returns ``{"kind", "tolerance", "unit", "failing_at", "evaluations"}``;
     ``tolerance`` is 0 when even a perfect part fails.
+
+    ``drive``: the two-row drive's Monte Carlo
+    (:func:`~corr_cad.tolerance.montecarlo.monte_carlo`'s argument; force metrics).
 
     ``progress(done, expected, samples_per_s)`` is called after each Monte
     Carlo: evaluations done, the expected total (the bisection's remaining
@@ -130,6 +134,7 @@ def allocate(
             psi_contact_limit=psi_contact_limit,
             kernel=kernel,
             datasheet=datasheet,
+            drive=drive,
         )
         failing = []
         if binding_limit is not None and float(np.mean(mc.metrics["binds"])) > binding_limit:

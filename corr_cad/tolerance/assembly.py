@@ -48,8 +48,13 @@ def binding_interference(
     errors: ManufacturingErrors,
     variants: tuple[str, ...] = (),
     psi_contact_limit: float = math.pi,
+    errors_b: ManufacturingErrors | None = None,
+    drive: bool = False,
 ) -> np.ndarray:
     """Least possible chain interference at each output angle, mm (P,), from the gaps only.
+
+    ``drive``: both rows on the one crank (``errors_b`` row B's, None: ``errors``),
+    cams fixed: the crank rotation that fits one row may press the other.
 
     With the crank locked, turning the cam by ``tau`` changes roller ``i``'s
     chain gap (interference +) to ``g_i + a_i tau``. The frame settles where
@@ -60,13 +65,16 @@ def binding_interference(
     fits every roller, the drive binds (preloaded); ``<= 0``: it fits, with
     that much room on the tightest roller.
     """
-    geo = roller_geometry(
-        design,
-        crank_angles_of(np.asarray(output_angles, dtype=float), design),
-        errors,
-        variants,
-        psi_contact_limit,
-    )
+    phi = crank_angles_of(np.asarray(output_angles, dtype=float), design)
+    if drive:
+        from corr_cad.mechanics.drive import drive_geometry, row_errors
+        from corr_cad.mechanics.drive_numerics import joined
+
+        geo = joined(
+            *drive_geometry(design, phi, *row_errors(errors, errors_b), variants, psi_contact_limit)
+        )
+    else:
+        geo = roller_geometry(design, phi, errors, variants, psi_contact_limit)
     g = np.where(geo.loadable, geo.gap, -np.inf)
     a = np.where(geo.loadable, geo.advance, 0.0)
     out = np.max(np.where(a == 0.0, g, -np.inf), axis=1)
@@ -95,20 +103,43 @@ def selective_assembly(
     variants: tuple[str, ...] = (),
     psi_contact_limit: float = math.pi,
     progress=None,
+    contact_model: str = "nonlinear",
+    drive: dict | None = None,
 ) -> dict:
-    """The predicted datasheet of every class and the class to fit (``assembly.json``)."""
+    """The predicted datasheet of every class and the class to fit (``assembly.json``).
+
+    ``drive``: the two-row drive (:func:`~corr_cad.mechanics.datasheet.datasheet`'s
+    argument); the class is fitted to both rows, and binding is judged on both
+    rows on the one crank with the cams fixed.
+    """
     rows = []
     for k, c in enumerate(classes_um):
         err = replace(base_errors, roller_radius_error=base_errors.roller_radius_error + c * 1e-3)
+        drive_k = None
+        if drive is not None:
+            eb = drive.get("errors_b")
+            if eb is not None:
+                eb = replace(eb, roller_radius_error=eb.roller_radius_error + c * 1e-3)
+            drive_k = {**drive, "errors_b": eb}
         ds = datasheet(
             design,
             spec,
             errors=err,
             load_share=load_share,
+            contact_model=contact_model,
             variants=variants,
             psi_contact_limit=psi_contact_limit,
+            drive=drive_k,
         )
-        inter = binding_interference(design, ds.output_angles, err, variants, psi_contact_limit)
+        inter = binding_interference(
+            design,
+            ds.output_angles,
+            err,
+            variants,
+            psi_contact_limit,
+            errors_b=None if drive_k is None else drive_k["errors_b"],
+            drive=drive_k is not None,
+        )
         binds = bool(np.max(inter) > BINDING_EPS_MM)
         fig = ds.figures()
         backlash = fig["backlash_arcmin"]["max"]

@@ -30,6 +30,13 @@ from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.batch import BatchSolver
 from corr_cad.mechanics.solver import _RTOL, cycle_angles, roller_geometry
 from corr_cad.tolerance.checks import ARCMIN_PER_RAD, CHECK_METRICS, Checks, sample_metrics
+from corr_cad.tolerance.mc_chunks import (  # re-exported: the resource model's names
+    IN_FLIGHT_PER_WORKER,
+    chunk_size,
+    executor_workers,
+    sample_bytes,
+    sample_seconds,
+)
 
 __all__ = [
     "TOLERANCE_KINDS",
@@ -76,6 +83,8 @@ TOLERANCE_KINDS = {
     "cam_phase": (False, "deg"),
     "roller_radius": (True, "mm"),
     "slot_angle": (True, "deg"),
+    # Last: the draws of the kinds above do not move. The drive model only.
+    "slot_clearance": (False, "mm"),
 }
 
 
@@ -92,10 +101,14 @@ class Distribution:
 
 
 def draw_samples(
-    tolerances: dict[str, Distribution], n: int, seed: int, roller_count: int
+    tolerances: dict[str, Distribution], n: int, seed: int, roller_count: int, stream: int = 0
 ) -> dict[str, np.ndarray]:
-    """Standard draws per kind (normal or uniform(-1, 1)), (n,) or (n, z+1); seeded."""
-    rng = np.random.default_rng(seed)
+    """Standard draws per kind (normal or uniform(-1, 1)), (n,) or (n, z+1); seeded.
+
+    ``stream`` 0 is the seed's own generator; another stream (the drive's row B,
+    :mod:`corr_cad.tolerance.montecarlo_drive`) seeds ``[seed, stream]``.
+    """
+    rng = np.random.default_rng(seed if stream == 0 else [seed, stream])
     out = {}
     for kind in TOLERANCE_KINDS:  # fixed order: same draws whatever the dict order
         per_roller, _ = TOLERANCE_KINDS[kind]
@@ -166,81 +179,6 @@ class DrawStream:
         return out
 
 
-#: Chunks in flight per worker: one running, the next ones queued (a worker
-#: never waits for the main process), and no more (their draws and results
-#: are what the main process holds besides the summary's columns).
-IN_FLIGHT_PER_WORKER = 2
-#: Chunks per worker a run is cut into at least, so that the last chunks do
-#: not leave most workers idle.
-CHUNKS_PER_WORKER = 4
-#: Bytes one chunk may take in the worker that solves it (its draws, errors,
-#: the datasheet pass's windup angles): this bounds the chunk, and so a
-#: worker's memory, whatever the sample count.
-CHUNK_BYTES = 16 * 1024**2
-#: No chunk has more samples than this: the chunks in flight
-#: (``IN_FLIGHT_PER_WORKER`` a worker, their draws and results held by the
-#: main process) stay small beside the summary's columns.
-CHUNK_MAX = 4_000
-#: Estimated seconds of work a chunk is given at most: a task's fixed cost
-#: (a few milliseconds) is then small, while a stall is still seen within
-#: seconds and the progress moves (``corr_cad.run.dask_exec``'s stall
-#: time-out is at least three tasks).
-CHUNK_SECONDS = 0.5
-#: Estimated seconds a (sample, position, roller) cell takes: the compiled
-#: kernel, the numpy solver; and a (sample, datasheet position, roller) cell
-#: of the datasheet pass (six windup torques).
-CELL_SECONDS = {True: 2.5e-7, False: 6e-7}
-DATASHEET_CELL_SECONDS = 1e-6
-
-
-def sample_seconds(positions: int, roller_count: int, kernel: bool, grid: int = 0) -> float:
-    """Estimated seconds of one sample's work (:data:`CELL_SECONDS`)."""
-    cells = positions * roller_count
-    return cells * CELL_SECONDS[bool(kernel)] + grid * roller_count * DATASHEET_CELL_SECONDS
-
-
-def chunk_size(samples: int, workers: int, sample_bytes: float, seconds: float = 0.0) -> int:
-    """Samples per chunk: ``CHUNKS_PER_WORKER`` chunks a worker at least, at most
-    ``CHUNK_BYTES`` of work each and ``CHUNK_SECONDS`` of estimated time (a
-    sample's ``seconds``), at least 50 (a task's fixed cost).
-
-    >>> chunk_size(100_000, 16, 2_000.0)
-    1563
-    >>> chunk_size(1_000_000, 2, 2_000.0)   # at most CHUNK_MAX
-    4000
-    >>> chunk_size(1_000_000, 2, 40_000.0)   # at most CHUNK_BYTES of work
-    419
-    >>> chunk_size(1_000_000, 2, 2_000.0, 1e-3)   # at most CHUNK_SECONDS of work
-    500
-    >>> chunk_size(30, 4, 2_000.0)
-    50
-    """
-    want = math.ceil(samples / (CHUNKS_PER_WORKER * max(workers, 1)))
-    cap = max(50, int(CHUNK_BYTES // max(sample_bytes, 1.0)))
-    if seconds > 0:
-        cap = min(cap, max(50, int(CHUNK_SECONDS / seconds)))
-    return max(1, min(max(want, 50), cap, CHUNK_MAX))
-
-
-def executor_workers(executor) -> int:
-    """How many tasks ``executor`` runs at once (a pool's workers, a Dask cluster's threads)."""
-    n = getattr(executor, "_max_workers", None)
-    if n is None and callable(getattr(executor, "workers", None)):
-        n = executor.workers()
-    elif n is None and callable(getattr(executor, "nthreads", None)):  # a Dask Client
-        n = sum(executor.nthreads().values())
-    return max(1, int(n or 1))
-
-
-def sample_bytes(roller_count: int, width: int, grid: int = 0, torques: int = 0) -> float:
-    """Bytes a sample takes in the worker solving its chunk: its ``width`` standard
-    draws (``z + 1`` for a per-roller tolerance, else 1) as sent and as
-    received, its errors (five arrays, two of ``z + 1``), its metrics, and with
-    the datasheet pass three copies of its windup angles (``grid`` positions x
-    ``torques``)."""
-    return 8.0 * (2 * width + 2 * roller_count + 12) + 24.0 * grid * torques
-
-
 def draw_width(tolerances, roller_count: int) -> int:
     """Standard draws a sample takes: ``z + 1`` a per-roller tolerance, else 1."""
     return sum(roller_count if TOLERANCE_KINDS[k][0] else 1 for k in tolerances)
@@ -261,6 +199,8 @@ def _errors_for(base: ManufacturingErrors, tolerances, units, k: int) -> Manufac
     if "slot_angle" in v:
         per = np.asarray(base.slot_angle_errors or np.zeros(len(v["slot_angle"])))
         kw["slot_angle_errors"] = tuple((per + np.radians(v["slot_angle"])).tolist())
+    if "slot_clearance" in v:
+        kw["slot_clearance"] = (base.slot_clearance or 0.0) + float(v["slot_clearance"])
     return replace(base, **kw)
 
 
@@ -500,6 +440,7 @@ def monte_carlo(
     kernel: bool | None = None,
     datasheet=None,
     sink: Callable[[int, dict, dict], None] | None = None,
+    drive: dict | None = None,
 ) -> MonteCarloResult:
     """Seeded Monte Carlo over ``tolerances``; see the module docstring.
 
@@ -544,6 +485,26 @@ def monte_carlo(
     stream = DrawStream(tolerances, samples, seed, R)
     executor = executor or SerialExecutor()
     workers = executor_workers(executor)
+    if drive is not None:
+        units = draw_samples(tolerances, samples, seed, R)
+        step = chunk or 50
+        bounds = [(lo, min(lo + step, samples)) for lo in range(0, samples, step)]
+        return _drive_monte_carlo(
+            design,
+            input_torque,
+            tolerances,
+            samples,
+            seed,
+            angles,
+            base,
+            units,
+            executor,
+            bounds,
+            progress,
+            psi_contact_limit,
+            datasheet,
+            drive,
+        )
     if kernel is None:
         kernel = samples * len(angles) >= KERNEL_MIN_WORK
     grid = None
@@ -591,4 +552,62 @@ def monte_carlo(
             sink(lo, mags, part)
         if progress:
             progress(hi, samples)
+    return MonteCarloResult(metrics, magnitudes, ok)
+
+
+def _drive_monte_carlo(
+    design,
+    input_torque,
+    tolerances,
+    samples,
+    seed,
+    angles,
+    base,
+    units,
+    executor,
+    bounds,
+    progress,
+    psi_contact_limit,
+    datasheet,
+    drive,
+) -> MonteCarloResult:
+    """:func:`monte_carlo` under the drive model (:mod:`corr_cad.tolerance.montecarlo_drive`)."""
+    from corr_cad.tolerance import montecarlo_drive as md
+
+    if datasheet is not None:
+        raise SolverError(
+            'the Monte Carlo\'s datasheet metrics are solved for model = "paper" only; '
+            "gate the drive's Monte Carlo on force metrics"
+        )
+    tol_b = md.row_b_tolerances(tolerances)
+    units_b = draw_samples(tol_b, samples, seed, design.roller_count, stream=md.ROW_B_STREAM)
+    base_b = drive.get("errors_b") or base
+    futures = [
+        executor.submit(
+            md.drive_chunk,
+            design,
+            input_torque,
+            angles,
+            base,
+            base_b,
+            tolerances,
+            {k: u[lo:hi] for k, u in units.items()},
+            {k: u[lo:hi] for k, u in units_b.items()},
+            hi - lo,
+            psi_contact_limit,
+            drive,
+            _errors_for,
+        )
+        for lo, hi in bounds
+    ]
+    parts, ok = [], True
+    for i, f in enumerate(futures):
+        metrics, success = f.result()
+        parts.append(metrics)
+        ok &= bool(success)
+        if progress:
+            progress(bounds[i][1], samples)
+    metrics = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    magnitudes = _magnitudes(units, tolerances)
+    magnitudes.update({f"{k}_row_b": v for k, v in _magnitudes(units_b, tol_b).items()})
     return MonteCarloResult(metrics, magnitudes, ok)

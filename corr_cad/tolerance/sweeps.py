@@ -239,8 +239,16 @@ def sweep_point(
     input_torque: float,
     positions: int,
     load_share: float,
+    drive: dict | None = None,
 ) -> dict:
-    """One sweep point: status ``ok``, ``undercut`` or ``invalid``, and roller 1's forces."""
+    """One sweep point: status ``ok``, ``undercut`` or ``invalid``, and roller 1's forces.
+
+    ``drive``: the two-row drive model (keyword arguments of
+    :func:`~corr_cad.mechanics.drive.solve_drive`: ``bearing``, ``bearing_b``,
+    ``contact_model``); roller 1 is then row A's, and the swept error both
+    rows'. Without it, one row at ``load_share``; ``drive = {"contact_model":
+    ...}`` with ``load_share`` given as None picks only the contact law.
+    """
     where, _, _ = PAPER_SWEEPS[name]
     rec = {"sweep": name, "value": float(value), "status": "ok"}
     try:
@@ -252,9 +260,21 @@ def sweep_point(
             )
             return rec
         errors = ManufacturingErrors(**{name: value}) if where == "errors" else None
-        res = solve_forces(
-            d, input_torque, positions=positions, load_share=load_share, errors=errors
-        )
+        if drive is not None and drive.get("model") == "drive":
+            from corr_cad.mechanics.drive import solve_drive
+
+            kw = {k: v for k, v in drive.items() if k != "model"}
+            res = solve_drive(d, input_torque, positions=positions, errors=errors, **kw).rows[0]
+        else:
+            law = (drive or {}).get("contact_model", "nonlinear")
+            res = solve_forces(
+                d,
+                input_torque,
+                positions=positions,
+                load_share=load_share,
+                errors=errors,
+                contact_model=law,
+            )
     except CorrCadError as exc:
         rec["status"] = f"invalid: {exc}"
         return rec
@@ -275,9 +295,11 @@ def run_sweeps(
     names=tuple(PAPER_SWEEPS),
     ranges: dict[str, dict] | None = None,
     progress: Callable[[int], None] | None = None,
+    drive: dict | None = None,
 ) -> dict[str, list[dict]]:
     """All sweeps, each point a task on ``executor`` (``submit`` interface).
 
+    ``drive``: the model and contact law of each point (:func:`sweep_point`).
     ``ranges`` maps a sweep name to a :func:`sweep_range` result; missing
     ones get the default range. A sweep with no valid range has no points.
     ``progress(n)`` is called with 1 after each point is back.
@@ -296,7 +318,7 @@ def run_sweeps(
         values = np.linspace(lo, hi, points) if points > 1 else np.array([0.5 * (lo + hi)])
         jobs[name] = [
             executor.submit(
-                sweep_point, design, name, float(v), input_torque, positions, load_share
+                sweep_point, design, name, float(v), input_torque, positions, load_share, drive
             )
             for v in values
         ]

@@ -1,0 +1,206 @@
+"""The drive's windup ``theta(T, x)``: both rows together, crank locked (``model = "drive"``).
+
+The bench view of :mod:`corr_cad.mechanics.windup`, with the drive model of
+:mod:`corr_cad.mechanics.drive`: an output torque ``T`` is the crank moment
+``-T / (z + 1)`` carried by both rows together (no load share), and
+
+    theta(T, x) = -tau / (z + 1)
+
+with ``tau`` the crank rotation shared by both cams.
+
+Free rotation (backlash). The crank rotations each row allows without load
+form an interval; the drive's is the intersection of both rows' intervals,
+since the crank is one. The ends come from the gaps alone
+(:meth:`~corr_cad.mechanics.drive.DriveSolver.free_interval`): with a bearing
+clearance each cam may also shift within it, which widens its row's interval
+where that lets the cam move.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from corr_cad.errors import SolverError
+from corr_cad.geometry.design import GearDesign
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.solver_numerics import _RTOL
+from corr_cad.mechanics.windup import crank_angles_of, series_rigidity_Nmm_per_rad
+
+__all__ = ["DriveWindup"]
+
+_BLOCK_ELEMENTS = 6000
+
+
+class DriveWindup:
+    """:class:`~corr_cad.mechanics.windup.Windup` of the two-row drive (same methods)."""
+
+    def __init__(
+        self,
+        design: GearDesign,
+        output_angles: np.ndarray,
+        *,
+        errors: ManufacturingErrors | None = None,
+        errors_b: ManufacturingErrors | None = None,
+        bearing: EccentricBearing | None = None,
+        bearing_b: EccentricBearing | None = None,
+        contact_model: str = "nonlinear",
+        variants: tuple[str, ...] = (),
+        psi_contact_limit: float = math.pi,
+        series_rigidity_Nm_per_arcmin: float | None = None,
+        rtol: float = _RTOL,
+    ):
+        if "working_half_only" in variants:
+            raise SolverError(
+                "variant 'working_half_only' is the paper's one-row form; the drive model "
+                "loads both halves of both rows"
+            )
+        x = np.asarray(output_angles, dtype=float).reshape(-1)
+        if x.size == 0 or not np.all(np.isfinite(x)):
+            raise SolverError("output_angles must be a non-empty array of finite angles (rad)")
+        self.design = design
+        self.output_angles = x
+        self.crank_angles = crank_angles_of(x, design)
+        self.series_rigidity_Nm_per_arcmin = series_rigidity_Nm_per_arcmin
+        self.bearings = (bearing, bearing_b if bearing_b is not None else bearing)
+        self._ratio = float(design.roller_count)
+        step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
+        self._blocks = []
+        for a in range(0, len(x), step):
+            sl = slice(a, a + step)
+            solver = DriveSolver(
+                design,
+                self.crank_angles[sl],
+                errors=errors,
+                errors_b=errors_b,
+                bearing=bearing,
+                bearing_b=bearing_b,
+                contact_model=contact_model,
+                variants=variants,
+                psi_contact_limit=psi_contact_limit,
+                rtol=rtol,
+            )
+            self._blocks.append((sl, solver))
+        self._cache: dict[float, tuple] = {}
+
+    def cam_moment(self, output_torque: float) -> float:
+        """The crank moment (solver sign) of an output torque, N*mm: ``-T / (z + 1)``."""
+        return -float(output_torque) / self._ratio
+
+    def _solve(self, output_torque: float):
+        """``(theta (P,), row_a_share (P,), [(slice, solver, solution)])`` at ``T``."""
+        T = float(output_torque)
+        if T in self._cache and math.copysign(1.0, T) == self._cache[T][0]:
+            return self._cache[T][1]
+        target = self.cam_moment(T)
+        theta = np.empty(len(self.crank_angles))
+        share = np.empty_like(theta)
+        pieces = []
+        for sl, solver in self._blocks:
+            sol = solver.solve(target)
+            tau, F, u, Qs, rel, it = sol
+            limit = max(solver.rtol, 1e-9)
+            if not np.all(rel <= limit):
+                raise SolverError(
+                    f"drive windup at output torque {T:g} N*mm: equilibrium not reached to "
+                    f"{limit:g} (worst relative residual {float(rel.max()):.3g})"
+                )
+            theta[sl] = -tau / self._ratio
+            share[sl] = solver.share(F)
+            pieces.append((sl, solver, sol))
+        out = (theta, share, pieces)
+        self._cache = {T: (math.copysign(1.0, T), out)}
+        return out
+
+    def free_ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """``theta(0-)`` and ``theta(0+)`` of the drive, rad (P,) each
+        (:meth:`~corr_cad.mechanics.drive.DriveSolver.free_interval`)."""
+        lo = np.empty(len(self.crank_angles))
+        hi = np.empty_like(lo)
+        for sl, solver in self._blocks:
+            rev, fwd = solver.free_interval()
+            # T > 0 turns the crank backwards (tau < 0): theta(0-) is the forward end.
+            lo[sl], hi[sl] = -fwd / self._ratio, -rev / self._ratio
+        return lo, hi
+
+    def backlash(self) -> np.ndarray:
+        """``theta(0+) - theta(0-)``, rad (P,)."""
+        lo, hi = self.free_ends()
+        return hi - lo
+
+    def contact_theta(self, output_torque: float) -> np.ndarray:
+        """Windup of the contacts (and bearings) alone, rad (P,); ``+-0.0``: the free ends."""
+        T = float(output_torque)
+        if not math.isfinite(T):
+            raise SolverError(f"output torque {T!r}: must be a finite number (N*mm)")
+        if T == 0.0:
+            lo, hi = self.free_ends()
+            return lo if math.copysign(1.0, T) < 0 else hi
+        return self._solve(T)[0]
+
+    def theta(self, output_torque: float) -> np.ndarray:
+        """Windup with the series compliance, rad (P,)."""
+        T = float(output_torque)
+        k = series_rigidity_Nmm_per_rad(self.series_rigidity_Nm_per_arcmin)
+        return self.contact_theta(T) + T / k
+
+    def curve(self, output_torques: np.ndarray) -> np.ndarray:
+        """:meth:`theta` at each torque: (L, P) rad."""
+        return np.stack([self.theta(T) for T in np.asarray(output_torques, dtype=float)])
+
+    def row_a_share(self, output_torque: float) -> np.ndarray:
+        """Share of the moment row A carries at each position (P,); 0.5 at zero torque."""
+        T = float(output_torque)
+        if T == 0.0:
+            return np.full(len(self.crank_angles), 0.5)
+        return self._solve(T)[1]
+
+    def forces(self, output_torque: float):
+        """The :class:`~corr_cad.mechanics.drive.DriveResult` at ``T`` (nonzero), all positions."""
+        T = float(output_torque)
+        if T == 0.0 or not math.isfinite(T):
+            raise SolverError(f"forces at output torque {T!r}: give a finite, nonzero torque")
+        _, _, pieces = self._solve(T)
+        target = self.cam_moment(T)
+        parts = [solver._build(target, *sol) for _, solver, sol in pieces]
+        if len(parts) == 1:
+            return parts[0]
+        return _concatenate(parts)
+
+    def peak_pressure(self, output_torque: float) -> np.ndarray:
+        """Largest Hertz pressure of any contact, roller and row at each position, MPa (P,)."""
+        res = self.forces(output_torque)
+        peak = [
+            np.max(np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear), axis=1) for r in res.rows
+        ]
+        return np.maximum(*peak)
+
+
+def _concatenate(parts):
+    """Drive results of consecutive position blocks as one (the per-row results too)."""
+    from dataclasses import replace
+
+    from corr_cad.mechanics.windup import _concatenate as concat_rows
+
+    first = parts[0]
+    fields = {}
+    for name in ("F_j", "F_n", "F_s", "bearing_load", "needle_load_max", "cam_displacement"):
+        fields[name] = np.concatenate([getattr(p, name) for p in parts], axis=1)
+    for name in ("crank_angles", "row_a_share", "cam_rotation"):
+        fields[name] = np.concatenate([getattr(p, name) for p in parts])
+    if first.needle_loads is not None:
+        fields["needle_loads"] = tuple(
+            np.concatenate([p.needle_loads[c] for p in parts]) for c in (0, 1)
+        )
+    rows = tuple(concat_rows([p.rows[i] for p in parts]) for i in (0, 1))
+    return replace(
+        first,
+        **fields,
+        rows=rows,
+        success=all(p.success for p in parts),
+        moment_residual=max(p.moment_residual for p in parts),
+        iterations=max(p.iterations for p in parts),
+    )

@@ -1,0 +1,322 @@
+"""The two-row drive (``[solver] model = "drive"``): shares, bearings, equilibrium, clearance."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import optimize, special
+
+from corr_cad import GearDesign
+from corr_cad.geometry.deviations import ManufacturingErrors as ME
+from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.drive import solve_drive
+from corr_cad.mechanics.drive_windup import DriveWindup
+from corr_cad.mechanics.reference import reference_geometry
+from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.windup import Windup
+
+T_R = 2.86e6  # N*mm, the prototype's rated output torque
+M0 = T_R / 26  # its crank moment
+NEEDLES = EccentricBearing(40, 6.0, 12.0)
+
+
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+def test_nominal_share_is_one_half_when_z_plus_1_is_even(law):
+    angles = np.radians(np.linspace(0.0, 360.0 / 26, 7))
+    for torque in (0.03 * M0, M0, -0.5 * M0):
+        for bearing in (None, NEEDLES):
+            res = solve_drive(GearDesign(), torque, angles, contact_model=law, bearing=bearing)
+            assert res.success
+            np.testing.assert_allclose(res.row_a_share, 0.5, atol=1e-12)
+
+
+def test_odd_roller_count_ripples_within_the_derived_bound():
+    """With z + 1 odd, row B sits half a pitch off row A. With linear contacts each row's
+    moment is ``k(phi) tau`` (nominal: every loaded roller touches at tau = 0), so the share
+    is exactly ``k(phi) / (k(phi) + k(phi + pi))``, within ``0.5 +- (k_max - k_min) /
+    (2 (k_max + k_min))``; ``k`` comes from one-row solves (load_share 1)."""
+    design = GearDesign(tooth_count=24, eccentricity=3.5, cam_radius=135.0, roller_radius=8.0)
+    assert design.roller_count % 2 == 1
+    angles = np.radians(np.linspace(0.0, 360.0 / 25, 9))
+    res = solve_drive(design, M0, angles, contact_model="linear")
+    k_a = M0 / solve_forces(design, M0, angles, load_share=1.0, contact_model="linear").cam_rotation
+    k_b = (
+        M0
+        / solve_forces(
+            design, M0, angles + np.pi, load_share=1.0, contact_model="linear"
+        ).cam_rotation
+    )
+    np.testing.assert_allclose(res.row_a_share, k_a / (k_a + k_b), rtol=1e-10)
+    k = np.concatenate([k_a, k_b])
+    bound = (k.max() - k.min()) / (2 * (k.max() + k.min()))
+    assert np.all(np.abs(res.row_a_share - 0.5) <= bound * (1 + 1e-9))
+    assert np.ptp(res.row_a_share) > 0  # it does ripple
+
+
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+def test_identical_rigid_rows_agree_with_the_paper_model_at_share_one_half(law):
+    x = np.radians([0.0, 0.05, 0.2])
+    drive = DriveWindup(GearDesign(), x, contact_model=law)
+    paper = Windup(GearDesign(), x, load_share=0.5, contact_model=law)
+    for T in (0.03 * T_R, T_R, -0.6 * T_R):
+        np.testing.assert_allclose(drive.theta(T), paper.theta(T), rtol=1e-9)
+
+
+def _independent_share(design, errors_a, errors_b, crank_angle, M):
+    """Both rows from the reference geometry (imports nothing of the package), each roller's
+    force from its own three contacts (paper law, Eqs. 9-12 by sagittas), bisection on the
+    shared crank rotation."""
+    length = design.roller_length
+    E, nu = design.material.young_modulus, design.material.poisson_ratio
+    Ep = E / (2 * (1 - nu * nu))
+
+    def sag(b2, k):
+        if k == 0.0:
+            return 0.0
+        R = 1.0 / k
+        return math.copysign(abs(R) - math.sqrt(R * R - b2), R)
+
+    def delta(F, k1, k2):
+        return (
+            0.0
+            if F <= 0
+            else sag(4 * F / (math.pi * length * Ep * (k1 + k2)), k1)
+            + sag(4 * F / (math.pi * length * Ep * (k1 + k2)), k2)
+        )
+
+    rows = []
+    for errs, phi in ((errors_a, crank_angle), (errors_b, crank_angle + math.pi)):
+        k_cam = 1.0 / (design.cam_radius + errs.cam_radius_error)
+        rows.append((reference_geometry(design, phi, errs), k_cam))
+
+    def force(tau, g, k_cam):
+        k_r = 1.0 / g["r_i"]
+        n, ut, c = g["n"], g["ut"], g["c"]
+
+        def residual(Fj):
+            Fn, Ft = g["fn"] * Fj, g["ft"] * Fj
+            a_n = delta(Fn, k_r, g["k_gear"]) - g["g_n"]
+            a_t = -math.copysign(g["clr"] + delta(abs(Ft), k_r, 0.0), Ft) if Ft else 0.0
+            det = n[0] * ut[1] - n[1] * ut[0]
+            d = ((a_n * ut[1] - n[1] * a_t) / det, (n[0] * a_t - a_n * ut[0]) / det)
+            overlap = g["g_j"] + tau * g["advance"] - (d[0] * c[0] + d[1] * c[1])
+            return delta(Fj, k_r, k_cam) - overlap
+
+        if residual(0.0) >= 0 or residual(1e-300) >= 0:
+            return 0.0
+        return optimize.brentq(residual, 0.0, 3e4, xtol=1e-300, rtol=1e-15, maxiter=500)
+
+    def moments(tau):
+        out = []
+        for geo, k_cam in rows:
+            m = 0.0
+            for g in geo:
+                F = force(tau, g, k_cam)
+                o1, c = g["o1"], g["c"]
+                m += o1[0] * (-F * c[1]) - o1[1] * (-F * c[0])
+            out.append(m)
+        return out
+
+    tau = optimize.brentq(
+        lambda t: sum(moments(t)) - M, -0.01, 0.01, xtol=1e-300, rtol=1e-15, maxiter=500
+    )
+    ma, mb = moments(tau)
+    return ma / (ma + mb)
+
+
+def test_share_with_small_rollers_against_an_independent_solve():
+    design = GearDesign()
+    small = ME(roller_radius_error=-0.001)
+    angles = np.radians([0.0, 4.0, 11.0])
+    res = solve_drive(design, M0, angles, errors=small, errors_b=ME())
+    for p, phi in enumerate(angles):
+        ref = _independent_share(design, small, ME(), float(phi), M0)
+        assert res.row_a_share[p] == pytest.approx(ref, abs=1e-6)
+    # The measured gap: about 0.22 of M0 on rigid cams at T_R (DRIVE-NOTES).
+    assert 0.18 < res.row_a_share.mean() < 0.26
+
+
+def test_small_rollers_share_more_with_floating_cams_and_nothing_at_part_load():
+    design, small = GearDesign(), ME(roller_radius_error=-0.001)
+    angles = np.radians([0.0, 6.0])
+    rigid = solve_drive(design, M0, angles, errors=small, errors_b=ME())
+    floating = solve_drive(design, M0, angles, errors=small, errors_b=ME(), bearing=NEEDLES)
+    assert np.all(floating.row_a_share > rigid.row_a_share)
+    assert 0.36 < floating.row_a_share.mean() < 0.46
+    light = solve_drive(design, 0.03 * M0, angles, errors=small, errors_b=ME())
+    np.testing.assert_allclose(light.row_a_share, 0.0, atol=1e-12)
+
+
+def test_needle_bearing_against_stribeck_with_many_needles():
+    """Zero clearance, Z -> large: Q_max = F_r / (Z J), J = (1/2pi) int cos^(1+10/9) over the
+    loaded half (Harris & Kotzalas, Rolling Bearing Analysis, Ch. 7: J_r(0.5) = 0.2453 for
+    line contact, i.e. Stribeck's 4.08 = 1/0.2453 to its three printed digits: the
+    tolerance is that rounding, 0.005/4.08 = 1.2e-3, plus the finite Z)."""
+    p = 1.0 + 1.0 / 0.9
+    J = math.sqrt(math.pi) * special.gamma((p + 1) / 2) / special.gamma(p / 2 + 1) / (2 * math.pi)
+    assert 1 / J == pytest.approx(4.08, abs=0.005)
+    many = EccentricBearing(720, 3.0, 12.0)
+    res = solve_drive(GearDesign(), M0, np.radians([0.0, 3.3]), bearing=many)
+    for c in (0, 1):
+        F_r = res.bearing_load[c]
+        np.testing.assert_allclose(res.needle_load_max[c], F_r / (720 * J), rtol=2e-4)
+        np.testing.assert_allclose(res.needle_load_max[c], 4.08 * F_r / 720, rtol=2e-3)
+
+
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+def test_equilibrium_of_every_cam_and_the_crank(law):
+    design = GearDesign()
+    errs = ME(roller_radius_errors=tuple(1e-3 * np.sin(np.arange(26))), cam_phase_error=1e-4)
+    b2 = EccentricBearing(36, 5.0, 10.0, 0.004)
+    angles = np.radians(np.linspace(0, 30, 11))
+    res = solve_drive(
+        design, M0, angles, errors=errs, contact_model=law, bearing=NEEDLES, bearing_b=b2
+    )
+    assert res.success
+    e, L = design.eccentricity, design.cam_radius + design.roller_radius
+    moment = 0.0
+    for c, bearing in enumerate((NEEDLES, b2)):
+        row = res.rows[c]
+        psi = row.psi
+        s = e * np.cos(psi) + np.sqrt(L**2 - (e * np.sin(psi)) ** 2)  # crank-slider
+        n = np.stack([-s * np.sin(psi) / L, (s * np.cos(psi) - e) / L], axis=-1)
+        push = np.einsum("pk,pkx->px", row.F_j, n)
+        a = 2 * np.pi * np.arange(bearing.needles) / bearing.needles
+        ej = np.stack([np.sin(a), np.cos(a)], axis=1)
+        carried = res.needle_loads[c] @ ej
+        scale = np.sum(row.F_j, axis=1)[:, None]
+        assert np.all(np.abs(carried - push) <= 1e-9 * scale)
+        np.testing.assert_allclose(np.linalg.norm(push, axis=1), res.bearing_load[c], rtol=1e-12)
+        moment = moment + np.sum(row.geometry.arm * row.F_j, axis=1)
+    np.testing.assert_allclose(moment, M0, rtol=1e-9)
+    assert np.all(res.needle_load_max >= 0)
+
+
+def test_cam_b_bearing_carries_its_rollers_resultant():
+    b2 = EccentricBearing(36, 5.0, 10.0, 0.004)
+    angles = np.radians([0.0, 2.0])
+    res = solve_drive(GearDesign(), M0, angles, bearing=NEEDLES, bearing_b=b2)
+    # Cam B's needles: the loads of its own bearing (largest from the Stribeck estimate's range).
+    ratio = res.needle_load_max[1] / (res.bearing_load[1] / 36)
+    assert np.all((4.0 < ratio) & (ratio < 7.0))  # clearance concentrates the load above 4.08
+
+
+def test_bearing_clearance_adds_lost_motion_within_the_hand_bound():
+    """A cam centre shift u acts like a crank rotation u_x / e (u_x across the eccentric):
+    a diametral clearance Pd lets each cam shift Pd/2 either way, so the nominal drive's
+    free rotation is exactly Pd / (e (z + 1)) of output. At +-3 % T_R the lost motion grows
+    by that plus the bearing's softer elastic part: its approach is at most that of one
+    needle carrying the whole radial load F_r (the fewest needles, the softest bearing),
+    delta_1 = 2 c F_r^0.9 / cos(pi / Z), once per direction."""
+    design = GearDesign()
+    Pd = 0.01
+    x = np.radians([0.0, 0.1])
+    loose_bearing = EccentricBearing(40, 6.0, 12.0, Pd)
+    tight = DriveWindup(design, x, bearing=NEEDLES)
+    loose = DriveWindup(design, x, bearing=loose_bearing)
+    ratio = design.eccentricity * design.roller_count
+    free = Pd / ratio
+    assert np.all(tight.backlash() == 0.0)
+    np.testing.assert_allclose(loose.backlash(), free, rtol=1e-6)
+    T = 0.03 * T_R
+    added = (loose.theta(T) - loose.theta(-T)) - (tight.theta(T) - tight.theta(-T))
+    F_r = loose.forces(T).bearing_load.max(axis=0)
+    c = 2 * 3.84e-5 / loose_bearing.needle_length**0.8  # two raceways, Palmgren
+    delta_1 = c * F_r**0.9 / math.cos(math.pi / loose_bearing.needles)
+    assert np.all(added >= free * (1 - 1e-6))
+    assert np.all(added <= free + 2 * delta_1 / ratio)
+
+
+def test_cam_phase_error_moves_the_share_antisymmetrically():
+    angles = np.radians([0.0, 5.0, 9.0])
+    d = math.radians(0.01)
+    plus = solve_drive(GearDesign(), M0, angles, errors=ME(cam_phase_error=d))
+    minus = solve_drive(GearDesign(), M0, angles, errors=ME(cam_phase_error=-d))
+    np.testing.assert_allclose(plus.row_a_share - 0.5, -(minus.row_a_share - 0.5), atol=1e-6)
+    # Cam B leads: it meets its rollers first under a positive crank moment (documented sign).
+    assert np.all(plus.row_a_share < 0.5)
+    assert 0.42 < plus.row_a_share.mean() < 0.48
+
+
+def test_row_errors_share_the_slots_and_give_the_phase_to_cam_b():
+    from corr_cad.mechanics.drive import row_errors
+
+    slots = tuple(1e-4 * np.arange(26))
+    a, b = row_errors(ME(slot_angle_errors=slots, cam_phase_error=0.01), ME(cam_radius_error=1e-3))
+    assert a.cam_phase_error == 0.0 and b.cam_phase_error == 0.01
+    assert b.slot_angle_errors == slots and b.cam_radius_error == 1e-3
+    both = row_errors(ME(roller_radius_error=2e-3))
+    assert both[0].roller_radius_error == both[1].roller_radius_error == 2e-3
+
+
+def test_slot_clearance_frees_the_frame_by_c_over_the_largest_radius():
+    """A diametral slot clearance c opens each flank by c/2: the frame turns until the roller
+    at the largest centre distance s on each side touches its flank, w = c / (2 s) per side
+    (s from the crank-slider formula, both rows' rollers; those at psi = 0 or pi, with no
+    arm, take no part)."""
+    design = GearDesign()
+    c = 0.004
+    x = np.radians([0.0, 0.07])
+    w = DriveWindup(design, x, errors=ME(slot_clearance=c))
+    e, L, z1 = design.eccentricity, design.cam_radius + design.roller_radius, 26
+    expected = []
+    for phi in design.tooth_count * x:
+        psi = np.concatenate(
+            [phi - 2 * np.pi * np.arange(z1) / z1, phi + np.pi - 2 * np.pi * np.arange(z1) / z1]
+        )
+        s = e * np.cos(psi) + np.sqrt(L**2 - (e * np.sin(psi)) ** 2)
+        sn = np.sin(psi)
+        up, down = sn > 1e-12, sn < -1e-12
+        expected.append(c / (2 * s[up].max()) + c / (2 * s[down].max()))
+    np.testing.assert_allclose(w.backlash(), expected, rtol=1e-9)
+
+
+def test_slot_fit_puts_an_oversize_roller_into_both_flanks_under_the_drive():
+    """Paper convention: an oversize roller is taken up by its slot; the drive's: the flank
+    gap is c/2 - dr, an interference |rho_s| dr more in the roller's chain at c = 0."""
+    from corr_cad.mechanics.solver_geometry import roller_geometry
+
+    design = GearDesign()
+    angles = np.radians([10.0])
+    dr = 0.002
+    paper = roller_geometry(design, angles, ME(roller_radius_error=dr))
+    drive = roller_geometry(design, angles, ME(roller_radius_error=dr, slot_clearance=0.0))
+    np.testing.assert_allclose(drive.gap - paper.gap, np.abs(paper.rho_s) * dr, rtol=1e-12)
+    loose = roller_geometry(design, angles, ME(roller_radius_error=dr, slot_clearance=0.01))
+    np.testing.assert_allclose(
+        loose.gap - paper.gap, -np.abs(paper.rho_s) * (0.005 - dr), rtol=1e-12
+    )
+
+
+def test_free_rotation_of_a_preloaded_row_on_a_loose_bearing():
+    """A row pressed by oversize rollers holds its cam centre v where their forces balance;
+    the crank still turns while the eccentric stays within Pd/2 of it: the free output
+    rotation is 2 sqrt((Pd/2)^2 - v_y^2) / (e (z + 1)), at most Pd / (e (z + 1)), and
+    close to it since the preload centres the cam to within a fraction of Pd/2."""
+    design = GearDesign()
+    Pd = 0.006
+    res = solve_drive(
+        design,
+        M0,
+        np.radians([3.0, 8.0]),
+        errors=ME(roller_radius_error=0.001),
+        bearing=EccentricBearing(40, 6.0, 12.0, Pd),
+    )
+    full = Pd / (design.eccentricity * design.roller_count)
+    assert np.all((0.99 * full < res.backlash) & (res.backlash <= full * (1 + 1e-12)))
+    rigid = solve_drive(design, M0, np.radians([3.0]), errors=ME(roller_radius_error=0.001))
+    assert rigid.backlash[0] == 0.0
+
+
+def test_full_cycle_shortcut_equals_solving_every_angle():
+    from corr_cad.mechanics.solver import cycle_angles
+
+    b = EccentricBearing(40, 6.0, 12.0, 0.003)
+    e = ME(roller_radius_error=-0.001, cam_phase_error=1e-4)
+    short = solve_drive(GearDesign(), M0, positions=104, bearing=b, errors=e)
+    every = solve_drive(GearDesign(), M0, cycle_angles(104), bearing=b, errors=e)
+    assert short.success and every.success
+    np.testing.assert_allclose(short.F_j, every.F_j, rtol=1e-9, atol=1e-9 * every.F_j.max())
+    for name in ("row_a_share", "bearing_load", "needle_load_max", "backlash", "cam_rotation"):
+        np.testing.assert_allclose(getattr(short, name), getattr(every, name), rtol=1e-9)
+    np.testing.assert_allclose(short.rows[1].p_gear, every.rows[1].p_gear, rtol=1e-9, atol=1e-6)

@@ -1,0 +1,288 @@
+"""The drive's scene keys and files: ``[solver] model``, ``contact_law``, ``[errors.row_b]``,
+``[bearings.eccentric(_b)]``, and what ``forces`` and ``datasheet`` write under them."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from corr_cad.errors import SceneError
+from corr_cad.geometry.deviations import ManufacturingErrors as ME
+from corr_cad.run.scene import parse_scene
+
+BEARING = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
+
+
+def _drive(**extra):
+    data = {"solver": {"model": "drive"}, "load": {"input_torque": 1.1e5}}
+    for k, v in extra.items():
+        data.setdefault(k, {}).update(v)
+    return data
+
+
+@pytest.mark.parametrize(
+    "data,pattern",
+    [
+        (
+            _drive(solver={"load_share": 0.55}),
+            r'^\[solver\] load_share = 0.55: has no meaning under model = "drive"',
+        ),
+        (
+            {"bearings": {"eccentric": BEARING}},
+            r'^\[bearings.eccentric\] acts under \[solver\] model = "drive" only',
+        ),
+        (_drive(bearings={"needle": BEARING}), r"unknown table 'needle' in \[bearings\]"),
+        (
+            _drive(bearings={"eccentric": {"needles": 40}}),
+            r"\[bearings.eccentric\] needle_diameter is not set",
+        ),
+        (
+            _drive(bearings={"eccentric": {**BEARING, "needles": 2}}),
+            r"\[bearings.eccentric\] needles = 2: allowed range is \[3, 1000\]",
+        ),
+        (
+            _drive(bearings={"eccentric_b": BEARING}),
+            r"\[bearings.eccentric_b\] overrides \[bearings.eccentric\] for cam B",
+        ),
+        (
+            _drive(errors={"row_b": {"roller_radius_errors": [0.0]}}),
+            r"\[errors.row_b\] roller_radius_errors has 1 values",
+        ),
+        (
+            _drive(errors={"row_b": {"slot_angle_errors_deg": [0.0] * 26}}),
+            r"unknown key 'slot_angle_errors_deg' in \[errors.row_b\]",
+        ),
+        (_drive(solver={"variants": ["eq3_printed"]}), r"\[solver\] variants = \['eq3_printed'\]"),
+        ({"solver": {"model": "both"}}, r"\[solver\] model = 'both': must be one of paper, drive"),
+        (
+            _drive(export={"formats": ["modification"]}),
+            r"formats lists 'modification', which solves the paper's one row",
+        ),
+        (
+            {
+                "solver": {"contact_law": "palmgren"},
+                "export": {"formats": ["montecarlo"]},
+                "tolerances": {"cam_radius": {"normal": 0.001}},
+                "load": {"input_torque": 1e5},
+            },
+            r"formats lists montecarlo or allocation, which solve the paper's contact law only",
+        ),
+        (
+            {"tolerances": {"slot_clearance": {"normal": 0.001}}},
+            r"\[tolerances\] slot_clearance: the slots' fit acts under",
+        ),
+        ({"design": {"slot_clearance": 0.01}}, r"\[design\] slot_clearance = 0.01: acts under"),
+    ],
+)
+def test_refusals_are_one_line(data, pattern):
+    with pytest.raises(SceneError, match=pattern) as info:
+        parse_scene(data)
+    assert "\n" not in str(info.value)
+
+
+def test_sections_reach_the_scene_and_cam_b_overrides_its_bearing():
+    scene = parse_scene(
+        _drive(
+            errors={"cam_phase_error_deg": 0.01, "row_b": {"roller_radius_error": -0.001}},
+            bearings={"eccentric": BEARING, "eccentric_b": {"diametral_clearance": 0.004}},
+        )
+    )
+    assert scene.solver.drive and scene.solver.contact_model == "nonlinear"
+    assert scene.errors_b.roller_radius_error == -0.001
+    assert scene.bearing.needles == scene.bearing_b.needles == 40
+    assert scene.bearing.diametral_clearance == 0.0
+    assert scene.bearing_b.diametral_clearance == 0.004
+    assert scene.source["bearings.eccentric_b"] == {"diametral_clearance": 0.004}
+    plain = parse_scene({"load": {"input_torque": 1.1e5}})
+    assert plain.errors_b is None and plain.bearing is None
+    assert not any(s.startswith(("bearings", "errors.row_b")) for s in plain.source)
+
+
+def test_drive_run_writes_both_rows_and_the_share(tmp_path):
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "drive.toml"
+    scene.write_text(
+        "[export]\nformats = ['forces', 'datasheet', 'report']\n[load]\ninput_torque = 1.1e5\n"
+        "[solver]\nmodel = 'drive'\ncontact_law = 'palmgren'\npositions = 52\n"
+        "[errors]\ncam_phase_error_deg = 0.005\n[errors.row_b]\nroller_radius_error = -0.0005\n"
+        "[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\nneedle_length = 12.0\n"
+        "[datasheet]\npositions_per_mesh = 2\ntransmission_error_positions_per_turn = 4\n"
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--quiet", "--workers", "1"]) == 0
+    with open(out / "forces.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 2 * 52 * 26
+    assert {r["row"] for r in rows} == {"A", "B"}
+    for r in rows[:3]:
+        assert float(r["needle_load_max"]) > 0 and float(r["bearing_load"]) > 0
+    share = np.array([float(r["row_share"]) for r in rows if r["roller"] == "1"])
+    np.testing.assert_allclose(share[:52] + share[52:], 1.0, rtol=1e-12)
+    summary = json.loads((out / "forces_summary.json").read_text())
+    assert summary["model"] == "drive" and summary["contact_law"] == "palmgren"
+    assert set(summary["rows"]) == {"A", "B"}
+    assert summary["rows"]["B"]["needle_load_max_N"]["max"] > 0
+    # Row B's rollers are small and cam B leads: row A carries more than half.
+    assert 0.5 < summary["row_a_share"]["min"] <= summary["row_a_share"]["max"] < 1.0
+    sheet = json.loads((out / "datasheet.json").read_text())
+    assert sheet["model"] == "drive" and sheet["bearing"]["needles"] == 40
+    assert 0.5 < sheet["row_a_share"]["mean"] < 1.0
+    with open(out / "windup.csv") as f:
+        header = f.readline().strip().split(",")
+    assert header == ["output_torque_Nm", "output_angle_deg", "windup_arcmin", "row_a_share"]
+    report = (out / "report.html").read_text()
+    assert "share of M0 on row A" in report and "palmgren" in report
+    assert "both rows&#39; contacts and the cams&#39; eccentric bearings" in report or (
+        "both rows' contacts and the cams' eccentric bearings" in report
+    )
+
+
+def test_prototype_rigidity_table_of_the_physics_page():
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+
+    spec = DatasheetSpec(
+        rated_torque=2.86e6, positions_per_mesh=2, transmission_error_positions_per_turn=4
+    )
+    needles = EccentricBearing(40, 6.0, 12.0)
+    table = {
+        ("nonlinear", None): 26000,
+        ("nonlinear", needles): 7300,
+        ("palmgren", None): 5300,
+        ("palmgren", needles): 3500,
+    }
+    for (law, bearing), quoted in table.items():
+        drive = {"errors_b": None, "bearing": bearing, "bearing_b": None}
+        ds = datasheet(GearDesign(), spec, contact_model=law, drive=drive)
+        rig = ds.figures()["torsional_rigidity_Nm_per_arcmin"]["contact_only"]["min"]
+        assert rig == pytest.approx(quoted, rel=0.02)
+        np.testing.assert_allclose(ds.row_a_share, 0.5, atol=1e-12)
+
+
+def test_drive_monte_carlo_draws_row_b_on_its_own_stream():
+    """Row A's draws are the seed's own (as for one row); row B's come from [seed, 1]; each
+    sample equals a direct drive solve of the errors rebuilt from the draws by hand."""
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.drive import DriveSolver
+    from corr_cad.mechanics.solver import cycle_angles
+    from corr_cad.tolerance.montecarlo import Distribution, draw_samples, monte_carlo
+    from corr_cad.tolerance.montecarlo_drive import drive_metrics
+
+    tol = {
+        "roller_radius": Distribution("normal", 0.001),
+        "slot_clearance": Distribution("uniform", 0.002),
+    }
+    only_a = draw_samples({"roller_radius": tol["roller_radius"]}, 3, 7, 26)
+    both = draw_samples(tol, 3, 7, 26)
+    np.testing.assert_array_equal(only_a["roller_radius"], both["roller_radius"])
+    design = GearDesign()
+    mc = monte_carlo(design, 1.1e5, tol, 3, 7, 13, drive={"contact_model": "palmgren"})
+    assert mc.success and set(mc.magnitudes) == {
+        "roller_radius",
+        "slot_clearance",
+        "roller_radius_row_b",
+    }
+    # Row B's generator, in the fixed order of the kinds (cam_radius, eccentricity,
+    # cam_phase, roller_radius), a normal and a uniform draw of each.
+    rng_b = np.random.default_rng([7, 1])
+    for _ in range(3):
+        rng_b.standard_normal(3)
+        rng_b.uniform(-1.0, 1.0, 3)
+    b_normal = rng_b.standard_normal((3, 26))
+    for k in range(3):
+        from corr_cad.geometry.deviations import ManufacturingErrors as ME
+
+        ea = ME(
+            roller_radius_errors=tuple(0.001 * both["roller_radius"][k]),
+            slot_clearance=0.002 * float(both["slot_clearance"][k]),
+        )
+        eb = ME(roller_radius_errors=tuple(0.001 * b_normal[k]))
+        solver = DriveSolver(
+            design, cycle_angles(13), errors=ea, errors_b=eb, contact_model="palmgren"
+        )
+        m = drive_metrics(solver.result(1.1e5), solver.free_interval(), 26.0)
+        for name, v in m.items():
+            assert mc.metrics[name][k] == pytest.approx(v, rel=1e-12, abs=1e-12)
+
+
+def test_sweeps_run_on_the_drive_and_under_palmgren():
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.mechanics.solver import solve_forces
+    from corr_cad.tolerance.sweeps import sweep_point
+
+    d = GearDesign()
+    rec = sweep_point(d, "roller_radius_error", -0.001, 1.1e5, 26, 0.55, {"model": "drive"})
+    row_a = solve_drive(d, 1.1e5, positions=26, errors=ME(roller_radius_error=-0.001)).rows[0]
+    assert rec["F_j_peak"] == pytest.approx(row_a.summary()["F_j_peak"], rel=1e-12)
+    rec = sweep_point(
+        d,
+        "roller_radius_error",
+        0.0,
+        1.1e5,
+        26,
+        0.55,
+        {"model": "paper", "contact_model": "palmgren"},
+    )
+    one = solve_forces(d, 1.1e5, positions=26, load_share=0.55, contact_model="palmgren")
+    assert rec["F_j_peak"] == pytest.approx(one.summary()["F_j_peak"], rel=1e-12)
+
+
+def test_selective_assembly_on_the_drive_fits_both_rows():
+    """Rollers 3 um small in both rows (the ring as made); the class fitted to both rows.
+    +7 um presses both rows (binds); +3 um closes the gap exactly (no binding); -2 um
+    leaves play, more than +3 um."""
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.datasheet import DatasheetSpec
+    from corr_cad.tolerance.assembly import selective_assembly
+
+    spec = DatasheetSpec(
+        rated_torque=2.86e6, positions_per_mesh=2, transmission_error_positions_per_turn=4
+    )
+    out = selective_assembly(
+        GearDesign(),
+        spec,
+        ME(roller_radius_error=-0.003),
+        [-2.0, 3.0, 7.0],
+        5.0,
+        contact_model="palmgren",
+        drive={"errors_b": None, "bearing": None, "bearing_b": None},
+    )
+    rows = {r["class_um"]: r for r in out["classes"]}
+    assert rows[7.0]["binds"] and not rows[3.0]["binds"] and not rows[-2.0]["binds"]
+    assert rows[-2.0]["backlash_arcmin"]["max"] > rows[3.0]["backlash_arcmin"]["max"]
+    assert out["chosen_class_um"] == 3.0
+
+
+def test_allocation_runs_on_the_drive():
+    """A tighter roller tolerance is allocated for a tighter pressure limit, on the drive."""
+    from corr_cad import GearDesign
+    from corr_cad.tolerance.allocation import allocate
+    from corr_cad.tolerance.checks import Checks
+
+    kw = {"samples": 8, "positions": 13, "drive": {"contact_model": "palmgren"}}
+    loose = allocate(
+        GearDesign(), 1.1e5, {}, Checks(max_contact_pressure=2000.0), "roller_radius", **kw
+    )
+    tight = allocate(
+        GearDesign(), 1.1e5, {}, Checks(max_contact_pressure=1600.0), "roller_radius", **kw
+    )
+    assert 0 < tight["tolerance"] < loose["tolerance"]
+
+
+def test_paper_rigidity_check_says_it_is_one_row_upper_bound(tmp_path, capsys):
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "paper.toml"
+    scene.write_text(
+        "[export]\nformats = ['forces']\n[load]\ninput_torque = 1.1e5\n[solver]\n"
+        "positions = 52\n[checks]\nmin_torsional_rigidity_Nm_per_arcmin = 1000.0\n"
+        "[datasheet]\npositions_per_mesh = 2\ntransmission_error_positions_per_turn = 4\n"
+    )
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"), "--workers", "1"]) == 0
+    text = capsys.readouterr()
+    lines = [ln for ln in (text.out + text.err).splitlines() if "one row only" in ln]
+    assert len(lines) == 1 and "upper bound" in lines[0]
