@@ -10,10 +10,8 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.export.files import write_columns
+from corr_cad.tolerance.mc_chunks import CHUNK_BYTES, CHUNK_MAX, IN_FLIGHT_PER_WORKER
 from corr_cad.tolerance.montecarlo import (
-    CHUNK_BYTES,
-    CHUNK_MAX,
-    IN_FLIGHT_PER_WORKER,
     Distribution,
     DrawStream,
     SerialExecutor,

@@ -23,14 +23,8 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
-from corr_cad.run.scene_drive import (
-    SolverSpec,
-    check_drive_tolerances,
-    parse_drive,
-    recorded,
-    split_drive_tables,
-    with_slot_fit,
-)
+from corr_cad.run import scene_drive as drv
+from corr_cad.run.scene_drive import SolverSpec
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
@@ -241,7 +235,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
-    data = split_drive_tables(split_design_table(data))
+    data = drv.split_drive_tables(split_design_table(data))
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -324,7 +318,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         model=sv["model"],
         contact_law=sv["contact_law"],
     )
-    drive = parse_drive(values, data, design)
+    drive = drv.parse_drive(values, data, design)
 
     er = values["errors"]
     per = er["roller_radius_errors"]
@@ -365,7 +359,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         math.radians(er["cam_phase_error_deg"]),
         harmonic_deviation(harmonics) if harmonics else None,
     )
-    errors = with_slot_fit(errors, values["design"]["slot_clearance"], solver.model)
+    errors = drv.with_slot_fit(errors, values["design"]["slot_clearance"], solver.model)
     checks = Checks(**{k: v for k, v in values["checks"].items()})
     if checks.min_loaded_rollers is not None:
         _check(
@@ -386,7 +380,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         "cam_phase": (180.0, False),
         "slot_clearance": (1.0, False),
     }
-    check_drive_tolerances(tolerances, formats, solver, checks, data)
+    drv.check_drive_tolerances(tolerances, formats, solver, checks, data)
     for kind, dist in tolerances.items():
         high, open_ = tol_high[kind]
         _check(_where("tolerances", kind), dist.scale, 0.0, high, low_open=False, high_open=open_)
@@ -495,14 +489,14 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             s: {
                 k: (v.__dict__ if isinstance(v, Distribution) else v)
                 for k, v in vals.items()
-                if v is not None and recorded(s, k, data)
+                if v is not None and drv.recorded(s, k, data)
             }
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given, [modification] and
             # [assembly] where they act (the inputs of scenes without them stay as they were).
             if (s != "datasheet" or sheet)
             and acts(s, modification, assembly, search)
-            and recorded(s, "", data)
+            and drv.recorded(s, "", data)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),
