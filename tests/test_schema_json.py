@@ -102,7 +102,7 @@ LOCAL = {
         for k in SCHEMA["checks"]
         if k not in ("max_failure_probability", "max_binding_probability")
     },
-    "tolerances": None,
+    # Not "tolerances": each scale is bounded by the design (r/2, a quarter slot pitch).
     "budget": None,
     "dask": None,
     # Not "tolerance": with "dxf" in the formats, a tolerance below ~5e-7 mm

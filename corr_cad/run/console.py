@@ -224,9 +224,29 @@ def datasheet_lines(d: dict | None) -> list[str]:
     return out
 
 
+def first_stage_lines(fs: dict | None) -> list[str]:
+    """The first gear stage in two lines: ratio and centre distance, then both meshes."""
+    if not fs:
+        return []
+    g = fs["gears"]
+    teeth = "/".join(str(g[k]["teeth"]) for k in ("pinion", "wheel", "crank_gear"))
+    meshes = "; ".join(
+        f"{name.replace('_', '-', 1).replace('_', ' ')}: working pressure angle "
+        f"{m['working_pressure_angle_deg']:.4g} deg, contact ratio {m['contact_ratio']:.3f}, "
+        f"backlash {1e3 * m['backlash_mm']:.3g} um"
+        for name, m in fs["meshes"].items()
+    )
+    return [
+        f"first stage: pinion/wheel/crank gear {teeth} teeth, module {fs['module_mm']:g} mm, "
+        f"i1 = {fs['ratio_i1']:.6g}, centre distance {fs['centre_distance_mm']:.6g} mm",
+        f"  {meshes}",
+    ]
+
+
 def summary_lines(manifest: dict, out) -> list[str]:
     """The console summary of a finished run, from its manifest."""
     lines = []
+    lines.extend(first_stage_lines(manifest.get("first_stage")))
     acc = (manifest.get("accuracy") or {}).get("working_profile")
     if acc:
         lines.append(

@@ -210,6 +210,7 @@ def run_scene(
             "pressure": "MPa",
             "angle": "deg",
         },
+        **({"first_stage": scene.first_stage.as_dict()} if scene.first_stage else {}),
         **ctx.manifest,
         "files": files,
         "stages": timings,

@@ -23,6 +23,7 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
+from corr_cad.run.scene_first_stage import parse_first_stage
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
@@ -115,6 +116,8 @@ class Scene:
     modification: Any = None  # [modification]; None: the conjugate profile
     assembly: dict = field(default_factory=dict)
     modification_design: dict = field(default_factory=dict)
+    #: ``[first_stage]``: :class:`~corr_cad.geometry.first_stage.FirstStageGeometry` or None.
+    first_stage: Any = None
     source: dict = field(default_factory=dict)
     #: ``[budget]``: memory_gb, output_gb, time_warning_s (None: the defaults).
     budget: dict = field(default_factory=dict)
@@ -437,6 +440,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             "allowed range is at least 1e-6 of the circumference"
         )
     modification, assembly, search = parse_modification(values, data, design, base_dir, load)
+    first_stage = parse_first_stage(values, data)
     scene = Scene(
         name=name,
         design=design,
@@ -468,6 +472,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         modification=modification,
         assembly=assembly,
         modification_design=search,
+        first_stage=first_stage,
         budget=values["budget"],
         dask=values["dask"],
         source={
@@ -479,7 +484,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             for s, vals in values.items()
             # [datasheet] is recorded where it is used or given, [modification] and
             # [assembly] where they act (the inputs of scenes without them stay as they were).
-            if (s != "datasheet" or sheet) and acts(s, modification, assembly, search)
+            if (s != "datasheet" or sheet)
+            and acts(s, modification, assembly, search)
+            and (s != "first_stage" or first_stage is not None)
         },
         warnings=no_effect_warnings(data, formats, bool(checks.active()))
         + renamed_key_warnings(data),

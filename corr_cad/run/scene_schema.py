@@ -11,6 +11,7 @@ from corr_cad.geometry.design import BOUNDS as DESIGN_BOUNDS
 from corr_cad.geometry.sampling import REPRESENTATIONS
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run import (
+    scene_schema_first_stage,
     scene_schema_modification,
     scene_schema_run,
     scene_schema_shop,
@@ -353,5 +354,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
     **scene_schema_tolerance.SECTIONS,
     **scene_schema_shop.SECTIONS,
     **scene_schema_modification.SECTIONS,
+    **scene_schema_first_stage.SECTIONS,
     **scene_schema_run.SECTIONS,
 }

@@ -244,7 +244,8 @@ def template_text() -> str:
             "",
         ]
         for section, keys in SCHEMA.items():
-            off = f"[{section}]" in quiet
+            # [first_stage] describes hardware the drive may not have: written commented
+            off = f"[{section}]" in quiet or section == "first_stage"
             lines.append(f"{'# ' if off else ''}[{section}]")
             for k, spec in keys.items():
                 choices = f" (one of: {', '.join(spec.choices)})" if spec.choices else ""
