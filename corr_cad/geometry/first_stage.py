@@ -283,9 +283,11 @@ def _check_centre_distances(s: FirstStage, a: float, a2: float, a02: float) -> N
 def first_stage_geometry(s: FirstStage) -> FirstStageGeometry:
     """Centre distance, working pressure angles, contact ratios and every refusal.
 
-    >>> g = first_stage_geometry(FirstStage(18, 36, 90, 1.5, 15.0))
-    >>> round(g.centre_distance, 6), g.ratio
-    (40.5, -5.0)
+    >>> g = first_stage_geometry(
+    ...     FirstStage(18, 36, 90, 1.5, 15.0, shift_pinion=0.5, shift_crank_gear=0.5)
+    ... )
+    >>> round(g.centre_distance, 4), g.ratio, [round(e, 3) for e in g.contact_ratio]
+    (41.2061, -5.0, [1.433, 1.782])
     """
     _check_spacing(s)
     _check_undercut(s)

@@ -20,10 +20,18 @@ from collections.abc import Iterable
 
 from corr_cad.tolerance.sweeps import PAPER_SWEEPS
 
-__all__ = ["OUTPUT_PATTERNS", "PART_FILE_STEMS", "ANGLE_TAG_PATTERN", "is_output_name"]
+__all__ = [
+    "OUTPUT_PATTERNS",
+    "PART_FILE_STEMS",
+    "GEAR_FILE_STEMS",
+    "ANGLE_TAG_PATTERN",
+    "is_output_name",
+]
 
 #: The four parts, as every DXF, mesh and STEP file names them.
 PART_FILE_STEMS = ("inner_gear", "disk_cam", "roller", "teeth_frame")
+#: The first gear stage's gears (``[first_stage]``), as their DXF files name them.
+GEAR_FILE_STEMS = ("pinion", "wheel", "crank_gear")
 #: What :func:`corr_cad.export.files.angle_tag` makes of an angle in [-3600, 3600] deg.
 ANGLE_TAG_PATTERN = r"m?[0-9]{3,4}(?:p[0-9]{1,3})?deg"
 
@@ -37,7 +45,7 @@ _PARTS = _any(PART_FILE_STEMS)
 #: ``[export] formats`` entry -> the names (regular expressions, matched in
 #: full) of every file that format can write.
 OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
-    "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf"),
+    "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf", rf"{_any(GEAR_FILE_STEMS)}\.dxf"),
     "png": (r"preview\.png", r"modification\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{

@@ -70,6 +70,19 @@ def _dxf_geometry(ctx: RunContext) -> None:
             **where,
             "layer": "CONJUGATE_PROFILE",
         }
+    if s.first_stage is not None:
+        from corr_cad.geometry.gear_outline import approximate_gear
+
+        ctx.results.gear_outlines = outlines = {
+            part: approximate_gear(getattr(s.first_stage, part), s.tolerance)
+            for part in ("pinion", "wheel", "crank_gear")
+        }
+        for part, o in outlines.items():
+            ctx.manifest["accuracy"][f"{part}_profile"] = {
+                **o.as_dict(),
+                "file": f"{part}.dxf",
+                "layer": "PROFILE",
+            }
 
 
 def _dxf_files(ctx: RunContext) -> None:
@@ -85,6 +98,13 @@ def _dxf_files(ctx: RunContext) -> None:
         None if mod is None else {"equidistant_mm": mod.equidistant_mm, "shift_mm": mod.shift_mm},
     )
     ctx.files.extend(p.name for p in paths.values())
+    if ctx.scene.first_stage is not None:
+        from corr_cad.export.gear_dxf import write_gears
+
+        gears = write_gears(
+            ctx.scene.design, ctx.scene.first_stage, ctx.results.gear_outlines, ctx.out
+        )
+        ctx.files.extend(p.name for p in gears)
 
 
 def _preview_png(ctx: RunContext) -> None:
