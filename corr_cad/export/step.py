@@ -207,6 +207,44 @@ def part_shapes(design: GearDesign, working_spline: ProfileApproximation) -> dic
     return {"ring": ring, "cam": cam, "roller": roller, "frame": frame}
 
 
+def _polygon_wire(points: np.ndarray):
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakePolygon
+
+    mk = BRepBuilderAPI_MakePolygon()
+    for x, y in np.asarray(points, dtype=float):
+        mk.Add(_pnt(x, y))
+    mk.Close()
+    if not mk.IsDone():
+        raise ExportError("STEP: could not close a polygon wire")
+    return mk.Wire()
+
+
+def stacked_shape(pieces: list):
+    """A B-rep solid from ``[(outer, holes, height, z0), ...]`` extrusions (fused).
+
+    A contour is a circle (its radius: an exact circle edge) or a polyline
+    ((n, 2) array of vertices, straight edges).
+    """
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Trsf, gp_Vec
+
+    require_ocp()
+
+    def wire(c):
+        return _wire([_circle_edge(c)]) if isinstance(c, float) else _polygon_wire(c)
+
+    shape = None
+    for outer, holes, height, z0 in pieces:
+        prism = _extrude(wire(outer), [wire(h) for h in holes], height)
+        if z0:
+            tr = gp_Trsf()
+            tr.SetTranslation(gp_Vec(0.0, 0.0, float(z0)))
+            prism = BRepBuilderAPI_Transform(prism, tr, True).Shape()
+        shape = prism if shape is None else BRepAlgoAPI_Fuse(shape, prism).Shape()
+    return shape
+
+
 #: The FILE_NAME time stamp when SOURCE_DATE_EPOCH is not set (as ezdxf's DXF stamp).
 DEFAULT_STAMP = "2000-01-01T00:00:00"
 _FILE_NAME = re.compile(r"(FILE_NAME\('(?:[^']|'')*',')(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d)(')")

@@ -303,6 +303,14 @@ def summary_lines(manifest: dict, out) -> list[str]:
             f"clearance over {c['positions']} crank positions: smallest {smallest}; "
             f"working contacts within {working} of exact contact"
         )
+    fc = (c or {}).get("first_stage")
+    if fc:
+        lines.append(
+            f"first-stage meshes over {fc['positions']} positions of a pinion pitch: smallest gap "
+            f"{1e3 * fc['pinion_wheel_min_gap_mm']:.3g} um (pinion-wheel), "
+            f"{1e3 * fc['wheel_crank_gear_min_gap_mm']:.3g} um (wheel-crank gear)"
+            + ("" if fc["ok"] else ": INTERFERENCE")
+        )
     i = manifest.get("interference")
     if i:
         state = "none beyond tessellation" if i["ok"] else f"{i['violations']} violations"

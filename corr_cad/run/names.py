@@ -24,6 +24,7 @@ __all__ = [
     "OUTPUT_PATTERNS",
     "PART_FILE_STEMS",
     "GEAR_FILE_STEMS",
+    "FIRST_STAGE_FILE_STEMS",
     "ANGLE_TAG_PATTERN",
     "is_output_name",
 ]
@@ -32,6 +33,8 @@ __all__ = [
 PART_FILE_STEMS = ("inner_gear", "disk_cam", "roller", "teeth_frame")
 #: The first gear stage's gears (``[first_stage]``), as their DXF files name them.
 GEAR_FILE_STEMS = ("pinion", "wheel", "crank_gear")
+#: Every part of the first gear stage, as its mesh and STEP files name them.
+FIRST_STAGE_FILE_STEMS = (*GEAR_FILE_STEMS, "crankshaft", "wheel_bearing", "crank_bearing")
 #: What :func:`corr_cad.export.files.angle_tag` makes of an angle in [-3600, 3600] deg.
 ANGLE_TAG_PATTERN = r"m?[0-9]{3,4}(?:p[0-9]{1,3})?deg"
 
@@ -49,7 +52,11 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     "png": (r"preview\.png", r"modification\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{
-        fmt: (rf"{_PARTS}\.{fmt}", rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}")
+        fmt: (
+            rf"{_PARTS}\.{fmt}",
+            rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}",
+            rf"{_any(FIRST_STAGE_FILE_STEMS)}\.{fmt}",
+        )
         for fmt in ("stl", "3mf", "glb", "ply", "step")
     },
     "interference": (r"(?:interference|clearance)\.(?:csv|png)",),
