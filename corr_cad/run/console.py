@@ -243,10 +243,32 @@ def first_stage_lines(fs: dict | None) -> list[str]:
     ]
 
 
+def drive_lines(d: dict | None) -> list[str]:
+    """The whole drive: ratio, mass, inertia at the input; the first stage's loads."""
+    if not d:
+        return []
+    out = [
+        f"whole drive: total ratio {d['total_ratio']:.6g}, mass {d['mass_kg']:.4g} kg "
+        f"(steel), inertia at the input {d['input_inertia_kg_m2']:.4g} kg m^2"
+    ]
+    ld = d.get("first_stage_loads")
+    if ld:
+        w = ld["per_wheel"]
+        out.append(
+            f"  first stage at {ld['input_torque_Nmm'] / 1e3:.4g} N*m: M0 "
+            f"{ld['crank_torque_M0_Nmm'] / 1e3:.4g} N*m (eta1 = 1); per wheel F_t "
+            f"{w['pinion_mesh_tangential_N']:.4g} N, bearing {w['bearing_load_N']:.4g} N; "
+            f"Lewis root stress up to {max(ld['root_bending_MPa'].values()):.4g} MPa, "
+            f"Hertz up to {max(ld['contact_stress_MPa'].values()):.4g} MPa"
+        )
+    return out
+
+
 def summary_lines(manifest: dict, out) -> list[str]:
     """The console summary of a finished run, from its manifest."""
     lines = []
     lines.extend(first_stage_lines(manifest.get("first_stage")))
+    lines.extend(drive_lines(manifest.get("drive")))
     acc = (manifest.get("accuracy") or {}).get("working_profile")
     if acc:
         lines.append(

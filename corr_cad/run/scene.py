@@ -23,7 +23,7 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
-from corr_cad.run.scene_first_stage import parse_first_stage
+from corr_cad.run.scene_first_stage import first_stage_load, parse_first_stage
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
@@ -298,6 +298,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
                 "[load] pinion_torque needs first_stage_ratio (and the other way round)"
             )
         load = LoadSpec(ld["pinion_torque"] * ld["first_stage_ratio"])
+    first_stage = parse_first_stage(values, data)
+    load = first_stage_load(values, load, first_stage, LoadSpec)
     if "forces" in formats and load is None:
         raise SceneError(
             "[export] formats lists 'forces' but [load] gives no torque; "
@@ -440,7 +442,6 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             "allowed range is at least 1e-6 of the circumference"
         )
     modification, assembly, search = parse_modification(values, data, design, base_dir, load)
-    first_stage = parse_first_stage(values, data)
     scene = Scene(
         name=name,
         design=design,

@@ -10,7 +10,10 @@ from corr_cad.errors import DesignError, SceneError
 from corr_cad.geometry.first_stage import FirstStage, FirstStageGeometry, first_stage_geometry
 from corr_cad.run.scene_schema_first_stage import REQUIRED, SECTIONS
 
-__all__ = ["parse_first_stage"]
+__all__ = ["parse_first_stage", "first_stage_load", "FIRST_STAGE_CHECKS"]
+
+#: ``[checks]`` limits the first stage's loads answer.
+FIRST_STAGE_CHECKS = ("max_first_stage_bending_MPa", "max_first_stage_contact_MPa")
 
 
 def parse_first_stage(values: dict, data: dict) -> FirstStageGeometry | None:
@@ -32,3 +35,28 @@ def parse_first_stage(values: dict, data: dict) -> FirstStageGeometry | None:
         return first_stage_geometry(FirstStage(**fs))
     except DesignError as exc:
         raise SceneError(f"[first_stage] {exc}") from exc
+
+
+def first_stage_load(values: dict, load, fs: FirstStageGeometry | None, make):
+    """The crank moment from ``[load] input_torque_Nm`` at the pinion (``eta1 = 1``).
+
+    Returns ``load`` unchanged when the key is not set, else ``make(M0)``
+    (the scene's ``LoadSpec``); checks the first stage's ``[checks]`` limits
+    have a first stage and a torque.
+    """
+    t_nm = values["load"]["input_torque_Nm"]
+    limits = [k for k in FIRST_STAGE_CHECKS if values["checks"][k] is not None]
+    if fs is None and (t_nm is not None or limits):
+        key = "[load] input_torque_Nm" if t_nm is not None else f"[checks] {limits[0]}"
+        raise SceneError(f"{key} needs a [first_stage] section (the gears it refers to)")
+    if t_nm is None:
+        if limits and load is None:
+            raise SceneError(
+                f"[checks] {limits[0]} needs a torque: set [load] input_torque_Nm (e.g. 22.0)"
+            )
+        return load
+    if load is not None:
+        raise SceneError(
+            "[load] give input_torque_Nm (at the pinion) or input_torque / pinion_torque, not both"
+        )
+    return make(t_nm * 1e3 * fs.stage.crank_gear_teeth / fs.stage.pinion_teeth)

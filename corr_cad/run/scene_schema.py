@@ -204,6 +204,15 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=1e12,
             example=1.0e5,
         ),
+        "input_torque_Nm": Key(
+            "float",
+            None,
+            "torque on the input pinion, N*m (needs [first_stage]; M0 = T_in crank_gear_teeth "
+            "/ pinion_teeth)",
+            low=-1e9,
+            high=1e9,
+            example=22.0,
+        ),
         "first_stage_ratio": Key(
             "float",
             None,
@@ -333,6 +342,22 @@ SCHEMA: dict[str, dict[str, Key]] = {
             low=0,
             high=1296000,
             example=60.0,
+        ),
+        "max_first_stage_bending_MPa": Key(
+            "float",
+            None,
+            "allowable tooth-root bending stress of the first stage's gears (Lewis), MPa",
+            low=0,
+            high=1e6,
+            example=300.0,
+        ),
+        "max_first_stage_contact_MPa": Key(
+            "float",
+            None,
+            "allowable contact stress of the first stage's meshes (Hertz), MPa",
+            low=0,
+            high=1e6,
+            example=1200.0,
         ),
         "max_failure_probability": Key(
             "float",

@@ -50,12 +50,12 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         warn("[tolerances]", 'formats lists neither "montecarlo" nor "allocation"')
     if "sweeps" in data and "sweeps" not in f:
         warn("[sweeps]", 'formats does not list "sweeps"')
-    if "load" in data and not solver:
+    if "load" in data and not solver and "first_stage" not in data:  # its loads use it
         warn(
             "[load]",
             "no format needs the mesh forces (forces, montecarlo, allocation, sweeps, inspection)",
         )
-    if "material" in data and not solver:
+    if "material" in data and not solver and "first_stage" not in data:  # Hertz of the gears
         warn("[material]", "only the force solver uses it and no format needs it")
     sv = data.get("solver", {})
     if "solver" in data and not solver:

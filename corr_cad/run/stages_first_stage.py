@@ -18,7 +18,7 @@ from corr_cad.geometry.first_stage_parts import (
 from corr_cad.geometry.gear_outline import approximate_gear
 from corr_cad.run.context import RunContext
 
-__all__ = ["gear_outlines", "part_pieces", "solids", "placements", "step_parts"]
+__all__ = ["gear_outlines", "part_pieces", "solids", "placements", "step_parts", "drive"]
 
 GEARS = ("pinion", "wheel", "crank_gear")
 
@@ -29,7 +29,45 @@ def gear_outlines(ctx: RunContext, tol: float) -> dict:
     if have is not None and all(o.tolerance == tol for o in have.values()):
         return have
     fs = ctx.scene.first_stage
-    return {part: approximate_gear(getattr(fs, part), tol) for part in GEARS}
+    made = {part: approximate_gear(getattr(fs, part), tol) for part in GEARS}
+    if tol == ctx.scene.tolerance:
+        ctx.results.gear_outlines = made
+    return made
+
+
+def drive(ctx: RunContext) -> None:
+    """The whole drive: ratio, masses, inertia at the input; the first stage's loads."""
+    from corr_cad.geometry.parts import part_outlines
+    from corr_cad.mechanics.first_stage_loads import drive_mass_inertia, first_stage_loads
+    from corr_cad.run.scene_first_stage import FIRST_STAGE_CHECKS
+
+    s = ctx.scene
+    fs, tol = s.first_stage, s.tolerance
+    verts = {k: o.vertices for k, o in gear_outlines(ctx, tol).items()}
+    profiles = first_stage_profiles(s.design, fs, verts)
+    outlines = ctx.results.outlines or part_outlines(s.design, ctx.results.working, tol)
+    report = drive_mass_inertia(s.design, fs, profiles, outlines)
+    if s.load is not None:
+        t_in = s.load.input_torque * fs.stage.pinion_teeth / fs.stage.crank_gear_teeth
+        loads = first_stage_loads(
+            fs, t_in, s.design.material.young_modulus, s.design.material.poisson_ratio
+        )
+        report["first_stage_loads"] = loads.as_dict()
+        values = {
+            "max_first_stage_bending_MPa": max(loads.bending.values()),
+            "max_first_stage_contact_MPa": max(loads.contact),
+        }
+        for key in FIRST_STAGE_CHECKS:
+            limit = getattr(s.checks, key)
+            if limit is not None:
+                v = values[key]
+                ctx.manifest.setdefault("checks", {})[key] = {
+                    "value": v,
+                    "limit": limit,
+                    "margin": limit - v,
+                    "passed": bool(v <= limit),
+                }
+    ctx.manifest["drive"] = report
 
 
 def part_pieces(ctx: RunContext, tol: float) -> dict:

@@ -71,12 +71,9 @@ def _dxf_geometry(ctx: RunContext) -> None:
             "layer": "CONJUGATE_PROFILE",
         }
     if s.first_stage is not None:
-        from corr_cad.geometry.gear_outline import approximate_gear
+        from corr_cad.run.stages_first_stage import gear_outlines
 
-        ctx.results.gear_outlines = outlines = {
-            part: approximate_gear(getattr(s.first_stage, part), s.tolerance)
-            for part in ("pinion", "wheel", "crank_gear")
-        }
+        outlines = gear_outlines(ctx, s.tolerance)
         for part, o in outlines.items():
             ctx.manifest["accuracy"][f"{part}_profile"] = {
                 **o.as_dict(),

@@ -43,6 +43,9 @@ class Checks:
     max_backlash_arcmin: float | None = None
     min_torsional_rigidity_Nm_per_arcmin: float | None = None
     max_transmission_error_arcsec: float | None = None
+    #: First-stage limits (``[first_stage]``), judged on the nominal gears only.
+    max_first_stage_bending_MPa: float | None = None
+    max_first_stage_contact_MPa: float | None = None
     #: Largest allowed Monte Carlo failure probability per limit; ``None``:
     #: the Monte Carlo is reported but only the nominal design is gated.
     max_failure_probability: float | None = None
