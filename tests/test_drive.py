@@ -193,3 +193,63 @@ def test_a_failing_first_stage_check_exits_1(tmp_path):
     )
     assert r.returncode == 1
     assert "max_first_stage_bending_MPa (value 73.1, limit 50)" in r.stderr
+
+
+def test_first_stage_backlash_at_the_crank_by_hand():
+    """Equal working angles: each mesh's play is 2 j r_w / r (the thinning j on both gears);
+    the wheel passes the pinion mesh's play on unchanged, so the crank turns (j1 + j2) / r_wc."""
+    from corr_cad.geometry.first_stage import FirstStage, first_stage_geometry
+
+    g = first_stage_geometry(FirstStage(**FS))
+    a = g.centre_distance
+    rw_over_r = a / (1.5 * 54 / 2)
+    j = 2 * 0.03 * rw_over_r
+    r_wc = 67.5 * rw_over_r  # the crank gear's working pitch radius
+    assert g.crank_backlash_rad == pytest.approx(2 * j / r_wc, rel=1e-9)
+
+
+@pytest.fixture(scope="module")
+def sheet_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sheet")
+    text = (ROOT / "templates" / "compound.toml").read_text()
+    text = text.replace(
+        text[text.index("formats = [") :].split("\n")[0], 'formats = ["datasheet", "report"]'
+    )
+    (out / "s.toml").write_text(text)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(out / "s.toml"), "--out", str(out / "o")],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    return out / "o"
+
+
+def test_datasheet_has_the_whole_drive(sheet_run):
+    d = json.loads((sheet_run / "datasheet.json").read_text())
+    m = json.loads((sheet_run / "manifest.json").read_text())
+    assert d["total_ratio"] == -130.0
+    assert d["mass_kg"] == m["drive"]["mass_kg"] and d["mass_kg"] > 0
+    assert d["input_inertia_kg_m2"] == m["drive"]["input_inertia_kg_m2"]
+    fs = d["first_stage"]
+    assert fs["lost_motion_arcmin"] == pytest.approx(fs["backlash_at_crank_arcmin"] / 26, rel=1e-15)
+    assert fs["backlash_at_crank_arcmin"] == pytest.approx(
+        m["first_stage"]["crank_backlash_arcmin"], rel=1e-15
+    )
+    assert fs["transmission_error_arcsec"] == 0.0
+    # docs/datasheet.md: 0.235 arcmin, thirty times the second stage's lost motion
+    assert fs["lost_motion_arcmin"] == pytest.approx(0.235, abs=5e-4)
+    assert fs["lost_motion_arcmin"] > 30 * d["lost_motion_arcmin"]["max"]
+
+
+def test_report_shows_the_whole_drive(sheet_run):
+    html = (sheet_run / "report.html").read_text()
+    assert 'id="drive"' in html
+    for row in (
+        "total ratio i = i1 (z + 1)",
+        "inertia at the input",
+        "contact stress, largest",
+        "first-stage backlash at the crank",
+        "18 / 36 / 90",
+    ):
+        assert row in html, row

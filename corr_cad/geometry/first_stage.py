@@ -131,6 +131,21 @@ class FirstStageGeometry:
     def ratio(self) -> float:
         return self.stage.ratio
 
+    @property
+    def crank_backlash_rad(self) -> float:
+        """Free turn of the crank with the pinion held, rad.
+
+        The pinion mesh's play turns a wheel by ``j1 / r_w1`` (its working
+        pitch radius in that mesh), which moves the crank gear by that arc
+        on the wheel's other working circle ``r_w2``; the internal mesh adds
+        ``j2``; both over the crank gear's working pitch radius ``r_wc``.
+        """
+        a1, a2 = (math.radians(a) for a in self.working_pressure_angle_deg)
+        rb_w = self.wheel.base_radius
+        r_w1, r_w2 = rb_w / math.cos(a1), rb_w / math.cos(a2)
+        r_wc = self.crank_gear.base_radius / math.cos(a2)
+        return (self.backlash[0] * r_w2 / r_w1 + self.backlash[1]) / r_wc
+
     def as_dict(self) -> dict:
         """The figures reported in ``manifest.json`` under ``first_stage``."""
         s = self.stage
@@ -165,6 +180,7 @@ class FirstStageGeometry:
                 for i, name in enumerate(("pinion_wheel", "wheel_crank_gear"))
             },
             "wheel_tip_gap_mm": self.wheel_gap,
+            "crank_backlash_arcmin": math.degrees(self.crank_backlash_rad) * 60.0,
         }
 
 
