@@ -156,3 +156,25 @@ def test_closed_outline_area_against_the_tooth_count(dxf_dir):
         area = 0.5 * abs(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
         lo, hi = sorted((g.root_radius, g.tip))
         assert math.pi * lo**2 < area < math.pi * hi**2
+
+
+def test_step_splines_follow_the_closed_form_involute():
+    """The B-splines the STEP files are made of: the + flank of space 0 on the involute."""
+    from corr_cad.geometry.gear_outline import spline_gear
+
+    g = GEOM.pinion
+    z, x = g.teeth, g.shift
+    r = M * z / 2
+    rb = r * math.cos(ALPHA)
+    s = M * (math.pi / 2 + 2 * x * math.tan(ALPHA)) - J
+    eta_b = math.pi / z - (s / (2 * r) + _inv(ALPHA))
+    gs = spline_gear(g, TOL)
+    assert gs.within_tolerance and gs.max_deviation <= 0.5 * TOL
+    spl = gs.splines[6]  # tip -, involute -, fillet -, root -, root +, fillet +, involute +
+    p = spl(np.linspace(0, 1, 2001))
+    fr, fpsi = _polar(p)
+    theta = fpsi - eta_b
+    t = np.sqrt((fr / rb) ** 2 - 1)
+    # the involute point at the same radius: the distance along the circle bounds the gap
+    dev = np.abs(theta - (t - np.arctan(t))) * fr
+    assert dev.max() <= 0.5 * TOL

@@ -21,7 +21,7 @@ from corr_cad.geometry.involute import GearTeeth, Segment, tooth_segments
 from corr_cad.geometry.kinematics import rotate_by_polar_angle
 from corr_cad.geometry.measure import DenseSampling, max_on_spans, project_points
 
-__all__ = ["GearOutline", "approximate_gear"]
+__all__ = ["GearOutline", "approximate_gear", "GearSplines", "spline_gear"]
 
 _SAGITTA_TARGET = 0.9
 _MEASURE_SAMPLES = 16
@@ -158,3 +158,57 @@ def approximate_gear(g: GearTeeth, tolerance: float) -> GearOutline:
         by_kind,
         tol,
     )
+
+
+@dataclass(frozen=True)
+class GearSplines:
+    """Tooth 0's outline as one clamped cubic B-spline per smooth segment, measured.
+
+    ``splines`` are scipy ``BSpline`` objects on ``u`` in ``[0, 1]``, in the order of
+    :func:`~corr_cad.geometry.involute.tooth_segments`; the other teeth are
+    rotations by whole pitches. ``max_deviation`` is measured both ways (mm).
+    """
+
+    splines: list
+    teeth: int
+    max_deviation: float
+    tolerance: float
+
+    @property
+    def within_tolerance(self) -> bool:
+        return bool(self.max_deviation <= self.tolerance)
+
+
+class _Piece:
+    """A :class:`Segment` as the curve the spline approximation of the ring expects."""
+
+    piece_t_range = (0.0, 1.0)
+
+    def __init__(self, seg: Segment):
+        self.points, self.derivative = seg.points, seg.derivative
+
+
+def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
+    """Each smooth segment as a cubic B-spline within ``tolerance`` (mm), measured.
+
+    The nodes, the interpolating spline and the two-way measurement are those of
+    the ring's ``spline`` representation (:mod:`corr_cad.geometry.sampling`).
+    """
+    from corr_cad.geometry.sampling import _measure_spline, _piece_spline, _spline_nodes
+
+    tol = float(tolerance)
+    splines, worst = [], 0.0
+    for seg in tooth_segments(g):
+        piece = _Piece(seg)
+        dense = DenseSampling.build(seg.points, seg.derivative, 0.0, 1.0, 2048)
+        nodes = _spline_nodes(piece, 0.5 * tol, 4096)
+        for round_ in range(_REFINE_ROUNDS + 1):
+            spl = _piece_spline(piece, nodes)
+            f, b = _measure_spline(piece, dense, nodes, spl)
+            bad = np.maximum(f, b) > 0.5 * tol
+            if not np.any(bad) or round_ == _REFINE_ROUNDS:
+                break
+            nodes = np.sort(np.concatenate([nodes, 0.5 * (nodes[:-1] + nodes[1:])[bad]]))
+        splines.append(spl)
+        worst = max(worst, float(f.max()), float(b.max()))
+    return GearSplines(splines, g.teeth, worst, tol)

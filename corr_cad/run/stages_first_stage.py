@@ -110,10 +110,18 @@ def placements(ctx: RunContext, angle_deg: float) -> list:
 def step_parts(ctx: RunContext, report: dict) -> dict:
     """Write ``<part>.step`` of each first-stage part, read it back; returns the shapes."""
     from corr_cad.export import step
+    from corr_cad.geometry.gear_outline import spline_gear
 
     tol = ctx.scene.chord_tolerance
+    fs = ctx.scene.first_stage
+    splines = {k: spline_gear(getattr(fs, k), tol) for k in GEARS}
     verts = {k: o.vertices for k, o in gear_outlines(ctx, tol).items()}
-    profiles = first_stage_profiles(ctx.scene.design, ctx.scene.first_stage, verts)
+    exact_profiles = first_stage_profiles(ctx.scene.design, fs, verts)
+    profiles = first_stage_profiles(ctx.scene.design, fs, splines)
+    lengths = {
+        part: sum(o.boundary_length * o.thickness for o, _ in pcs)
+        for part, pcs in part_pieces(ctx, tol).items()
+    }
     shapes = {}
     for part, pieces in profiles.items():
         shape = step.stacked_shape(pieces)
@@ -121,8 +129,13 @@ def step_parts(ctx: RunContext, report: dict) -> dict:
         path = step.write_step(shape, ctx.out / fname, part)
         product, parts = step.read_step(path, heal=False)
         volume, area = step.mass_properties(parts[0].shape)
-        exact = exact_volume(pieces)
-        bound = 1e-9 * exact  # circles exact, gear outlines the polylines themselves
+        # the exact volume: circles exact, the gear outline by its polyline, whose
+        # measured deviation (and the splines') bound the difference
+        exact = exact_volume(exact_profiles[part])
+        bound = 1e-9 * exact
+        if part in splines:
+            dev = splines[part].max_deviation + gear_outlines(ctx, tol)[part].max_deviation
+            bound += dev * lengths[part]
         facts = {
             "product_name": product,
             "readback_volume_mm3": volume,
@@ -135,6 +148,8 @@ def step_parts(ctx: RunContext, report: dict) -> dict:
         }
         if product != part or not abs(facts["volume_error_mm3"]) <= bound:
             raise ExportError(f"{fname}: read-back check failed ({facts})")
+        if part in splines:
+            facts["profile_spline_deviation_mm"] = splines[part].max_deviation
         report[fname] = facts
         ctx.files.append(fname)
         shapes[part] = shape
