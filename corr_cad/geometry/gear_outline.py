@@ -137,8 +137,15 @@ def approximate_gear(g: GearTeeth, tolerance: float) -> GearOutline:
     piece, kinds = [], []
     fwd_max = bwd_max = 0.0
     by_kind: dict[str, float] = {}
-    for seg in tooth_segments(g):
-        nodes, f, b = _approximate_segment(seg, tol)
+    segs = tooth_segments(g)
+    # The - side mirrors the + side (u -> 1 - u, x -> -x): approximate and measure once.
+    plus = {i: _approximate_segment(segs[i], tol) for i in range(len(segs) // 2, len(segs))}
+    for i, seg in enumerate(segs):
+        if i in plus:
+            nodes, f, b = plus[i]
+        else:
+            nodes, f, b = plus[len(segs) - 1 - i]
+            nodes = 1.0 - nodes[::-1]
         pts = seg.points(nodes[:-1])
         piece.append(pts)
         kinds += [seg.kind] * len(pts)
@@ -194,11 +201,14 @@ def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
     The nodes, the interpolating spline and the two-way measurement are those of
     the ring's ``spline`` representation (:mod:`corr_cad.geometry.sampling`).
     """
+    from scipy.interpolate import BSpline
+
     from corr_cad.geometry.sampling import _measure_spline, _piece_spline, _spline_nodes
 
     tol = float(tolerance)
     splines, worst = [], 0.0
-    for seg in tooth_segments(g):
+    segs = tooth_segments(g)
+    for seg in segs[len(segs) // 2 :]:
         piece = _Piece(seg)
         dense = DenseSampling.build(seg.points, seg.derivative, 0.0, 1.0, 2048)
         nodes = _spline_nodes(piece, 0.5 * tol, 4096)
@@ -211,4 +221,9 @@ def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
             nodes = np.sort(np.concatenate([nodes, 0.5 * (nodes[:-1] + nodes[1:])[bad]]))
         splines.append(spl)
         worst = max(worst, float(f.max()), float(b.max()))
-    return GearSplines(splines, g.teeth, worst, tol)
+    # the - side: the mirror image, run backwards
+    minus = [
+        BSpline((1.0 - spl.t)[::-1], spl.c[::-1] * np.array([-1.0, 1.0]), spl.k)
+        for spl in reversed(splines)
+    ]
+    return GearSplines(minus + splines, g.teeth, worst, tol)
