@@ -178,3 +178,20 @@ def test_step_splines_follow_the_closed_form_involute():
     # the involute point at the same radius: the distance along the circle bounds the gap
     dev = np.abs(theta - (t - np.arctan(t))) * fr
     assert dev.max() <= 0.5 * TOL
+
+
+def test_round_parts_are_drawn_at_their_stated_sizes(dxf_dir):
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.geometry.first_stage_parts import first_stage_layout
+
+    lay = first_stage_layout(GearDesign(), GEOM)
+    want = {
+        "crankshaft": {"OUTER_1": lay.rim_outer, "OUTER_2": lay.shaft_radius},
+        "wheel_bearing": {"OUTER_1": lay.wheel_bore, "BORE_1": lay.wheel_bearing_inner},
+        "crank_bearing": {"OUTER_1": lay.crank_bearing_outer, "BORE_1": lay.shaft_radius},
+    }
+    for part, layers in want.items():
+        doc = ezdxf.readfile(dxf_dir / f"{part}.dxf")
+        got = {c.dxf.layer: c.dxf.radius for c in doc.modelspace().query("CIRCLE")}
+        assert got == pytest.approx(layers), part
+    assert lay.shaft_radius == GearDesign().cam_bore_radius  # the cams sit on the shaft

@@ -5,6 +5,12 @@ Each holds the gear's outline as one closed LWPOLYLINE on layer ``PROFILE``
 circles on the reference layers ``PITCH_CIRCLE`` and ``BASE_CIRCLE`` (not to
 be cut), and, for the internal crank gear, the rim's outer circle on
 ``RIM_OUTER``. Same units, header and reproducible bytes as the ring's files.
+
+``crankshaft.dxf``, ``wheel_bearing.dxf`` and ``crank_bearing.dxf`` draw the
+round parts as circles: each extruded piece's outer circle on ``OUTER_<n>``
+and its bore on ``BORE_<n>`` (``n`` counts the pieces from the bottom: the
+crankshaft's flange is 1, its shaft 2), with each piece's thickness and
+bottom in the header.
 """
 
 from __future__ import annotations
@@ -16,7 +22,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.first_stage import FirstStageGeometry
 from corr_cad.geometry.gear_outline import GearOutline
 
-__all__ = ["GEAR_PARTS", "rim_outer_radius", "write_gear", "write_gears"]
+__all__ = ["GEAR_PARTS", "rim_outer_radius", "write_gear", "write_gears", "write_round_part"]
 
 #: The first stage's parts with a tooth outline, in the order they are written.
 GEAR_PARTS = ("pinion", "wheel", "crank_gear")
@@ -69,3 +75,18 @@ def write_gears(
         write_gear(design, fs, part, outlines[part], Path(out_dir) / f"{part}.dxf")
         for part in GEAR_PARTS
     ]
+
+
+def write_round_part(design: GearDesign, part: str, pieces: list, path: Path) -> Path:
+    """A part made of extruded circles and annuli (``[(outer, holes, height, z0), ...]``)."""
+    extra = {}
+    for n, (_, _, height, z0) in enumerate(pieces, 1):
+        extra[f"corr_cad.piece_{n}_thickness_mm"] = height
+        extra[f"corr_cad.piece_{n}_bottom_mm"] = z0
+    doc = _new_doc(design, part, extra)
+    msp = doc.modelspace()
+    for n, (outer, holes, _, _) in enumerate(pieces, 1):
+        msp.add_circle((0.0, 0.0), outer, dxfattribs={"layer": _layer(doc, f"OUTER_{n}")})
+        for h in holes:
+            msp.add_circle((0.0, 0.0), h, dxfattribs={"layer": _layer(doc, f"BORE_{n}")})
+    return _save(doc, path)

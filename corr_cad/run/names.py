@@ -48,7 +48,7 @@ _PARTS = _any(PART_FILE_STEMS)
 #: ``[export] formats`` entry -> the names (regular expressions, matched in
 #: full) of every file that format can write.
 OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
-    "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf", rf"{_any(GEAR_FILE_STEMS)}\.dxf"),
+    "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf", rf"{_any(FIRST_STAGE_FILE_STEMS)}\.dxf"),
     "png": (r"preview\.png", r"modification\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{

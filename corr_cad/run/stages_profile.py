@@ -96,11 +96,15 @@ def _dxf_files(ctx: RunContext) -> None:
     )
     ctx.files.extend(p.name for p in paths.values())
     if ctx.scene.first_stage is not None:
-        from corr_cad.export.gear_dxf import write_gears
+        from corr_cad.export.gear_dxf import write_gears, write_round_part
+        from corr_cad.geometry.first_stage_parts import first_stage_profiles
 
-        gears = write_gears(
-            ctx.scene.design, ctx.scene.first_stage, ctx.results.gear_outlines, ctx.out
-        )
+        s, outlines = ctx.scene, ctx.results.gear_outlines
+        gears = write_gears(s.design, s.first_stage, outlines, ctx.out)
+        verts = {k: o.vertices for k, o in outlines.items()}
+        profiles = first_stage_profiles(s.design, s.first_stage, verts)
+        for part in ("crankshaft", "wheel_bearing", "crank_bearing"):
+            gears.append(write_round_part(s.design, part, profiles[part], ctx.out / f"{part}.dxf"))
         ctx.files.extend(p.name for p in gears)
 
 
