@@ -16,7 +16,13 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Exit code each template is meant to give (montecarlo_gate fails its gate on purpose).
-TEMPLATES = {"prototype": 0, "shop": 0, "montecarlo_gate": 1, "lost_motion_grade": 0}
+TEMPLATES = {
+    "prototype": 0,
+    "shop": 0,
+    "montecarlo_gate": 1,
+    "lost_motion_grade": 0,
+    "compound": 0,
+}
 
 
 def _run(args, cwd):

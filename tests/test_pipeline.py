@@ -32,7 +32,9 @@ def test_plan_is_minimal_and_ordered():
     assert pipeline.plan(("step",)) == ["undercut", "profiles", "step_files"]
     from corr_cad.run.scene import FORMATS
 
-    full = pipeline.plan(FORMATS, checks=True, measured=True, interference_method="both")
+    full = pipeline.plan(
+        FORMATS, checks=True, measured=True, interference_method="both", first_stage=True
+    )
     assert len(full) == len(set(full)) == len(pipeline.STAGES)
     assert pipeline.plan(("forces",), checks=True) == [
         "undercut",

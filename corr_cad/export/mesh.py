@@ -78,6 +78,19 @@ def check_mesh(mesh: trimesh.Trimesh, name: str) -> dict:
     return facts
 
 
+def stacked_solid(pieces: list) -> m3d.Manifold:
+    """One solid from extruded outlines ``[(PartOutline, z0), ...]`` (a union)."""
+    return m3d.Manifold.batch_boolean(
+        [solid(o).translate((0.0, 0.0, float(z0))) for o, z0 in pieces], m3d.OpType.Add
+    )
+
+
+def place(man: m3d.Manifold, p) -> m3d.Manifold:
+    """A part solid moved to a :class:`~corr_cad.geometry.placement.Placement`."""
+    pre = man.translate((float(p.pre_offset[0]), float(p.pre_offset[1]), 0.0))
+    return _placed(pre, p.angle_rad, p.offset[:2], p.offset[2])
+
+
 def _placed(man: m3d.Manifold, angle_rad: float, offset_xy=(0.0, 0.0), z0: float = 0.0):
     """Rotate about z so that polar angles (from +y towards +x) grow by ``angle_rad``, then move."""
     # Our polar angle grows clockwise seen from +z: a mathematical rotation by -angle.

@@ -127,6 +127,46 @@ def _accuracy_of(name: str, manifest: dict) -> str:
     return "computed data (no geometry approximation)"
 
 
+def _drive_rows(fs: dict, drive: dict | None) -> list[tuple]:
+    """The whole drive: first-stage geometry, ratio, mass, inertia and loads (name, value, unit)."""
+    g, m = fs["gears"], fs["meshes"]
+    rows = [
+        (
+            "teeth pinion / wheels (3) / crank gear",
+            " / ".join(str(g[k]["teeth"]) for k in ("pinion", "wheel", "crank_gear")),
+            "",
+        ),
+        ("module", fs["module_mm"], "mm"),
+        ("first-stage ratio i1 = -z_c / z_p", fs["ratio_i1"], ""),
+        ("centre distance (pinion to each wheel)", fs["centre_distance_mm"], "mm"),
+    ]
+    for name, label in (("pinion_wheel", "pinion-wheel"), ("wheel_crank_gear", "wheel-crank gear")):
+        rows += [
+            (f"{label}: working pressure angle", m[name]["working_pressure_angle_deg"], "deg"),
+            (f"{label}: contact ratio", m[name]["contact_ratio"], ""),
+            (f"{label}: backlash", 1e3 * m[name]["backlash_mm"], "um"),
+        ]
+    rows.append(("first-stage backlash at the crank", fs["crank_backlash_arcmin"], "arcmin"))
+    if drive:
+        rows += [
+            ("total ratio i = i1 (z + 1)", drive["total_ratio"], ""),
+            ("mass (all parts, steel)", drive["mass_kg"], "kg"),
+            ("inertia at the input", drive["input_inertia_kg_m2"], "kg m^2"),
+        ]
+        ld = drive.get("first_stage_loads")
+        if ld:
+            w = ld["per_wheel"]
+            rows += [
+                ("input torque at the pinion", ld["input_torque_Nmm"] / 1e3, "N*m"),
+                ("crank moment M0 (eta1 = 1)", ld["crank_torque_M0_Nmm"] / 1e3, "N*m"),
+                ("per wheel: tangential force, pinion mesh", w["pinion_mesh_tangential_N"], "N"),
+                ("per wheel: bearing load", w["bearing_load_N"], "N"),
+                ("root stress, largest (Lewis)", max(ld["root_bending_MPa"].values()), "MPa"),
+                ("contact stress, largest (Hertz)", max(ld["contact_stress_MPa"].values()), "MPa"),
+            ]
+    return [(a, _fmt(b) if not isinstance(b, str) else b, c) for a, b, c in rows]
+
+
 def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -> dict:
     """Everything the template shows, as plain values (numbers formatted).
 
@@ -181,6 +221,8 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
                 ),
                 row_a_share=" / ".join(_fmt(sh.get(k)) for k in ("min", "mean", "max")),
             )
+    if scene.first_stage is not None:
+        ctx["drive"] = _drive_rows(scene.first_stage.as_dict(), manifest.get("drive"))
     u = manifest.get("undercut")
     if u:
         adm = u["admissible_roller_radius_mm"]

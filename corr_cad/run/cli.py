@@ -314,6 +314,7 @@ def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
         datasheet_checks=bool(scene.checks.datasheet_active()),
+        first_stage=scene.first_stage is not None,
     )
     return bool(worker_stages(stages))
 

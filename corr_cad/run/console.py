@@ -309,6 +309,46 @@ def friction_lines(d: dict) -> list[str]:
     return out
 
 
+def first_stage_lines(fs: dict | None) -> list[str]:
+    """The first gear stage in two lines: ratio and centre distance, then both meshes."""
+    if not fs:
+        return []
+    g = fs["gears"]
+    teeth = "/".join(str(g[k]["teeth"]) for k in ("pinion", "wheel", "crank_gear"))
+    meshes = "; ".join(
+        f"{name.replace('_', '-', 1).replace('_', ' ')}: working pressure angle "
+        f"{m['working_pressure_angle_deg']:.4g} deg, contact ratio {m['contact_ratio']:.3f}, "
+        f"backlash {1e3 * m['backlash_mm']:.3g} um"
+        for name, m in fs["meshes"].items()
+    )
+    return [
+        f"first stage: pinion/wheel/crank gear {teeth} teeth, module {fs['module_mm']:g} mm, "
+        f"i1 = {fs['ratio_i1']:.6g}, centre distance {fs['centre_distance_mm']:.6g} mm",
+        f"  {meshes}",
+    ]
+
+
+def whole_drive_lines(d: dict | None) -> list[str]:
+    """The whole drive: ratio, mass, inertia at the input; the first stage's loads."""
+    if not d:
+        return []
+    out = [
+        f"whole drive: total ratio {d['total_ratio']:.6g}, mass {d['mass_kg']:.4g} kg "
+        f"(steel), inertia at the input {d['input_inertia_kg_m2']:.4g} kg m^2"
+    ]
+    ld = d.get("first_stage_loads")
+    if ld:
+        w = ld["per_wheel"]
+        out.append(
+            f"  first stage at {ld['input_torque_Nmm'] / 1e3:.4g} N*m: M0 "
+            f"{ld['crank_torque_M0_Nmm'] / 1e3:.4g} N*m (eta1 = 1); per wheel F_t "
+            f"{w['pinion_mesh_tangential_N']:.4g} N, bearing {w['bearing_load_N']:.4g} N; "
+            f"Lewis root stress up to {max(ld['root_bending_MPa'].values()):.4g} MPa, "
+            f"Hertz up to {max(ld['contact_stress_MPa'].values()):.4g} MPa"
+        )
+    return out
+
+
 def assembly_line(a: dict) -> str:
     """The selective assembly's verdict: the roller class to fit, on which ring.
 
@@ -329,6 +369,8 @@ def assembly_line(a: dict) -> str:
 def summary_lines(manifest: dict, out) -> list[str]:
     """The console summary of a finished run, from its manifest."""
     lines = []
+    lines.extend(first_stage_lines(manifest.get("first_stage")))
+    lines.extend(whole_drive_lines(manifest.get("drive")))
     acc = (manifest.get("accuracy") or {}).get("working_profile")
     if acc:
         lines.append(
@@ -390,6 +432,14 @@ def summary_lines(manifest: dict, out) -> list[str]:
         lines.append(
             f"clearance over {c['positions']} crank positions: smallest {smallest}; "
             f"working contacts within {working} of exact contact"
+        )
+    fc = (c or {}).get("first_stage")
+    if fc:
+        lines.append(
+            f"first-stage meshes over {fc['positions']} positions of a pinion pitch: smallest gap "
+            f"{1e3 * fc['pinion_wheel_min_gap_mm']:.3g} um (pinion-wheel), "
+            f"{1e3 * fc['wheel_crank_gear_min_gap_mm']:.3g} um (wheel-crank gear)"
+            + ("" if fc["ok"] else ": INTERFERENCE")
         )
     i = manifest.get("interference")
     if i:

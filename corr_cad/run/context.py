@@ -49,6 +49,10 @@ class Results:
     #: ``dxf_geometry``: both profiles approximated to ``[export] tolerance``.
     working_approx: ProfileApproximation | None = None
     theoretical_approx: ProfileApproximation | None = None
+    #: ``dxf_geometry`` with ``[first_stage]``: each gear's measured polyline outline.
+    gear_outlines: dict[str, Any] | None = None
+    #: ``solids`` with ``[first_stage]``: its parts' solids, by part name.
+    first_stage_solids: dict[str, Any] | None = None
     #: ``measured_profile``: the registration, the raw points, and the scene's
     #: errors with the measured profile as a gear-profile deviation.
     registration: Registration | None = None

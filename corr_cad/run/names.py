@@ -20,10 +20,21 @@ from collections.abc import Iterable
 
 from corr_cad.tolerance.sweeps import PAPER_SWEEPS
 
-__all__ = ["OUTPUT_PATTERNS", "PART_FILE_STEMS", "ANGLE_TAG_PATTERN", "is_output_name"]
+__all__ = [
+    "OUTPUT_PATTERNS",
+    "PART_FILE_STEMS",
+    "GEAR_FILE_STEMS",
+    "FIRST_STAGE_FILE_STEMS",
+    "ANGLE_TAG_PATTERN",
+    "is_output_name",
+]
 
 #: The four parts, as every DXF, mesh and STEP file names them.
 PART_FILE_STEMS = ("inner_gear", "disk_cam", "roller", "teeth_frame")
+#: The first gear stage's gears (``[first_stage]``), as their DXF files name them.
+GEAR_FILE_STEMS = ("pinion", "wheel", "crank_gear")
+#: Every part of the first gear stage, as its mesh and STEP files name them.
+FIRST_STAGE_FILE_STEMS = (*GEAR_FILE_STEMS, "crankshaft", "wheel_bearing", "crank_bearing")
 #: What :func:`corr_cad.export.files.angle_tag` makes of an angle in [-3600, 3600] deg.
 ANGLE_TAG_PATTERN = r"m?[0-9]{3,4}(?:p[0-9]{1,3})?deg"
 
@@ -37,11 +48,15 @@ _PARTS = _any(PART_FILE_STEMS)
 #: ``[export] formats`` entry -> the names (regular expressions, matched in
 #: full) of every file that format can write.
 OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
-    "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf"),
+    "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf", rf"{_any(FIRST_STAGE_FILE_STEMS)}\.dxf"),
     "png": (r"preview\.png", r"modification\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{
-        fmt: (rf"{_PARTS}\.{fmt}", rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}")
+        fmt: (
+            rf"{_PARTS}\.{fmt}",
+            rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}",
+            rf"{_any(FIRST_STAGE_FILE_STEMS)}\.{fmt}",
+        )
         for fmt in ("stl", "3mf", "glb", "ply", "step")
     },
     "interference": (r"(?:interference|clearance)\.(?:csv|png)",),

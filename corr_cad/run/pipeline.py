@@ -181,6 +181,7 @@ def run_scene(
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
         datasheet_checks=bool(scene.checks.datasheet_active()),
+        first_stage=scene.first_stage is not None,
     )
     from corr_cad.run.resources import budget_for, check_scene
 
@@ -210,6 +211,7 @@ def run_scene(
             "pressure": "MPa",
             "angle": "deg",
         },
+        **({"first_stage": scene.first_stage.as_dict()} if scene.first_stage else {}),
         **ctx.manifest,
         "files": files,
         "stages": timings,

@@ -224,6 +224,7 @@ def _stages(scene) -> list[str]:
         measured=scene.measured_profile is not None,
         interference_method=scene.interference_method,
         datasheet_checks=bool(scene.checks.datasheet_active()),
+        first_stage=scene.first_stage is not None,
     )
 
 

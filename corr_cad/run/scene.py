@@ -25,7 +25,9 @@ from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run import scene_drive as drv
 from corr_cad.run.scene_drive import SolverSpec
+from corr_cad.run.scene_first_stage import first_stage_load, parse_first_stage
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
+from corr_cad.run.scene_key import nesting_depth
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
@@ -119,6 +121,8 @@ class Scene:
     modification: Any = None  # [modification]; None: the conjugate profile
     assembly: dict = field(default_factory=dict)
     modification_design: dict = field(default_factory=dict)
+    #: ``[first_stage]``: :class:`~corr_cad.geometry.first_stage.FirstStageGeometry` or None.
+    first_stage: Any = None
     source: dict = field(default_factory=dict)
     #: ``[budget]``: memory_gb, output_gb, time_warning_s (None: the defaults).
     budget: dict = field(default_factory=dict)
@@ -300,6 +304,8 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
                 "[load] pinion_torque needs first_stage_ratio (and the other way round)"
             )
         load = LoadSpec(ld["pinion_torque"] * ld["first_stage_ratio"])
+    first_stage = parse_first_stage(values, data)
+    load = first_stage_load(values, load, first_stage, LoadSpec)
     if "forces" in formats and load is None:
         raise SceneError(
             "[export] formats lists 'forces' but [load] gives no torque; "
@@ -483,6 +489,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         modification=modification,
         assembly=assembly,
         modification_design=search,
+        first_stage=first_stage,
         budget=values["budget"],
         dask=values["dask"],
         source={
@@ -553,35 +560,6 @@ def _unique_angle_tags(angles: list[float]) -> None:
         seen[tag] = a
 
 
-def _nesting_depth(text: str) -> int:
-    """Deepest nesting of ``[`` and ``{`` outside strings and comments (a cheap pre-check)."""
-    if text.count("[") + text.count("{") <= MAX_NESTING:
-        return 0
-    depth = deepest = 0
-    quote = ""
-    i, n = 0, len(text)
-    while i < n:
-        c = text[i]
-        if quote:
-            if c == "\\" and quote == '"':
-                i += 1
-            elif c == quote:
-                quote = ""
-        elif c in "\"'":
-            quote = c
-        elif c == "#":
-            j = text.find("\n", i)
-            i = n if j < 0 else j
-            continue
-        elif c in "[{":
-            depth += 1
-            deepest = max(deepest, depth)
-        elif c in "]}":
-            depth = max(0, depth - 1)
-        i += 1
-    return deepest
-
-
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a TOML scene file.
 
@@ -604,7 +582,7 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(
             f"scene file {show(str(path), 120)} is empty; 'corr-cad new FILE' writes a template"
         )
-    depth = _nesting_depth(text)
+    depth = nesting_depth(text)
     if depth > MAX_NESTING:
         raise SceneError(
             f"{show(path.name, 120)}: arrays or tables nested {depth} deep; at most {MAX_NESTING}"

@@ -60,7 +60,12 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
     import importlib.util
 
     ld, chk = values["load"], values["checks"]
-    load = (ld["input_torque"] is not None or ld["pinion_torque"] is not None, "no [load] torque")
+    load = (
+        ld["input_torque"] is not None
+        or ld["pinion_torque"] is not None
+        or ld["input_torque_Nm"] is not None,
+        "no [load] torque",
+    )
     tol = (any(v is not None for v in values["tolerances"].values()), "no [tolerances]")
     limit = (
         any(v is not None for k, v in chk.items() if k != "max_failure_probability"),

@@ -43,3 +43,32 @@ MAX_STR = 4096
 def key_range(spec: Key) -> str:
     """The allowed range of a numeric key, as every message and the README state it."""
     return range_text(spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open)
+
+
+def nesting_depth(text: str) -> int:
+    """Deepest nesting of ``[`` and ``{`` outside strings and comments (a cheap pre-check)."""
+    if text.count("[") + text.count("{") <= MAX_NESTING:
+        return 0
+    depth = deepest = 0
+    quote = ""
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if quote:
+            if c == "\\" and quote == '"':
+                i += 1
+            elif c == quote:
+                quote = ""
+        elif c in "\"'":
+            quote = c
+        elif c == "#":
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+            continue
+        elif c in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "]}":
+            depth = max(0, depth - 1)
+        i += 1
+    return deepest

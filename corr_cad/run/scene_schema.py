@@ -12,6 +12,7 @@ from corr_cad.geometry.sampling import REPRESENTATIONS
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run import (
     scene_schema_drive,
+    scene_schema_first_stage,
     scene_schema_friction,
     scene_schema_modification,
     scene_schema_run,
@@ -220,6 +221,15 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=1e12,
             example=1.0e5,
         ),
+        "input_torque_Nm": Key(
+            "float",
+            None,
+            "torque on the input pinion, N*m (needs [first_stage]; M0 = T_in crank_gear_teeth "
+            "/ pinion_teeth)",
+            low=-1e9,
+            high=1e9,
+            example=22.0,
+        ),
         "first_stage_ratio": Key(
             "float",
             None,
@@ -387,6 +397,22 @@ SCHEMA: dict[str, dict[str, Key]] = {
             high=1e9,
             example=6000.0,
         ),
+        "max_first_stage_bending_MPa": Key(
+            "float",
+            None,
+            "allowable tooth-root bending stress of the first stage's gears (Lewis), MPa",
+            low=0,
+            high=1e6,
+            example=300.0,
+        ),
+        "max_first_stage_contact_MPa": Key(
+            "float",
+            None,
+            "allowable contact stress of the first stage's meshes (Hertz), MPa",
+            low=0,
+            high=1e6,
+            example=1200.0,
+        ),
         "max_failure_probability": Key(
             "float",
             None,
@@ -410,5 +436,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
     **scene_schema_friction.SECTIONS,
     **scene_schema_shop.SECTIONS,
     **scene_schema_modification.SECTIONS,
+    **scene_schema_first_stage.SECTIONS,
     **scene_schema_run.SECTIONS,
 }

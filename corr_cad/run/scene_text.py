@@ -53,12 +53,12 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         warn("[tolerances]", 'formats lists neither "montecarlo" nor "allocation"')
     if "sweeps" in data and "sweeps" not in f:
         warn("[sweeps]", 'formats does not list "sweeps"')
-    if "load" in data and not solver:
+    if "load" in data and not solver and "first_stage" not in data:  # its loads use it
         warn(
             "[load]",
             "no format needs the mesh forces (forces, montecarlo, allocation, sweeps, inspection)",
         )
-    if "material" in data and not solver:
+    if "material" in data and not solver and "first_stage" not in data:  # Hertz of the gears
         warn("[material]", "only the force solver uses it and no format needs it")
     sv = data.get("solver", {})
     if "solver" in data and not solver:
@@ -262,7 +262,8 @@ def template_text() -> str:
             "",
         ]
         for section, keys in SCHEMA.items():
-            off = f"[{section}]" in quiet or section in DRIVE_SECTIONS
+            # [first_stage] describes hardware the drive may not have: written commented
+            off = f"[{section}]" in quiet or section in DRIVE_SECTIONS or section == "first_stage"
             if section == "solver":
                 lines.extend(MODEL_COMMENT)
             lines.append(f"{'# ' if off else ''}[{section}]")

@@ -35,6 +35,12 @@ from corr_cad.run.stages_tolerance import _allocation, _montecarlo, _sweeps
 __all__ = ["STAGES", "FORMAT_TARGETS", "INTERFERENCE_STAGES", "plan"]
 
 
+def _drive(ctx: RunContext) -> None:
+    from corr_cad.run.stages_first_stage import drive
+
+    drive(ctx)
+
+
 def _report(ctx: RunContext) -> None:
     from corr_cad.export.report import write_report
 
@@ -80,6 +86,12 @@ STAGES: dict[str, Stage] = {
             modification_design,
             "profile modification designed to targets under [tolerances]",
         ),
+        Stage(
+            "drive",
+            ("profiles",),
+            _drive,
+            "the whole drive: ratio, mass, inertia, first-stage loads",
+        ),
         Stage("report", (), _report, "report.html (runs last, reads what the run made)"),
     )
 }
@@ -119,6 +131,7 @@ def plan(
     measured: bool = False,
     interference_method: str = "exact",
     datasheet_checks: bool = False,
+    first_stage: bool = False,
 ) -> list[str]:
     """Stages needed for ``formats`` (and the checks), in dependency order, each once.
 
@@ -135,6 +148,8 @@ def plan(
             visit(dep)
         order.append(name)
 
+    if first_stage:  # [first_stage]: the drive's figures, before the datasheet reads them
+        visit("drive")
     if measured:
         visit("measured_profile")
     for f in sorted(formats, key=lambda f: FORMAT_TARGETS[f] in _LATE):

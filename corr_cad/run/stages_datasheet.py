@@ -10,6 +10,7 @@ figures read the first, without the files.
 
 from __future__ import annotations
 
+import math
 from dataclasses import fields
 
 import numpy as np
@@ -220,10 +221,32 @@ def drive_settings(ctx: RunContext) -> dict | None:
     return {"errors_b": scene_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
 
 
+def _whole_drive(ctx: RunContext) -> dict:
+    """With ``[first_stage]``: the whole drive's figures and the first stage's share."""
+    s, d = ctx.scene, ctx.manifest.get("drive")
+    if s.first_stage is None or d is None:
+        return {}
+    crank = math.degrees(s.first_stage.crank_backlash_rad) * 60.0
+    return {
+        "total_ratio": d["total_ratio"],
+        "input_inertia_kg_m2": d["input_inertia_kg_m2"],
+        "mass_kg": d["mass_kg"],
+        "first_stage": {
+            "backlash_at_crank_arcmin": crank,
+            "lost_motion_arcmin": crank / s.design.roller_count,
+            "transmission_error_arcsec": 0.0,
+            "definition": "the first stage's backlash (pinion held) reflected to the output, "
+            "backlash_1 / (z + 1); exact involutes are conjugate: no transmission error of "
+            "their own; both add to the second stage's figures above",
+        },
+    }
+
+
 def _meta(ctx: RunContext) -> dict:
     s = ctx.scene
     given = s.datasheet.get("rated_torque_Nm") is not None
     return {
+        **_whole_drive(ctx),
         "ring": ring_description(ctx),
         "rated_torque_source": (
             "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"

@@ -40,6 +40,10 @@ def _solids(ctx: RunContext) -> None:
             }
         )
         solids[name], meshes[name], report[PART_NAMES[name]] = solid, tm, facts
+    if s.first_stage is not None:
+        from corr_cad.run import stages_first_stage
+
+        ctx.results.first_stage_solids = stages_first_stage.solids(ctx, report)
     ctx.results.outlines = outlines
     ctx.results.solids = solids
     ctx.results.meshes = meshes
@@ -58,9 +62,20 @@ def _mesh_files(ctx: RunContext) -> None:
             fname = f"{PART_NAMES[name]}.{fmt}"
             mesh.write_mesh(tm, ctx.out / fname, fmt)
             ctx.files.append(fname)
+    first = ctx.results.first_stage_solids or {}
+    for name, man in first.items():
+        tm = mesh.to_trimesh(man)
+        for fmt in fmts:
+            mesh.write_mesh(tm, ctx.out / f"{name}.{fmt}", fmt)
+            ctx.files.append(f"{name}.{fmt}")
     for angle in s.assembly_angles_deg:
         asm = mesh.assembly(s.design, solids, math.radians(angle), stack=stack)
-        parts = {k: mesh.to_trimesh(v) for k, v in asm.all_solids().items()}
+        placed = asm.all_solids()
+        if first:
+            from corr_cad.run.stages_first_stage import placements
+
+            placed.update({p.name: mesh.place(first[p.part], p) for p in placements(ctx, angle)})
+        parts = {k: mesh.to_trimesh(v) for k, v in placed.items()}
         for name, tm in parts.items():
             mesh.check_mesh(tm, name)
         for fmt in fmts:
@@ -113,16 +128,24 @@ def _step_files(ctx: RunContext) -> None:
         report[fname] = facts
         volumes[name] = volume
         ctx.files.append(fname)
+    names = PART_NAMES
+    if s.first_stage is not None:
+        from corr_cad.run import stages_first_stage
+
+        shapes = {**shapes, **stages_first_stage.step_parts(ctx, report)}
+        names = {**PART_NAMES, **{k: k for k in shapes if k not in PART_NAMES}}
     for angle in s.assembly_angles_deg:
         tag = angle_tag(angle)
         fname = f"assembly_{tag}.step"
         placements = assembly_placements(s.design, math.radians(angle))
+        if s.first_stage is not None:
+            placements += stages_first_stage.placements(ctx, angle)
         path = step.write_assembly_step(
-            shapes, PART_NAMES, placements, ctx.out / fname, f"assembly_{tag}"
+            shapes, names, placements, ctx.out / fname, f"assembly_{tag}"
         )
         product, parts = step.read_step(path, heal=False)
         got = [(p.name, p.product) for p in parts]
-        want = [(p.name, PART_NAMES[p.part]) for p in placements]
+        want = [(p.name, names[p.part]) for p in placements]
         if product != f"assembly_{tag}" or got != want:
             raise ExportError(f"{fname}: read-back names differ from the placements written")
         # Each product's box once, from its shape in this file; it must be the
@@ -145,9 +168,7 @@ def _step_files(ctx: RunContext) -> None:
         report[fname] = {
             "product_name": product,
             "instances": len(parts),
-            "instance_counts": {
-                PART_NAMES[k]: sum(p.part == k for p in placements) for k in PART_NAMES
-            },
+            "instance_counts": {names[k]: sum(p.part == k for p in placements) for k in names},
             "max_placement_error_mm": offset,
         }
         ctx.files.append(fname)
@@ -285,6 +306,12 @@ def _clearance(ctx: RunContext) -> None:
     plots.clearance_png(env, ctx.out / "clearance.png", s.design)
     ctx.files.extend(["clearance.csv", "clearance.png"])
     summary = {"method": "exact", **merge_summaries(summaries)}
+    if s.first_stage is not None:
+        from corr_cad.geometry.first_stage_parts import mesh_clearance
+        from corr_cad.run.stages_first_stage import gear_outlines
+
+        verts = {k: o.vertices for k, o in gear_outlines(ctx, s.tolerance).items()}
+        summary["first_stage"] = mesh_clearance(s.design, s.first_stage, verts)
     ctx.manifest["clearance"] = summary
     ctx.results.clearance = env
 

@@ -70,6 +70,16 @@ def _dxf_geometry(ctx: RunContext) -> None:
             **where,
             "layer": "CONJUGATE_PROFILE",
         }
+    if s.first_stage is not None:
+        from corr_cad.run.stages_first_stage import gear_outlines
+
+        outlines = gear_outlines(ctx, s.tolerance)
+        for part, o in outlines.items():
+            ctx.manifest["accuracy"][f"{part}_profile"] = {
+                **o.as_dict(),
+                "file": f"{part}.dxf",
+                "layer": "PROFILE",
+            }
 
 
 def _dxf_files(ctx: RunContext) -> None:
@@ -85,6 +95,17 @@ def _dxf_files(ctx: RunContext) -> None:
         None if mod is None else {"equidistant_mm": mod.equidistant_mm, "shift_mm": mod.shift_mm},
     )
     ctx.files.extend(p.name for p in paths.values())
+    if ctx.scene.first_stage is not None:
+        from corr_cad.export.gear_dxf import write_gears, write_round_part
+        from corr_cad.geometry.first_stage_parts import first_stage_profiles
+
+        s, outlines = ctx.scene, ctx.results.gear_outlines
+        gears = write_gears(s.design, s.first_stage, outlines, ctx.out)
+        verts = {k: o.vertices for k, o in outlines.items()}
+        profiles = first_stage_profiles(s.design, s.first_stage, verts)
+        for part in ("crankshaft", "wheel_bearing", "crank_bearing"):
+            gears.append(write_round_part(s.design, part, profiles[part], ctx.out / f"{part}.dxf"))
+        ctx.files.extend(p.name for p in gears)
 
 
 def _preview_png(ctx: RunContext) -> None:

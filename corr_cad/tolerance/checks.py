@@ -47,6 +47,9 @@ class Checks:
     #: at the rated torque: judged on the nominal design only.
     min_efficiency: float | None = None
     min_life_h: float | None = None
+    #: First-stage limits (``[first_stage]``), judged on the nominal gears only.
+    max_first_stage_bending_MPa: float | None = None
+    max_first_stage_contact_MPa: float | None = None
     #: Largest allowed Monte Carlo failure probability per limit; ``None``:
     #: the Monte Carlo is reported but only the nominal design is gated.
     max_failure_probability: float | None = None
