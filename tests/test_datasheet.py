@@ -642,6 +642,15 @@ def test_scenes_without_the_datasheet_are_unchanged_and_a_lone_section_warns():
     assert any(w.startswith("[datasheet] has no effect") for w in sc.warnings)
     sc = parse_scene({**forces, "checks": {"max_transmission_error_arcsec": 5.0}})
     assert "datasheet" in sc.source and not sc.warnings  # the check runs the datasheet
+    # A Monte Carlo takes its datasheet metrics' bands from [datasheet]: no warning.
+    mc = {
+        "export": {"formats": ["montecarlo"]},
+        "load": {"input_torque": M0},
+        "tolerances": {"roller_radius": {"uniform": 0.001}},
+        "datasheet": {"lost_motion_band": 0.03},
+    }
+    sc = parse_scene(mc)
+    assert "datasheet" in sc.source and not sc.warnings
 
 
 def test_rigidity_range_off_the_torque_grid(prototype):

@@ -251,3 +251,20 @@ def test_report_with_step_files_states_their_read_back(tmp_path):
     assert r.returncode == 0, r.stderr
     html = (tmp_path / "o" / "report.html").read_text(encoding="utf-8")
     assert "read back: volume error" in html and "named instances" in html
+
+
+def test_every_monte_carlo_metric_has_a_label_and_unit():
+    """The report names every column the Monte Carlo summarises: the force
+    metrics and the datasheet pass's (a missing one once crashed the report)."""
+    from corr_cad.export.report import METRIC_LABELS
+    from corr_cad.mechanics.mc_kernel import METRICS
+    from corr_cad.tolerance.mc_datasheet import DATASHEET_MC_METRICS
+    from corr_cad.tolerance.montecarlo import FLAG_METRICS
+
+    force = [m.replace("_rad", "_arcmin") for m in METRICS]  # backlash is given in arcmin
+    for m in [*force, *DATASHEET_MC_METRICS]:
+        if m not in FLAG_METRICS:
+            assert m in METRIC_LABELS, m
+    assert METRIC_LABELS["lost_motion_arcmin"][1] == "arcmin"
+    assert METRIC_LABELS["torsional_rigidity_Nm_per_arcmin"][1] == "N*m/arcmin"
+    assert METRIC_LABELS["transmission_error_arcsec"][1] == "arcsec"

@@ -72,8 +72,12 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
                 warn(
                     f"[solver] {k}", 'only "forces", "datasheet", "inspection" and [checks] use it'
                 )
-    if "datasheet" in data and not sheet:
-        warn("[datasheet]", 'formats does not list "datasheet" and no [checks] limit needs it')
+    if "datasheet" in data and not sheet and not mc:  # a Monte Carlo takes its figures from it
+        warn(
+            "[datasheet]",
+            'formats lists none of "datasheet", "montecarlo", "allocation" '
+            "and no [checks] limit needs it",
+        )
     ex = data.get("export", {})
     if "representation" in ex and "dxf" not in f:
         warn("[export] representation", 'formats does not list "dxf"')
