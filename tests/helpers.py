@@ -19,7 +19,7 @@ _LEFT = rf"(?:(?:estimated )?{_DURATION}|\?) left"
 #: One line of the progress channel: a counter's line or a stage's heartbeat.
 PROGRESS_LINE = re.compile(
     r"^\s*\S[^:]*: (?:"
-    rf"\d+/\d+ \S+ \(\d+%\), \S+ \S+/s, {_LEFT}"  # Progress.line()
+    rf"\d+/\d+ (?P<unit>\S.*?) \(\d+%\), \S+ (?P=unit)/s, {_LEFT}"  # Progress.line()
     rf"|{_DURATION} elapsed(?:, estimated {_DURATION} left|, past the estimate of {_DURATION})?"
     r")$"
 )

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers import without_progress
+
 DESIGN = """
 [design]
 tooth_count = 8
@@ -30,7 +32,7 @@ DXF_SCENE = DESIGN + '[export]\nformats = ["dxf"]\ntolerance = 0.01\n'
 DXF_PNG_SCENE = DESIGN + '[export]\nformats = ["dxf", "png"]\ntolerance = 0.01\n'
 
 
-def cli(*args, cwd=None, timeout=120):
+def cli(*args, cwd=None, timeout=600):
     return subprocess.run(
         [sys.executable, "-m", "corr_cad", *map(str, args)],
         capture_output=True,
@@ -60,7 +62,7 @@ def snapshot(folder: Path) -> dict:
 def one_line(r, code=2, limit=300):
     assert r.returncode == code, (r.returncode, r.stderr[-2000:])
     assert "Traceback" not in r.stderr, r.stderr[-2000:]
-    lines = r.stderr.strip().splitlines()
+    lines = without_progress(r.stderr).strip().splitlines()
     assert len(lines) == 1, r.stderr[-2000:]
     assert len(lines[0]) <= limit, len(lines[0])
     return lines[0]
@@ -295,7 +297,7 @@ def test_full_disk_names_the_file_and_leaves_nothing(tiny_fs, tmp_path, leave):
         [sys.executable, "-c", NO_DISK_CHECK, str(scene), "--out", str(out)],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,
     )
     err = one_line(r)
     assert "No space left on device" in err

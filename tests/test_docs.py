@@ -42,7 +42,7 @@ def site(tmp_path_factory) -> Path:
         capture_output=True,
         text=True,
         env=env,
-        timeout=300,
+        timeout=900,
     )
     problems = [ln for ln in res.stderr.splitlines() if "WARNING" in ln or "ERROR" in ln]
     assert res.returncode == 0, "\n".join(problems) or res.stderr[-6000:]

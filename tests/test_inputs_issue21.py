@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers import without_progress
+
 DESIGN = """
 [design]
 tooth_count = 8
@@ -25,7 +27,7 @@ eccentricity = 1.5
 """
 
 
-def cli(folder: Path, scene: str, *extra: str, timeout: int = 300):
+def cli(folder: Path, scene: str, *extra: str, timeout: int = 600):
     (folder / "s.toml").write_text(scene)
     return subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", *extra],
@@ -45,7 +47,7 @@ def folder(tmp_path):
 def refused(folder: Path, r) -> str:
     assert r.returncode == 2, (r.returncode, r.stderr[-3000:])
     assert "Traceback" not in r.stderr and "Warning" not in r.stderr, r.stderr[-3000:]
-    lines = r.stderr.strip().splitlines()
+    lines = without_progress(r.stderr).strip().splitlines()
     assert len(lines) == 1, r.stderr[-3000:]
     assert len(lines[0]) <= 300, lines[0]
     assert lines[0].startswith("corr-cad: error: ")
@@ -214,7 +216,7 @@ def test_library_warnings_never_reach_the_terminal_raw(folder, outcome):
         capture_output=True,
         text=True,
         cwd=folder,
-        timeout=120,
+        timeout=600,
     )
     lines = r.stderr.strip().splitlines()
     if outcome == "fail":

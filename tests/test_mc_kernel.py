@@ -265,7 +265,7 @@ def test_a_dead_worker_is_one_line_and_exit_2(tmp_path):
         "from corr_cad.run.cli import main\n"
         f"sys.exit(main(['run', {str(scene)!r}, '--out', {str(out)!r}, '--workers', '2']))\n"
     )
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert lines[-1].startswith("corr-cad: error: a worker process died"), r.stderr

@@ -224,7 +224,7 @@ def test_a_failing_stage_kills_the_step_worker_before_returning(tmp_path):
         [sys.executable, "-c", FAIL_BESIDE_THE_WORKER, str(tmp_path)],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,
     )
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["0", "True"]
