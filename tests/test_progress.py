@@ -49,7 +49,6 @@ def clock(monkeypatch):
     monkeypatch.setattr(progress, "time", SimpleNamespace(monotonic=c))
     monkeypatch.setattr(progress, "_Ticker", Ticker)
     monkeypatch.setattr(progress, "_LAST_LINE", [0.0])
-    monkeypatch.setattr(progress, "_ACTIVE", [0])
     monkeypatch.setattr(progress, "_OPEN", set())
     monkeypatch.setattr(progress, "_ENABLED", True)
     return c
@@ -122,7 +121,10 @@ def test_work_done_quickly_prints_nothing_and_the_last_unit_prints_the_end(clock
     assert line == "work: 4/4 items (100%), 1.33 items/s, 0s left"
 
 
-def test_heartbeat_states_elapsed_and_the_estimate_and_keeps_quiet_beside_a_counter(clock):
+def test_heartbeat_states_elapsed_and_the_estimate_then_the_stage_s_counter(clock):
+    """A stage prints a line within the interval of its start, even when its counter
+    starts late: the heartbeat prints the counter's line then (a counter made 3 s
+    into the stage printed its first line 7.4 s after the stage's start)."""
     buf = io.StringIO()
     with progress.heartbeat("      preview_png", 3.0, stream=buf, interval=5.0):
         (tick,) = clock.tickers
@@ -130,10 +132,27 @@ def test_heartbeat_states_elapsed_and_the_estimate_and_keeps_quiet_beside_a_coun
         assert buf.getvalue() == ""
         _run_ticks(clock, tick, 0.5, 0.5)  # 4.5 s: the first line, past the 3 s estimate
         assert buf.getvalue() == "      preview_png: 4s elapsed, past the estimate of 3s\n"
-        counter = progress.Progress(10, "      other", stream=io.StringIO(), tty=False)
-        _run_ticks(clock, tick, 20.0, 0.5)  # a counter prints: the heartbeat keeps quiet
-        assert buf.getvalue().count("\n") == 1
+    buf = io.StringIO()
+    with progress.heartbeat("      sweeps", 60.0, stream=buf, interval=5.0):
+        beat = clock.tickers[-1]
+        _run_ticks(clock, beat, 3.0, 0.5)
+        counter = progress.Progress(120, "      sweeps", "points", stream=buf, tty=False)
+        count = clock.tickers[-1]
+        times, t0 = [], clock.t - 3.0
+        for _ in range(40):  # 20 s more, both tickers at their cadence
+            clock.t += 0.5
+            before = buf.getvalue().count("\n")
+            count()
+            beat()
+            if buf.getvalue().count("\n") > before:
+                times.append(clock.t - t0)
+            counter.update(1)
         counter.close()
+    lines = buf.getvalue().splitlines()
+    assert times[0] == pytest.approx(4.5)  # from the stage's start, not the counter's
+    assert max(b - a for a, b in zip([0.0, *times], times, strict=False)) <= 5.0
+    assert len(lines) == len(times)  # one line per due time, never two at once
+    assert all(ln.startswith("      sweeps: ") and "points/s" in ln for ln in lines), lines
     buf = io.StringIO()
     with progress.heartbeat("      step_files (in a worker)", None, stream=buf, interval=5.0):
         _run_ticks(clock, clock.tickers[-1], 10.0, 0.5)

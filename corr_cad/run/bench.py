@@ -15,6 +15,7 @@ import numpy as np
 
 from corr_cad.run.bench_accuracy import fidelity, interference, profile_export, solids
 from corr_cad.run.bench_datasheet import datasheet_speed
+from corr_cad.run.bench_progress import progress_study
 from corr_cad.run.bench_resources import resources
 from corr_cad.run.bench_speed import (
     cold_start,
@@ -39,6 +40,7 @@ STUDIES = {
     "coldstart": cold_start,
     "datasheet": datasheet_speed,
     "resources": resources,
+    "progress": progress_study,
 }
 
 

@@ -104,6 +104,7 @@ def _parser() -> argparse.ArgumentParser:
             "coldstart",
             "datasheet",
             "resources",
+            "progress",
         ),
         help="run only this study (repeatable); default all",
     )
