@@ -31,6 +31,7 @@ def _warnings(r) -> list[str]:
     return [ln for ln in (r.stdout + r.stderr).splitlines() if "warning" in ln.lower()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(TEMPLATES))
 def test_template_runs_without_warnings(tmp_path, name):
     scene = ROOT / "templates" / f"{name}.toml"
@@ -45,6 +46,7 @@ def test_quickstart_runs_without_warnings(tmp_path):
     assert _warnings(r) == [] and without_progress(r.stderr) == ""
 
 
+@pytest.mark.slow
 def test_inspection_demo_runs_without_warnings(tmp_path):
     r = _run([str(ROOT / "benchmarks" / "synthetic_cmm.py"), "demo"], tmp_path)
     assert r.returncode == 0, r.stderr

@@ -176,6 +176,7 @@ def user_folder(tmp_path):
 # --- 1. never touch what corr-cad did not write ------------------------------
 
 
+@pytest.mark.slow
 def test_out_dot_keeps_every_user_file(user_folder, tmp_path):
     before = snapshot(user_folder)
     outside = (tmp_path / "outside.txt").read_bytes()
@@ -199,6 +200,7 @@ def test_out_dot_keeps_every_user_file(user_folder, tmp_path):
     )
 
 
+@pytest.mark.slow
 def test_only_own_unchanged_files_are_replaced_or_removed(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text(DXF_SCENE.replace('["dxf"]', '["dxf", "png"]'))
@@ -227,6 +229,7 @@ def test_only_own_unchanged_files_are_replaced_or_removed(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "preview.png"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["symlink", "folder", "foreign file", "foreign manifest"])
 def test_output_names_that_are_not_ours_refuse_the_run(tmp_path, kind):
     scene = tmp_path / "s.toml"
@@ -282,6 +285,7 @@ def test_bad_out_one_line_nothing_created(tmp_path, case):
         assert not {n for n in new if not n.startswith(("sem.", "mp-", "psm_"))}, new
 
 
+@pytest.mark.slow
 def test_default_folder_from_odd_scene_names(tmp_path):
     for name in ("..toml", "...toml", "a b\\c.toml"):
         (tmp_path / name).write_text(DXF_SCENE)
@@ -303,6 +307,7 @@ def test_workers_out_of_range(tmp_path, workers):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_scheduler_contacted_only_when_needed(tmp_path):
     pytest.importorskip("dask.distributed")
     scene = tmp_path / "s.toml"
@@ -338,6 +343,7 @@ def test_writers_give_the_umask_s_mode(tmp_path, mask):
     )
 
 
+@pytest.mark.slow
 def test_every_output_of_a_run_has_the_umask_s_mode(tmp_path):
     """The CLI under umask 027: every file 0640 and the new folder 0750, whoever wrote them."""
     scene = tmp_path / "s.toml"
@@ -404,6 +410,7 @@ def _without_seconds(out: Path) -> bytes:
     return re.sub(r'"seconds": [0-9.e+-]+', '"seconds": 0', text).encode()
 
 
+@pytest.mark.slow
 def test_same_bytes_any_hash_seed_folder_and_executor(reference_runs):
     first, *rest = reference_runs
     m0 = assert_complete(first)
@@ -423,6 +430,7 @@ def test_same_bytes_any_hash_seed_folder_and_executor(reference_runs):
         assert "2000-01-01T00:00:00" in (out / "roller.step").read_text()[:400]
 
 
+@pytest.mark.slow
 def test_sigkill_at_random_instants(reference_runs, tmp_path):
     """Kill a long run (STL, STEP, forces, ...) at seeded random instants."""
     out = tmp_path / "o"
@@ -470,6 +478,7 @@ sys.exit(main(["run", *sys.argv[2:]]))
 """
 
 
+@pytest.mark.slow
 def test_sigkill_inside_the_commit_is_repaired(tmp_path):
     """Kill between the journal and the final manifest, at chosen moves; the next run repairs."""
     scene = tmp_path / "s.toml"
@@ -560,6 +569,7 @@ def printed(p: subprocess.Popen, pattern: str, timeout: float = 600) -> list[str
 LONG_SCENE = ALL_SCENE.replace("samples = 8", "samples = 2000")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_sigint_sigterm_leave_previous_outputs(reference_runs, tmp_path, sig, code):
     out = tmp_path / "o"
@@ -584,6 +594,7 @@ def test_sigint_sigterm_leave_previous_outputs(reference_runs, tmp_path, sig, co
 STEP_SCENE = DESIGN + '[export]\nformats = ["png", "step"]\nchord_tolerance = 0.05\n'
 
 
+@pytest.mark.slow
 def test_sigterm_while_the_step_worker_runs(reference_runs, tmp_path):
     """The worker is killed and waited for before the staging folder goes: nothing is left."""
     out = tmp_path / "o"
@@ -622,6 +633,7 @@ sys.exit(main(["run", *sys.argv[1:]]))
 """
 
 
+@pytest.mark.slow
 def test_an_error_in_the_step_worker_is_the_runs_error(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text(STEP_SCENE)
@@ -634,6 +646,7 @@ def test_an_error_in_the_step_worker_is_the_runs_error(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_second_run_waits_or_is_refused(reference_runs, tmp_path):
     out = tmp_path / "o"
     shutil.copytree(reference_runs[0], out)
@@ -664,6 +677,7 @@ def test_second_run_waits_or_is_refused(reference_runs, tmp_path):
     assert leftovers(out) == []
 
 
+@pytest.mark.slow
 def test_pool_workers_die_with_a_killed_main_process(tmp_path):
     scene = tmp_path / "mc.toml"
     scene.write_text(MC_SCENE.replace("samples = 8", "samples = 400"))
@@ -700,6 +714,7 @@ def small_fs(tmp_path):
         subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
+@pytest.mark.slow
 def test_full_disk_and_read_only(small_fs, tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text(DXF_SCENE)
@@ -741,6 +756,7 @@ def test_full_disk_and_read_only(small_fs, tmp_path):
     assert snapshot(small_fs) == before
 
 
+@pytest.mark.slow
 def test_sigint_while_the_pool_forks_is_never_lost(tmp_path):
     """Ctrl-C just as the pool forks its workers still ends the run with 130.
 
