@@ -12,6 +12,7 @@ import hashlib
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -68,14 +69,27 @@ def one_line(r, code=2, limit=300):
     return lines[0]
 
 
+@pytest.fixture(scope="module")
+def _one_run(tmp_path_factory):
+    """One complete DXF+PNG run, made once for the module (a run per test cost ~2 s)."""
+    folder = tmp_path_factory.mktemp("done")
+    scene = folder / "s.toml"
+    scene.write_text(DXF_PNG_SCENE)
+    r = cli("run", scene, "--out", folder / "o", "--quiet")
+    assert r.returncode == 0, r.stderr
+    return folder / "o"
+
+
 @pytest.fixture
-def done(tmp_path):
-    """A folder with a complete DXF+PNG run in it and the user's notes beside it."""
+def done(tmp_path, _one_run):
+    """A folder with a complete DXF+PNG run in it and the user's notes beside it.
+
+    A copy of the module's one run: ``manifest.json`` holds no absolute path,
+    so the copy is that run's folder as the next run finds it."""
     scene = tmp_path / "s.toml"
     scene.write_text(DXF_PNG_SCENE)
     out = tmp_path / "o"
-    r = cli("run", scene, "--out", out, "--quiet")
-    assert r.returncode == 0, r.stderr
+    shutil.copytree(_one_run, out, symlinks=True)
     (out / "notes.txt").write_text("my notes\n")
     return scene, out
 
