@@ -52,6 +52,7 @@ def designed(tmp_path_factory):
     return _run(tmp_path_factory.mktemp("designed"), 2.0)
 
 
+@pytest.mark.slow
 def test_design_writes_its_files_and_meets_the_targets(designed):
     r, out = designed
     assert r.returncode == 0, r.stderr
@@ -67,6 +68,7 @@ def test_design_writes_its_files_and_meets_the_targets(designed):
     assert (out / "modification_tradeoff.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_modified_toml_meets_the_targets_with_a_fresh_seed(designed):
     from corr_cad.run.scene import load_scene
     from corr_cad.tolerance.modification_design import design_modification
@@ -108,6 +110,7 @@ def test_modified_toml_meets_the_targets_with_a_fresh_seed(designed):
     )
 
 
+@pytest.mark.slow
 def test_unmet_targets_name_the_binding_target_and_exit_1(tmp_path):
     r, out = _run(tmp_path, 0.1)
     assert r.returncode == 1
@@ -116,6 +119,7 @@ def test_unmet_targets_name_the_binding_target_and_exit_1(tmp_path):
     assert not res["met"] and res["chosen"] is not None  # the best it could do
 
 
+@pytest.mark.slow
 def test_results_identical_on_every_executor(designed, tmp_path):
     _, out = designed
     r, out2 = _run(tmp_path, 2.0, executor="process")
@@ -123,6 +127,7 @@ def test_results_identical_on_every_executor(designed, tmp_path):
     assert (out / "modification.json").read_bytes() == (out2 / "modification.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_results_identical_on_a_dask_scheduler(designed, tmp_path):
     """The search's samples run on a real local Dask cluster: the same bytes."""
     distributed = pytest.importorskip("dask.distributed")
@@ -144,6 +149,7 @@ def test_results_identical_on_a_dask_scheduler(designed, tmp_path):
     assert got == (out / "modification.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_free_family_writes_its_curve_and_modified_toml_runs_it(tmp_path):
     text = SCENE.format(target=3.5).replace(
         'family = "equidistant+shift"', 'family = "free"\nobjective = "transmission_error"'
