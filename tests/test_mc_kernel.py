@@ -139,6 +139,7 @@ def test_kernel_is_chosen_by_the_work_alone(monkeypatch):
     assert _hex(_run(case, kernel=None)) == _hex(_run(case, kernel=False))
 
 
+@pytest.mark.slow
 def test_runs_without_monte_carlo_do_not_import_numba(tmp_path):
     """A DXF-only or forces-only run pays nothing for the kernel."""
     scene = tmp_path / "s.toml"

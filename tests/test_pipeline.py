@@ -133,6 +133,7 @@ def test_manifest_records_what_ran(tmp_path):
     assert (summary["loaded_rollers_min"], summary["loaded_rollers_max"]) == (12, 13)
 
 
+@pytest.mark.slow
 def test_outputs_are_deterministic(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     ma, mb = _run(_scene(), a), _run(_scene(), b)
@@ -216,6 +217,7 @@ print(names == sorted(os.listdir(out)))
 """
 
 
+@pytest.mark.slow
 def test_a_failing_stage_kills_the_step_worker_before_returning(tmp_path):
     import subprocess
     import sys
