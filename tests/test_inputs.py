@@ -204,6 +204,7 @@ def test_bad_input_subprocess_subset(folder, section, key, value, needle):
 
 
 # --- files that are not scenes ------------------------------------------------
+@pytest.mark.slow
 def test_non_regular_and_oversized_scene_files(folder):
     fifo = folder / "fifo.toml"
     os.mkfifo(fifo)
@@ -494,6 +495,7 @@ def test_measured_dxf_in_inches_is_scaled(folder):
     np.testing.assert_allclose(read_measured_points(folder / "m.dxf"), pts, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_measured_circle_is_not_this_gear(folder):
     pts = _working_points(2600)
     rho = float(np.mean(np.hypot(*pts.T)))
