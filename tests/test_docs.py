@@ -82,6 +82,7 @@ class _Rows(HTMLParser):
             self._cell.append(data)
 
 
+@pytest.mark.slow
 def test_site_builds_strictly_and_lists_every_scene_key(site):
     parser = _Rows()
     parser.feed((site / "scenes.html").read_text())

@@ -83,6 +83,7 @@ def test_tiny_tolerance_states_the_real_lower_bound(folder, formats, key, value)
     assert works and float(works.group(1) or works.group(2)) >= float(m.group(1)), line
 
 
+@pytest.mark.slow
 def test_the_suggested_tolerance_works(folder):
     line = refused(folder, cli(folder, _export('["dxf"]', "tolerance", "1e-30")))
     ok = re.search(r"tolerance = ([0-9.e+-]+) would work", line).group(1)
@@ -90,6 +91,7 @@ def test_the_suggested_tolerance_works(folder):
     assert r.returncode == 0 and r.stderr == "", r.stderr[-3000:]
 
 
+@pytest.mark.slow
 def test_huge_tolerances_run_clean(folder):
     scene = DESIGN + '[export]\nformats = ["dxf", "edm", "stl"]\ntolerance = 10\n'
     r = cli(folder, scene + "chord_tolerance = 10\n", "--quiet")
@@ -123,6 +125,7 @@ def test_subnormal_values_name_their_key(folder, section, key, needle):
     assert "would work" in line or "steel" in line, line
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["1e-9", "1e-6"])
 def test_a_micrometre_roller_is_the_floor(folder, value):
     """1e-9: 'manifold3d could not build the solid'; 1e-6: a zero-volume mesh; with
