@@ -251,3 +251,19 @@ def test_an_unexpected_error_after_the_commit_says_the_files_are_in_place(
     assert "(ValueError: summary)" in err[0]
     assert f"the run's files are complete in {out}" in err[0]
     assert json.loads((out / "manifest.json").read_text())["complete"] is True
+
+
+def test_an_unexpected_error_in_another_command_is_one_line_exit_3(monkeypatch, capsys):
+    from corr_cad.run import cli
+
+    def broken(args):
+        raise RuntimeError("schema")
+
+    monkeypatch.setattr(cli, "_schema", broken)
+    monkeypatch.delenv("CORR_CAD_DEBUG", raising=False)
+    assert cli.main(["schema"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "corr-cad: internal error (RuntimeError: schema); this is a bug, please report it "
+        "with the scene (CORR_CAD_DEBUG=1 shows the traceback)"
+    ]

@@ -540,8 +540,8 @@ def _internal_error(exc: Exception, args: argparse.Namespace, state: dict) -> No
     staging = state.get("staging")
     failure = getattr(exc, "corr_cad_failure", None)
     where = f" in stage {failure.stage}" if failure is not None else ""
-    if args.command != "run":
-        lost = "nothing was written"
+    if args.command != "run":  # new, schema, bench: what they wrote is whole files
+        lost = ""
     elif staging is not None and staging.committed:
         lost = f"the run's files are complete in {_shown_path(staging.given)}"
     elif failure is not None and failure.finished:
@@ -555,8 +555,8 @@ def _internal_error(exc: Exception, args: argparse.Namespace, state: dict) -> No
         lost = "nothing was written; previous outputs left as they were"
     print(
         _line(
-            f"corr-cad: internal error{where} ({what}); {lost}; this is a bug, please report "
-            "it with the scene (CORR_CAD_DEBUG=1 shows the traceback)",
+            f"corr-cad: internal error{where} ({what}); {lost + '; ' if lost else ''}this is a "
+            "bug, please report it with the scene (CORR_CAD_DEBUG=1 shows the traceback)",
             600,
         ),
         file=sys.stderr,
