@@ -115,6 +115,7 @@ def run(tmp_path_factory):
     return out, html, page
 
 
+@pytest.mark.slow
 def test_report_parses_and_embeds_every_plot_it_names(run):
     out, html, page = run
     assert page.stack == []  # every element closed
@@ -133,6 +134,7 @@ def test_report_parses_and_embeds_every_plot_it_names(run):
     assert "report.html" in manifest["files"]
 
 
+@pytest.mark.slow
 def test_report_needs_no_network(run):
     _, html, page = run
     assert page.urls == []
@@ -143,6 +145,7 @@ def _cell_after(cells: list[str], label: str, k: int = 1) -> str:
     return cells[cells.index(label) + k]
 
 
+@pytest.mark.slow
 def test_report_numbers_are_the_run_s_numbers(run):
     out, _, page = run
     cells = page.cells
@@ -174,6 +177,7 @@ def test_report_numbers_are_the_run_s_numbers(run):
     assert f"measured max deviation {acc:.3g} mm" in row
 
 
+@pytest.mark.slow
 def test_every_force_cell_is_its_own_column_s_peak(run):
     """Each row of the peaks table, and roller 1's table, recomputed from forces.csv.
 
@@ -214,6 +218,7 @@ def test_every_force_cell_is_its_own_column_s_peak(run):
         assert _cell_after(cells, label) == f"{value:,.4g}", label
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not shutil.which("chromium"), reason="no headless Chromium here")
 def test_report_opens_in_headless_chromium(run, tmp_path):
     out, _, page = run
