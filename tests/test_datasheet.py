@@ -331,6 +331,7 @@ def _exact_margin(design, err: ManufacturingErrors, x: float, w: float) -> float
     return worst
 
 
+@pytest.mark.slow
 def test_backlash_equals_the_exact_free_rotation_of_the_clearance_geometry(prototype):
     """Free rotation with the crank locked, from the exact distances, to 1e-3 arcmin.
 
@@ -483,6 +484,7 @@ def run_dir(tmp_path_factory):
     return tmp / "ds", r
 
 
+@pytest.mark.slow
 def test_figures_are_reproducible_by_hand_from_the_csv_files(run_dir, prototype):
     out, _ = run_dir
     d = json.loads((out / "datasheet.json").read_text())
@@ -532,6 +534,7 @@ def test_figures_are_reproducible_by_hand_from_the_csv_files(run_dir, prototype)
         assert b == pytest.approx(_hand_backlash(h, 26) * ARCMIN, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_checks_console_and_report_show_the_datasheet(run_dir):
     out, r = run_dir
     m = json.loads((out / "manifest.json").read_text())
@@ -603,6 +606,7 @@ def test_bad_datasheet_input_is_one_line_and_exit_2(tmp_path, section, want):
     assert r.stderr.strip().splitlines()[-1].endswith(want), r.stderr
 
 
+@pytest.mark.slow
 def test_datasheet_needs_a_rated_torque_and_lost_motion_gates_the_montecarlo(tmp_path):
     r = _run(tmp_path, '[export]\nformats = ["datasheet"]\n')
     assert r.returncode == 2 and "rated_torque_Nm is not set" in r.stderr

@@ -248,6 +248,7 @@ def test_dxf_describes_the_same_path(edm_run):
     np.testing.assert_allclose(list(hole.dxf.center)[:2], moves[0]["start"], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_lead_in_at_tooth_tip_without_forces_and_refusals(tmp_path):
     r = run(tmp_path, '[export]\nformats = ["edm"]\n')
     assert r.returncode == 0, r.stderr
