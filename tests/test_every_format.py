@@ -4,9 +4,11 @@ A combination of formats and sections that no test ran once crashed the
 last stage (the report, on the Monte Carlo's datasheet metrics) and lost
 the whole run. Here ``formats = ["all"]`` runs with every section of the
 scene schema set, twice: on the design's own ring (everything but the
-inspection) and on a measured ring (the inspection too). Each run must
-exit 0, print no traceback, write every file its formats declare and
-show every Monte Carlo metric in the report.
+inspection) and on a measured ring (the inspection too). ``[dask]`` is
+parsed, but the runs use the process pool (a cluster is the work of
+tests/test_dask_faults.py). Each run must exit 0, print no traceback,
+write every file its formats declare and show every Monte Carlo metric in
+the report.
 
 Then a stage that raises something unexpected (injected in-process) must
 end the run with one line, exit 3, and leave the previous outputs as they
@@ -84,6 +86,8 @@ roller_classes_um = [-2.0, 0.0]
 target_backlash_arcmin = 20.0
 [budget]
 time_warning_s = 3600
+[dask]
+connect_timeout_s = 5.0
 """
 
 #: The design's own ring: the roller radius error gives the clearance.
