@@ -81,7 +81,7 @@ def progress_study(out: Path, quick: bool = False) -> list:
 
     from corr_cad.export.bench_plots import progress_png
 
-    points = 20 if quick else 80
+    points = 20 if quick else 300
     folder = Path(tempfile.mkdtemp(prefix="corr-cad-bench-"))
     try:
         got, total = _stamped_lines(folder, points)
