@@ -228,7 +228,7 @@ def test_report_opens_in_headless_chromium(run, tmp_path):
         [*cmd, "--dump-dom", (out / "report.html").as_uri()],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,
     )
     assert dom.returncode == 0, dom.stderr[-2000:]
     assert "corr-cad report: design" in dom.stdout
@@ -236,7 +236,7 @@ def test_report_opens_in_headless_chromium(run, tmp_path):
     subprocess.run(
         [*cmd, f"--screenshot={shot}", "--window-size=1200,2400", (out / "report.html").as_uri()],
         capture_output=True,
-        timeout=120,
+        timeout=600,
     )
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
