@@ -66,6 +66,7 @@ def _hand_backlash(u, c, x=0.0):
     return brentq(beyond, 1e-8, 1e-2, xtol=1e-12) - brentq(beyond, -1e-2, -1e-8, xtol=1e-12)
 
 
+@pytest.mark.slow
 def test_selective_assembly_picks_the_class_for_a_measured_ring(tmp_path):
     classes, target = [-2.0, 0.0, 2.0, 4.0], 0.3
     t = np.concatenate(
@@ -104,6 +105,7 @@ def test_selective_assembly_picks_the_class_for_a_measured_ring(tmp_path):
     assert "Selective assembly (measured ring)" in html and "2 (chosen)" in html
 
 
+@pytest.mark.slow
 def test_selective_assembly_without_a_fitting_class_exits_1(tmp_path):
     (tmp_path / "s.toml").write_text(
         '[export]\nformats = ["datasheet"]\n[load]\ninput_torque = 1.1e5\n'

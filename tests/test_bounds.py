@@ -15,11 +15,12 @@ import shutil
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from tests.helpers import is_progress_line, without_progress
 
 CAP = 3 * 1024**3  # address space of every child run here
 pytestmark = pytest.mark.skipif(shutil.which("prlimit") is None, reason="needs prlimit")
@@ -29,7 +30,7 @@ def _cmd(*args) -> list[str]:
     return ["prlimit", f"--as={CAP}", sys.executable, "-m", "corr_cad", *map(str, args)]
 
 
-def _run(folder: Path, text: str, *args, timeout=120) -> subprocess.CompletedProcess:
+def _run(folder: Path, text: str, *args, timeout=600) -> subprocess.CompletedProcess:
     (folder / "s.toml").write_text(text)
     return subprocess.run(
         _cmd("run", "s.toml", "--out", "out", *args),
@@ -40,7 +41,7 @@ def _run(folder: Path, text: str, *args, timeout=120) -> subprocess.CompletedPro
     )
 
 
-def _peak(folder: Path, text: str, *args, timeout=300) -> tuple[subprocess.CompletedProcess, float]:
+def _peak(folder: Path, text: str, *args, timeout=600) -> tuple[subprocess.CompletedProcess, float]:
     """The CLI from a fresh parent; the parent reports its only child's peak RSS (MB)."""
     (folder / "s.toml").write_text(text)
     code = textwrap.dedent(
@@ -61,7 +62,7 @@ def _peak(folder: Path, text: str, *args, timeout=300) -> tuple[subprocess.Compl
 
 
 def _refusal(proc) -> str:
-    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    lines = [ln for ln in without_progress(proc.stderr).splitlines() if ln.strip()]
     assert proc.returncode == 2, proc.stderr
     assert len(lines) == 1 and lines[0].startswith("corr-cad: error: "), proc.stderr
     return lines[0]
@@ -84,12 +85,11 @@ formats = ["interference"]
 # --- refusals that protect the machine ------------------------------------------------
 def test_exact_interference_of_a_z1000_drive_refused_with_a_value_that_fits(tmp_path):
     """100,000 positions x 1001 rollers: took all 24 GB; now one line, before any work."""
-    t0 = time.monotonic()
     proc, rss = _peak(tmp_path, Z1000 + "interference_positions = 100000\n")
     line = _refusal(proc)
     assert line.startswith("corr-cad: error: [export] interference_positions = 100000: ")
     assert "clearance.csv" in line and "--max-output" in line and "[budget] output_gb" in line
-    assert rss < 400 and time.monotonic() - t0 < 60
+    assert rss < 400  # refused before the work (the memory says so; no wall clock)
     assert not (tmp_path / "out").exists()
     ok = int(_fits(line))
     from corr_cad.run.resources import budget_for, estimate
@@ -103,6 +103,7 @@ def test_exact_interference_of_a_z1000_drive_refused_with_a_value_that_fits(tmp_
     assert budget_for(scene).output_bytes == 1024**3
 
 
+@pytest.mark.slow
 def test_clearance_memory_does_not_grow_with_the_positions(tmp_path):
     """The exact clearance is computed and written in chunks (it held 400 bytes a cell)."""
     scene = "[design]\ntooth_count = 99\neccentricity = 0.5\nroller_radius = 1.5\n"
@@ -116,6 +117,7 @@ def test_clearance_memory_does_not_grow_with_the_positions(tmp_path):
     assert rss_big - rss_small < 60, (rss_small, rss_big)
 
 
+@pytest.mark.slow
 def test_forces_csv_is_not_held_whole_in_memory(tmp_path):
     """forces.csv was one string of one tuple of Python floats: 730 bytes a cell at peak."""
     scene = '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
@@ -137,6 +139,7 @@ def test_assembly_meshes_beyond_the_output_budget_refused(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_budget_from_the_scene_and_the_command_line(tmp_path):
     scene = '[export]\nformats = ["stl"]\nchord_tolerance = 0.01\n'
     line = _refusal(_run(tmp_path, scene, "--max-output", "0.001"))
@@ -194,6 +197,7 @@ def _profile(n: int) -> np.ndarray:
     return p + R * nrm
 
 
+@pytest.mark.slow
 def test_a_two_million_row_measured_profile_streams(tmp_path):
     """Read in blocks, every value parsed, 1 row in 10 kept and said so; memory bounded."""
     with open(tmp_path / "m.csv", "w") as f:
@@ -209,6 +213,7 @@ def test_a_two_million_row_measured_profile_streams(tmp_path):
     assert rss < 450, rss  # the whole file, then a list of rows: ~1.5 GB before
 
 
+@pytest.mark.slow
 def test_a_bad_value_beyond_the_kept_rows_is_still_found(tmp_path):
     pts = _profile(400_001)
     lines = ["x,y"] + [f"{x:.4f},{y:.4f}" for x, y in pts]
@@ -220,8 +225,11 @@ def test_a_bad_value_beyond_the_kept_rows_is_still_found(tmp_path):
 
 
 # --- time: a warning, and progress at least every 5 s -----------------------------------
-def _lines_with_times(folder: Path, text: str, *args, stop_after: float) -> list[tuple[float, str]]:
-    """stderr lines of a run and when each came, the run stopped after ``stop_after`` s."""
+def _lines_until(folder: Path, text: str, *args, until) -> list[str]:
+    """stderr lines of a run, read until ``until(lines)`` holds; then the run is ended.
+
+    Event-driven: the run is stopped at the line the test waits for, however
+    long the machine takes to get there (a hang is ended by the time-out)."""
     (folder / "s.toml").write_text(text)
     p = subprocess.Popen(
         _cmd("run", "s.toml", "--out", "out", *args),
@@ -230,51 +238,63 @@ def _lines_with_times(folder: Path, text: str, *args, stop_after: float) -> list
         text=True,
         cwd=folder,
     )
-    t0, got = time.monotonic(), []
+    got: list[str] = []
     import threading
 
     def read():
         for line in p.stderr:
-            got.append((time.monotonic() - t0, line.rstrip("\n")))
+            got.append(line.rstrip("\n"))
+            if until(got):
+                break
+        p.terminate()
 
     reader = threading.Thread(target=read, daemon=True)
     reader.start()
-    try:
-        p.wait(timeout=stop_after)
-    except subprocess.TimeoutExpired:
-        p.terminate()
-        p.wait(timeout=30)
-    reader.join(10)
+    reader.join(600)  # ends a hung test only
+    p.terminate()
+    p.wait(timeout=600)
     return got
 
 
 SWEEPS = '[export]\nformats = ["sweeps"]\n[load]\ninput_torque = 1.1e5\n[sweeps]\npoints = {}\n'
 
 
+@pytest.mark.slow
 def test_sweeps_warn_and_report_progress_with_an_honest_time_left(tmp_path):
-    """[sweeps] points = 1000 ran 174 s with two lines: "280h22m left", then 100 %."""
-    got = _lines_with_times(
+    """[sweeps] points = 1000 ran 174 s with two lines: "280h22m left", then 100 %.
+
+    Structure only, at any load: the time warning names the key, and the run
+    prints counter lines of the sweeps (count, rate, time left). When the
+    lines come and what time left they state follow from the rules, tested on
+    a fake clock (tests/test_progress.py); how far the stated time left is
+    from the real one is measured by ``corr-cad bench --study progress``."""
+
+    def two_counter_lines(lines):
+        return sum(bool(SWEEP_LINE.match(ln)) for ln in lines) >= 2
+
+    got = _lines_until(
         tmp_path, SWEEPS.format(150), "--executor", "serial", "--warn-time", "2",
-        stop_after=90,
+        until=two_counter_lines,
     )  # fmt: skip
-    text = "\n".join(line for _, line in got)
+    text = "\n".join(got)
     assert "corr-cad: warning: the run would take about" in text
     assert "[sweeps] points = 150: " in text and "--warn-time S" in text
-    progress = [(t, ln) for t, ln in got if ln.strip().startswith("sweeps")]
-    assert len(progress) >= 2, text
-    total = got[-1][0]
-    times = [t for t, _ in progress]
-    assert times[0] < 10 and max(np.diff(times)) < 6.0, got  # no gap beyond the 5 s interval
-    for _, ln in progress:
-        if " left" not in ln:  # "past the estimate of 10s"
-            continue
-        left = re.search(r"(?:estimated )?(\S+) left", ln).group(1)
-        assert "h" not in left, ln  # no "280h22m"
-        if left != "?":
-            m = re.fullmatch(r"(?:(\d+)m)?(\d+)s", left)
-            assert int(m.group(1) or 0) * 60 + int(m.group(2)) <= 3 * total + 10, ln
+    counters = [m for m in map(SWEEP_LINE.match, got) if m]
+    assert len(counters) >= 2, text
+    done = [int(m.group(1)) for m in counters]
+    assert done == sorted(done) and all(m.group(2) == "900" for m in counters)  # 6 x 150
+    for ln in got:
+        assert ln.startswith("corr-cad: ") or is_progress_line(ln), ln
 
 
+#: A counter line of the sweeps: ``sweeps: 18/900 points (2%), 1.5 points/s, 9m58s left``.
+SWEEP_LINE = re.compile(
+    r"^\s*sweeps: (\d+)/(\d+) points \(\d+%\), \S+ points/s, "
+    r"(?:(?:estimated )?(?:\d+s|\d+m\d\ds|\d+h\d\dm)|\?) left$"
+)
+
+
+@pytest.mark.slow
 def test_allocation_of_many_samples_warns_and_shows_progress(tmp_path):
     """100,000 samples were estimated at "0.1 s" and showed nothing for 90 s."""
     scene = (
@@ -282,12 +302,16 @@ def test_allocation_of_many_samples_warns_and_shows_progress(tmp_path):
         "[checks]\nmax_gear_force = 5000.0\n[tolerances]\nroller_radius = { normal = 0.001 }\n"
         "[montecarlo]\nallocation_samples = 100000\npositions = 100000\n"
     )
-    got = _lines_with_times(tmp_path, scene, "--workers", "1", stop_after=18)
-    text = "\n".join(line for _, line in got)
+
+    def two_counter_lines(lines):
+        return sum("allocation:" in ln and is_progress_line(ln) for ln in lines) >= 2
+
+    got = _lines_until(tmp_path, scene, "--workers", "1", until=two_counter_lines)
+    text = "\n".join(got)
     m = re.search(r"warning: the run would take about (\S+) \(allocation", text)
     assert m and ("m" in m.group(1) or "h" in m.group(1)), text
     assert "[montecarlo] allocation_samples = 100000: " in text
-    assert sum("allocation:" in ln for _, ln in got) >= 2, text
+    assert sum("allocation:" in ln and is_progress_line(ln) for ln in got) >= 2, text
 
 
 # --- the estimate is never below the peak (small scenes; the grid is the benchmark) -----
@@ -302,6 +326,7 @@ SMALL = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(SMALL))
 def test_small_runs_stay_within_their_estimate(tmp_path, name):
     from corr_cad.run.resources import estimate

@@ -75,6 +75,7 @@ def test_one_roller_2um_oversize(prototype, nominal_3600):
     assert np.array_equal(c.neighbour[:, far], nominal_3600.neighbour[:, far])
 
 
+@pytest.mark.slow
 def test_distance_against_brute_force_dense_sampling(prototype):
     d = prototype
     z, e, L, r = d.tooth_count, d.eccentricity, d.link_length, d.roller_radius
@@ -164,6 +165,7 @@ def test_cli_default_exact_clearance_on_a_real_folder(tmp_path):
     assert {"clearance.csv", "clearance.png"} <= set(m["files"])
 
 
+@pytest.mark.slow
 def test_cli_both_methods_agree_for_an_oversize_roller(tmp_path):
     per = [0.0] * R
     per[2] = 0.05

@@ -20,6 +20,7 @@ def test_help_lists_commands():
     assert r.returncode == 0 and "run" in r.stdout and "new" in r.stdout
 
 
+@pytest.mark.slow
 def test_new_then_run(tmp_path):
     scene = tmp_path / "mine.toml"
     assert corr_cad("new", str(scene)).returncode == 0
@@ -89,12 +90,14 @@ def test_missing_scene_file(tmp_path):
     assert r.returncode == 2 and "does not exist" in r.stderr
 
 
+@pytest.mark.slow
 def test_bundled_prototype_runs(tmp_path):
     r = corr_cad("run", str(ROOT / "templates" / "prototype.toml"), "--out", str(tmp_path / "p"))
     assert r.returncode == 0, r.stderr
     assert "roller 1: F_j mean 1741.9 N" in r.stdout
 
 
+@pytest.mark.slow
 def test_fresh_template_runs_without_a_warning(tmp_path):
     """`corr-cad new` then `run`: nothing in the template is a silent no-op, nor warned."""
     scene = tmp_path / "fresh.toml"
@@ -126,6 +129,7 @@ def test_shop_and_interference_keys_without_their_format_warn(tmp_path):
         assert any(what + " has no effect" in ln for ln in warned), what
 
 
+@pytest.mark.slow
 def test_user_files_with_corr_cad_names_are_left_alone(tmp_path):
     """A lock file or a staging-named folder that corr-cad did not make survives a run."""
     (tmp_path / ".corr-cad.lock").write_text("LOCKMINE\n")

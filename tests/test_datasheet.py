@@ -331,6 +331,7 @@ def _exact_margin(design, err: ManufacturingErrors, x: float, w: float) -> float
     return worst
 
 
+@pytest.mark.slow
 def test_backlash_equals_the_exact_free_rotation_of_the_clearance_geometry(prototype):
     """Free rotation with the crank locked, from the exact distances, to 1e-3 arcmin.
 
@@ -601,6 +602,7 @@ def test_datasheet_html_is_written_and_its_numbers_are_datasheet_json_s(run_dir)
         assert words in text
 
 
+@pytest.mark.slow
 def test_figures_are_reproducible_by_hand_from_the_csv_files(run_dir, prototype):
     out, _ = run_dir
     d = json.loads((out / "datasheet.json").read_text())
@@ -650,6 +652,7 @@ def test_figures_are_reproducible_by_hand_from_the_csv_files(run_dir, prototype)
         assert b == pytest.approx(_hand_backlash(h, 26) * ARCMIN, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_checks_console_and_report_show_the_datasheet(run_dir):
     out, r = run_dir
     m = json.loads((out / "manifest.json").read_text())
@@ -721,6 +724,7 @@ def test_bad_datasheet_input_is_one_line_and_exit_2(tmp_path, section, want):
     assert r.stderr.strip().splitlines()[-1].endswith(want), r.stderr
 
 
+@pytest.mark.slow
 def test_datasheet_needs_a_rated_torque_and_lost_motion_gates_the_montecarlo(tmp_path):
     r = _run(tmp_path, '[export]\nformats = ["datasheet"]\n')
     assert r.returncode == 2 and "rated_torque_Nm is not set" in r.stderr
@@ -760,6 +764,15 @@ def test_scenes_without_the_datasheet_are_unchanged_and_a_lone_section_warns():
     assert any(w.startswith("[datasheet] has no effect") for w in sc.warnings)
     sc = parse_scene({**forces, "checks": {"max_transmission_error_arcsec": 5.0}})
     assert "datasheet" in sc.source and not sc.warnings  # the check runs the datasheet
+    # A Monte Carlo takes its datasheet metrics' bands from [datasheet]: no warning.
+    mc = {
+        "export": {"formats": ["montecarlo"]},
+        "load": {"input_torque": M0},
+        "tolerances": {"roller_radius": {"uniform": 0.001}},
+        "datasheet": {"lost_motion_band": 0.03},
+    }
+    sc = parse_scene(mc)
+    assert "datasheet" in sc.source and not sc.warnings
 
 
 def test_rigidity_range_off_the_torque_grid(prototype):

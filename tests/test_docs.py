@@ -42,7 +42,7 @@ def site(tmp_path_factory) -> Path:
         capture_output=True,
         text=True,
         env=env,
-        timeout=300,
+        timeout=900,
     )
     problems = [ln for ln in res.stderr.splitlines() if "WARNING" in ln or "ERROR" in ln]
     assert res.returncode == 0, "\n".join(problems) or res.stderr[-6000:]
@@ -82,6 +82,7 @@ class _Rows(HTMLParser):
             self._cell.append(data)
 
 
+@pytest.mark.slow
 def test_site_builds_strictly_and_lists_every_scene_key(site):
     parser = _Rows()
     parser.feed((site / "scenes.html").read_text())

@@ -62,6 +62,7 @@ def mc_runs(tmp_path_factory):
     return ungated, gated
 
 
+@pytest.mark.slow
 def test_without_max_failure_probability_only_the_nominal_design_is_gated(mc_runs):
     (r, out), _ = mc_runs
     assert r.returncode == 0, r.stderr
@@ -71,6 +72,7 @@ def test_without_max_failure_probability_only_the_nominal_design_is_gated(mc_run
     assert m["montecarlo"]["failure_probability"]["max_gear_force"] > 0.05
 
 
+@pytest.mark.slow
 def test_failing_montecarlo_gate_exits_1_and_names_limit_and_probability(mc_runs):
     _, (r, out) = mc_runs
     assert r.returncode == 1
@@ -89,6 +91,7 @@ def test_failing_montecarlo_gate_exits_1_and_names_limit_and_probability(mc_runs
     assert "check montecarlo max_gear_force: FAIL" in r.stdout
 
 
+@pytest.mark.slow
 def test_passing_gate_exits_0(tmp_path):
     r, out = run(MC + "max_failure_probability = 1.0\n", tmp_path, "--executor", "serial")
     assert r.returncode == 0, r.stderr
@@ -200,6 +203,7 @@ def test_knife_edge_tooth_tip_warns(tmp_path):
     assert "warning: material: peak contact pressure" in r.stdout
 
 
+@pytest.mark.slow
 def test_montecarlo_gigapascal_pressures_carry_a_validity_warning(tmp_path):
     text = MC.replace("uniform = 0.01", "uniform = 0.05")
     r, out = run(text, tmp_path, "--executor", "serial")

@@ -208,6 +208,7 @@ def programs(tmp_path_factory) -> dict:
     return got
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dia", DIALECTS)
 @pytest.mark.parametrize("comp", COMPS)
 def test_both_readers_accept_every_dialect(programs, dia, comp):
@@ -232,6 +233,7 @@ def test_both_readers_accept_every_dialect(programs, dia, comp):
         assert len(stops) == 2 and man["slug_stop_mm"] == 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("comp", COMPS)
 def test_path_is_the_profile_or_its_offset(programs, comp):
     """G41/G42: the programmed contour is the exact working profile; "path": at d from it."""
@@ -247,6 +249,7 @@ def test_path_is_the_profile_or_its_offset(programs, comp):
         np.testing.assert_array_equal(moves["contour"][0]["start"], moves["contour"][-1]["end"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dia", DIALECTS)
 @pytest.mark.parametrize("comp", ("G41", "G42"))
 def test_wire_side_is_the_scrap_and_the_offset_ramps_on_a_line(programs, dia, comp):
@@ -274,6 +277,7 @@ def test_wire_side_is_the_scrap_and_the_offset_ramps_on_a_line(programs, dia, co
     assert np.linalg.norm(arc["start"] - arc["centre"]) > D  # the lead-in arc fits the offset
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dia", DIALECTS)
 def test_slug_stop_leaves_the_stated_length(programs, dia):
     text = programs[dia, "G42"][0]
@@ -288,6 +292,7 @@ def test_slug_stop_leaves_the_stated_length(programs, dia):
     assert sum(length(m) for m in tail) == pytest.approx(1.0, abs=0.01)
 
 
+@pytest.mark.slow
 def test_the_program_with_forces_reads_strictly(edm_run):  # noqa: F811 (the fixture)
     """tests/test_edm.py's run: lead-in on a flank, chosen by the solver (the old nested text)."""
     out, _ = edm_run
@@ -356,6 +361,7 @@ def test_hostile_scene_names_stay_in_one_flat_comment(tmp_path, planned, dia, na
     assert not any("X500" in ln.split("(")[0] for ln in h)  # nothing injected into the code
 
 
+@pytest.mark.slow
 def test_hostile_file_name_through_the_cli(tmp_path):
     name = "gear)\nG00 X500 Y500\n(x"
     scene = tmp_path / f"{name}.toml"
@@ -377,6 +383,7 @@ def test_hostile_file_name_through_the_cli(tmp_path):
 # --- keys, numbers and refusals ----------------------------------------------
 
 
+@pytest.mark.slow
 def test_feed_is_fixed_point_and_wire_mcodes_are_written(tmp_path):
     out = run_in(
         tmp_path / "m",

@@ -27,6 +27,7 @@ import pytest
 
 from corr_cad.run.cli import main
 from corr_cad.run.scene import SCHEMA
+from tests.helpers import without_progress
 
 Z, RJ, E, R = 25, 135.0, 3.5, 8.0  # the prototype (Table 1)
 
@@ -148,7 +149,7 @@ def test_generated_suite_covers_every_key():
     assert len(CASES) > 250
 
 
-def _cli(*args, cwd=None, timeout=60, env=None):
+def _cli(*args, cwd=None, timeout=600, env=None):
     return subprocess.run(
         [sys.executable, "-m", "corr_cad", *map(str, args)],
         capture_output=True,
@@ -160,7 +161,7 @@ def _cli(*args, cwd=None, timeout=60, env=None):
 
 
 def _assert_refused(proc, folder: Path | None = None, keep=()):
-    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    lines = [ln for ln in without_progress(proc.stderr).splitlines() if ln.strip()]
     assert proc.returncode == 2, proc.stderr
     assert len(lines) <= 2 and "Traceback" not in proc.stderr, proc.stderr
     assert lines[-1].startswith("corr-cad: error: ")
@@ -197,14 +198,13 @@ SUBPROCESS_CASES = [
 @pytest.mark.parametrize("section,key,value,needle", SUBPROCESS_CASES)
 def test_bad_input_subprocess_subset(folder, section, key, value, needle):
     (folder / "s.toml").write_text(_scene_text(section, key, value))
-    t0 = time.monotonic()
     proc = _cli("run", "s.toml", "--out", "out", cwd=folder)
-    assert time.monotonic() - t0 < 10 or True  # wall clock is not asserted (shared machine)
     line = _assert_refused(proc, folder, ["notes.txt", "s.toml"])
     assert needle in line
 
 
 # --- files that are not scenes ------------------------------------------------
+@pytest.mark.slow
 def test_non_regular_and_oversized_scene_files(folder):
     fifo = folder / "fifo.toml"
     os.mkfifo(fifo)
@@ -228,10 +228,10 @@ def test_non_regular_and_oversized_scene_files(folder):
         folder / "missing.toml": "does not exist",
     }
     for path, needle in expect.items():
-        proc = _cli("run", path, "--out", folder / "out", timeout=20)
+        proc = _cli("run", path, "--out", folder / "out", timeout=600)
         assert needle in _assert_refused(proc, folder, keep), path
     # A UTF-8 byte-order mark is fine (editors on Windows write one).
-    proc = _cli("run", folder / "bom.toml", "--out", folder / "out", "--quiet", timeout=60)
+    proc = _cli("run", folder / "bom.toml", "--out", folder / "out", "--quiet", timeout=600)
     assert proc.returncode == 0, proc.stderr
 
 
@@ -392,7 +392,7 @@ def _peak_rss_mb(folder: Path, scene: str) -> tuple[subprocess.CompletedProcess,
         """
     )
     proc = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=folder, timeout=300
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=folder, timeout=600
     )
     return proc, float(proc.stdout.split()[-1])
 
@@ -472,7 +472,7 @@ def test_measured_csv_with_bom_and_spaced_capital_header(folder):
     body = "\n".join(f"{x:.9f}, {y:.9f}" for x, y in pts)
     (folder / "m.csv").write_bytes(b"\xef\xbb\xbf" + ("X, Y\n" + body + "\n").encode())
     _measured_scene(folder, "m.csv")
-    proc = _cli("run", "s.toml", "--out", "out", "--quiet", cwd=folder, timeout=120)
+    proc = _cli("run", "s.toml", "--out", "out", "--quiet", cwd=folder, timeout=600)
     assert proc.returncode == 0, proc.stderr
     import json
 
@@ -495,6 +495,7 @@ def test_measured_dxf_in_inches_is_scaled(folder):
     np.testing.assert_allclose(read_measured_points(folder / "m.dxf"), pts, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_measured_circle_is_not_this_gear(folder):
     pts = _working_points(2600)
     rho = float(np.mean(np.hypot(*pts.T)))
@@ -504,7 +505,7 @@ def test_measured_circle_is_not_this_gear(folder):
     _measured_scene(folder, "c.csv")
     # --quiet: fitting a circle takes seconds, and a progress line would come first.
     line = _assert_refused(
-        _cli("run", "s.toml", "--out", "out", "--quiet", cwd=folder, timeout=120)
+        _cli("run", "s.toml", "--out", "out", "--quiet", cwd=folder, timeout=600)
     )
     assert "not this design's gear" in line and "0.25 e = 0.875 mm" in line
 
@@ -542,7 +543,7 @@ def test_measured_profile_not_a_regular_file(folder, kind):
         (folder / "m.csv").mkdir()
         name = "m.csv"
     _measured_scene(folder, name)
-    line = _assert_refused(_cli("run", "s.toml", "--out", "out", cwd=folder, timeout=20))
+    line = _assert_refused(_cli("run", "s.toml", "--out", "out", cwd=folder, timeout=600))
     assert "measured profile" in line
     assert stat.S_ISFIFO(os.stat(folder / "m.csv").st_mode) if kind == "fifo" else True
 

@@ -122,6 +122,7 @@ def noisy(tmp_path_factory):
     return run(tmp_path_factory.mktemp("noisy"), synthetic(noise_um=0.5))
 
 
+@pytest.mark.slow
 def test_csv_columns_and_files(clean):
     r, table, summary = clean
     assert list(table)[:7] == [
@@ -137,6 +138,7 @@ def test_csv_columns_and_files(clean):
     assert summary["teeth"] == Z
 
 
+@pytest.mark.slow
 def test_turned_tooth_position_and_pitches(turned):
     _, table, summary = turned
     pos, sp = table["position_arcsec"], table["single_pitch_arcsec"]
@@ -152,6 +154,7 @@ def test_turned_tooth_position_and_pitches(turned):
     assert summary["cumulative_pitch_total_arcsec"] == pytest.approx(pos.max() - pos.min())
 
 
+@pytest.mark.slow
 def test_bump_appears_in_profile_and_form(clean):
     _, table, _ = clean
     k = BUMPED - 1
@@ -167,6 +170,7 @@ def test_bump_appears_in_profile_and_form(clean):
     assert prof[TURNED - 1] > 1e-3 and form[TURNED - 1] < 0.1e-3
 
 
+@pytest.mark.slow
 def test_failing_limits_exit_1_naming_tooth_and_value(clean):
     r, table, summary = clean
     assert r.returncode == 1
@@ -187,6 +191,7 @@ def test_failing_limits_exit_1_naming_tooth_and_value(clean):
     )
 
 
+@pytest.mark.slow
 def test_noise_does_not_move_verdicts(clean, noisy):
     _, _, a = clean
     _, _, b = noisy
@@ -195,6 +200,7 @@ def test_noise_does_not_move_verdicts(clean, noisy):
         assert b["limits"][key].get("failing_teeth") == v.get("failing_teeth"), key
 
 
+@pytest.mark.slow
 def test_forces_side_by_side(turned):
     _, _, summary = turned
     f = summary["forces"]
@@ -206,6 +212,7 @@ def test_forces_side_by_side(turned):
     assert rows["F_n_peak_any_roller"]["measured"] > rows["F_n_peak_any_roller"]["nominal"]
 
 
+@pytest.mark.slow
 def test_predicted_play_of_the_measured_ring(clean, turned):
     """With [load], backlash, lost motion and transmission error; without, backlash only."""
     _, _, summary = turned
@@ -228,6 +235,7 @@ def test_predicted_play_of_the_measured_ring(clean, turned):
     assert set(p["measured"]) == {"backlash_arcmin"} and "rated torque" in p["not_computed"]
 
 
+@pytest.mark.slow
 def test_design_fit_recovers_known_parameter_errors(tmp_path):
     de, dl, ph, c = 0.01, -0.02, math.radians(0.02), np.array([0.004, -0.003])
     t = (np.arange(Z * M) + 0.5) / (Z * M) * 2 * math.pi
@@ -252,6 +260,7 @@ def test_design_fit_recovers_known_parameter_errors(tmp_path):
     assert summary["runout_mm"] == pytest.approx(2 * np.hypot(*c), rel=0.05)
 
 
+@pytest.mark.slow
 def test_profile_tolerance_is_a_half_band(tmp_path):
     """``profile_tolerance = 0.003`` is a half-band: every ``|f| <= 3 um`` passes.
 
@@ -294,6 +303,7 @@ LIMIT_OF_COLUMN = {
 }
 
 
+@pytest.mark.slow
 def test_pass_columns_agree_with_json_and_console(clean):
     """One verdict per tooth and limit: the CSV's pass columns, the JSON's failing teeth
     and the console lines name the same teeth."""
@@ -309,6 +319,7 @@ def test_pass_columns_agree_with_json_and_console(clean):
     assert "(failing teeth 5, 12)" in r.stderr and "(failing teeth 5, 6)" in r.stderr
 
 
+@pytest.mark.slow
 def test_cumulative_pitch_and_runout_name_their_failing_teeth(tmp_path):
     """The whole-gear limits are judged per tooth too: the teeth outside the band (as wide
     as the limit) that holds the most of them fail; the gear fails exactly when one does."""
@@ -328,6 +339,7 @@ def test_cumulative_pitch_and_runout_name_their_failing_teeth(tmp_path):
     assert lim["runout_tolerance"]["failing_teeth"] == [k + 1 for k in np.flatnonzero(~ok)]
 
 
+@pytest.mark.slow
 def test_inspection_png_marks_the_same_teeth_as_the_csv(tmp_path, monkeypatch):
     """inspection.png, drawn in the same run: red curves in the profile panel are the teeth
     failing the profile limit; shaded teeth in the pitch panel those failing a pitch limit;

@@ -336,6 +336,7 @@ max_binding_probability = {mbp}
 """
 
 
+@pytest.mark.slow
 def test_gates_exit_codes_and_failure_probability_from_the_csv(tmp_path):
     r = _run(tmp_path, GATE.format(dr=0.005, mfp=1.0, mbp=0.05), "binds")
     assert r.returncode == 1, r.stderr
@@ -374,6 +375,7 @@ def test_gates_exit_codes_and_failure_probability_from_the_csv(tmp_path):
     assert "max_binding_probability" in r.stderr
 
 
+@pytest.mark.slow
 def test_allocation_answers_which_roller_grade_keeps_lost_motion_under_1_arcmin(tmp_path, d):
     """templates/lost_motion_grade.toml: the largest per-roller +-T whose p99 lost motion
     stays within 1 arcmin passes; 10 % more fails (checked here by direct Monte Carlos)."""

@@ -139,6 +139,7 @@ def test_kernel_is_chosen_by_the_work_alone(monkeypatch):
     assert _hex(_run(case, kernel=None)) == _hex(_run(case, kernel=False))
 
 
+@pytest.mark.slow
 def test_runs_without_monte_carlo_do_not_import_numba(tmp_path):
     """A DXF-only or forces-only run pays nothing for the kernel."""
     scene = tmp_path / "s.toml"
@@ -265,7 +266,7 @@ def test_a_dead_worker_is_one_line_and_exit_2(tmp_path):
         "from corr_cad.run.cli import main\n"
         f"sys.exit(main(['run', {str(scene)!r}, '--out', {str(out)!r}, '--workers', '2']))\n"
     )
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert lines[-1].startswith("corr-cad: error: a worker process died"), r.stderr

@@ -65,6 +65,7 @@ def measured():
     return design, w, place(pts)
 
 
+@pytest.mark.slow
 def test_registration_recovers_placement_and_deviation(measured):
     _, w, pts = measured
     reg = register(w, pts)
@@ -87,6 +88,7 @@ def _write_dxf(path, pts):
     doc.saveas(path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["csv", "dxf"])
 def test_round_trip_to_forces(measured, tmp_path, kind):
     design, w, pts = measured

@@ -152,6 +152,7 @@ def free_ends_closed_form(x, registration, relief):
     return lo, hi
 
 
+@pytest.mark.slow
 def test_datasheet_says_which_ring(relieved):
     r, _, sheet, insp = relieved
     ring = sheet["ring"]
@@ -164,6 +165,7 @@ def test_datasheet_says_which_ring(relieved):
     assert insp["predicted"]["ring"]["sha256"] == ring["sha256"]
 
 
+@pytest.mark.slow
 def test_backlash_is_the_registered_rings_kinematics(relieved):
     """Free ends from the measured ring alone, the oversized rollers not applied: to 1e-4."""
     _, _, sheet, insp = relieved
@@ -182,6 +184,7 @@ def test_backlash_is_the_registered_rings_kinematics(relieved):
     assert insp["predicted"]["nominal"]["backlash_arcmin"]["max"] == 0.0
 
 
+@pytest.mark.slow
 def test_turned_tooth_shows_at_its_angle_with_the_kinematic_amplitude(relieved):
     _, te, sheet, insp = relieved
     x, fwd, rev = te[:, 0], te[:, 1], te[:, 2]
@@ -203,6 +206,7 @@ def test_turned_tooth_shows_at_its_angle_with_the_kinematic_amplitude(relieved):
     assert p["reverse_peak_to_peak"] == sheet["transmission_error_arcsec"]["reverse_peak_to_peak"]
 
 
+@pytest.mark.slow
 def test_conjugate_ring_preloads_the_turned_tooth(conjugate):
     """Zero backlash: the feature sits in the same windows, a stiffness share of 34.6 arcsec."""
     _, te, sheet, insp = conjugate

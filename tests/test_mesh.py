@@ -84,6 +84,7 @@ def test_glb_is_in_metres_and_3mf_says_millimetres(built, tmp_path):
     assert back.bounds[1, 0] == pytest.approx(8.0, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_assembly_round_trip_keeps_named_parts(built, tmp_path):
     design, _, solids = built
     asm = mesh.assembly(design, solids, 0.0)
@@ -134,6 +135,7 @@ def _interference(tmp_path, **errors):
     return json.loads((out / "manifest.json").read_text())["interference"], out
 
 
+@pytest.mark.slow
 def test_nominal_assembly_has_no_interference_over_a_cycle(tmp_path):
     summary, out = _interference(tmp_path)
     assert summary["ok"] and summary["violations"] == 0
@@ -143,6 +145,7 @@ def test_nominal_assembly_has_no_interference_over_a_cycle(tmp_path):
         assert v <= summary["allowance"][part]["volume_mm3"]
 
 
+@pytest.mark.slow
 def test_oversized_roller_shows_interference_where_expected(tmp_path):
     per = [0.0] * 26
     per[2] = 0.05  # roller 3 is 0.05 mm oversize
@@ -171,6 +174,7 @@ def test_oversized_roller_shows_interference_where_expected(tmp_path):
     }
 
 
+@pytest.mark.slow
 def test_undersized_rollers_open_gaps(tmp_path):
     summary, _ = _interference(tmp_path, roller_radius_error=-0.02)
     assert not summary["ok"]

@@ -142,6 +142,7 @@ def test_bad_table_is_one_line_exit_2(tmp_path, rows, words):
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
 
 
+@pytest.mark.slow
 def test_modified_curve_undercut_is_refused(tmp_path):
     (tmp_path / "s.toml").write_text(
         '[design]\nroller_radius = 10.0\n[export]\nformats = ["dxf"]\n'
@@ -193,6 +194,7 @@ def _disc_clearance(points, psi):
     return d - R
 
 
+@pytest.mark.slow
 def test_dxf_profile_clears_the_nominal_roller_by_plus_equidistant(shop):
     psi = np.radians(np.linspace(-170, 170, 35))
     work = _disc_clearance(_layer_points(shop / "inner_gear.dxf", "WORKING_PROFILE"), psi)
@@ -201,6 +203,7 @@ def test_dxf_profile_clears_the_nominal_roller_by_plus_equidistant(shop):
     assert np.all(np.abs(conj) <= 0.001 + 1e-5), conj
 
 
+@pytest.mark.slow
 def test_edm_path_clears_by_equidistant_less_the_wire_offset(shop):
     m = json.loads((shop / "manifest.json").read_text())
     d = m["edm"]["wire_offset_mm"]
@@ -218,6 +221,7 @@ def test_edm_path_clears_by_equidistant_less_the_wire_offset(shop):
     assert np.all(np.abs(dist - (R + EQ - d)) < 0.002)
 
 
+@pytest.mark.slow
 def test_cmm_points_sit_at_r_plus_equidistant_from_the_roller_locus(shop):
     with open(shop / "inner_gear_nominal.csv") as f:
         assert f.readline().startswith("# corr_cad CMM nominal points")  # the profile line
@@ -232,6 +236,7 @@ def test_cmm_points_sit_at_r_plus_equidistant_from_the_roller_locus(shop):
     assert np.all(np.sum(n * inward, axis=1) > 0)
 
 
+@pytest.mark.slow
 def test_stl_ring_clears_the_nominal_roller_by_plus_equidistant(shop):
     import trimesh
 
@@ -246,12 +251,14 @@ def test_stl_ring_clears_the_nominal_roller_by_plus_equidistant(shop):
     assert np.all(np.abs(c - EQ) <= 0.001 + 1e-6), c  # chord tolerance
 
 
+@pytest.mark.slow
 def test_exact_clearance_csv_gives_the_ring_clearance_of_the_modification(shop):
     with open(shop / "clearance.csv") as f:
         ring = np.array([float(r["ring_clearance_mm"]) for r in csv.DictReader(f)])
     assert np.all(np.abs(ring - EQ) < 1e-9), (ring.min(), ring.max())
 
 
+@pytest.mark.slow
 def test_modification_png_and_manifest(shop):
     m = json.loads((shop / "manifest.json").read_text())
     assert (shop / "modification.png").stat().st_size > 10_000
@@ -383,6 +390,7 @@ def _inspect(folder, against):
     return r, rows
 
 
+@pytest.mark.slow
 def test_ring_made_to_the_modified_profile_inspects_zero_and_the_modification(tmp_path):
     _, rows = _inspect(tmp_path / "mod", "modified")
     lo = np.array([float(r["profile_min_mm"]) for r in rows])
@@ -396,6 +404,7 @@ def test_ring_made_to_the_modified_profile_inspects_zero_and_the_modification(tm
 
 
 # ------------------------------------------------------------------- default
+@pytest.mark.slow
 def test_without_modification_nothing_changes(tmp_path):
     (tmp_path / "s.toml").write_text('[export]\nformats = ["dxf"]\n')
     r = subprocess.run(

@@ -90,6 +90,7 @@ def test_candidate_clearance_is_subtracted_at_each_samples_own_positions():
     assert not binds.any()
 
 
+@pytest.mark.slow
 def test_design_writes_its_files_and_meets_the_targets(designed):
     r, out = designed
     assert r.returncode == 0, r.stderr
@@ -105,6 +106,7 @@ def test_design_writes_its_files_and_meets_the_targets(designed):
     assert (out / "modification_tradeoff.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_modified_toml_meets_the_targets_with_a_fresh_seed(designed):
     from corr_cad.run.scene import load_scene
     from corr_cad.tolerance.modification_design import design_modification
@@ -146,6 +148,7 @@ def test_modified_toml_meets_the_targets_with_a_fresh_seed(designed):
     )
 
 
+@pytest.mark.slow
 def test_unmet_targets_name_the_binding_target_and_exit_1(tmp_path):
     r, out = _run(tmp_path, 0.1)
     assert r.returncode == 1
@@ -154,6 +157,7 @@ def test_unmet_targets_name_the_binding_target_and_exit_1(tmp_path):
     assert not res["met"] and res["chosen"] is not None  # the best it could do
 
 
+@pytest.mark.slow
 def test_results_identical_on_every_executor(designed, tmp_path):
     _, out = designed
     r, out2 = _run(tmp_path, 2.0, executor="process")
@@ -161,6 +165,7 @@ def test_results_identical_on_every_executor(designed, tmp_path):
     assert (out / "modification.json").read_bytes() == (out2 / "modification.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_results_identical_on_a_dask_scheduler(designed, tmp_path):
     """The search's samples run on a real local Dask cluster: the same bytes."""
     distributed = pytest.importorskip("dask.distributed")
@@ -182,6 +187,7 @@ def test_results_identical_on_a_dask_scheduler(designed, tmp_path):
     assert got == (out / "modification.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_free_family_writes_its_curve_and_modified_toml_runs_it(tmp_path):
     text = SCENE.format(target=3.5).replace(
         'family = "equidistant+shift"', 'family = "free"\nobjective = "transmission_error"'

@@ -205,6 +205,7 @@ def test_allocation_min_loaded_rollers_uses_lower_percentile(prototype):
 # --- forces on an allowed-undercut design ---------------------------------------------
 
 
+@pytest.mark.slow
 def test_trimmed_tips_carry_nothing(tmp_path):
     import csv
     import json

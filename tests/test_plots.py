@@ -116,6 +116,7 @@ def _boxes(fig, texts):
     return [t.get_window_extent(r) for t in texts if t.get_text() and t.get_visible()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("z, rj, r, e", [(31, 120.0, 5.5, 3.0), (25, 135.0, 8.0, 3.5)])
 def test_load_distribution_labels_never_overprint(figures, tmp_path, z, rj, r, e):
     """The eccentric's label and arrow keep off the roller numbers and the radial scale.

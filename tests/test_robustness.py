@@ -37,6 +37,7 @@ scenes = st.dictionaries(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=300)
 @given(scenes)
 def test_scene_loader_never_fails_otherwise(data):
@@ -119,6 +120,7 @@ def test_meshes_are_deterministic_too(tmp_path):
         assert (a / f).read_bytes() == (b / f).read_bytes(), f
 
 
+@pytest.mark.slow
 def test_out_never_writes_outside_the_chosen_folder(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text('[export]\nformats = ["dxf", "png"]\n')

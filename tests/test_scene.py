@@ -127,6 +127,7 @@ def test_all_stands_alone():
         parse_scene({"export": {"formats": ["all", "dxf"]}})
 
 
+@pytest.mark.slow
 def test_all_prints_one_note_and_records_what_it_left_out(tmp_path):
     import json
     import subprocess

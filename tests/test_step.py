@@ -163,6 +163,7 @@ def _read_healed(path):
 
 
 # --- tests -------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("part", ["inner_gear", "disk_cam", "roller", "teeth_frame"])
 def test_open_cascade_mass_properties_match_the_exact_solid(run, part):
     # GProp on the read-back shape, not a tessellation: what CAD programs report.
@@ -177,6 +178,7 @@ def test_open_cascade_mass_properties_match_the_exact_solid(run, part):
     assert facts["exact_volume_mm3"] == pytest.approx(exact_volume, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_ring_face_area_from_open_cascade(run):
     # The planar face alone (the profile's enclosed area is what a shop measures).
     from OCP.BRepAdaptor import BRepAdaptor_Surface
@@ -204,6 +206,7 @@ def test_ring_face_area_from_open_cascade(run):
         assert a == pytest.approx(ring_face, rel=1e-5)
 
 
+@pytest.mark.slow
 def test_profile_edges_lie_on_the_exact_profile_and_join(run):
     name, d, out, manifest = run
     curves = step.read_step_curves(out / "inner_gear.step", samples_per_edge=24)
@@ -224,6 +227,7 @@ def test_profile_edges_lie_on_the_exact_profile_and_join(run):
     assert gap.max() <= 1e-9
 
 
+@pytest.mark.slow
 def test_every_product_is_named_after_its_part(run):
     name, d, out, manifest = run
     for part in ("inner_gear", "disk_cam", "roller", "teeth_frame"):
@@ -244,6 +248,7 @@ def _expected_names(z):
     return names
 
 
+@pytest.mark.slow
 def test_assembly_step_has_named_parts_where_the_mesh_assembly_has_them(run):
     from corr_cad.export import mesh
     from corr_cad.geometry.parts import part_outlines
@@ -318,6 +323,7 @@ def test_assembly_step_has_named_parts_where_the_mesh_assembly_has_them(run):
     assert manifest["step"][f"assembly_{tag}.step"]["instances"] == len(parts)
 
 
+@pytest.mark.slow
 def test_dxf_spline_is_one_c1_spline_per_tooth_with_the_exact_area(run):
     import ezdxf
 

@@ -104,6 +104,7 @@ def _undercut_free(d: GearDesign, name: str, v: float) -> bool:
     return bool(np.min(1 + r * k) > 0)
 
 
+@pytest.mark.slow
 def test_z39_sweeps_run_around_the_design_clipped_at_the_undercut(tmp_path):
     p, out = _run(tmp_path, Z39)
     assert p.returncode == 0, p.stderr
@@ -135,6 +136,7 @@ def test_z39_sweeps_run_around_the_design_clipped_at_the_undercut(tmp_path):
     assert not _undercut_free(d, "eccentricity", float(ecc[-1]["value"]) * (1 + 1e-4))
 
 
+@pytest.mark.slow
 def test_scene_ranges_and_the_paper_comparison_only_for_table_1(tmp_path):
     text = Z39.replace("points = 3", "points = 2\neccentricity = [1.9, 2.1]")
     p, out = _run(tmp_path, text, "ranged")
@@ -169,6 +171,7 @@ def test_bad_sweep_ranges_exit_2_with_one_line(tmp_path, line, msg):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_sweeps_use_the_scene_s_load_share(tmp_path):
     """Every other sweep test runs at the default 0.55: here the scene says 0.8.
 

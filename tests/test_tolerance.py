@@ -31,6 +31,7 @@ def test_checks_margin_and_sense():
     assert r["min_loaded_rollers"]["margin"] == 2.0 and r["min_loaded_rollers"]["passed"]
 
 
+@pytest.mark.slow
 def test_failing_check_exits_1_and_names_the_limit(tmp_path):
     scene = tmp_path / "c.toml"
     scene.write_text(
@@ -72,6 +73,7 @@ def test_monte_carlo_is_reproducible_across_executors():
     assert not np.array_equal(a.metrics["peak_gear_force"], d.metrics["peak_gear_force"])
 
 
+@pytest.mark.slow
 def test_monte_carlo_on_a_local_dask_cluster():
     distributed = pytest.importorskip("dask.distributed")
     with (
@@ -240,6 +242,7 @@ def test_bad_tolerance_scenes(data, pattern):
         parse_scene(data)
 
 
+@pytest.mark.slow
 def test_cli_runs_monte_carlo_on_a_dask_scheduler(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     scene = tmp_path / "mc.toml"

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["figure", "place_labels", "resources_png"]
+__all__ = ["figure", "place_labels", "progress_png", "resources_png"]
 
 
 def figure(out: Path, name: str, draw: Callable) -> Path:
@@ -109,6 +109,44 @@ def resources_png(path: Path, rows: list) -> Path:
     ax2.grid(alpha=0.3, which="both")
     fig.tight_layout()
     place_labels(ax2, [(x, e, str(k + 1)) for k, (x, e) in enumerate(zip(peak, est, strict=True))])
+    fig.savefig(path, dpi=120, metadata={"Software": None})
+    plt.close(fig)
+    return path
+
+
+def progress_png(path: Path, rows: list, total: float) -> Path:
+    """Stated against actual time left over the run, and the gaps between lines.
+
+    ``rows``: ``[t_s, gap_s, done, total, time_left_from, stated_left_s,
+    actual_left_s]`` (``corr_cad.run.bench_progress``); ``total``: the run's s.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    t = [r[0] for r in rows]
+    end = rows[-1][0] + rows[-1][6] if rows else total
+    ax.plot([0, end], [end, 0], "k-", lw=1.0, label="actual time left (of the stage)")
+    for kind, marker in (("heartbeat", "^"), ("estimate", "s"), ("measured", "o")):
+        pts = [(r[0], r[5]) for r in rows if r[4] == kind]
+        if pts:
+            ax.plot(*zip(*pts, strict=True), marker, label=f"stated ({kind})")
+    ax.set_xlabel("time since the start of the run, s")
+    ax.set_ylabel("time left, s")
+    ax.set_title("time left stated by the progress lines", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    ax2.bar(range(1, len(rows) + 1), [r[1] for r in rows], color="C1")
+    ax2.axhline(5.0, color="k", lw=1.0, ls=":", label="interval 5 s")
+    ax2.set_xlabel("progress line")
+    ax2.set_ylabel("gap since the line before (the first: the stage's start), s")
+    ax2.xaxis.get_major_locator().set_params(integer=True)
+    ax2.set_title(f"{len(t)} lines over {total:.1f} s", fontsize=10)
+    ax2.legend(fontsize=8)
+    ax2.grid(alpha=0.3, axis="y")
+    fig.tight_layout()
     fig.savefig(path, dpi=120, metadata={"Software": None})
     plt.close(fig)
     return path

@@ -18,7 +18,7 @@ import numpy as np
 from corr_cad.export.files import writing
 from corr_cad.figure_text import figure
 
-__all__ = ["ring_line", "report_context", "render_report", "write_report"]
+__all__ = ["METRIC_LABELS", "ring_line", "report_context", "render_report", "write_report"]
 
 _CHECK_UNITS = {
     "max_contact_pressure": "MPa",
@@ -29,11 +29,19 @@ _CHECK_UNITS = {
     "min_torsional_rigidity_Nm_per_arcmin": "N*m/arcmin",
     "max_transmission_error_arcsec": "arcsec",
 }
-_METRIC_LABELS = {
+#: Every column of ``montecarlo_summary.json``'s percentiles: the force
+#: metrics, and the datasheet metrics when the Monte Carlo carries them
+#: (``corr_cad.tolerance.mc_datasheet``). A metric without a row here is
+#: shown under its own name (``tests/test_report.py`` checks that none is).
+METRIC_LABELS = {
     "peak_gear_force": ("peak gear force F_n", "N"),
     "peak_pressure": ("peak contact pressure", "MPa"),
     "min_loaded_rollers": ("fewest loaded rollers", ""),
     "backlash_arcmin": ("output backlash", "arcmin"),
+    "lost_motion_arcmin": ("lost motion (datasheet band)", "arcmin"),
+    "torsional_rigidity_Nm_per_arcmin": ("torsional rigidity (catalogue: min)", "N*m/arcmin"),
+    "transmission_error_arcsec": ("transmission error, peak to peak", "arcsec"),
+    "binding_pressure_MPa": ("binding preload pressure", "MPa"),
 }
 _PLOT_CAPTIONS = {
     "preview.png": "The stage at crank angle 0 (shaded: material) and a tooth close-up",
@@ -298,14 +306,15 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             "samples": mc["samples"],
             "rows": [
                 {
-                    "label": _METRIC_LABELS[m][0],
-                    "unit": _METRIC_LABELS[m][1],
+                    "label": METRIC_LABELS.get(m, (m.replace("_", " "), ""))[0],
+                    "unit": METRIC_LABELS.get(m, ("", ""))[1],
                     "nominal": _fmt(nominal.get(m)),
-                    **{q: _fmt(v) for q, v in pct.items()},
+                    **{q: _fmt(pct.get(q)) for q in ("p5", "p50", "p95", "p99")},
                 }
                 for m, pct in mc["percentiles"].items()
             ],
             "fail": [(k, _fmt(100.0 * v, 3)) for k, v in fail.items()],
+            "binding": _binding_row(mc.get("binding_probability")),
             "sensitivity": [
                 (s["tolerance"], _fmt(s["score"], 3)) for s in mc.get("sensitivity", [])
             ],
@@ -399,6 +408,24 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
         if n.endswith(".png")
     ]
     return ctx
+
+
+def _binding_row(b: dict | None) -> dict | None:
+    """The Monte Carlo's share of binding samples with its Wilson interval, or None."""
+    if not b:
+        return None
+
+    def pct(x: float) -> str:  # round-off below 1e-9 % is 0 (a Wilson end at 0 samples)
+        x = 100.0 * float(x)
+        return _fmt(x if abs(x) > 1e-9 else 0.0, 3)
+
+    lo, hi = b["wilson_interval"]
+    return {
+        "percent": pct(b["probability"]),
+        "count": f"{b['binding_samples']} of {b['samples']}",
+        "interval": f"{pct(lo)} - {pct(hi)}",
+        "confidence": _fmt(100.0 * b["confidence"], 3),
+    }
 
 
 def _datasheet_rows(d: dict) -> dict:

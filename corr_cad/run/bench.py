@@ -17,6 +17,7 @@ from corr_cad.run.bench_accuracy import fidelity, interference, profile_export, 
 from corr_cad.run.bench_datasheet import datasheet_speed
 from corr_cad.run.bench_drive import drive_speed
 from corr_cad.run.bench_friction import friction_speed
+from corr_cad.run.bench_progress import progress_study
 from corr_cad.run.bench_resources import resources
 from corr_cad.run.bench_speed import (
     cold_start,
@@ -43,6 +44,7 @@ STUDIES = {
     "friction": friction_speed,
     "resources": resources,
     "drive": drive_speed,
+    "progress": progress_study,
 }
 
 

@@ -3,7 +3,9 @@
 Exit codes: 0 success; 1 a ``[checks]`` limit (or the Monte Carlo gate)
 failed, or an exported file misses its tolerance; 2 bad input, a refused
 design, an unusable output folder or a full disk (one line on stderr, no
-traceback, previous outputs left as they were); 130 SIGINT, 143 SIGTERM.
+traceback, previous outputs left as they were); 3 an internal error, a bug
+(one line naming the stage and what was lost; ``CORR_CAD_DEBUG=1`` adds the
+traceback); 130 SIGINT, 143 SIGTERM.
 """
 
 from __future__ import annotations
@@ -117,6 +119,7 @@ def _parser() -> argparse.ArgumentParser:
             "friction",
             "resources",
             "drive",
+            "progress",
         ),
         help="run only this study (repeatable); default all",
     )
@@ -520,6 +523,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{_shown_path(exc.filename)}: " if exc.filename else ""
         _error(f"{where}{exc.strerror or exc}; previous outputs left as they were")
         return 2
+    except Exception as exc:  # a bug: one line that says what was lost, never exit 1
+        _internal_error(exc, args, state)
+        return INTERNAL_ERROR
     except KeyboardInterrupt as exc:
         name, code = ("SIGTERM", 143) if isinstance(exc, _Terminated) else ("SIGINT", 130)
         staging = state.get("staging")
@@ -533,6 +539,50 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:  # called in-process (tests, notebooks): leave no handler behind
             signal.signal(signal.SIGTERM, previous)
+
+
+#: Exit code of an unexpected exception (a bug in corr-cad or a library it calls).
+INTERNAL_ERROR = 3
+
+
+def _internal_error(exc: Exception, args: argparse.Namespace, state: dict) -> None:
+    """The one stderr line of an unexpected exception: where, what, and what was lost.
+
+    A run keeps all its files or none (docs/output-folder.md): the line says
+    which finished stages' files were discarded with the failed one, or that
+    the outputs were already in place. ``CORR_CAD_DEBUG=1`` prints the
+    traceback first.
+    """
+    if os.environ.get("CORR_CAD_DEBUG", "") not in ("", "0"):
+        import traceback
+
+        traceback.print_exception(exc, file=sys.stderr)
+    what = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    what = _line(what, 100)
+    staging = state.get("staging")
+    failure = getattr(exc, "corr_cad_failure", None)
+    where = f" in stage {failure.stage}" if failure is not None else ""
+    if args.command != "run":  # new, schema, bench: what they wrote is whole files
+        lost = ""
+    elif staging is not None and staging.committed:
+        lost = f"the run's files are complete in {_shown_path(staging.given)}"
+    elif failure is not None and failure.finished:
+        lost = (
+            f"the {failure.files} files staged by {', '.join(failure.finished)} were discarded "
+            "(a run keeps all its files or none) and "
+            f"{_shown_path(staging.given) if staging is not None else 'the output folder'} "
+            "holds its previous outputs"
+        )
+    else:
+        lost = "nothing was written; previous outputs left as they were"
+    print(
+        _line(
+            f"corr-cad: internal error{where} ({what}); {lost + '; ' if lost else ''}this is a "
+            "bug, please report it with the scene (CORR_CAD_DEBUG=1 shows the traceback)",
+            600,
+        ),
+        file=sys.stderr,
+    )
 
 
 def _shown_path(name: object) -> str:

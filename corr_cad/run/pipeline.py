@@ -12,6 +12,7 @@ import math
 import platform
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
@@ -27,7 +28,38 @@ from corr_cad.run.stages_geometry import (  # noqa: F401  (re-exported)
     interference_allowance,
 )
 
-__all__ = ["STAGES", "FORMAT_TARGETS", "plan", "run_scene", "RunContext"]
+__all__ = ["STAGES", "FORMAT_TARGETS", "plan", "run_scene", "RunContext", "StageFailure"]
+
+
+@dataclass(frozen=True)
+class StageFailure:
+    """Where an unexpected exception left :func:`run_scene` (for the CLI's one line).
+
+    Set as the attribute ``corr_cad_failure`` of an exception that is no
+    :class:`~corr_cad.errors.CorrCadError` and no ``OSError`` (a bug, not a
+    refusal): ``stage`` the stage that raised (``"manifest"`` after the
+    last stage), ``finished`` the stages done before it, ``files`` how many
+    files they had staged. The exception keeps its type and message.
+    """
+
+    stage: str
+    finished: tuple[str, ...]
+    files: int
+
+
+def _note_failure(exc: BaseException, stage: str, finished, files: int) -> None:
+    """Record where an unexpected exception came from (the first place only)."""
+    from concurrent.futures import BrokenExecutor
+
+    from corr_cad.errors import CorrCadError
+
+    if not isinstance(exc, Exception) or isinstance(exc, (CorrCadError, OSError, BrokenExecutor)):
+        return
+    if getattr(exc, "corr_cad_failure", None) is None:
+        try:
+            exc.corr_cad_failure = StageFailure(stage, tuple(finished), files)
+        except (AttributeError, TypeError):  # an exception type without a __dict__
+            pass
 
 
 #: Distributions whose build can change an output's bytes: the numerical core
@@ -93,10 +125,12 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
             pending[name] = ctx.executor.submit(run_stage_in_worker, ctx.scene, str(ctx.out), name)
     timings: dict[str, dict] = {}
     joined: set[str] = set()
+    current = [stages[0] if stages else "manifest"]
 
     def join() -> None:  # manifest.json is key-sorted: the sections' order does not matter
         for name, fut in pending.items():
             if name not in joined:
+                current[0] = name
                 with heartbeat(f"      {name} (in a worker)", None):
                     sections, files, seconds = fut.result()
                 joined.add(name)
@@ -114,6 +148,7 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
                 continue
             if name == "report":  # it reads what every other stage made
                 join()
+            current[0] = name
             ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc}")
             t0 = time.perf_counter()
             try:
@@ -123,7 +158,8 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
                 close_all()  # no counter of a stage that raised goes on printing
             timings[name] = {"name": name, "seconds": round(time.perf_counter() - t0, 6)}
         join()
-    except BaseException:
+    except BaseException as exc:
+        _note_failure(exc, current[0], [n for n in stages if n in timings], len(ctx.files))
         if any(not f.done() for f in pending.values()):
             # Before the caller removes the staging folder: no worker may write
             # into it afterwards.
@@ -169,9 +205,6 @@ def run_scene(
     >>> m["accuracy"]["working_profile"]["max_deviation_mm"] <= 0.001
     True
     """
-    from corr_cad.export.files import sha256_of, write_json
-    from corr_cad.run.outputs import GENERATOR
-
     ctx = RunContext(
         scene=scene, out=Path(out), progress=progress or (lambda m: None), executor=executor
     )
@@ -191,6 +224,18 @@ def run_scene(
     ctx.progress(estimate.line(budget))
     ctx.estimate = estimate
     timings = _run_stages(ctx, stages, concurrent_stages)
+    try:
+        return _write_manifest(ctx, scene, timings)
+    except BaseException as exc:
+        _note_failure(exc, "manifest", stages, len(ctx.files))
+        raise
+
+
+def _write_manifest(ctx: RunContext, scene: Scene, timings: list[dict]) -> dict:
+    """``manifest.json`` of a run whose stages all succeeded; returns its content."""
+    from corr_cad.export.files import sha256_of, write_json
+    from corr_cad.run.outputs import GENERATOR
+
     files = {
         name: {"sha256": sha256_of(ctx.out / name), "bytes": (ctx.out / name).stat().st_size}
         for name in sorted(ctx.files)

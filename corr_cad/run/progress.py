@@ -13,8 +13,10 @@ time left is measured only once enough of the work is done
 (:data:`TRUST_SHARE` of it, at least :data:`TRUST_DONE` units): before that
 it is the resource estimate's (``estimated 2m50s left``) or ``? left``; a
 rate from the first point or two once read "280h22m left". :func:`heartbeat`
-does the same for a stage with no counter of its own (a solve, an export),
-keeping quiet while a counter prints.
+does the same for a stage with no counter of its own (a solve, an export);
+it counts from the stage's start, and once a counter of the stage exists it
+prints that counter's line in its place, so a stage whose counter starts
+late still prints a line within ``interval`` of its start.
 """
 
 from __future__ import annotations
@@ -38,14 +40,15 @@ __all__ = [
 ]
 
 _ENABLED = True
-#: When any progress line was last printed (monotonic s): a heartbeat keeps
-#: quiet while a counter prints.
+#: When any progress line was last printed, or a stage started (monotonic s):
+#: a line is due when none came for ``_DUE * interval``.
 _LAST_LINE = [0.0]
-#: Counters printing lines now: a heartbeat keeps quiet while there is one.
-_ACTIVE = [0]
-#: Counters not closed yet (:func:`close_all` ends them when their stage ends).
+#: Counters not closed yet (:func:`close_all` ends them when their stage ends; a
+#: heartbeat prints the newest one's line).
 _OPEN: set = set()
-_LOCK = threading.Lock()
+#: Held while a line is judged due and printed (re-entrant: a heartbeat prints
+#: a counter's line under it).
+_LOCK = threading.RLock()
 
 
 def set_enabled(on: bool) -> None:
@@ -141,7 +144,6 @@ class Progress:
         elif self.on and interval >= 1.0:
             self._ticker = _Ticker(interval, self._tick)
             with _LOCK:
-                _ACTIVE[0] += 1
                 _OPEN.add(self)
 
     def time_left(self) -> str:
@@ -169,10 +171,11 @@ class Progress:
         _emit(self.stream, self.line())
 
     def _tick(self) -> None:
-        """The heartbeat: the line again when the counter has not printed for an interval."""
-        now = time.monotonic()
-        if now - self.t0 >= QUIET_S and now - self._last >= _DUE * self.interval:
-            self._print(now)
+        """The line again when the counter has not printed for an interval."""
+        with _LOCK:  # a heartbeat may be printing this line now
+            now = time.monotonic()
+            if now - self.t0 >= QUIET_S and now - self._last >= _DUE * self.interval:
+                self._print(now)
 
     def update(self, n: int = 1) -> None:
         self.done += n
@@ -192,7 +195,6 @@ class Progress:
             self._ticker.stop()
             self._ticker = None
             with _LOCK:
-                _ACTIVE[0] -= 1
                 _OPEN.discard(self)
         if self._bar is not None:
             self._bar.close()
@@ -226,28 +228,34 @@ def heartbeat(
     """``desc: 10s elapsed, estimated 25s left`` every ``interval`` s while the block runs.
 
     Quiet while another progress line was printed within the interval, on
-    a terminal (the bar shows the work) and with ``--quiet``.
+    a terminal (the bar shows the work) and with ``--quiet``; while a counter
+    runs, its line instead of the elapsed time.
     """
     stream = stream or sys.stderr
     if not _ENABLED or getattr(stream, "isatty", lambda: False)() or interval < 1.0:
         yield
         return
     t0 = time.monotonic()
-    last = [t0]
+    with _LOCK:
+        _LAST_LINE[0] = max(_LAST_LINE[0], t0)  # the stage's start counts as its first line
 
     def tick() -> None:
-        now = time.monotonic()
-        if _ACTIVE[0] or now - last[0] < _DUE * interval or now - _LAST_LINE[0] < _DUE * interval:
-            return
-        last[0] = now
-        elapsed = now - t0
-        if expected is None:
-            left = ""
-        elif elapsed <= expected:
-            left = f", estimated {duration(expected - elapsed)} left"
-        else:
-            left = f", past the estimate of {duration(expected)}"
-        _emit(stream, f"{desc}: {duration(elapsed)} elapsed{left}")
+        with _LOCK:
+            now = time.monotonic()
+            if now - _LAST_LINE[0] < _DUE * interval:
+                return
+            counters = [p for p in _OPEN if p.on and p.stream is stream]
+            if counters:  # the stage's counter says more than "elapsed"
+                max(counters, key=lambda p: p.t0)._print(now)
+                return
+            elapsed = now - t0
+            if expected is None:
+                left = ""
+            elif elapsed <= expected:
+                left = f", estimated {duration(expected - elapsed)} left"
+            else:
+                left = f", past the estimate of {duration(expected)}"
+            _emit(stream, f"{desc}: {duration(elapsed)} elapsed{left}")
 
     ticker = _Ticker(interval, tick)
     try:

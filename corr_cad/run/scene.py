@@ -453,7 +453,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"[inspection] point_spacing = {spacing:g}: more than 2,000,000 points; "
             "allowed range is at least 1e-6 of the circumference"
         )
-    modification, assembly, search = parse_modification(values, data, design, base_dir, load)
+    modification, assembly, search = parse_modification(
+        values, data, design, base_dir, load, formats
+    )
     scene = Scene(
         name=name,
         design=design,

@@ -81,10 +81,9 @@ def split_design_table(data: dict) -> dict:
     return {**data, "modification": rest, "modification.design": mod["design"]}
 
 
-def _design_search(values: dict, data: dict, load) -> dict:
+def _design_search(values: dict, data: dict, load, formats: tuple) -> dict:
     """``[modification.design]`` values when the ``modification`` format runs, else {}."""
     md = values["modification.design"]
-    formats = values["export"]["formats"]
     if "modification" not in formats:
         return {}
     if md["target_backlash_arcmin"] is None:
@@ -112,10 +111,21 @@ def _design_search(values: dict, data: dict, load) -> dict:
 
 
 def parse_modification(
-    values: dict, data: dict, design: GearDesign, base_dir: Path | None, load=None
+    values: dict,
+    data: dict,
+    design: GearDesign,
+    base_dir: Path | None,
+    load=None,
+    formats: tuple[str, ...] | None = None,
 ) -> tuple[Modification | None, dict, dict]:
-    """``(modification or None, [assembly] values, [modification.design] values)``."""
-    search = _design_search(values, data, load)
+    """``(modification or None, [assembly] values, [modification.design] values)``.
+
+    ``formats``: the formats the scene runs (``["all"]`` expanded); default
+    ``[export] formats`` as given.
+    """
+    if formats is None:
+        formats = tuple(values["export"]["formats"])
+    search = _design_search(values, data, load, formats)
     mv = values["modification"]
     mod = None
     if "modification" in data:
@@ -131,15 +141,15 @@ def parse_modification(
                     f"(-{half:g}, {half:g}) (half the roller radius), e.g. 0.01"
                 )
         if mod.is_zero:  # an empty section (e.g. the commented template): the conjugate
-            return None, _assembly(values, data), search
+            return None, _assembly(values, formats), search
         try:
             modified_profile(design, mod)
         except CorrCadError as exc:
             raise SceneError(str(exc)) from exc
-    return mod, _assembly(values, data), search
+    return mod, _assembly(values, formats), search
 
 
-def _assembly(values: dict, data: dict) -> dict:
+def _assembly(values: dict, formats: tuple) -> dict:
     """``[assembly]`` values; empty unless ``roller_classes_um`` is given."""
     asm = dict(values["assembly"])
     classes = asm["roller_classes_um"]
@@ -152,8 +162,7 @@ def _assembly(values: dict, data: dict) -> dict:
         )
     if len(set(classes)) != len(classes):
         raise SceneError(f"[assembly] roller_classes_um = {classes}: lists a class twice")
-    formats = values["export"]["formats"]
-    if "datasheet" not in formats and "all" not in formats:
+    if "datasheet" not in formats:
         raise SceneError(
             '[assembly] roller_classes_um needs the datasheet: add "datasheet" to [export] formats'
         )

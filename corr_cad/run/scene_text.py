@@ -75,8 +75,12 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
                 warn(
                     f"[solver] {k}", 'only "forces", "datasheet", "inspection" and [checks] use it'
                 )
-    if "datasheet" in data and not sheet:
-        warn("[datasheet]", 'formats does not list "datasheet" and no [checks] limit needs it')
+    if "datasheet" in data and not sheet and not mc:  # a Monte Carlo takes its figures from it
+        warn(
+            "[datasheet]",
+            'formats lists none of "datasheet", "montecarlo", "allocation" '
+            "and no [checks] limit needs it",
+        )
     for section in ("friction", "life"):
         if section in data and not sheet:
             warn(f"[{section}]", 'formats does not list "datasheet" and no [checks] limit needs it')
