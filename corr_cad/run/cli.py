@@ -14,6 +14,7 @@ import os
 import sys
 import threading
 from pathlib import Path
+from typing import NoReturn
 
 from corr_cad._version import __version__
 from corr_cad.errors import CorrCadError
@@ -41,8 +42,16 @@ def _refuse_empty(args: argparse.Namespace) -> None:
             )
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse, but a flag error is one line (no usage block) and exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        hint = f"; '{self.prog} --help' lists the flags"
+        self.exit(2, _line(f"corr-cad: error: {self.prog}: {message}{hint}") + "\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _OneLineParser(
         prog="corr-cad",
         description=(
             "Profiles, machining files and mesh forces for compound oscillatory roller "
@@ -50,7 +59,9 @@ def _parser() -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("--version", action="version", version=f"corr-cad {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", parser_class=_OneLineParser
+    )
     run = sub.add_parser("run", help="build what a scene file asks for")
     run.add_argument("scene", type=Path, help="scene file (TOML)")
     run.add_argument(
@@ -396,12 +407,12 @@ def _new(args: argparse.Namespace) -> int:
     return 0
 
 
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C (exit 143 instead of 130)."""
+def _on_signal(signum, frame) -> None:
+    """SIGINT and SIGTERM: recorded (:mod:`corr_cad.run.interrupts`), then raised."""
+    from corr_cad.run import interrupts
 
-
-def _on_sigterm(signum, frame) -> None:
-    raise _Terminated()
+    interrupts.mark(signum)
+    interrupts.check()
 
 
 def _schema(args: argparse.Namespace) -> int:
@@ -467,20 +478,101 @@ def _dispatch(args: argparse.Namespace, state: dict) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     import signal
+
+    from corr_cad import _startup
+    from corr_cad.run import interrupts
+
+    interrupts.clear()
+    handlers = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            now = signal.getsignal(sig)
+            # Ctrl-C: ours, unless a caller (a notebook, a test) installed its own.
+            if sig == signal.SIGTERM or now is signal.default_int_handler or _startup.is_guard(now):
+                handlers[sig] = signal.signal(sig, _on_signal)
+    hook, stdout = sys.unraisablehook, sys.stdout
+    sys.unraisablehook = _unraisable
+    sys.stdout = _ClosedPipeSafe(stdout)
+    try:
+        return _main(argv)
+    except KeyboardInterrupt as exc:  # before or after _main's own handling
+        return _interrupted(exc, {})
+    finally:  # called in-process (tests, notebooks): leave nothing behind
+        sys.unraisablehook = hook
+        sys.stdout = stdout
+        for sig, previous in handlers.items():
+            signal.signal(sig, previous)
+
+
+def _unraisable(unraisable) -> None:
+    """An interrupt raised where Python cannot pass it on (a GC callback, ``__del__``).
+
+    Its handler recorded it (:mod:`corr_cad.run.interrupts`): the run still
+    ends as interrupted. No "Exception ignored" block; anything else goes to
+    Python's own hook.
+    """
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        return
+    sys.__unraisablehook__(unraisable)
+
+
+class _ClosedPipeSafe:
+    """``sys.stdout`` that a closed pipe (``corr-cad run ... | head -1``) never stops.
+
+    The first write to a closed pipe points the descriptor at ``/dev/null``:
+    the rest of the console output is dropped, and the run goes on to its
+    commit and exit status.
+    """
+
+    def __init__(self, stream):
+        self._stream = stream
+        self._closed = False
+
+    def write(self, text: str) -> int:
+        if not self._closed:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._gone()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self._closed:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._gone()
+
+    def _gone(self) -> None:
+        self._closed = True
+        try:
+            null = os.open(os.devnull, os.O_WRONLY)
+            try:
+                os.dup2(null, self._stream.fileno())  # Python's exit flush succeeds too
+            finally:
+                os.close(null)
+        except (OSError, ValueError, AttributeError):
+            pass
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def _main(argv: list[str] | None) -> int:
     import warnings
     from concurrent.futures import BrokenExecutor
 
-    from corr_cad.run.memory import keep_freed_memory
+    from corr_cad.run import interrupts
 
-    args = _parser().parse_args(argv)
-    keep_freed_memory()  # fresh pages fault at every new array otherwise: see memory.py
     state: dict = {}
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
+        args = _parser().parse_args(argv)
+        from corr_cad.run.memory import keep_freed_memory
+
+        keep_freed_memory()  # fresh pages fault at every new array otherwise: see memory.py
         with warnings.catch_warnings(record=True) as caught:
             code = _dispatch(args, state)
+        interrupts.check()  # an interrupt swallowed on the way (a GC callback) still ends it
         _show_warnings(caught)
         return code
     except CorrCadError as exc:
@@ -499,18 +591,23 @@ def main(argv: list[str] | None = None) -> int:
         _error(f"{where}{exc.strerror or exc}; previous outputs left as they were")
         return 2
     except KeyboardInterrupt as exc:
-        name, code = ("SIGTERM", 143) if isinstance(exc, _Terminated) else ("SIGINT", 130)
-        staging = state.get("staging")
-        left = (
-            "the new outputs were already in place"
-            if staging is not None and staging.committed
-            else "previous outputs left as they were"
-        )
-        print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
-        return code
-    finally:
-        if previous is not None:  # called in-process (tests, notebooks): leave no handler behind
-            signal.signal(signal.SIGTERM, previous)
+        return _interrupted(exc, state)
+
+
+def _interrupted(exc: KeyboardInterrupt, state: dict) -> int:
+    """The one line of an interrupted run, and its exit status (130 SIGINT, 143 SIGTERM)."""
+    from corr_cad.run import interrupts
+
+    terminated = isinstance(exc, interrupts.Terminated)
+    name, code = ("SIGTERM", 143) if terminated else ("SIGINT", 130)
+    staging = state.get("staging")
+    left = (
+        "the new outputs were already in place"
+        if staging is not None and staging.committed
+        else "previous outputs left as they were"
+    )
+    print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
+    return code
 
 
 def _shown_path(name: object) -> str:

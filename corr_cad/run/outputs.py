@@ -58,6 +58,7 @@ from pathlib import Path
 
 from corr_cad.errors import CorrCadError, ExportError, OutputError
 from corr_cad.export.files import _umask, sha256_of, write_json
+from corr_cad.run import interrupts
 from corr_cad.run.manifest_file import (
     GENERATOR,
     MANIFEST_NAME,
@@ -480,6 +481,7 @@ class StagingDir:
         keep_stage = False
         try:
             if exc_type is None:
+                interrupts.check()  # one swallowed on the way (a GC callback) stops it here
                 keep_stage = True
                 self._commit()
                 keep_stage = False

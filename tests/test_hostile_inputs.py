@@ -1,0 +1,185 @@
+"""Hostile input and hostile surroundings, each through the real command line.
+
+Every test runs ``python -m corr_cad`` in its own process, in a folder that
+holds the user's other files. A refused run prints exactly one line of at
+most 300 characters, exits 2, writes nothing and leaves the user's files
+alone; an interrupt ends the run as ``docs/output-folder.md`` says (one
+line, exit 130). No test waits on a clock: each acts on an event (a line
+on stderr, a file that appears); the time-outs only guard against a hang.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+DESIGN = """
+[design]
+tooth_count = 8
+cam_radius = 40.0
+roller_radius = 4.0
+roller_length = 6.0
+eccentricity = 1.5
+"""
+
+#: Longest a single run may take before the test calls it a hang.
+HANG_S = 600
+
+
+def cli(folder: Path, scene: str, *extra: str, **kw) -> subprocess.CompletedProcess:
+    (folder / "s.toml").write_text(scene)
+    return subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", *extra],
+        capture_output=True,
+        text=True,
+        cwd=folder,
+        timeout=HANG_S,
+        **kw,
+    )
+
+
+@pytest.fixture
+def folder(tmp_path):
+    (tmp_path / "notes.txt").write_text("mine\n")
+    return tmp_path
+
+
+def refused(folder: Path, r, *also: str) -> str:
+    """The one error line of a refused run (exit 2, nothing written, no traceback)."""
+    assert r.returncode == 2, (r.returncode, r.stderr[-3000:])
+    assert "Traceback" not in r.stderr and "Warning" not in r.stderr, r.stderr[-3000:]
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr[-3000:]
+    assert len(lines[0]) <= 300, lines[0]
+    assert lines[0].startswith("corr-cad: error: ")
+    assert sorted(p.name for p in folder.iterdir()) == sorted(["notes.txt", "s.toml", *also])
+    assert (folder / "notes.txt").read_text() == "mine\n"
+    return lines[0]
+
+
+def warnings_of(r) -> list[str]:
+    return [ln for ln in r.stderr.splitlines() if ln.startswith("corr-cad: warning: ")]
+
+
+# --- the command line itself ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run"],
+        ["run", "s.toml", "--bogus"],
+        ["run", "s.toml", "--workers", "many"],
+        ["run", "s.toml", "--executor", "cloud"],
+        ["frobnicate"],
+        [],
+    ],
+)
+def test_a_flag_error_is_one_line_and_exit_2(folder, argv):
+    (folder / "s.toml").write_text(DESIGN)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", *argv],
+        capture_output=True,
+        text=True,
+        cwd=folder,
+        timeout=HANG_S,
+    )
+    line = refused(folder, r)
+    assert "usage:" not in r.stderr
+    assert "--help" in line
+
+
+def test_sigint_while_the_command_starts_is_one_line(folder):
+    """Ctrl-C while numpy and scipy load (the first 0.7 s): no KeyboardInterrupt traceback.
+
+    ``-X importtime`` prints a line as each module finishes loading: the
+    signal goes out when numpy is in, scipy and the rest still to come.
+    """
+    (folder / "s.toml").write_text(DESIGN)
+    p = subprocess.Popen(
+        [sys.executable, "-X", "importtime", "-m", "corr_cad", "run", "s.toml", "--out", "out"],
+        cwd=folder,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    seen = []
+    try:
+        for line in p.stderr:
+            seen.append(line)
+            if line.rstrip().split("|")[-1].strip() == "numpy":
+                p.send_signal(signal.SIGINT)
+                break
+        seen.append(p.stderr.read())
+        p.wait(timeout=HANG_S)
+    finally:
+        p.kill()
+    lines = [ln for ln in "".join(seen).splitlines() if not ln.startswith("import time:")]
+    assert p.returncode == 130, lines
+    assert lines == ["corr-cad: interrupted (SIGINT); previous outputs left as they were"]
+    assert sorted(x.name for x in folder.iterdir()) == ["notes.txt", "s.toml"]
+
+
+#: Runs the CLI's ``main`` with a garbage-collector callback that sends SIGINT
+#: to its own process once the run holds its lock: the handler runs inside the
+#: callback, and Python drops the KeyboardInterrupt it raises there.
+GC_INTERRUPT = """
+import gc, os, signal, sys
+from corr_cad.run.cli import main
+fired = []
+def callback(phase, info):
+    if not fired and phase == "start" and os.path.exists("out/.corr-cad.lock"):
+        fired.append(1)
+        os.kill(os.getpid(), signal.SIGINT)
+        total = 0
+        for i in range(1000):  # the handler runs here, inside the callback
+            total += i
+gc.callbacks.append(callback)
+sys.exit(main(["run", "s.toml", "--out", "out"]))
+"""
+
+
+def test_an_interrupt_swallowed_in_a_gc_callback_still_ends_the_run(folder):
+    (folder / "s.toml").write_text(DESIGN)
+    (folder / "gc_interrupt.py").write_text(GC_INTERRUPT)
+    r = subprocess.run(
+        [sys.executable, "gc_interrupt.py"],
+        capture_output=True,
+        text=True,
+        cwd=folder,
+        timeout=HANG_S,
+    )
+    assert r.returncode == 130, r.stderr[-3000:]
+    assert "Exception ignored" not in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.strip().splitlines() == [
+        "corr-cad: interrupted (SIGINT); previous outputs left as they were"
+    ]
+    assert not (folder / "out").exists()
+
+
+def test_a_closed_stdout_does_not_stop_the_run(folder):
+    """``corr-cad run ... | head -1``: the reader is gone before the first line."""
+    (folder / "s.toml").write_text(DESIGN)
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # every write to stdout meets a closed pipe
+    try:
+        r = subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out"],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=folder,
+            timeout=HANG_S,
+        )
+    finally:
+        os.close(write_end)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stderr == ""
+    assert (folder / "out" / "manifest.json").is_file()
+    assert (folder / "out" / "inner_gear.dxf").is_file()
