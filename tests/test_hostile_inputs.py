@@ -183,3 +183,20 @@ def test_a_closed_stdout_does_not_stop_the_run(folder):
     assert r.stderr == ""
     assert (folder / "out" / "manifest.json").is_file()
     assert (folder / "out" / "inner_gear.dxf").is_file()
+
+
+@pytest.mark.parametrize(
+    "address,says",
+    [
+        ("tcp://[::1", "Invalid IPv6 URL"),
+        ("tcp://[zz]:1", "not an address"),
+        ("tcp://" + "h" * 300 + ":8786", "a host name of 300 characters; at most 253"),
+        ("tcp://host:99999", "Port out of range"),
+        ("tcp://a\x01b:1", "control characters"),
+    ],
+)
+def test_a_malformed_scheduler_address_is_one_line(folder, address, says):
+    r = cli(folder, DESIGN, "--executor", "dask", "--scheduler", address)
+    line = refused(folder, r)
+    assert line.startswith("corr-cad: error: --scheduler ") and says in line, line
+    assert "e.g. tcp://127.0.0.1:8786" in line

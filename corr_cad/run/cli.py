@@ -176,6 +176,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     from corr_cad.run.scene import load_scene
 
     _check_workers(args)
+    if args.executor == "dask" and args.scheduler:
+        from corr_cad.run.dask_exec import check_address
+
+        check_address(args.scheduler)  # a malformed one is refused before anything starts
     scene = load_scene(args.scene)
     # Refused here, with one line, before any folder or worker exists.
     budget = budget_for(scene, args.max_memory, args.max_output, args.warn_time)
@@ -479,7 +483,7 @@ def _dispatch(args: argparse.Namespace, state: dict) -> int:
 def main(argv: list[str] | None = None) -> int:
     import signal
 
-    from corr_cad import _startup
+    import corr_cad._startup as _startup
     from corr_cad.run import interrupts
 
     interrupts.clear()
@@ -490,9 +494,11 @@ def main(argv: list[str] | None = None) -> int:
             # Ctrl-C: ours, unless a caller (a notebook, a test) installed its own.
             if sig == signal.SIGTERM or now is signal.default_int_handler or _startup.is_guard(now):
                 handlers[sig] = signal.signal(sig, _on_signal)
+    from corr_cad.run.console import ClosedPipeSafe
+
     hook, stdout = sys.unraisablehook, sys.stdout
-    sys.unraisablehook = _unraisable
-    sys.stdout = _ClosedPipeSafe(stdout)
+    sys.unraisablehook = interrupts.unraisable_hook
+    sys.stdout = ClosedPipeSafe(stdout)
     try:
         return _main(argv)
     except KeyboardInterrupt as exc:  # before or after _main's own handling
@@ -502,60 +508,6 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = stdout
         for sig, previous in handlers.items():
             signal.signal(sig, previous)
-
-
-def _unraisable(unraisable) -> None:
-    """An interrupt raised where Python cannot pass it on (a GC callback, ``__del__``).
-
-    Its handler recorded it (:mod:`corr_cad.run.interrupts`): the run still
-    ends as interrupted. No "Exception ignored" block; anything else goes to
-    Python's own hook.
-    """
-    if isinstance(unraisable.exc_value, KeyboardInterrupt):
-        return
-    sys.__unraisablehook__(unraisable)
-
-
-class _ClosedPipeSafe:
-    """``sys.stdout`` that a closed pipe (``corr-cad run ... | head -1``) never stops.
-
-    The first write to a closed pipe points the descriptor at ``/dev/null``:
-    the rest of the console output is dropped, and the run goes on to its
-    commit and exit status.
-    """
-
-    def __init__(self, stream):
-        self._stream = stream
-        self._closed = False
-
-    def write(self, text: str) -> int:
-        if not self._closed:
-            try:
-                return self._stream.write(text)
-            except BrokenPipeError:
-                self._gone()
-        return len(text)
-
-    def flush(self) -> None:
-        if not self._closed:
-            try:
-                self._stream.flush()
-            except BrokenPipeError:
-                self._gone()
-
-    def _gone(self) -> None:
-        self._closed = True
-        try:
-            null = os.open(os.devnull, os.O_WRONLY)
-            try:
-                os.dup2(null, self._stream.fileno())  # Python's exit flush succeeds too
-            finally:
-                os.close(null)
-        except (OSError, ValueError, AttributeError):
-            pass
-
-    def __getattr__(self, name: str):
-        return getattr(self._stream, name)
 
 
 def _main(argv: list[str] | None) -> int:

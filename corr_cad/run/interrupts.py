@@ -13,8 +13,9 @@ line).
 from __future__ import annotations
 
 import signal
+import sys
 
-__all__ = ["mark", "pending", "clear", "check"]
+__all__ = ["mark", "pending", "clear", "check", "unraisable_hook"]
 
 _PENDING: list[int] = []
 
@@ -44,3 +45,15 @@ def check() -> None:
     if signum is None:
         return
     raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def unraisable_hook(unraisable) -> None:
+    """An interrupt raised where Python cannot pass it on (a GC callback, ``__del__``).
+
+    Its handler recorded it (:mod:`corr_cad.run.interrupts`): the run still
+    ends as interrupted. No "Exception ignored" block; anything else goes to
+    Python's own hook.
+    """
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        return
+    sys.__unraisablehook__(unraisable)
