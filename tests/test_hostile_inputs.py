@@ -200,3 +200,39 @@ def test_a_malformed_scheduler_address_is_one_line(folder, address, says):
     line = refused(folder, r)
     assert line.startswith("corr-cad: error: --scheduler ") and says in line, line
     assert "e.g. tcp://127.0.0.1:8786" in line
+
+
+# --- scene values ----------------------------------------------------------------------------
+
+
+def test_an_integer_of_5000_digits_is_one_line(folder):
+    line = refused(folder, cli(folder, DESIGN.replace("= 8", "= " + "9" * 5000)))
+    assert "'s.toml' line 3: 'tooth_count' is a number of 5000 digits" in line
+    assert "e.g. tooth_count = 39" in line
+
+
+def test_a_whole_number_written_as_a_float_is_that_integer(folder):
+    """``tooth_count = 25.0`` is the whole number 25: the same files as ``tooth_count = 25``."""
+    scene = DESIGN.replace("tooth_count = 8", "tooth_count = 25").replace("40.0", "135.0")
+    scene += '[export]\nformats = ["dxf"]\n'
+    a = cli(folder, scene)
+    assert a.returncode == 0, a.stderr
+    (folder / "out").rename(folder / "as_int")
+    b = cli(folder, scene.replace("tooth_count = 25", "tooth_count = 25.0"))
+    assert b.returncode == 0, b.stderr
+    for name in ("inner_gear.dxf", "disk_cam.dxf"):
+        assert (folder / "out" / name).read_bytes() == (folder / "as_int" / name).read_bytes()
+    line = refused(folder, cli(folder, scene.replace("= 25", "= 25.5")), "as_int", "out")
+    assert "[design] tooth_count = 25.5: must be an integer, e.g. " in line
+
+
+@pytest.mark.parametrize(
+    "scene,says",
+    [
+        (DESIGN + "[modification]\nequidistant_mm = 3.99\n", "allowed range is (-1, 1], e.g. 0.01"),
+        (DESIGN + "[budget]\nmemory_gb = 0\n", "allowed range is (0, 1024], e.g. 3"),
+    ],
+)
+def test_a_range_refusal_gives_a_value_that_works(folder, scene, says):
+    line = refused(folder, cli(folder, scene))
+    assert line.endswith(says), line

@@ -23,7 +23,7 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.solver import VARIANTS
-from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
+from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format, long_number
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
 from corr_cad.run.scene_schema import (  # noqa: F401  (re-exported: the schema is part of this interface)
@@ -137,8 +137,10 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
             raise SceneError(f"{where} = {show(value)}: must be true or false")
         return value
     if spec.kind == "int":
+        if isinstance(value, float) and value.is_integer() and abs(value) <= 2**53:
+            value = int(value)  # 25.0 is the whole number 25
         if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(f"{where} = {show(value)}: must be an integer")
+            raise SceneError(f"{where} = {show(value)}: must be an integer, e.g. {spec.works()}")
         _bounds(where, value, spec)
         return value
     if spec.kind == "float":
@@ -207,13 +209,10 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
 
 def _bounds(where: str, v: float, spec: Key) -> None:
     if out_of_range(v, spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open):
-        shown = v if isinstance(v, int) else f"{v:g}"
-        works = spec.default if spec.default is not None else spec.example
-        if where.startswith("[datasheet]") and isinstance(works, (int, float)):
-            raise SceneError(
-                f"{where} = {shown}: allowed range is {key_range(spec)}, e.g. {works:g}"
-            )
-        raise SceneError(f"{where} = {shown}: allowed range is {key_range(spec)}")
+        shown = v if isinstance(v, int) and abs(v) < 10**15 else f"{v:g}"
+        works = spec.works()
+        hint = f", e.g. {works}" if works is not None else ""
+        raise SceneError(f"{where} = {shown}: allowed range is {key_range(spec)}{hint}")
 
 
 def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
@@ -600,4 +599,6 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(
             f"{show(path.name, 120)}: arrays or tables nested too deep; at most {MAX_NESTING}"
         ) from exc
+    except ValueError as exc:  # an integer beyond Python's 4300 digits
+        raise SceneError(long_number(text, show(path.name, 120))) from exc
     return parse_scene(data, name=path.stem, base_dir=path.parent)
