@@ -236,3 +236,43 @@ def test_a_whole_number_written_as_a_float_is_that_integer(folder):
 def test_a_range_refusal_gives_a_value_that_works(folder, scene, says):
     line = refused(folder, cli(folder, scene))
     assert line.endswith(says), line
+
+
+@pytest.mark.parametrize(
+    "flag,value,works",
+    [
+        ("--max-memory", "0", "--max-memory 3"),
+        ("--max-output", "1e9", "--max-output 1"),
+        ("--warn-time", "-1", "--warn-time 60"),
+        ("--dask-stall-timeout", "0", "--dask-stall-timeout 120"),
+        ("--workers", "0", "--workers "),
+    ],
+)
+def test_a_flag_out_of_range_gives_a_value_that_works(folder, flag, value, works):
+    line = refused(folder, cli(folder, DESIGN, flag, value))
+    assert f"{flag} {float(value):g}" in line or f"{flag} {value}" in line
+    assert f"e.g. {works}" in line, line
+
+
+def test_a_budget_too_small_for_every_key_names_the_budget_that_holds_the_run(folder):
+    line = refused(folder, cli(folder, DESIGN, "--max-memory", "0.01"))
+    need = float(re.search(r"would need about (\S+) MB", line).group(1))
+    gb = float(re.search(r"raise it: --max-memory (\S+) \(or \[budget\] memory_gb = \1\)", line)[1])
+    assert need / 1024 < gb <= 1.2 * need / 1024 + 0.01, line
+    # and the value it gives holds the run
+    r = cli(folder, DESIGN, "--max-memory", f"{gb:g}")
+    assert r.returncode == 0, r.stderr
+
+
+def test_a_large_measured_dxf_blames_the_measured_profile(folder):
+    """Its memory comes from reading the file: no other key (never one the scene did not set)."""
+    (folder / "ring.dxf").write_bytes(b"0\nSECTION\n" + b" " * 20_000_000)
+    scene = (
+        DESIGN
+        + '[export]\nformats = ["dxf", "datasheet"]\n[load]\ninput_torque = 1e5\n'
+        + '[errors]\nmeasured_profile = "ring.dxf"\n'
+    )
+    line = refused(folder, cli(folder, scene, "--max-memory", "0.5"), "ring.dxf")
+    assert line.startswith("corr-cad: error: [errors] measured_profile = 'ring.dxf' (19.1 MB): ")
+    assert "(at measured_profile)" in line and "a file of fewer points" in line
+    assert "[datasheet]" not in line and "--max-memory 1.2" in line

@@ -140,7 +140,8 @@ def _check_workers(args: argparse.Namespace) -> None:
     cores = os.cpu_count() or 1
     if args.workers is not None and not 1 <= args.workers <= cores:
         raise SceneError(
-            f"--workers {args.workers}: allowed range is 1..{cores} (the number of cores)"
+            f"--workers {args.workers}: allowed range is 1..{cores} (the number of cores), "
+            f"e.g. --workers {cores}"
         )
     # Each flag has the range of the scene key it overrides.
     for flag, section, key in _FLAG_KEYS:
@@ -148,7 +149,8 @@ def _check_workers(args: argparse.Namespace) -> None:
         spec = SCHEMA[section][key]
         if v is not None and not (math.isfinite(v) and spec.low < v <= spec.high):
             raise SceneError(
-                f"{flag} {v:g}: allowed range is {key_range(spec)} (as [{section}] {key})"
+                f"{flag} {v:g}: allowed range is {key_range(spec)} (as [{section}] {key}), "
+                f"e.g. {flag} {spec.works()}"
             )
 
 
