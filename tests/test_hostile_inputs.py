@@ -276,3 +276,60 @@ def test_a_large_measured_dxf_blames_the_measured_profile(folder):
     assert line.startswith("corr-cad: error: [errors] measured_profile = 'ring.dxf' (19.1 MB): ")
     assert "(at measured_profile)" in line and "a file of fewer points" in line
     assert "[datasheet]" not in line and "--max-memory 1.2" in line
+
+
+SHEET = DESIGN + '[export]\nformats = ["datasheet"]\n[datasheet]\n'
+
+
+@pytest.mark.parametrize(
+    "scene,says",
+    [
+        (
+            SHEET + "rated_torque_Nm = 1e-310\n",
+            "[datasheet] rated_torque_Nm = 1e-310: allowed range is [0.001, 1e+09], e.g. 2860",
+        ),
+        (
+            SHEET + "rated_torque_Nm = 1.0\ntransmission_error_torque_band = 1e-310\n",
+            "[datasheet] transmission_error_torque_band = 1e-310: allowed range is [0.001, 1), "
+            "e.g. 0.03",
+        ),
+        (
+            SHEET + "rated_torque_Nm = 1.0\nlost_motion_band = 5e-324\n",
+            "[datasheet] lost_motion_band = 4.94066e-324: allowed range is [0.001, 1), e.g. 0.03",
+        ),
+        (
+            SHEET + "rated_torque_Nm = 1.0\nrigidity_range = [0.5, 0.5000000000000001]\n",
+            "T_2 - T_1 >= 0.001, e.g. [0.5, 1.0]",
+        ),
+        (
+            DESIGN + '[export]\nformats = ["datasheet"]\n[load]\ninput_torque = 1e-310\n',
+            "[load] input_torque = 1e-310: the datasheet's rated torque (z + 1) * input_torque "
+            "would be below 0.001 N*m; set [datasheet] rated_torque_Nm (N*m, e.g. 2860)",
+        ),
+    ],
+)
+def test_inputs_that_would_put_nan_or_inf_in_datasheet_json_are_refused(folder, scene, says):
+    line = refused(folder, cli(folder, scene))
+    assert says in line, line
+
+
+def _strict_json(path: Path):
+    import json
+
+    def refuse(name):
+        raise AssertionError(f"{path.name} holds {name}")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+def test_the_smallest_datasheet_inputs_allowed_give_finite_figures(folder):
+    """Each limit itself runs, and ``datasheet.json`` holds no NaN or inf."""
+    scene = (
+        SHEET + "rated_torque_Nm = 0.001\nlost_motion_band = 0.001\n"
+        "transmission_error_torque_band = 0.001\nrigidity_range = [0.0, 0.001]\n"
+    )
+    r = cli(folder, scene, "--quiet")
+    assert r.returncode == 0, r.stderr
+    sheet = _strict_json(folder / "out" / "datasheet.json")
+    assert sheet["torsional_rigidity_Nm_per_arcmin"]["catalogue"] > 0
+    _strict_json(folder / "out" / "manifest.json")

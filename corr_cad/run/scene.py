@@ -22,6 +22,7 @@ from corr_cad.geometry.design import GearDesign, Material
 from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
+from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format, long_number
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
@@ -498,10 +499,10 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
     if not ("datasheet" in formats or checks.datasheet_active()):
         return
     rng = ds["rigidity_range"]
-    if len(rng) != 2 or not rng[0] < rng[1]:
-        raise SceneError(
+    if len(rng) != 2 or not rng[0] < rng[1] or rng[1] - rng[0] < MIN_SHARE:
+        raise SceneError(  # a narrower range divides by round-off: the rigidity would be inf
             f"[datasheet] rigidity_range = {rng!r}: must be [T_1, T_2] with "
-            "0 <= T_1 < T_2 <= 1 (shares of T_R), e.g. [0.5, 1.0]"
+            f"0 <= T_1 < T_2 <= 1 (shares of T_R), T_2 - T_1 >= {MIN_SHARE:g}, e.g. [0.5, 1.0]"
         )
     if ds["rated_torque_Nm"] is None and load is None:
         why = (
@@ -513,10 +514,11 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
             f"[datasheet] rated_torque_Nm is not set and [load] gives no torque ({why}); "
             "set rated_torque_Nm (N*m, e.g. 2860) or [load] input_torque (N*mm)"
         )
-    if ds["rated_torque_Nm"] is None and load is not None and load.input_torque == 0:
-        raise SceneError(
-            "[load] input_torque = 0: the datasheet's rated torque (z + 1) * input_torque "
-            "would be 0; set [datasheet] rated_torque_Nm (N*m, e.g. 2860)"
+    if ds["rated_torque_Nm"] is None and load is not None and abs(load.input_torque) < 1.0:
+        raise SceneError(  # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM)
+            f"[load] input_torque = {load.input_torque:g}: the datasheet's rated torque "
+            "(z + 1) * input_torque would be below 0.001 N*m; set [datasheet] rated_torque_Nm "
+            "(N*m, e.g. 2860) or input_torque >= 1 N*mm"
         )
 
 
