@@ -333,3 +333,30 @@ def test_the_smallest_datasheet_inputs_allowed_give_finite_figures(folder):
     sheet = _strict_json(folder / "out" / "datasheet.json")
     assert sheet["torsional_rigidity_Nm_per_arcmin"]["catalogue"] > 0
     _strict_json(folder / "out" / "manifest.json")
+
+
+def _ring_csv(path: Path, outlier: str | None = None, at=(500,)) -> None:
+    """The design's working profile as CMM points ``x,y``, with ``outlier`` rows inserted."""
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.geometry.profile import working_profile
+
+    d = GearDesign(
+        tooth_count=8, cam_radius=40.0, roller_radius=4.0, roller_length=6.0, eccentricity=1.5
+    )
+    rows = ["x,y"]
+    for i, (x, y) in enumerate(working_profile(d).sample(2000)):
+        rows.append(f"{float(x)!r},{float(y)!r}")
+        if outlier is not None and i in at:
+            rows.append(outlier)
+    path.write_text("\n".join(rows) + "\n")
+
+
+@pytest.mark.parametrize(
+    "outlier", ["1e154,1e154", "1e154,40.0", "40.0,-1e200", "1e308,1e308", "-1.7e308,1e308"]
+)
+def test_measured_points_with_huge_outliers_are_one_line(folder, outlier):
+    _ring_csv(folder / "cmm.csv", outlier)
+    scene = DESIGN + '[export]\nformats = ["dxf"]\n[errors]\nmeasured_profile = "cmm.csv"\n'
+    line = refused(folder, cli(folder, scene), "cmm.csv")
+    assert "'cmm.csv': 1 point far off the ring, e.g. (" in line
+    assert "more than 2 times the median radius" in line and "remove such outliers" in line
