@@ -360,3 +360,36 @@ def test_measured_points_with_huge_outliers_are_one_line(folder, outlier):
     line = refused(folder, cli(folder, scene), "cmm.csv")
     assert "'cmm.csv': 1 point far off the ring, e.g. (" in line
     assert "more than 2 times the median radius" in line and "remove such outliers" in line
+
+
+# --- file content in error lines -------------------------------------------------------------
+
+
+def _table_scene(name: str) -> str:
+    return DESIGN + f'[modification]\nnormal_table = "{name}"\n'
+
+
+def test_a_normal_table_line_is_quoted_at_most_40_characters(folder):
+    (folder / "t.csv").write_text("psi_deg,normal_mm\n0,0\n" + "SECRET" * 50 + ",1\n")
+    line = refused(folder, cli(folder, _table_scene("t.csv")), "t.csv")
+    quoted = re.search(r"line 3: '([^']*)' is not two numbers", line).group(1)
+    assert len(quoted) <= 40 and line.count("SECRET") <= 7, line
+
+
+@pytest.mark.parametrize(
+    "content", [b"psi_deg,normal_mm\n0,0\nPATH=/usr/bin\x00API_TOKEN=sk-live-abc\n", b"\x01\x02,3\n"]
+)
+def test_a_normal_table_with_control_characters_is_never_quoted(folder, content):
+    (folder / "t.csv").write_bytes(content)
+    line = refused(folder, cli(folder, _table_scene("t.csv")), "t.csv")
+    assert "holds control or NUL characters, not a text table" in line
+    assert "API_TOKEN" not in line and "PATH" not in line and "\\x" not in line
+
+
+def test_a_normal_table_pointed_at_the_environment_prints_none_of_it(folder):
+    environ = Path("/proc/self/environ")
+    if not environ.is_file():
+        pytest.skip("no /proc/self/environ here")
+    r = cli(folder, _table_scene(str(environ)), env={**os.environ, "API_TOKEN": "sk-live-xyz"})
+    line = refused(folder, r)
+    assert "sk-live" not in r.stderr and "API_TOKEN" not in r.stderr, line
