@@ -393,3 +393,73 @@ def test_a_normal_table_pointed_at_the_environment_prints_none_of_it(folder):
     r = cli(folder, _table_scene(str(environ)), env={**os.environ, "API_TOKEN": "sk-live-xyz"})
     line = refused(folder, r)
     assert "sk-live" not in r.stderr and "API_TOKEN" not in r.stderr, line
+
+
+# --- sections without effect, and a section given twice -------------------------------------
+
+SILENT = (
+    DESIGN
+    + '[modification]\ninspect_against = "conjugate"\n'
+    + "[assembly]\ntarget_backlash_arcmin = 2.0\n"
+    + "[modification.design]\nsteps = 3\n"
+    + "[dask]\nconnect_timeout_s = 3.0\n"
+)
+
+
+def test_silent_sections_warn_like_every_other_section_without_effect(folder):
+    r = cli(folder, SILENT, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert warnings_of(r) == [
+        "corr-cad: warning: [modification.design] has no effect in this scene: "
+        'formats does not list "modification"',
+        "corr-cad: warning: [modification] inspect_against has no effect in this scene: "
+        'formats does not list "inspection"',
+        "corr-cad: warning: [assembly] target_backlash_arcmin has no effect in this scene: "
+        "[assembly] roller_classes_um is not set",
+        "corr-cad: warning: [dask] connect_timeout_s has no effect in this run: "
+        "--executor is process, not dask",
+    ]
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        # each key where it acts: no warning about it
+        {
+            "export": {"formats": ["datasheet"]},
+            "load": {"input_torque": 1e5},
+            "assembly": {"roller_classes_um": [0.0, 2.0], "target_backlash_arcmin": 2.0},
+        },
+        {"modification": {"equidistant_mm": 0.01}},
+    ],
+)
+def test_no_warning_where_the_section_acts(data):
+    from corr_cad.run.scene import parse_scene
+
+    design = {k: v for k, v in (ln.split(" = ") for ln in DESIGN.strip().splitlines()[1:])}
+    data = {"design": {k: float(v) if "." in v else int(v) for k, v in design.items()}, **data}
+    assert parse_scene(data).warnings == ()
+
+
+def test_the_template_writes_no_section_that_would_warn():
+    """``corr-cad new`` comments out what its formats leave without effect."""
+    import tomllib
+
+    from corr_cad.run.scene import parse_scene, template_text
+
+    data = tomllib.loads(template_text())
+    assert "design" not in data.get("modification", {})
+    assert "target_backlash_arcmin" not in data.get("assembly", {})
+    assert parse_scene(data).warnings == ()
+
+
+@pytest.mark.parametrize(
+    "twice",
+    [
+        '["modification.design"]\nsteps = 3\n[modification.design]\nsteps = 5\n',
+        '["modification.design"]\nsteps = 3\n[modification]\ndesign = { steps = 5 }\n',
+    ],
+)
+def test_a_quoted_modification_design_beside_the_nested_one_is_refused(folder, twice):
+    line = refused(folder, cli(folder, DESIGN + twice))
+    assert "[modification.design] is given twice" in line and "keep one of them" in line

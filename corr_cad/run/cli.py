@@ -145,7 +145,7 @@ def _check_workers(args: argparse.Namespace) -> None:
         )
     # Each flag has the range of the scene key it overrides.
     for flag, section, key in _FLAG_KEYS:
-        v = getattr(args, flag.lstrip("-").replace("-", "_"))
+        v = _flag(args, flag)
         spec = SCHEMA[section][key]
         if v is not None and not (math.isfinite(v) and spec.low < v <= spec.high):
             raise SceneError(
@@ -204,7 +204,7 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     with _executor(args, scene, concurrent, task_s) as executor, staging as stage:
         # Printed with --quiet too (the user must know), once the run is
         # accepted: a refused run prints only its one error line.
-        for warning in scene.warnings + ((slow,) if slow else ()):
+        for warning in scene.warnings + _executor_warnings(args, scene) + ((slow,) if slow else ()):
             print(f"corr-cad: warning: {warning}", file=sys.stderr)
         if scene.formats_left_out:
             why = "; ".join(f"{f} ({w})" for f, w in scene.formats_left_out)
@@ -247,6 +247,21 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     if failed or bad or asm:
         return 1
     return status
+
+
+def _executor_warnings(args: argparse.Namespace, scene) -> tuple[str, ...]:
+    """``[dask]`` and the Dask flags do nothing without ``--executor dask``."""
+    if args.executor == "dask":
+        return ()
+    given = [f"[dask] {k}" for k, v in scene.dask.items() if v is not None]
+    given += [f for f, sec, _ in _FLAG_KEYS if sec == "dask" and _flag(args, f) is not None]
+    given += ["--scheduler"] if args.scheduler else []
+    why = f"--executor is {args.executor}, not dask"
+    return tuple(f"{what} has no effect in this run: {why}" for what in given)
+
+
+def _flag(args: argparse.Namespace, flag: str):
+    return getattr(args, flag.lstrip("-").replace("-", "_"))
 
 
 def _worker_init(parent_pid: int) -> None:

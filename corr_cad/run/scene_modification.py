@@ -95,6 +95,11 @@ def split_design_table(data: dict) -> dict:
     mod = data.get("modification") if isinstance(data, dict) else None
     if not (isinstance(mod, dict) and "design" in mod):
         return data
+    if "modification.design" in data:  # one would silently override the other
+        raise SceneError(
+            '[modification.design] is given twice: as ["modification.design"] (quoted) and as '
+            "[modification.design] or [modification] design = {...}; keep one of them"
+        )
     rest = {k: v for k, v in mod.items() if k != "design"}
     return {**data, "modification": rest, "modification.design": mod["design"]}
 
