@@ -463,3 +463,48 @@ def test_the_template_writes_no_section_that_would_warn():
 def test_a_quoted_modification_design_beside_the_nested_one_is_refused(folder, twice):
     line = refused(folder, cli(folder, DESIGN + twice))
     assert "[modification.design] is given twice" in line and "keep one of them" in line
+
+
+# --- the lock file ---------------------------------------------------------------------------
+
+
+def _lock_case(folder: Path, kind: str) -> Path:
+    out = folder / "out"
+    out.mkdir()
+    lock = out / ".corr-cad.lock"
+    if kind == "hard link":
+        (folder / "notes.txt").write_text("")  # an empty file of the user's, linked
+        os.link(folder / "notes.txt", lock)
+    elif kind == "empty":
+        lock.write_bytes(b"")
+    elif kind == "other":
+        lock.write_bytes(b"corr-cad lock\nand more\n")
+    return lock
+
+
+@pytest.mark.parametrize("kind", ["hard link", "empty", "other"])
+def test_a_lock_path_holding_a_file_corr_cad_did_not_write_is_refused_and_left(folder, kind):
+    lock = _lock_case(folder, kind)
+    before = lock.read_bytes()
+    r = cli(folder, DESIGN)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip().splitlines() == [
+        ln for ln in r.stderr.strip().splitlines() if ln.startswith("corr-cad: error: ")
+    ]
+    line = r.stderr.strip()
+    assert f"{lock}: is not corr-cad's lock file" in line and "neither writes into nor removes" in line
+    assert lock.read_bytes() == before  # not written into ...
+    assert sorted(p.name for p in (folder / "out").iterdir()) == [".corr-cad.lock"]  # ... nor removed
+    if kind == "hard link":
+        assert os.path.samefile(lock, folder / "notes.txt")
+        assert (folder / "notes.txt").read_text() == ""
+
+
+def test_a_lock_left_by_a_killed_run_is_taken_over_and_removed(folder):
+    out = folder / "out"
+    out.mkdir()
+    (out / ".corr-cad.lock").write_bytes(b"corr-cad lock\n")  # a run killed by SIGKILL
+    r = cli(folder, DESIGN, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert not (out / ".corr-cad.lock").exists() and (out / "manifest.json").is_file()
+
