@@ -377,7 +377,8 @@ def test_a_normal_table_line_is_quoted_at_most_40_characters(folder):
 
 
 @pytest.mark.parametrize(
-    "content", [b"psi_deg,normal_mm\n0,0\nPATH=/usr/bin\x00API_TOKEN=sk-live-abc\n", b"\x01\x02,3\n"]
+    "content",
+    [b"psi_deg,normal_mm\n0,0\nPATH=/usr/bin\x00API_TOKEN=sk-live-abc\n", b"\x01\x02,3\n"],
 )
 def test_a_normal_table_with_control_characters_is_never_quoted(folder, content):
     (folder / "t.csv").write_bytes(content)
@@ -492,9 +493,13 @@ def test_a_lock_path_holding_a_file_corr_cad_did_not_write_is_refused_and_left(f
         ln for ln in r.stderr.strip().splitlines() if ln.startswith("corr-cad: error: ")
     ]
     line = r.stderr.strip()
-    assert f"{lock}: is not corr-cad's lock file" in line and "neither writes into nor removes" in line
+    assert (
+        f"{lock}: is not corr-cad's lock file" in line and "neither writes into nor removes" in line
+    )
     assert lock.read_bytes() == before  # not written into ...
-    assert sorted(p.name for p in (folder / "out").iterdir()) == [".corr-cad.lock"]  # ... nor removed
+    assert sorted(p.name for p in (folder / "out").iterdir()) == [
+        ".corr-cad.lock"
+    ]  # ... nor removed
     if kind == "hard link":
         assert os.path.samefile(lock, folder / "notes.txt")
         assert (folder / "notes.txt").read_text() == ""
@@ -507,4 +512,3 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_and_removed(folder):
     r = cli(folder, DESIGN, "--quiet")
     assert r.returncode == 0, r.stderr
     assert not (out / ".corr-cad.lock").exists() and (out / "manifest.json").is_file()
-

@@ -55,7 +55,7 @@ def test_bundled_scenes_and_the_new_template_validate(validator, tmp_path):
     assert not list(validator.iter_errors(tomllib.loads(new.read_text())))
     # The template with every commented example switched on validates too.
     # (Sections that do nothing with the template's formats are commented whole.)
-    on = re.compile(r"# ([a-z_]+ = |\[[a-z_]+\]$)")
+    on = re.compile(r"# ([a-z_]+ = |\[[a-z_.]+\]$)")
     lines = [ln[2:] if on.match(ln) else ln for ln in new.read_text().splitlines()]
     full = tomllib.loads("\n".join(lines))
     assert full["sweeps"]["eccentricity"] and full["tolerances"]
