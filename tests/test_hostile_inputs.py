@@ -512,3 +512,42 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_and_removed(folder):
     r = cli(folder, DESIGN, "--quiet")
     assert r.returncode == 0, r.stderr
     assert not (out / ".corr-cad.lock").exists() and (out / "manifest.json").is_file()
+
+
+# --- a DXF tolerance the modified curve cannot meet ------------------------------------------
+
+
+def _swinging_table(path: Path) -> None:
+    """A normal table that swings +-0.9 mm every 2 deg of psi: far sharper than 0.001 mm allows."""
+    rows = ["psi_deg,normal_mm"]
+    for p in range(0, 181, 2):
+        rows.append(f"{p},{(0.9 if (p // 2) % 2 else -0.9) if 0 < p < 180 else 0.0}")
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_a_modified_curve_beyond_the_vertex_budget_is_refused_when_the_scene_loads(folder):
+    """z = 100: the modified curve's bends need more vertices than the budget, known at load."""
+    _swinging_table(folder / "swing.csv")
+    scene = (
+        DESIGN.replace("tooth_count = 8", "tooth_count = 100").replace("40.0", "400.0")
+        + '[export]\nformats = ["dxf"]\n[modification]\nnormal_table = "swing.csv"\n'
+    )
+    line = refused(folder, cli(folder, scene), "swing.csv")
+    assert line.startswith(
+        "corr-cad: error: [export] tolerance = 0.001: too fine for this design: a polyline DXF "
+        "profile (the modified one) would need more than 200000 vertices"
+    )
+
+
+@pytest.mark.slow
+def test_a_modified_curve_the_approximation_cannot_follow_writes_nothing(folder):
+    """z = 8: within the budget, but the approximation misses 0.001 mm by 0.5 mm: exit 2 in
+    the stage before the files, nothing written (the run used to write it and exit 1)."""
+    _swinging_table(folder / "swing.csv")
+    scene = DESIGN + '[export]\nformats = ["dxf"]\n[modification]\nnormal_table = "swing.csv"\n'
+    line = refused(folder, cli(folder, scene, "--quiet"), "swing.csv")
+    assert line.startswith(
+        "corr-cad: error: [export] tolerance = 0.001: the modified working profile cannot be "
+        "drawn within it: [modification] normal_table swing.csv bends it too sharply"
+    )
+    assert "nothing was written" in line

@@ -74,6 +74,33 @@ def _curvature_integrals(design) -> tuple[float, float]:
     return polyline_segments(work, 1e-3) - 1.0, polyline_segments(locus, 1e-3) - 1.0
 
 
+#: Points of tooth 0's piece the modified profile's curvature is summed over.
+_MODIFIED_SAMPLES = 20_000
+
+
+@functools.lru_cache(maxsize=16)
+def _modified_integral(design, modification) -> float:
+    """``polyline_segments - 1`` of the modified working profile at tol = 1e-3 (0: none).
+
+    A normal table that swings fast bends the modified curve far more than
+    the conjugate one: its vertex need is summed over one tooth's piece
+    (every tooth is a rotation of it) and taken with the conjugate's.
+    """
+    if modification is None:
+        return 0.0
+    from corr_cad.geometry.modification import modified_profile
+
+    curve = modified_profile(design, modification)
+    t_a, t_b = curve.piece_t_range
+    p = curve.points(np.linspace(t_a, t_b, _MODIFIED_SAMPLES + 1))
+    a, b, c = p[:-2], p[1:-1], p[2:]
+    ab, bc, ac = (np.linalg.norm(v, axis=1) for v in (b - a, c - b, c - a))
+    cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    kappa = 2.0 * cross / np.maximum(ab * bc * ac, 1e-300)
+    per_tooth = float(np.sum(np.sqrt(kappa / 8e-3) * 0.5 * (ab + bc)))
+    return design.tooth_count * per_tooth
+
+
 def _circle(radius: float, tol: float) -> float:
     """Segments of a polygon within ``tol`` of a circle of ``radius``.
 
@@ -104,10 +131,11 @@ def _power(x: float, ratio: float, exponent: float) -> float:
 _REPR = {"polyline": (0.5, 1.9), "arcs": (1.0 / 3.0, 0.6), "spline": (0.25, 0.3)}
 
 
-def profile_vertices(design, representation: str, tol: float) -> float:
+def profile_vertices(design, representation: str, tol: float, modification=None) -> float:
     exponent, ratio = _REPR[representation]
     work, locus = _curvature_integrals(design)
-    return _power(ratio * (max(work, locus) + 1.0), 1e-3 / tol, exponent)
+    bent = max(work, locus, _modified_integral(design, modification))
+    return _power(ratio * (bent + 1.0), 1e-3 / tol, exponent)
 
 
 def mesh_triangles(design, chord: float) -> tuple[float, float]:
@@ -146,7 +174,9 @@ def check_structure(scene) -> tuple[float, float]:
     ``MAX_MESH_TRIANGLES``; the two counts (0 where not made)."""
     _check_tolerances(scene)
     f = set(scene.formats)
-    verts = profile_vertices(scene.design, scene.representation, scene.tolerance)
+    verts = profile_vertices(
+        scene.design, scene.representation, scene.tolerance, scene.modification
+    )
     verts = verts if "dxf" in f else 0.0
     tri = mesh_triangles(scene.design, scene.chord_tolerance)[0] if _meshes(scene) else 0.0
     return verts, tri
@@ -191,15 +221,17 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
     out = []
     profile = d.link_length + d.roller_radius + d.eccentricity
     uses = []  # (representation, share of the tolerance it is held to, what)
+    mod = scene.modification
     if "dxf" in f:
-        uses.append((scene.representation, 1.0, f"a {scene.representation} DXF profile"))
+        what = f"a {scene.representation} DXF profile" + (" (the modified one)" if mod else "")
+        uses.append((scene.representation, 1.0, what))
         if scene.measured_profile is not None:
             uses.append(("polyline", 1.0, "measured_profile.dxf's polyline"))
     if "edm" in f:
         uses.append(("arcs", 0.7, "the wire-EDM path (arcs to 0.7 of it)"))
     budgets = []
     for rep, share, what in uses:
-        need = functools.partial(_share_vertices, d, rep, share)
+        need = functools.partial(_share_vertices, d, rep, share, mod)
         budgets.append((need, MAX_PROFILE_VERTICES, what, "vertices"))
     if uses:
         out.append(_floor(scene.tolerance, "tolerance", profile, "profile", budgets))
@@ -217,8 +249,8 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
     return out
 
 
-def _share_vertices(design, rep: str, share: float, tol: float) -> float:
-    return profile_vertices(design, rep, share * tol)
+def _share_vertices(design, rep: str, share: float, modification, tol: float) -> float:
+    return profile_vertices(design, rep, share * tol, modification)
 
 
 def _assembly_triangles(design, chord: float) -> float:
