@@ -524,7 +524,9 @@ def main(argv: list[str] | None = None) -> int:
         sys.unraisablehook = hook
         sys.stdout = stdout
         for sig, previous in handlers.items():
-            signal.signal(sig, previous)
+            # The command's start-up guard says "previous outputs left": wrong once the
+            # run is over, so a Ctrl-C while the process exits is ignored instead.
+            signal.signal(sig, signal.SIG_IGN if _startup.is_guard(previous) else previous)
 
 
 def _main(argv: list[str] | None) -> int:
