@@ -544,3 +544,20 @@ def test_a_modified_curve_the_approximation_cannot_follow_writes_nothing(folder)
         "drawn within it: [modification] normal_table swing.csv bends it too sharply"
     )
     assert "nothing was written" in line
+
+
+@pytest.mark.parametrize("kind", ["symlink", "folder"])
+def test_a_symlink_or_a_folder_at_the_lock_path_is_refused_and_left(folder, kind):
+    out = folder / "out"
+    out.mkdir()
+    lock = out / ".corr-cad.lock"
+    if kind == "symlink":
+        lock.symlink_to(folder / "notes.txt")
+    else:
+        lock.mkdir()
+    r = cli(folder, DESIGN)
+    assert r.returncode == 2, r.stderr
+    line = r.stderr.strip()
+    assert line == line.splitlines()[0] and f"{lock}: is not corr-cad's lock file" in line
+    assert lock.is_symlink() if kind == "symlink" else lock.is_dir()
+    assert (folder / "notes.txt").read_text() == "mine\n"
