@@ -502,21 +502,24 @@ def main(argv: list[str] | None = None) -> int:
 
     import corr_cad._startup as _startup
     from corr_cad.run import interrupts
-
-    interrupts.clear()
-    handlers = {}
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            now = signal.getsignal(sig)
-            # Ctrl-C: ours, unless a caller (a notebook, a test) installed its own.
-            if sig == signal.SIGTERM or now is signal.default_int_handler or _startup.is_guard(now):
-                handlers[sig] = signal.signal(sig, _on_signal)
     from corr_cad.run.console import ClosedPipeSafe
 
+    interrupts.clear()
+    handlers: dict = {}
     hook, stdout = sys.unraisablehook, sys.stdout
-    sys.unraisablehook = interrupts.unraisable_hook
-    sys.stdout = ClosedPipeSafe(stdout)
     try:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                now = signal.getsignal(sig)
+                # Ctrl-C: ours, unless a caller (a notebook, a test) installed its own.
+                if (
+                    sig == signal.SIGTERM
+                    or now is signal.default_int_handler
+                    or _startup.is_guard(now)
+                ):
+                    handlers[sig] = signal.signal(sig, _on_signal)
+        sys.unraisablehook = interrupts.unraisable_hook
+        sys.stdout = ClosedPipeSafe(stdout)
         return _main(argv)
     except KeyboardInterrupt as exc:  # before or after _main's own handling
         return _interrupted(exc, {})
