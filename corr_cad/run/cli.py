@@ -524,6 +524,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:  # before or after _main's own handling
         return _interrupted(exc, {})
     finally:  # called in-process (tests, notebooks): leave nothing behind
+        interrupts.clear()
         sys.unraisablehook = hook
         sys.stdout = stdout
         for sig, previous in handlers.items():
