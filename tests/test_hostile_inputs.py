@@ -19,22 +19,10 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_inputs_issue21 import DESIGN  # the z = 8 design every input test runs
+from tests.test_inputs_issue21 import DESIGN, cli  # the z = 8 design, the CLI in s.toml
 
 #: Longest a single run may take before the test calls it a hang.
 HANG_S = 600
-
-
-def cli(folder: Path, scene: str, *extra: str, **kw) -> subprocess.CompletedProcess:
-    (folder / "s.toml").write_text(scene)
-    return subprocess.run(
-        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", *extra],
-        capture_output=True,
-        text=True,
-        cwd=folder,
-        timeout=HANG_S,
-        **kw,
-    )
 
 
 @pytest.fixture
@@ -380,11 +368,12 @@ def test_a_normal_table_with_control_characters_is_never_quoted(folder, content)
     assert "API_TOKEN" not in line and "PATH" not in line and "\\x" not in line
 
 
-def test_a_normal_table_pointed_at_the_environment_prints_none_of_it(folder):
+def test_a_normal_table_pointed_at_the_environment_prints_none_of_it(folder, monkeypatch):
     environ = Path("/proc/self/environ")
     if not environ.is_file():
         pytest.skip("no /proc/self/environ here")
-    r = cli(folder, _table_scene(str(environ)), env={**os.environ, "API_TOKEN": "sk-live-xyz"})
+    monkeypatch.setenv("API_TOKEN", "sk-live-xyz")  # the run inherits it
+    r = cli(folder, _table_scene(str(environ)))
     line = refused(folder, r)
     assert "sk-live" not in r.stderr and "API_TOKEN" not in r.stderr, line
 
