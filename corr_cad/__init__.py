@@ -24,6 +24,8 @@ first use, so ``import corr_cad`` and a DXF-only run stay quick.
 
 from __future__ import annotations
 
+# First, before numpy and scipy load: Ctrl-C while the command starts is one line.
+from corr_cad import _startup  # noqa: F401  (isort: skip)
 from corr_cad._version import __version__
 from corr_cad.errors import (
     CorrCadError,

@@ -698,7 +698,7 @@ def test_old_lost_motion_key_keeps_working_with_one_warning(tmp_path):
     [
         (
             "[datasheet]\nlost_motion_band = 1.5\n",
-            "[datasheet] lost_motion_band = 1.5: allowed range is (0, 1), e.g. 0.03",
+            "[datasheet] lost_motion_band = 1.5: allowed range is [0.001, 1), e.g. 0.03",
         ),
         (
             "[datasheet]\npositions_per_mesh = 0\n",
@@ -707,7 +707,7 @@ def test_old_lost_motion_key_keeps_working_with_one_warning(tmp_path):
         (
             "[datasheet]\nrigidity_range = [1.0, 0.5]\n",
             "[datasheet] rigidity_range = [1.0, 0.5]: must be [T_1, T_2] with "
-            "0 <= T_1 < T_2 <= 1 (shares of T_R), e.g. [0.5, 1.0]",
+            "0 <= T_1 < T_2 <= 1 (shares of T_R), T_2 - T_1 >= 0.001, e.g. [0.5, 1.0]",
         ),
         (
             "[datasheet]\nseries_rigidity_Nm_per_arcmin = -3.0\n",

@@ -297,7 +297,7 @@ def test_one_range_text_everywhere(capsys, folder):
     line = _refused_in_process(capsys, folder, "[design]\ncam_radius = 20000.0\n")
     with pytest.raises(DesignError) as exc:
         GearDesign(cam_radius=20000.0)
-    assert line.endswith(str(exc.value))
+    assert line.split(", e.g. ")[0].endswith(str(exc.value))  # the loader adds a value that works
 
 
 # --- warnings ---------------------------------------------------------------------

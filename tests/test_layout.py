@@ -18,6 +18,7 @@ PKG = Path(__file__).resolve().parents[1] / "corr_cad"
 #: may import from its own layer or any lower one, never from a higher one.
 LAYERS = {
     "_version": 0,
+    "_startup": 0,
     "errors": 0,
     "bounds": 0,
     "figure_text": 0,

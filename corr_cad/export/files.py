@@ -15,12 +15,13 @@ import hashlib
 import io
 import itertools
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
-from corr_cad.errors import CorrCadError
+from corr_cad.errors import CorrCadError, ExportError
 
 __all__ = [
     "write_json",
@@ -159,8 +160,39 @@ def write_new_text(path: Path, text: str) -> Path:
 
 
 def write_json(path: Path, data: object) -> Path:
-    """Write ``data`` as indented, key-sorted JSON (deterministic)."""
-    return _atomic_text(path, json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n")
+    """Write ``data`` as indented, key-sorted JSON (deterministic).
+
+    NaN and inf are never written (JSON has neither): the inputs that produce
+    them are refused up front; should one slip through, this is one
+    :class:`ExportError` line naming the file and the value's place.
+    """
+    try:
+        text = json.dumps(data, indent=2, sort_keys=True, allow_nan=False)
+    except ValueError as exc:
+        where = _non_finite_at(data) or "a value"
+        raise ExportError(
+            f"{Path(path).name}: {where} is not a finite number (NaN or inf), which JSON cannot "
+            "hold; nothing was written"
+        ) from exc
+    return _atomic_text(path, text + "\n")
+
+
+def _non_finite_at(data: object, at: str = "") -> str | None:
+    """The place (``figures.rigidity.min``) of the first NaN or inf in ``data``."""
+    if isinstance(data, float) and not math.isfinite(data):
+        return at or "the value"
+    items = (
+        data.items()
+        if isinstance(data, dict)
+        else enumerate(data)
+        if isinstance(data, (list, tuple))
+        else ()
+    )
+    for k, v in items:
+        found = _non_finite_at(v, f"{at}.{k}" if at else str(k))
+        if found:
+            return found
+    return None
 
 
 def write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> Path:

@@ -128,10 +128,37 @@ def read_measured(
     else:
         pts, rows, stride = _read_csv(path, size, max_points)
     if len(pts) >= 4 and np.all(np.isfinite(pts)):
+        _refuse_outliers(pts, path)
         ring = shapely.LinearRing(pts)
         if not ring.is_simple:
             raise ProfileError(f"{_shown(path)}: the contour intersects itself")
     return MeasuredRead(pts, rows, stride)
+
+
+#: A point farther from the axis than this many times the median radius is an outlier.
+OUTLIER_RADIUS = 2.0
+
+
+def _refuse_outliers(pts: np.ndarray, path: Path) -> None:
+    """Refuse a point far off the ring (a stray probe point, a 1e308 typed in).
+
+    Such a point would dominate the fit (its square overflows from 1.3e154 mm)
+    or make the contour cross itself; it is named instead. The median radius
+    is robust to a few of them, and a whole file in other units (all points
+    far out) passes to the units check.
+    """
+    r = np.hypot(pts[:, 0] / 2, pts[:, 1] / 2)  # halved: no overflow at 1.7e308
+    median = float(np.median(r))
+    worst = int(np.argmax(r))
+    if r[worst] > OUTLIER_RADIUS * median:
+        x, y = pts[worst]
+        count = int(np.count_nonzero(r > OUTLIER_RADIUS * median))
+        raise ProfileError(
+            f"{_shown(path)}: {count} point{'s' if count > 1 else ''} far off the ring, e.g. "
+            f"({x:.6g}, {y:.6g}) at {2 * r[worst]:.3g} mm from the axis, more than "
+            f"{OUTLIER_RADIUS:g} times the median radius {2 * median:.4g} mm; remove such "
+            "outliers (stray probe points?)"
+        )
 
 
 def _stride(rows: int, max_points: int | None) -> int:

@@ -82,6 +82,16 @@ HYSTERESIS_NOTE = (
 )
 
 
+#: Smallest share of T_R a figure is read at (a band, the width of the rigidity
+#: range): the curve's torque levels are shares rounded to 12 digits, and the
+#: windup between two levels must stand well above float round-off, or a
+#: secant divides by zero and the datasheet would hold inf.
+MIN_SHARE = 1e-3
+#: Smallest rated torque, N*mm (1e-3 N*m): below it the torques of the figures
+#: (MIN_SHARE of T_R) near the subnormal floats.
+MIN_RATED_TORQUE_NMM = 1.0
+
+
 @dataclass(frozen=True)
 class DatasheetSpec:
     """What the datasheet is evaluated at (the ``[datasheet]`` section).
@@ -123,15 +133,16 @@ class DatasheetSpec:
             raise SolverError(f"{name} = {value!r}: allowed range is {allowed}, e.g. {works}")
 
         T = self.rated_torque
-        if not (isinstance(T, (int, float)) and math.isfinite(T) and T > 0):
-            bad("rated_torque", T, "(0, inf) N*mm", 2.86e6)
+        if not (isinstance(T, (int, float)) and math.isfinite(T) and T >= MIN_RATED_TORQUE_NMM):
+            bad("rated_torque", T, f"[{MIN_RATED_TORQUE_NMM:g}, inf) N*mm", 2.86e6)
         for name in ("lost_motion_band", "transmission_error_torque_band"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and 0 < v < 1):
-                bad(name, v, "(0, 1)", 0.03)
+            if not (isinstance(v, (int, float)) and MIN_SHARE <= v < 1):
+                bad(name, v, f"[{MIN_SHARE:g}, 1)", 0.03)
         lo, hi = self.rigidity_range
-        if not (0 <= lo < hi <= 1):
-            bad("rigidity_range", list(self.rigidity_range), "0 <= T_1 < T_2 <= 1", [0.5, 1.0])
+        if not (0 <= lo < hi <= 1 and hi - lo >= MIN_SHARE):
+            rule = f"0 <= T_1 < T_2 <= 1, T_2 - T_1 >= {MIN_SHARE:g}"
+            bad("rigidity_range", list(self.rigidity_range), rule, [0.5, 1.0])
         for name in ("positions_per_mesh", "transmission_error_positions_per_turn"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:

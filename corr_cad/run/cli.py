@@ -16,6 +16,7 @@ import os
 import sys
 import threading
 from pathlib import Path
+from typing import NoReturn
 
 from corr_cad._version import __version__
 from corr_cad.errors import CorrCadError
@@ -56,8 +57,16 @@ def _refuse_empty(args: argparse.Namespace) -> None:
             )
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse, but a flag error is one line (no usage block) and exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        hint = f"; '{self.prog} --help' lists the flags"
+        self.exit(2, _line(f"corr-cad: error: {self.prog}: {message}{hint}") + "\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _OneLineParser(
         prog="corr-cad",
         description=(
             "Profiles, machining files and mesh forces for compound oscillatory roller "
@@ -65,7 +74,9 @@ def _parser() -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("--version", action="version", version=f"corr-cad {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", parser_class=_OneLineParser
+    )
     run = sub.add_parser("run", help="build what a scene file asks for")
     run.add_argument("scene", type=Path, help="scene file (TOML)")
     run.add_argument(
@@ -153,15 +164,17 @@ def _check_workers(args: argparse.Namespace) -> None:
     cores = os.cpu_count() or 1
     if args.workers is not None and not 1 <= args.workers <= cores:
         raise SceneError(
-            f"--workers {args.workers}: allowed range is 1..{cores} (the number of cores)"
+            f"--workers {args.workers}: allowed range is 1..{cores} (the number of cores), "
+            f"e.g. --workers {cores}"
         )
     # Each flag has the range of the scene key it overrides.
     for flag, section, key in _FLAG_KEYS:
-        v = getattr(args, flag.lstrip("-").replace("-", "_"))
+        v = _flag(args, flag)
         spec = SCHEMA[section][key]
         if v is not None and not (math.isfinite(v) and spec.low < v <= spec.high):
             raise SceneError(
-                f"{flag} {v:g}: allowed range is {key_range(spec)} (as [{section}] {key})"
+                f"{flag} {v:g}: allowed range is {key_range(spec)} (as [{section}] {key}), "
+                f"e.g. {flag} {spec.works()}"
             )
 
 
@@ -189,6 +202,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     from corr_cad.run.scene import load_scene
 
     _check_workers(args)
+    if args.executor == "dask" and args.scheduler:
+        from corr_cad.run.dask_exec import check_address
+
+        check_address(args.scheduler)  # a malformed one is refused before anything starts
     scene = load_scene(args.scene)
     # Refused here, with one line, before any folder or worker exists.
     budget = budget_for(scene, args.max_memory, args.max_output, args.warn_time)
@@ -211,7 +228,7 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     with _executor(args, scene, concurrent, task_s) as executor, staging as stage:
         # Printed with --quiet too (the user must know), once the run is
         # accepted: a refused run prints only its one error line.
-        for warning in scene.warnings + ((slow,) if slow else ()):
+        for warning in scene.warnings + _executor_warnings(args, scene) + ((slow,) if slow else ()):
             print(f"corr-cad: warning: {warning}", file=sys.stderr)
         if scene.formats_left_out:
             why = "; ".join(f"{f} ({w})" for f, w in scene.formats_left_out)
@@ -254,6 +271,21 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     if failed or bad or asm:
         return 1
     return status
+
+
+def _executor_warnings(args: argparse.Namespace, scene) -> tuple[str, ...]:
+    """``[dask]`` and the Dask flags do nothing without ``--executor dask``."""
+    if args.executor == "dask":
+        return ()
+    given = [f"[dask] {k}" for k, v in scene.dask.items() if v is not None]
+    given += [f for f, sec, _ in _FLAG_KEYS if sec == "dask" and _flag(args, f) is not None]
+    given += ["--scheduler"] if args.scheduler else []
+    why = f"--executor is {args.executor}, not dask"
+    return tuple(f"{what} has no effect in this run: {why}" for what in given)
+
+
+def _flag(args: argparse.Namespace, flag: str):
+    return getattr(args, flag.lstrip("-").replace("-", "_"))
 
 
 def _worker_init(parent_pid: int) -> None:
@@ -421,12 +453,12 @@ def _new(args: argparse.Namespace) -> int:
     return 0
 
 
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C (exit 143 instead of 130)."""
+def _on_signal(signum, frame) -> None:
+    """SIGINT and SIGTERM: recorded (:mod:`corr_cad.run.interrupts`), then raised."""
+    from corr_cad.run import interrupts
 
-
-def _on_sigterm(signum, frame) -> None:
-    raise _Terminated()
+    interrupts.mark(signum)
+    interrupts.check()
 
 
 def _schema(args: argparse.Namespace) -> int:
@@ -492,20 +524,55 @@ def _dispatch(args: argparse.Namespace, state: dict) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     import signal
+
+    import corr_cad._startup as _startup
+    from corr_cad.run import interrupts
+    from corr_cad.run.console import ClosedPipeSafe
+
+    interrupts.clear()
+    handlers: dict = {}
+    hook, stdout = sys.unraisablehook, sys.stdout
+    try:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                now = signal.getsignal(sig)
+                # Ctrl-C: ours, unless a caller (a notebook, a test) installed its own.
+                if (
+                    sig == signal.SIGTERM
+                    or now is signal.default_int_handler
+                    or _startup.is_guard(now)
+                ):
+                    handlers[sig] = signal.signal(sig, _on_signal)
+        sys.unraisablehook = interrupts.unraisable_hook
+        sys.stdout = ClosedPipeSafe(stdout)
+        return _main(argv)
+    except KeyboardInterrupt as exc:  # before or after _main's own handling
+        return _interrupted(exc, {})
+    finally:  # called in-process (tests, notebooks): leave nothing behind
+        interrupts.clear()
+        sys.unraisablehook = hook
+        sys.stdout = stdout
+        for sig, previous in handlers.items():
+            # The command's start-up guard says "previous outputs left": wrong once the
+            # run is over, so a Ctrl-C while the process exits is ignored instead.
+            signal.signal(sig, signal.SIG_IGN if _startup.is_guard(previous) else previous)
+
+
+def _main(argv: list[str] | None) -> int:
     import warnings
     from concurrent.futures import BrokenExecutor
 
-    from corr_cad.run.memory import keep_freed_memory
+    from corr_cad.run import interrupts
 
-    args = _parser().parse_args(argv)
-    keep_freed_memory()  # fresh pages fault at every new array otherwise: see memory.py
     state: dict = {}
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
+        args = _parser().parse_args(argv)
+        from corr_cad.run.memory import keep_freed_memory
+
+        keep_freed_memory()  # fresh pages fault at every new array otherwise: see memory.py
         with warnings.catch_warnings(record=True) as caught:
             code = _dispatch(args, state)
+        interrupts.check()  # an interrupt swallowed on the way (a GC callback) still ends it
         _show_warnings(caught)
         return code
     except CorrCadError as exc:
@@ -527,18 +594,23 @@ def main(argv: list[str] | None = None) -> int:
         _internal_error(exc, args, state)
         return INTERNAL_ERROR
     except KeyboardInterrupt as exc:
-        name, code = ("SIGTERM", 143) if isinstance(exc, _Terminated) else ("SIGINT", 130)
-        staging = state.get("staging")
-        left = (
-            "the new outputs were already in place"
-            if staging is not None and staging.committed
-            else "previous outputs left as they were"
-        )
-        print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
-        return code
-    finally:
-        if previous is not None:  # called in-process (tests, notebooks): leave no handler behind
-            signal.signal(signal.SIGTERM, previous)
+        return _interrupted(exc, state)
+
+
+def _interrupted(exc: KeyboardInterrupt, state: dict) -> int:
+    """The one line of an interrupted run, and its exit status (130 SIGINT, 143 SIGTERM)."""
+    from corr_cad.run import interrupts
+
+    terminated = isinstance(exc, interrupts.Terminated)
+    name, code = ("SIGTERM", 143) if terminated else ("SIGINT", 130)
+    staging = state.get("staging")
+    left = (
+        "the new outputs were already in place"
+        if staging is not None and staging.committed
+        else "previous outputs left as they were"
+    )
+    print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
+    return code
 
 
 #: Exit code of an unexpected exception (a bug in corr-cad or a library it calls).

@@ -13,6 +13,7 @@ names the checks that fail (the nominal limits and, with
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -28,6 +29,7 @@ __all__ = [
     "datasheet_lines",
     "assembly_line",
     "summary_lines",
+    "ClosedPipeSafe",
 ]
 
 #: Contact pressure beyond which the numbers are flagged (defined with the
@@ -470,3 +472,45 @@ def summary_lines(manifest: dict, out) -> list[str]:
     lines.extend(f"warning: {w}" for w in warnings(manifest))
     lines.append(f"wrote {len(manifest['files']) + 1} files to {out}")
     return lines
+
+
+class ClosedPipeSafe:
+    """``sys.stdout`` that a closed pipe (``corr-cad run ... | head -1``) never stops.
+
+    The first write to a closed pipe points the descriptor at ``/dev/null``:
+    the rest of the console output is dropped, and the run goes on to its
+    commit and exit status.
+    """
+
+    def __init__(self, stream):
+        self._stream = stream
+        self._closed = False
+
+    def write(self, text: str) -> int:
+        if not self._closed:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._gone()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self._closed:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._gone()
+
+    def _gone(self) -> None:
+        self._closed = True
+        try:
+            null = os.open(os.devnull, os.O_WRONLY)
+            try:
+                os.dup2(null, self._stream.fileno())  # Python's exit flush succeeds too
+            finally:
+                os.close(null)
+        except (OSError, ValueError, AttributeError):
+            pass
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)

@@ -79,22 +79,41 @@ def timeouts_for(scene, connect=None, no_workers=None, stall=None, task_seconds:
     return DaskTimeouts(c[0], n[0], s[0], c[1], n[1], s[1])
 
 
+#: Longest host name (RFC 1035: 253 characters, labels of at most 63).
+MAX_HOST = 253
+
+
+def check_address(address: str) -> None:
+    """Refuse a ``--scheduler`` that is no address at all, before anything starts."""
+    _where(address)
+
+
 def _where(address: str) -> tuple[str, int] | None:
     """(host, port) of a TCP address (``tcp://host:port`` or ``host:port``), else None."""
+    from corr_cad.bounds import show
+
+    shown = show(address, 60)
+    form = "give tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786"
+    if not address.isprintable():
+        raise DaskError(f"--scheduler {shown}: holds control characters; {form}")
     text = address if "://" in address else f"tcp://{address}"
-    parts = urlsplit(text)
+    try:
+        parts = urlsplit(text)
+        host, port = parts.hostname, parts.port
+    except ValueError as exc:  # an unclosed '[', a bad IPv6 literal, a port out of range
+        raise DaskError(f"--scheduler {shown}: not an address ({exc}); {form}") from None
+    if host is not None and (
+        len(host) > MAX_HOST or any(len(label) > 63 for label in host.split("."))
+    ):
+        raise DaskError(
+            f"--scheduler {shown}: a host name of {len(host)} characters; at most "
+            f"{MAX_HOST}, each dot-separated part at most 63; {form}"
+        )
     if parts.scheme != "tcp":
         return None
-    try:
-        port = parts.port
-    except ValueError:
-        port = None
-    if not parts.hostname or port is None:
-        raise DaskError(
-            f"--scheduler {address!r}: not an address of the form tcp://HOST:PORT "
-            "(e.g. tcp://127.0.0.1:8786)"
-        )
-    return parts.hostname, port
+    if not host or port is None:
+        raise DaskError(f"--scheduler {shown}: not an address of the form tcp://HOST:PORT; {form}")
+    return host, port
 
 
 def probe(address: str, t: DaskTimeouts) -> None:

@@ -237,8 +237,10 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
     out = []
     profile = d.link_length + d.roller_radius + d.eccentricity
     uses = []  # (representation, share of the tolerance it is held to, what)
+    mod = scene.modification
     if "dxf" in f:
-        uses.append((scene.representation, 1.0, f"a {scene.representation} DXF profile"))
+        what = f"a {scene.representation} DXF profile" + (" (the modified one)" if mod else "")
+        uses.append((scene.representation, 1.0, what))
         if scene.measured_profile is not None:
             uses.append(("polyline", 1.0, "measured_profile.dxf's polyline"))
     if "edm" in f:

@@ -42,8 +42,6 @@ temporary lies in a marked staging folder.
 from __future__ import annotations
 
 import contextlib
-import errno
-import fcntl
 import json
 import os
 import re
@@ -52,12 +50,15 @@ import signal
 import sys
 import tempfile
 import threading
-import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from corr_cad.errors import CorrCadError, ExportError, OutputError
 from corr_cad.export.files import _umask, sha256_of, write_json
+from corr_cad.run import interrupts
+from corr_cad.run.lockfile import LOCK_NAME, lock_wait_s
+from corr_cad.run.lockfile import lock as _lock
+from corr_cad.run.lockfile import unlock as _unlock
 from corr_cad.run.manifest_file import (
     GENERATOR,
     MANIFEST_NAME,
@@ -77,30 +78,9 @@ __all__ = [
     "STAGING_PREFIX",
 ]
 
-LOCK_NAME = ".corr-cad.lock"
 #: Written into every staging folder on creation: only folders holding it are
 #: ever removed as leftovers (a user's folder that merely has the name is not).
 STAGING_MARK = ".corr-cad-staging"
-#: The lock file's content: a file of that name with other content is the user's.
-LOCK_MARK = b"corr-cad lock\n"
-#: How long a run waits for another run into the same folder before refusing
-#: (environment variable ``CORR_CAD_LOCK_WAIT_S`` overrides it, 0..3600 s).
-LOCK_WAIT_S = 10.0
-
-
-def _lock_wait_s() -> float:
-    raw = os.environ.get("CORR_CAD_LOCK_WAIT_S")
-    try:
-        value = float(raw) if raw is not None else LOCK_WAIT_S
-    except ValueError:
-        raise OutputError(
-            f"CORR_CAD_LOCK_WAIT_S = {raw!r}: must be a number of seconds in 0..3600"
-        ) from None
-    if not 0 <= value <= 3600:
-        raise OutputError(f"CORR_CAD_LOCK_WAIT_S = {raw!r}: allowed range is 0..3600 s")
-    return value
-
-
 _JOURNAL_TMP = ".manifest.journal.json"
 
 
@@ -326,73 +306,6 @@ def _held_signals():
                 os.kill(os.getpid(), got[0])
 
 
-def _lock(folder: Path, wait_s: float) -> tuple[int, Path]:
-    """Hold an exclusive flock on ``<folder>/.corr-cad.lock`` (waits up to ``wait_s``).
-
-    The file is removed when the run ends; a waiting run that then holds a
-    lock on the removed file sees another inode at the path and starts over.
-    """
-    path = folder / LOCK_NAME
-    deadline = time.monotonic() + wait_s
-    while True:
-        if os.path.lexists(path) and not _regular(path):
-            raise OutputError(
-                f"{path}: is a symlink or not a regular file; corr-cad leaves it alone"
-            )
-        try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)
-        except OSError as exc:
-            raise OutputError(f"{path}: cannot open the lock file ({exc.strerror})") from exc
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except OSError as exc:
-                if exc.errno not in (errno.EAGAIN, errno.EACCES):
-                    os.close(fd)
-                    raise
-            if time.monotonic() >= deadline:
-                os.close(fd)
-                raise OutputError(
-                    f"--out {str(folder)!r}: another corr-cad run is writing into this folder "
-                    f"(waited {wait_s:g} s); try again when it has finished"
-                )
-            time.sleep(0.05)
-        try:
-            same = os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino
-        except FileNotFoundError:
-            same = False
-        if same:
-            content = os.pread(fd, 64, 0)
-            if content not in (b"", LOCK_MARK):  # a file of the user's with our name
-                os.close(fd)
-                raise OutputError(
-                    f"{path}: is not corr-cad's lock file; corr-cad leaves it alone - move it "
-                    "away or choose another --out"
-                )
-            if not content:
-                try:
-                    os.pwrite(fd, LOCK_MARK, 0)
-                except OSError as exc:  # a full disk: leave no empty lock file behind
-                    _unlock(fd, path)
-                    raise OutputError(
-                        f"{path}: {exc.strerror or exc} (writing the lock file); nothing was "
-                        "left behind"
-                    ) from exc
-            return fd, path
-        os.close(fd)  # the holder removed it as we waited: lock the new one
-
-
-def _unlock(fd: int, path: Path) -> None:
-    try:
-        if os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino:
-            os.unlink(path)
-    except FileNotFoundError:
-        pass
-    finally:
-        os.close(fd)  # closing the descriptor releases the flock
-
-
 def _stderr(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
@@ -427,7 +340,7 @@ class StagingDir:
         self._created: list[Path] = []
 
     def __enter__(self) -> Path:
-        wait = self.lock_wait_s if self.lock_wait_s is not None else _lock_wait_s()
+        wait = self.lock_wait_s if self.lock_wait_s is not None else lock_wait_s()
         self.target = check_out_dir(self.given)
         created = []
         p = self.target
@@ -480,6 +393,7 @@ class StagingDir:
         keep_stage = False
         try:
             if exc_type is None:
+                interrupts.check()  # one swallowed on the way (a GC callback) stops it here
                 keep_stage = True
                 self._commit()
                 keep_stage = False

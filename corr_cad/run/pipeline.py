@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad._version import __version__
+from corr_cad.run import interrupts
 from corr_cad.run.context import RunContext
 from corr_cad.run.scene import Scene
 from corr_cad.run.stages import FORMAT_TARGETS, STAGES, plan
@@ -143,6 +144,7 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
 
     try:
         for i, name in enumerate(stages, 1):
+            interrupts.check()  # an interrupt swallowed in the last stage stops the run here
             if name in pending:
                 ctx.progress(f"[{i}/{len(stages)}] {name}: {STAGES[name].doc} (in a worker)")
                 continue

@@ -27,6 +27,7 @@ import math
 import os
 from dataclasses import dataclass, replace
 
+from corr_cad.bounds import show
 from corr_cad.errors import SceneError
 from corr_cad.run.costs import ESTIMATORS, LIBRARY_BYTES, WORKER_BYTES, Cost, Env
 from corr_cad.run.limits import (  # noqa: F401  (re-exported: the limits are part of this interface)
@@ -38,6 +39,7 @@ from corr_cad.run.limits import (  # noqa: F401  (re-exported: the limits are pa
     profile_vertices,
     round_up,
 )
+from corr_cad.run.scene_schema import SCHEMA
 
 __all__ = [
     "DEFAULT_MEMORY_GB",
@@ -430,9 +432,19 @@ def _blame(scene, est: Estimate, stages: list[str], fits) -> tuple[str, str]:
         if ok is not None:
             get = KNOBS[key][0]
             return f"{key} = {_show(get(scene), key)}", f"{_show(ok, key)} would fit"
-    key = candidates[0] if candidates else ""
+    # No value of a key fits: name what the costliest stage is sized by (the
+    # measured profile's file, say), not a key of some other stage.
+    first = [k for k in est.stages[stages[0]].knobs if k not in KNOBS] if stages else []
+    key = first[0] if first else candidates[0] if candidates else ""
     if key in KNOBS:
         return f"{key} = {_show(KNOBS[key][0](scene), key)}", "no single value of it fits"
+    if key == "[errors] measured_profile" and scene.measured_profile is not None:
+        p = scene.measured_profile
+        size = p.stat().st_size if p.is_file() else 0
+        return (
+            f"{key} = {show(p.name, 60)} ({_size(size)})",
+            "a file of fewer points fits (a CSV x,y is read in blocks)",
+        )
     return key or "the scene", "reduce its sizes"
 
 
@@ -442,6 +454,18 @@ def _show(v, key: str) -> str:
     if key == "[assembly] roller_classes_um":
         return f"{v} classes"
     return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def _raise(need: float, flag: str) -> str:
+    """A budget that the need fits, as the flag and the scene key that set it."""
+    key = {"--max-memory": "memory_gb", "--max-output": "output_gb"}[flag]
+    gb = round_up(need / GB * 1.1)
+    high = SCHEMA["budget"][key].high
+    if flag == "--max-memory":
+        high = min(high, machine_memory() / GB)
+    if gb > high:
+        return f"it would take {gb:g} GB, more than the {high:.3g} GB allowed here"
+    return f"{flag} {gb:g} (or [budget] {key} = {gb:g})"
 
 
 def _gb(x: float) -> str:
@@ -479,8 +503,7 @@ def check_scene(
         raise SceneError(
             f"{what}: the run would need about {_size(est.memory)} of memory (at "
             f"{est.peak_stage}); the budget is {_gb(budget.memory_bytes)} "
-            f"({budget.memory_from}); {fit}, or raise it with --max-memory GB or "
-            "[budget] memory_gb"
+            f"({budget.memory_from}); {fit}, or raise it: {_raise(est.memory, '--max-memory')}"
         )
     if est.output_bytes > budget.output_bytes:
 
@@ -493,8 +516,8 @@ def check_scene(
         raise SceneError(
             f"{what}: the run would write about {_size(est.output_bytes)} of files ({files} "
             f"{_size(est.output[files])}); the output budget is {_gb(budget.output_bytes)} "
-            f"({budget.output_from}); {fit}, or raise it with --max-output GB or "
-            "[budget] output_gb"
+            f"({budget.output_from}); {fit}, or raise it: "
+            f"{_raise(est.output_bytes, '--max-output')}"
         )
     return est
 

@@ -22,11 +22,12 @@ from corr_cad.geometry.design import GearDesign, Material
 from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
+from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run import scene_drive as drv
 from corr_cad.run.scene_drive import SolverSpec
 from corr_cad.run.scene_first_stage import first_stage_load, parse_first_stage
-from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format
+from corr_cad.run.scene_hints import design_refusal, did_you_mean, every_format, long_number
 from corr_cad.run.scene_key import nesting_depth
 from corr_cad.run.scene_modification import acts, parse_modification, split_design_table
 from corr_cad.run.scene_montecarlo import check_binding_gate
@@ -145,8 +146,10 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
             raise SceneError(f"{where} = {show(value)}: must be true or false")
         return value
     if spec.kind == "int":
+        if isinstance(value, float) and value.is_integer() and abs(value) <= 2**53:
+            value = int(value)  # 25.0 is the whole number 25
         if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(f"{where} = {show(value)}: must be an integer")
+            raise SceneError(f"{where} = {show(value)}: must be an integer, e.g. {spec.works()}")
         _bounds(where, value, spec)
         return value
     if spec.kind == "float":
@@ -215,13 +218,10 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
 
 def _bounds(where: str, v: float, spec: Key) -> None:
     if out_of_range(v, spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open):
-        shown = v if isinstance(v, int) else f"{v:g}"
-        works = spec.default if spec.default is not None else spec.example
-        if where.startswith("[datasheet]") and isinstance(works, (int, float)):
-            raise SceneError(
-                f"{where} = {shown}: allowed range is {key_range(spec)}, e.g. {works:g}"
-            )
-        raise SceneError(f"{where} = {shown}: allowed range is {key_range(spec)}")
+        shown = v if isinstance(v, int) and abs(v) < 10**15 else f"{v:g}"
+        works = spec.works()
+        hint = f", e.g. {works}" if works is not None else ""
+        raise SceneError(f"{where} = {shown}: allowed range is {key_range(spec)}{hint}")
 
 
 def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
@@ -525,10 +525,10 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
     if not ("datasheet" in formats or checks.datasheet_active()):
         return
     rng = ds["rigidity_range"]
-    if len(rng) != 2 or not rng[0] < rng[1]:
-        raise SceneError(
+    if len(rng) != 2 or not rng[0] < rng[1] or rng[1] - rng[0] < MIN_SHARE:
+        raise SceneError(  # a narrower range divides by round-off: the rigidity would be inf
             f"[datasheet] rigidity_range = {rng!r}: must be [T_1, T_2] with "
-            "0 <= T_1 < T_2 <= 1 (shares of T_R), e.g. [0.5, 1.0]"
+            f"0 <= T_1 < T_2 <= 1 (shares of T_R), T_2 - T_1 >= {MIN_SHARE:g}, e.g. [0.5, 1.0]"
         )
     if ds["rated_torque_Nm"] is None and load is None:
         why = (
@@ -540,10 +540,11 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
             f"[datasheet] rated_torque_Nm is not set and [load] gives no torque ({why}); "
             "set rated_torque_Nm (N*m, e.g. 2860) or [load] input_torque (N*mm)"
         )
-    if ds["rated_torque_Nm"] is None and load is not None and load.input_torque == 0:
-        raise SceneError(
-            "[load] input_torque = 0: the datasheet's rated torque (z + 1) * input_torque "
-            "would be 0; set [datasheet] rated_torque_Nm (N*m, e.g. 2860)"
+    if ds["rated_torque_Nm"] is None and load is not None and abs(load.input_torque) < 1.0:
+        raise SceneError(  # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM)
+            f"[load] input_torque = {load.input_torque:g}: the datasheet's rated torque "
+            "(z + 1) * input_torque would be below 0.001 N*m; set [datasheet] rated_torque_Nm "
+            "(N*m, e.g. 2860) or input_torque >= 1 N*mm"
         )
 
 
@@ -597,4 +598,6 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(
             f"{show(path.name, 120)}: arrays or tables nested too deep; at most {MAX_NESTING}"
         ) from exc
+    except ValueError as exc:  # an integer beyond Python's 4300 digits
+        raise SceneError(long_number(text, show(path.name, 120))) from exc
     return parse_scene(data, name=path.stem, base_dir=path.parent)

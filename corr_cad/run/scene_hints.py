@@ -9,6 +9,7 @@ the keys the scene set and the nearest values that pass
 
 from __future__ import annotations
 
+from corr_cad.bounds import show
 from corr_cad.run.scene_schema import FORMATS
 
 __all__ = ["did_you_mean", "design_refusal", "every_format"]
@@ -100,3 +101,20 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
     why = {f: next((w for ok, w in needs.get(f, ()) if not ok), None) for f in FORMATS}
     made = tuple(f for f in FORMATS if why.get(f) is None)
     return made, tuple((f, why[f]) for f in FORMATS if why.get(f) is not None)
+
+
+def long_number(text: str, name: str) -> str:
+    """The refusal of a scene whose longest number has more digits than Python reads."""
+    import re
+    import sys
+
+    runs = [(len(m.group().replace("_", "")), m.start()) for m in re.finditer(r"\d[\d_]*", text)]
+    digits, at = max(runs, default=(0, 0))
+    row = text.count("\n", 0, at) + 1
+    line = text.splitlines()[row - 1] if text.splitlines() else ""
+    key = line.split("=", 1)[0].strip() if "=" in line else "a value"
+    limit = sys.get_int_max_str_digits() or 4300
+    return (
+        f"{name} line {row}: {show(key, 40)} is a number of {digits} digits; Python reads at "
+        f"most {limit} and no key needs more than 10 (e.g. tooth_count = 39)"
+    )

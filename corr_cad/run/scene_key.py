@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from corr_cad.bounds import range_text
+from corr_cad.bounds import out_of_range, range_text
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,21 @@ class Key:
     low_open: bool = True  # the lower bound itself is not allowed
     max_len: int | None = None  # most entries a list may hold
     note: str = ""  # a range that depends on the design, shown in the README table
+
+    def works(self) -> str | None:
+        """A value inside the key's own range, for refusals: example, default or a bound."""
+        candidates = [self.example, self.default]
+        if self.low is not None and self.high is not None:
+            step = 1 if self.kind == "int" else 0
+            candidates += [self.low + step, self.high, (self.low + self.high) / 2]
+        for v in candidates:
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                continue
+            if not out_of_range(
+                v, self.low, self.high, low_open=self.low_open, high_open=self.high_open
+            ):
+                return str(int(v)) if self.kind == "int" else f"{v:g}"
+        return None
 
 
 #: Most entries of a list key whose length the design does not fix.

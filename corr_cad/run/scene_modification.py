@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from corr_cad.bounds import show
 from corr_cad.errors import CorrCadError, SceneError
 from corr_cad.export.inputfiles import read_regular_file
 from corr_cad.geometry.design import GearDesign
@@ -30,12 +31,18 @@ MAX_TABLE_BYTES = 1024 * 1024
 
 def read_normal_table(path: Path) -> NormalTable:
     """The table of ``path``: rows ``psi_deg,normal_mm``."""
-    where = f"[modification] normal_table {path.name}"
+    where = f"[modification] normal_table {show(path.name, 60)}"
     text = read_regular_file(path, "[modification] normal_table", MAX_TABLE_BYTES)
     try:
         lines = text.decode("utf-8-sig").splitlines()
     except UnicodeDecodeError as exc:
         raise SceneError(f"{where}: not UTF-8 text; write psi_deg,normal_mm rows") from exc
+    for k, raw in enumerate(lines, start=1):  # never echo a binary or secret file's content
+        if not raw.replace("\t", " ").isprintable():
+            raise SceneError(
+                f"{where} line {k}: holds control or NUL characters, not a text table (is it "
+                "the right file?); write psi_deg,normal_mm rows, e.g. 90,0.005"
+            )
     psi, nrm = [], []
     for k, raw in enumerate(lines, start=1):
         line = raw.split("#", 1)[0].strip()
@@ -53,12 +60,23 @@ def read_normal_table(path: Path) -> NormalTable:
             nrm.append(float(cells[1]))
         except ValueError as exc:
             raise SceneError(
-                f"{where} line {k}: {line!r} is not two numbers psi_deg,normal_mm, e.g. 90,0.005"
+                f"{where} line {k}: {quote_line(line)} is not two numbers psi_deg,normal_mm, "
+                "e.g. 90,0.005"
             ) from exc
     try:
         return NormalTable(tuple(psi), tuple(nrm), source=f"normal_table {path.name}")
     except CorrCadError as exc:
         raise SceneError(f"[modification] {exc}") from exc
+
+
+#: Most characters of a file's line quoted in a refusal.
+QUOTE_CHARS = 40
+
+
+def quote_line(line: str) -> str:
+    """At most :data:`QUOTE_CHARS` printable characters of a line, quoted."""
+    text = line if len(line) <= QUOTE_CHARS else line[: QUOTE_CHARS - 3] + "..."
+    return repr(text)
 
 
 def acts(section: str, modification, assembly: dict, search: dict) -> bool:
@@ -77,6 +95,11 @@ def split_design_table(data: dict) -> dict:
     mod = data.get("modification") if isinstance(data, dict) else None
     if not (isinstance(mod, dict) and "design" in mod):
         return data
+    if "modification.design" in data:  # one would silently override the other
+        raise SceneError(
+            '[modification.design] is given twice: as ["modification.design"] (quoted) and as '
+            "[modification.design] or [modification] design = {...}; keep one of them"
+        )
     rest = {k: v for k, v in mod.items() if k != "design"}
     return {**data, "modification": rest, "modification.design": mod["design"]}
 

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+from corr_cad.mechanics.datasheet import MIN_RATED_TORQUE_NMM, MIN_SHARE
 from corr_cad.run.scene_key import Key
 from corr_cad.tolerance.montecarlo import TOLERANCE_KINDS
 from corr_cad.tolerance.sweeps import PAPER_SWEEPS
@@ -25,7 +26,8 @@ SECTIONS: dict[str, dict[str, Key]] = {
             None,
             "T_R, rated output torque the figures refer to, N*m "
             "(default: (z + 1) * [load] input_torque)",
-            low=0,
+            low=MIN_RATED_TORQUE_NMM / 1000,
+            low_open=False,
             high=1e9,
             example=2860.0,
         ),
@@ -33,7 +35,8 @@ SECTIONS: dict[str, dict[str, Key]] = {
             "float",
             0.03,
             "lost motion at +- this share of T_R (RV catalogues 0.03, strain-wave 0.04)",
-            low=0,
+            low=MIN_SHARE,
+            low_open=False,
             high=1,
             high_open=True,
         ),
@@ -45,13 +48,14 @@ SECTIONS: dict[str, dict[str, Key]] = {
             low_open=False,
             high=1,
             max_len=2,
-            note="two values, T_1 < T_2",
+            note=f"two values, T_2 - T_1 >= {MIN_SHARE:g}",
         ),
         "transmission_error_torque_band": Key(
             "float",
             0.03,
             "driving torque of the transmission error, share of T_R",
-            low=0,
+            low=MIN_SHARE,
+            low_open=False,
             high=1,
             high_open=True,
         ),

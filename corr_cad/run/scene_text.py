@@ -139,7 +139,27 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
                 "only forces, datasheet (without measured_profile), checks, montecarlo, "
                 "allocation, interference, inspection with [load]",
             )
+    out.extend(f"{what} has no effect in this scene: {why}" for what, why in _modification(data, f))
     return tuple(out)
+
+
+def _modification(data: dict, f: set[str]) -> list[tuple[str, str]]:
+    """``[modification]``, ``[modification.design]`` and ``[assembly]`` keys without effect."""
+    found = []
+    mod = data.get("modification", {})
+    mod = mod if isinstance(mod, dict) else {}
+    # split by the loader, or still nested as TOML reads it (the template's own check)
+    design = "modification.design" in data or isinstance(mod.get("design"), dict)
+    if design and "modification" not in f:
+        found.append(("[modification.design]", 'formats does not list "modification"'))
+    if "inspect_against" in mod and "inspection" not in f:
+        found.append(("[modification] inspect_against", 'formats does not list "inspection"'))
+    asm = data.get("assembly", {})
+    asm = asm if isinstance(asm, dict) else {}
+    for k in asm:
+        if k != "roller_classes_um" and "roller_classes_um" not in asm:
+            found.append((f"[assembly] {k}", "[assembly] roller_classes_um is not set"))
+    return found
 
 
 def renamed_key_warnings(data: dict) -> tuple[str, ...]:

@@ -47,6 +47,9 @@ def _dxf_geometry(ctx: RunContext) -> None:
         expected=expected_seconds(ctx, "dxf_geometry"),
     )
     w = approximate(ctx.results.working, s.representation, s.tolerance)
+    if conj is not None and not w.within_tolerance:
+        bar.close()
+        _refuse_modified(s, w)
     bar.update(1)
     t = approximate(ctx.results.theoretical, s.representation, s.tolerance)
     bar.update(1)
@@ -80,6 +83,27 @@ def _dxf_geometry(ctx: RunContext) -> None:
                 "file": f"{part}.dxf",
                 "layer": "PROFILE",
             }
+
+
+def _refuse_modified(s, w) -> None:
+    """A modified curve the approximation cannot follow: refused before any file is written.
+
+    The conjugate profile's limits are known in advance (the tolerance floors
+    of :mod:`corr_cad.run.limits`); a normal table that bends the curve
+    sharper than the tolerance can follow is found here, by the
+    approximation itself, in the stage before the files.
+    """
+    from corr_cad.errors import SceneError
+
+    table = s.modification.normal_table
+    what = f"[modification] {table.source}" if table is not None else "[modification]"
+    fix = "a table of gentler swings" if table is not None else "a smaller modification"
+    raise SceneError(
+        f"[export] tolerance = {s.tolerance:g}: the modified working profile cannot be drawn "
+        f"within it: {what} bends it too sharply (measured max deviation "
+        f"{w.max_deviation:.3g} mm, {w.representation}, {w.entity_vertex_count} vertices); "
+        f"{fix} or a larger tolerance; nothing was written"
+    )
 
 
 def _dxf_files(ctx: RunContext) -> None:
