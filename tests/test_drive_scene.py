@@ -286,3 +286,8 @@ def test_paper_rigidity_check_says_it_is_one_row_upper_bound(tmp_path, capsys):
     text = capsys.readouterr()
     lines = [ln for ln in (text.out + text.err).splitlines() if "one row only" in ln]
     assert len(lines) == 1 and "upper bound" in lines[0]
+    # The customer's page names the model that made its figures.
+    page = (out / "datasheet.html").read_text()
+    assert "Palmgren steel line contacts" in page
+    assert "both rows solved together, cams on 40-needle bearings" in page
+    assert "one row carrying" not in page

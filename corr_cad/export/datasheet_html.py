@@ -183,12 +183,7 @@ def _model(sheet: dict, design, title: str, modification: str, version: str) -> 
         ),
         ("Ring", ring_text),
         ("Errors applied", ", ".join(errs) if errs else "none (nominal parts)"),
-        (
-            "Contact model",
-            f"Hertz line contacts ({sheet['contact_model']}), frictionless; load share of one "
-            f"cam {catalogue_number(sheet['load_share'])}"
-            + (f"; printed-paper variants {', '.join(v)}" if (v := sheet["variants"]) else ""),
-        ),
+        ("Contact model", model_text(sheet)),
         (
             "Positions",
             f"{pos['count']} output positions over {pos['span']} "
@@ -248,3 +243,39 @@ def write_datasheet_html(
     with writing(path) as tmp:
         tmp.write_text(html, encoding="utf-8")
     return path
+
+
+def model_text(sheet: dict) -> str:
+    """The model behind the figures: contact law, one row or the drive, friction."""
+    if sheet.get("contact_law") == "palmgren":
+        law = "Palmgren steel line contacts (delta = 3.84e-5 Q^0.9 / l^0.8)"
+    else:
+        law = f"Hertz line contacts ({sheet.get('contact_model', 'nonlinear')})"
+    if sheet.get("model") == "drive":
+        bearing = sheet.get("bearing")
+        cams = (
+            f"cams on {bearing['needles']}-needle bearings"
+            if isinstance(bearing, dict)
+            else "cams fixed on the crank"
+        )
+        rows = f"both rows solved together, {cams}"
+        share = sheet.get("row_a_share")
+        if isinstance(share, dict):
+            rows += (
+                f"; row A carries {catalogue_number(share['min'])} to "
+                f"{catalogue_number(share['max'])} of the crank moment"
+            )
+    else:
+        rows = (
+            f"one row carrying a load share {catalogue_number(sheet['load_share'])} "
+            "(the paper's model: an upper bound on rigidity)"
+        )
+    friction = (
+        "Coulomb friction in the efficiency and hysteresis figures"
+        if "efficiency_forward" in sheet
+        else "frictionless"
+    )
+    text = f"{law}; {rows}; {friction}"
+    if v := sheet.get("variants"):
+        text += f"; printed-paper variants {', '.join(v)}"
+    return text

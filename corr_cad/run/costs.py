@@ -124,6 +124,13 @@ def _profiles(scene, env):
 VERTEX_SECONDS = {"polyline": 2e-5, "arcs": 2.5e-4, "spline": 1e-4}
 
 
+@stage_cost("drive")
+def _whole_drive(scene, env):
+    # [first_stage]: the gears' outlines, the parts' areas and moments (0.57 s measured
+    # on templates/compound.toml, manifest.json), rounded up.
+    return Cost(memory=40 * MB, seconds=1.0)
+
+
 @stage_cost("dxf_geometry")
 def _dxf_geometry(scene, env):
     # Two profiles approximated; ~2 kB a vertex while the nodes are refined.

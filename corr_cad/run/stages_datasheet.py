@@ -300,15 +300,14 @@ def _datasheet_files(ctx: RunContext) -> None:
     )
     hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note)
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
-    _datasheet_html(ctx, {**meta, **ds.figures()})
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     ff = ctx.results.friction
+    figs = ff.figures() if ff is not None else {}
     if ff is not None:
         from corr_cad.export.files import write_json
         from corr_cad.export.friction_io import efficiency_png, write_friction_files
 
-        figs = ff.figures()
         write_json(ctx.out / "datasheet.json", {**_meta(ctx), **ds.figures(), **figs})
         ctx.files.extend(write_friction_files(ff, ctx.out))
         efficiency_png(ff, ctx.out / "efficiency.png", note)
@@ -316,6 +315,7 @@ def _datasheet_files(ctx: RunContext) -> None:
         ctx.manifest["datasheet"].update(figs)
     if s.solver.drive or s.solver.contact_law != "paper":
         ctx.manifest["datasheet"].update(_model_meta(s))
+    _datasheet_html(ctx, {**meta, **ds.figures(), **figs})
     if s.assembly:
         _assembly(ctx)
 
