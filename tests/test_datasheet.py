@@ -598,7 +598,11 @@ def test_datasheet_html_is_written_and_its_numbers_are_datasheet_json_s(run_dir)
     for name in ("hysteresis.png", "transmission_error.png"):
         data = "data:image/png;base64," + base64.b64encode((out / name).read_bytes()).decode()
         assert data in p.imgs, name
-    for words in ("Hertz line contacts (nonlinear)", "frictionless", "one row carrying a load share 0.55"):
+    for words in (
+        "Hertz line contacts (nonlinear)",
+        "frictionless",
+        "one row carrying a load share 0.55",
+    ):
         assert words in text
 
 

@@ -137,6 +137,11 @@ def test_drive_run_writes_both_rows_and_the_share(tmp_path):
     assert "both rows&#39; contacts and the cams&#39; eccentric bearings" in report or (
         "both rows' contacts and the cams' eccentric bearings" in report
     )
+    # The customer's page names the model that made its figures.
+    page = (out / "datasheet.html").read_text()
+    assert "Palmgren steel line contacts" in page
+    assert "both rows solved together, cams on 40-needle bearings" in page
+    assert "one row carrying" not in page
 
 
 def test_prototype_rigidity_table_of_the_physics_page():
@@ -286,8 +291,3 @@ def test_paper_rigidity_check_says_it_is_one_row_upper_bound(tmp_path, capsys):
     text = capsys.readouterr()
     lines = [ln for ln in (text.out + text.err).splitlines() if "one row only" in ln]
     assert len(lines) == 1 and "upper bound" in lines[0]
-    # The customer's page names the model that made its figures.
-    page = (out / "datasheet.html").read_text()
-    assert "Palmgren steel line contacts" in page
-    assert "both rows solved together, cams on 40-needle bearings" in page
-    assert "one row carrying" not in page

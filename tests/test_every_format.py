@@ -88,6 +88,21 @@ target_backlash_arcmin = 20.0
 time_warning_s = 3600
 [dask]
 connect_timeout_s = 5.0
+[friction]
+mu_cam = 0.05
+efficiency_torques = [0.5, 1.0]
+efficiency_speeds_rpm = [1000.0]
+[life]
+montecarlo_samples = 4
+[first_stage]
+pinion_teeth = 18
+wheel_teeth = 36
+crank_gear_teeth = 90
+module = 1.5
+shift_pinion = 0.5
+shift_crank_gear = 0.5
+face_width = 15.0
+backlash_allowance = 0.03
 """
 
 #: The design's own ring: the roller radius error gives the clearance.
@@ -160,7 +175,8 @@ def test_all_formats_with_every_section_on_the_design_s_ring(tmp_path):
         "roller.dxf", "preview.png", "forces.csv", "roller.stl", "roller.3mf", "roller.glb",
         "roller.ply", "montecarlo.csv", "allocation.csv", "sweeps.json", "datasheet.json",
         "inner_gear_edm.nc", "inner_gear_nominal.csv", "modification.json", "assembly.json",
-        "clearance.csv", "report.html",
+        "clearance.csv", "report.html", "efficiency.csv", "life.csv", "pinion.dxf",
+        "crank_gear.dxf", "wheel.stl",
     }  # fmt: skip
     if "step" not in left:
         expected.add("roller.step")

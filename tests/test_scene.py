@@ -122,6 +122,26 @@ def test_all_formats_with_every_input_is_every_format(tmp_path):
     assert left.pop("allocation") == "no limit in [checks]" and "montecarlo" not in left
 
 
+def test_all_under_the_drive_model_leaves_out_the_one_row_formats(tmp_path):
+    (tmp_path / "m.csv").write_text("x,y\n0,1\n")
+    data = {
+        "export": {"formats": ["all"]},
+        "load": {"input_torque": 1.1e5},
+        "solver": {"model": "drive"},
+        "errors": {"measured_profile": "m.csv"},
+        "tolerances": {"cam_radius": {"normal": 0.001}},
+        "modification.design": {"target_backlash_arcmin": 1.0},
+    }
+    left = dict(parse_scene(data, base_dir=tmp_path).formats_left_out)
+    assert "one row" in left["modification"] and "one row" in left["inspection"]
+    data["solver"] = {"contact_law": "palmgren"}
+    left = dict(parse_scene(data, base_dir=tmp_path).formats_left_out)
+    assert {"modification", "inspection"} <= set(left)
+    del data["solver"]
+    left = dict(parse_scene(data, base_dir=tmp_path).formats_left_out)
+    assert "modification" not in left and "inspection" not in left
+
+
 def test_all_stands_alone():
     with pytest.raises(SceneError, match=r'"all" stands alone'):
         parse_scene({"export": {"formats": ["all", "dxf"]}})

@@ -56,7 +56,9 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
 
     Left out: what needs an input the scene lacks (a torque for the forces
     and the studies built on them, tolerances, a limit for the allocation, a
-    measured profile for the inspection) and ``step`` without Open CASCADE.
+    measured profile for the inspection), ``step`` without Open CASCADE, and
+    the one-row formats (modification, inspection) under the drive model or
+    Palmgren's law.
     """
     import importlib.util
 
@@ -81,15 +83,21 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         load[0] or values.get("datasheet", {}).get("rated_torque_Nm") is not None,
         "no [load] torque and no [datasheet] rated_torque_Nm",
     )
+    sv = values["solver"]
+    one_row = (
+        sv["model"] == "paper" and sv["contact_law"] == "paper",
+        'it solves the paper\'s one row: [solver] model = "paper", contact_law = "paper" only',
+    )
     needs = {
         "forces": (load,),
         "datasheet": (rated,),
         "montecarlo": (load, tol),
         "allocation": (load, tol, limit),
         "sweeps": (load,),
-        "inspection": (measured,),
+        "inspection": (measured, one_row),
         "step": (ocp,),
         "modification": (
+            one_row,
             rated,
             tol,
             (
