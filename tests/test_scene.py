@@ -136,7 +136,7 @@ def test_all_under_the_drive_model_leaves_out_the_one_row_formats(tmp_path):
     assert "one row" in left["modification"] and "one row" in left["inspection"]
     data["solver"] = {"contact_law": "palmgren"}
     left = dict(parse_scene(data, base_dir=tmp_path).formats_left_out)
-    assert {"modification", "inspection"} <= set(left)
+    assert {"modification", "inspection", "montecarlo", "allocation"} <= set(left)
     del data["solver"]
     left = dict(parse_scene(data, base_dir=tmp_path).formats_left_out)
     assert "modification" not in left and "inspection" not in left

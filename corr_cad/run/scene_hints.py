@@ -88,11 +88,16 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         sv["model"] == "paper" and sv["contact_law"] == "paper",
         'it solves the paper\'s one row: [solver] model = "paper", contact_law = "paper" only',
     )
+    paper_law = (
+        sv["model"] == "drive" or sv["contact_law"] == "paper",
+        'its samples solve the paper\'s contact law or the drive: contact_law = "palmgren" '
+        'needs model = "drive"',
+    )
     needs = {
         "forces": (load,),
         "datasheet": (rated,),
-        "montecarlo": (load, tol),
-        "allocation": (load, tol, limit),
+        "montecarlo": (load, tol, paper_law),
+        "allocation": (load, tol, limit, paper_law),
         "sweeps": (load,),
         "inspection": (measured, one_row),
         "step": (ocp,),
