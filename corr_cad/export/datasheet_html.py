@@ -183,12 +183,7 @@ def _model(sheet: dict, design, title: str, modification: str, version: str) -> 
         ),
         ("Ring", ring_text),
         ("Errors applied", ", ".join(errs) if errs else "none (nominal parts)"),
-        (
-            "Contact model",
-            f"Hertz line contacts ({sheet['contact_model']}), frictionless; load share of one "
-            f"cam {catalogue_number(sheet['load_share'])}"
-            + (f"; printed-paper variants {', '.join(v)}" if (v := sheet["variants"]) else ""),
-        ),
+        ("Contact model", _contact_text(sheet)),
         (
             "Positions",
             f"{pos['count']} output positions over {pos['span']} "
@@ -248,3 +243,20 @@ def write_datasheet_html(
     with writing(path) as tmp:
         tmp.write_text(html, encoding="utf-8")
     return path
+
+
+def _contact_text(sheet: dict) -> str:
+    """The model's row of the table: the paper's one row at its share, or the drive."""
+    if sheet.get("model") == "drive":
+        b = sheet.get("bearing")
+        bearing = f"cams on {b['needles']}-needle bearings" if isinstance(b, dict) else "cams fixed"
+        return (
+            f"two rows solved together (drive), contact law {sheet['contact_law']}, {bearing}; "
+            "row A's share is a result"
+        )
+    law = sheet.get("contact_model", sheet.get("contact_law"))
+    return (
+        f"Hertz line contacts ({law}), frictionless; load share of one "
+        f"cam {catalogue_number(sheet['load_share'])}"
+        + (f"; printed-paper variants {', '.join(v)}" if (v := sheet["variants"]) else "")
+    )
