@@ -145,6 +145,13 @@ def test_cam_a_bearing_l10_from_forces_csv_by_iso281(tmp_path):
     L10_h = (60000.0 / P) ** (10 / 3) * 1e6 / (60 * b["relative_speed_rpm"])
     assert ds["life_h"]["bearing_row1"] == pytest.approx(L10_h, rel=10 / 3 * spread + 1e-9)
     assert ds["model"] == "drive"
+    # The files and the console say where the friction figures come from.
+    from corr_cad.export.report import _friction_rows
+    from corr_cad.run.console import friction_lines
+
+    assert ds["friction"]["forces"].startswith("drive: both rows")
+    assert "from the drive" in friction_lines(ds)[0]
+    assert "both rows of the drive" in _friction_rows(ds)[0]["note"]
 
 
 @pytest.mark.slow
@@ -170,3 +177,31 @@ def test_the_life_takes_the_needles_of_the_drives_bearing(tmp_path):
 
     assert load_scene(same).life["needles"] == 40
     assert math.isfinite(ratings[40])
+
+
+def test_drive_hysteresis_of_identical_rigid_rows_is_the_papers_at_share_one_half():
+    """Two alike rows on rigid cams: the drive's bench loop is the paper row's at 0.5."""
+    from corr_cad.mechanics.hysteresis import hysteresis_figures
+
+    drive = hysteresis_figures(D, DriveWindup(D, X), T_R, MU)
+    paper = hysteresis_figures(D, Windup(D, X, load_share=0.5), T_R, MU)
+    assert np.all(drive["width_at_rated"] > 0.0)
+    assert np.allclose(drive["width_at_rated"], paper["width_at_rated"], rtol=1e-6, atol=0)
+    # No preload: Coulomb friction vanishes with the forces at zero torque.
+    for k in ("loss", "starting_torque", "backdriving_torque"):
+        assert np.all(drive[k] == 0.0) and np.all(paper[k] == 0.0)
+
+
+def test_drive_hysteresis_grows_with_mu_slot_and_vanishes_without_friction():
+    from corr_cad.mechanics.hysteresis import hysteresis_figures
+
+    w = DriveWindup(D, X, bearing=BEARING)
+    width = [
+        hysteresis_figures(D, w, T_R, Friction(0.05, mu, 0.05, 0.0025, "bearing", 82.4))
+        for mu in (0.0, 0.02, 0.05)
+    ]
+    assert np.all(width[1]["width_at_rated"] > width[0]["width_at_rated"])
+    assert np.all(width[2]["width_at_rated"] > width[1]["width_at_rated"])
+    assert np.all(width[2]["loss"] == 0.0)  # no preload: no loss at zero torque
+    none = hysteresis_figures(D, w, T_R, Friction(0, 0, 0, 0, "bearing", 82.4))
+    assert np.all(none["width_at_rated"] == 0.0) and np.all(none["loss"] == 0.0)

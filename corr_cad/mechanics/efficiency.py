@@ -270,6 +270,9 @@ class FrictionFigures:
     bearing: dict | None = None
     #: Row 2's, when a drive model gives both rows.
     bearing_b: dict | None = None
+    #: Which force model the figures come from, as ``datasheet.json`` states it
+    #: (``friction["forces"]``; empty: not stated, the paper's row).
+    source: str = ""
 
     def drive_losses(self) -> np.ndarray:
         """The drive's forward losses per radian of output at each torque, N*mm (S,).
@@ -316,6 +319,7 @@ class FrictionFigures:
                 "model": "Coulomb, first order: frictionless load sharing, friction in each "
                 "roller's and the cam's own balance; efficiency independent of speed",
                 "power_balance_relative": self.balance,
+                **({"forces": self.source} if self.source else {}),
             },
         }
         if self.hysteresis is not None:

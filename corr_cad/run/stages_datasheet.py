@@ -137,6 +137,14 @@ def _datasheet(ctx: RunContext) -> None:
         ctx.results.friction = _friction_figures(ctx)
 
 
+#: ``datasheet.json`` ``friction["forces"]`` under ``model = "drive"``.
+DRIVE_SOURCE = (
+    "drive: both rows solved together, each at its own crank angles; each cam's bearing "
+    "rated on the drive's bearing_load of that cam (forces.csv), each row's raceways on "
+    "its own forces; the hysteresis on the drive's locked-input bench"
+)
+
+
 def friction_spec(scene):
     """The :class:`Friction` and :class:`LifeSpec` of ``[friction]`` and ``[life]``.
 
@@ -235,7 +243,11 @@ def _friction_figures(ctx: RunContext):
         life,
         **drive,
     )
-    ff.hysteresis = hysteresis_figures(s.design, w, ds.spec.rated_torque, friction)
+    bench = w
+    if s.solver.drive:
+        bench = dw
+        ff.source = DRIVE_SOURCE
+    ff.hysteresis = hysteresis_figures(s.design, bench, ds.spec.rated_torque, friction)
     fr = s.friction
     if fr["housing_area_m2"] is not None:
         ff.thermal = (
