@@ -127,10 +127,27 @@ SECTIONS: dict[str, dict[str, Key]] = {
             high=1_000_000,
         ),
         "needles": Key(
-            "int", 40, "needles of each eccentric bearing", low=2, high=10000, low_open=False
+            "int",
+            40,
+            "needles of each eccentric bearing (with [bearings.eccentric]: its value)",
+            low=2,
+            high=10000,
+            low_open=False,
         ),
-        "needle_diameter": Key("float", 6.0, "needle diameter D_we, mm", low=0, high=1000),
-        "needle_length": Key("float", 12.0, "needle effective length L_we, mm", low=0, high=1000),
+        "needle_diameter": Key(
+            "float",
+            6.0,
+            "needle diameter D_we, mm (with [bearings.eccentric]: its value)",
+            low=0,
+            high=1000,
+        ),
+        "needle_length": Key(
+            "float",
+            12.0,
+            "needle effective length L_we, mm (with [bearings.eccentric]: its value)",
+            low=0,
+            high=1000,
+        ),
     },
 }
 
