@@ -284,8 +284,8 @@ M = [
     ),
     (
         "tolerance/sweeps.py",
-        "positions=positions, load_share=load_share, errors=errors",
-        "positions=positions, errors=errors",
+        "                positions=positions,\n                load_share=load_share,\n",
+        "                positions=positions,\n",
         "sweep point ignores the scene's load_share (solver default 0.55)",
         "tests/test_sweeps.py -k load_share",
     ),
@@ -838,8 +838,8 @@ M = [
     ),
     (
         "run/stages_shop.py",
-        "prog, _ = plan_cut(ctx.results.working,",
-        "prog, _ = plan_cut(ctx.results.conjugate or ctx.results.working,",
+        "prog, _ = plan_cut(\n        ctx.results.working,",
+        "prog, _ = plan_cut(\n        ctx.results.conjugate or ctx.results.working,",
         "EDM wire path cut from the conjugate profile",
         "tests/test_modification.py::test_edm_path_clears_by_equidistant_less_the_wire_offset",
     ),

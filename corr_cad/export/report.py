@@ -504,6 +504,11 @@ def _datasheet_rows(d: dict) -> dict:
     }
 
 
+def _from_drive(d: dict) -> bool:
+    """Whether ``datasheet.json``'s friction figures come from the two-row drive."""
+    return d.get("friction", {}).get("forces", "").startswith("drive")
+
+
 def _friction_rows(d: dict) -> list[dict]:
     """Efficiency, starting torque, lives and rated torque from life (min, mean, max)."""
 
@@ -519,7 +524,12 @@ def _friction_rows(d: dict) -> list[dict]:
 
     bk = d["efficiency_backdriving"]
     rows = [
-        row("efficiency, forward", d["efficiency_forward"], "", "over the torque-speed map"),
+        row(
+            "efficiency, forward",
+            d["efficiency_forward"],
+            "",
+            "over the torque-speed map" + (", both rows of the drive" if _from_drive(d) else ""),
+        ),
         row(
             "efficiency, backdriving",
             bk,

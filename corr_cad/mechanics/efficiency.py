@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -60,7 +60,9 @@ class RowLoads:
     ``crank_angles`` (P,) the eccentric's angle relative to the frame;
     ``cam_force``, ``slot_force`` (signed: ``> 0`` pushes the frame
     forwards), ``ring_force`` (P, R); ``conformity_cam``,
-    ``conformity_ring`` (P, R) ``= 2 R*/D = 1 / (1 + r k)``.
+    ``conformity_ring`` (P, R) ``= 2 R*/D = 1 / (1 + r k)``;
+    ``bearing_load`` (P,) the load a drive model solved for this row's
+    eccentric bearing (None: the friction model's resultant is rated).
     """
 
     crank_angles: np.ndarray
@@ -69,6 +71,7 @@ class RowLoads:
     ring_force: np.ndarray
     conformity_cam: np.ndarray
     conformity_ring: np.ndarray
+    bearing_load: np.ndarray | None = None
 
 
 def row_loads_from_forces(design, res) -> RowLoads:
@@ -90,9 +93,18 @@ def rows_from_drive(design, drive) -> list[RowLoads]:
 
     ``drive`` has ``rows``, one force result per row with its own crank
     angles (row B's ``phi + pi`` and its phase) and geometry, as
-    ``corr_cad.mechanics.drive.DriveResult`` gives them.
+    ``corr_cad.mechanics.drive.DriveResult`` gives them. Each row carries
+    its cam's ``bearing_load`` (the drive's frictionless ``|sum F_j n_k|``,
+    as ``forces.csv`` writes it), which the bearing's life rates (a result
+    without ``bearing_load``: the friction model's resultant).
     """
-    return [row_loads_from_forces(design, r) for r in drive.rows]
+    loads = getattr(drive, "bearing_load", None)
+    if loads is None:  # rows alone: the friction model's resultant is rated
+        loads = [None] * len(drive.rows)
+    return [
+        replace(row_loads_from_forces(design, r), bearing_load=load)
+        for r, load in zip(drive.rows, loads, strict=True)
+    ]
 
 
 def drive_friction(design, rows: list[RowLoads], friction: Friction) -> list[RowFriction]:
@@ -152,13 +164,17 @@ def drive_life(
     spec: LifeSpec,
     mounting: str,
     output_rpm: float,
+    spec_b: LifeSpec | None = None,
 ) -> dict:
     """L10 in hours of every component at ``output_rpm``, and of the system.
 
     Per row: its eccentric bearing (ISO 281, mounting ``"bearing"`` only),
     its cam raceway and its ring raceway (Lundberg-Palmgren line contact).
+    The bearing's load is the row's ``bearing_load`` where the drive model
+    gives it, else the friction model's resultant; ``spec_b`` rates the
+    second row's bearing (default ``spec``).
     """
-    rating, _ = spec.rating()
+    ratings = [spec.rating()[0], (spec_b or spec).rating()[0]]
     R = design.roller_count
     r, L, length = design.roller_radius, design.link_length, design.roller_length
     gamma = r / L
@@ -166,8 +182,9 @@ def drive_life(
     for i, (row, fr) in enumerate(zip(rows, frictions, strict=True)):
         tag = f"row{i + 1}"
         if mounting == "bearing":
+            load = fr.bearing_load if row.bearing_load is None else row.bearing_load
             lives[f"bearing_{tag}"] = bearing_life_h(
-                rating, fr.bearing_load, fr.bearing_speed, output_rpm
+                ratings[min(i, 1)], load, fr.bearing_speed, output_rpm
             )
         q_cam = raceway_capacity(row.conformity_cam, False, R, 2.0 * r, length, gamma)
         q_ring = raceway_capacity(row.conformity_ring, True, R, 2.0 * r, length, gamma)
@@ -251,6 +268,11 @@ class FrictionFigures:
     thermal: tuple[float, float, float] | None = None
     #: Row 1's eccentric bearing at T_R: equivalent load and relative speed.
     bearing: dict | None = None
+    #: Row 2's, when a drive model gives both rows.
+    bearing_b: dict | None = None
+    #: Which force model the figures come from, as ``datasheet.json`` states it
+    #: (``friction["forces"]``; empty: not stated, the paper's row).
+    source: str = ""
 
     def drive_losses(self) -> np.ndarray:
         """The drive's forward losses per radian of output at each torque, N*mm (S,).
@@ -297,6 +319,7 @@ class FrictionFigures:
                 "model": "Coulomb, first order: frictionless load sharing, friction in each "
                 "roller's and the cam's own balance; efficiency independent of speed",
                 "power_balance_relative": self.balance,
+                **({"forces": self.source} if self.source else {}),
             },
         }
         if self.hysteresis is not None:
@@ -354,6 +377,11 @@ class FrictionFigures:
                 "rated_speed_rpm": sp.rated_speed_rpm,
                 "bearing_rating_N": sp.rating()[0],
                 "bearing_at_rated_torque": self.bearing,
+                **(
+                    {"bearing_b_at_rated_torque": self.bearing_b}
+                    if self.bearing_b is not None
+                    else {}
+                ),
                 "bearing_rating_source": self.rating_source,
                 "definition": "output torque at which the system L10 is rated_life_h at "
                 "rated_speed_rpm",
@@ -375,6 +403,7 @@ def friction_figures(
     life: LifeSpec | None = None,
     rows: int = 2,
     rows_at: Callable[[float], list[RowLoads]] | None = None,
+    life_b: LifeSpec | None = None,
 ) -> FrictionFigures:
     """Efficiency map and lives at the windup's positions.
 
@@ -386,7 +415,8 @@ def friction_figures(
     model solves one at ``load_share``). A drive model passes ``rows_at``
     instead: the rows' loads at an output torque (N*mm, windup sign), e.g.
     :func:`rows_from_drive` of its solution; its rows are then taken as
-    they are (``windup`` unused).
+    they are (``windup`` unused), each bearing rated on the row's
+    ``bearing_load``; ``life_b`` then rates the second row's bearing.
     """
     shares = np.asarray(shares, dtype=float)
     given = rows_at is not None
@@ -432,23 +462,34 @@ def friction_figures(
             else:
                 r = rows_at(-T) * rows
                 fr = drive_friction(design, r[:1], friction) * rows
-            return drive_life(design, r, fr, life, friction.mounting, life.rated_speed_rpm)
+            return drive_life(
+                design, r, fr, life, friction.mounting, life.rated_speed_rpm, spec_b=life_b
+            )
 
         out.lives = lives_at(rated_torque)
         out.life_spec = life
         if friction.mounting == "bearing":
-            fr0 = drive_friction(design, rows_at(-rated_torque)[:1], friction)[0]
-            speed = np.abs(fr0.bearing_speed)
-            out.bearing = {
-                "equivalent_load_N": equivalent_load(fr0.bearing_load, speed, BEARING_EXPONENT),
-                "relative_speed_rpm": float(np.mean(speed)) * life.rated_speed_rpm,
-                "definition": "row 1's eccentric bearing at T_R and rated_speed_rpm: "
-                "ISO 281 equivalent load (exponent 10/3, weighted by the revolutions at each "
-                "position) and mean relative speed; L10 = (C/P)^(10/3) 1e6 / (60 n)",
-            }
+            at_rated = rows_at(-rated_torque)
+            frs = drive_friction(design, at_rated if given else at_rated[:1], friction)
+            out.bearing = _bearing_figure(frs[0], at_rated[0], life, "row 1's")
+            if given and len(frs) > 1:
+                out.bearing_b = _bearing_figure(frs[1], at_rated[1], life, "row 2's")
         out.rating_source = life.rating()[1]
         out.rated_torque_from_life = torque_for_life(
             lambda T: lives_at(T)["system"], life.rated_life_h, rated_torque
         )
         out.lives_at_rated_from_life = lives_at(out.rated_torque_from_life)
     return out
+
+
+def _bearing_figure(fr, row: RowLoads, life: LifeSpec, which: str) -> dict:
+    """A row's eccentric bearing at T_R: ISO 281 equivalent load and mean relative speed."""
+    speed = np.abs(fr.bearing_speed)
+    load = fr.bearing_load if row.bearing_load is None else row.bearing_load
+    return {
+        "equivalent_load_N": equivalent_load(load, speed, BEARING_EXPONENT),
+        "relative_speed_rpm": float(np.mean(speed)) * life.rated_speed_rpm,
+        "definition": f"{which} eccentric bearing at T_R and rated_speed_rpm: "
+        "ISO 281 equivalent load (exponent 10/3, weighted by the revolutions at each "
+        "position) and mean relative speed; L10 = (C/P)^(10/3) 1e6 / (60 n)",
+    }

@@ -291,6 +291,8 @@ def friction_lines(d: dict) -> list[str]:
         f"{figure(d['hysteresis_width_at_rated_arcmin']['max'], 4)} arcmin)",
         f"  starting torque     {figure(d['starting_torque_Nm']['max'], 4)} N*m at the input",
     ]
+    if d.get("friction", {}).get("forces", "").startswith("drive"):
+        out.insert(0, "  friction and life   from the drive: both rows, each cam's bearing")
     life = d.get("life_h")
     if life:
         parts = ", ".join(

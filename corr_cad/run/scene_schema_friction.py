@@ -4,6 +4,7 @@ format compute the efficiency map, the hysteresis with friction and the rated li
 
 from __future__ import annotations
 
+from corr_cad.errors import SceneError
 from corr_cad.mechanics.friction import MOUNTINGS
 from corr_cad.run.scene_key import Key
 
@@ -126,10 +127,27 @@ SECTIONS: dict[str, dict[str, Key]] = {
             high=1_000_000,
         ),
         "needles": Key(
-            "int", 40, "needles of each eccentric bearing", low=2, high=10000, low_open=False
+            "int",
+            40,
+            "needles of each eccentric bearing (with [bearings.eccentric]: its value)",
+            low=2,
+            high=10000,
+            low_open=False,
         ),
-        "needle_diameter": Key("float", 6.0, "needle diameter D_we, mm", low=0, high=1000),
-        "needle_length": Key("float", 12.0, "needle effective length L_we, mm", low=0, high=1000),
+        "needle_diameter": Key(
+            "float",
+            6.0,
+            "needle diameter D_we, mm (with [bearings.eccentric]: its value)",
+            low=0,
+            high=1000,
+        ),
+        "needle_length": Key(
+            "float",
+            12.0,
+            "needle effective length L_we, mm (with [bearings.eccentric]: its value)",
+            low=0,
+            high=1000,
+        ),
     },
 }
 
@@ -139,7 +157,10 @@ def friction_sections(values: dict, data: dict, checks) -> dict:
 
     Given means the scene has ``[friction]`` or ``[life]``, or a check that
     needs them (``min_efficiency``, ``min_life_h``); otherwise both are empty.
+    ``[life]``'s needle keys are the fallback of ``[bearings.eccentric]``'s:
+    both given with different values is refused in one line.
     """
+    _same_needles(values, data)
     given = (
         "friction" in data
         or "life" in data
@@ -150,3 +171,22 @@ def friction_sections(values: dict, data: dict, checks) -> dict:
         "friction": values["friction"] if given else {},
         "life": values["life"] if given else {},
     }
+
+
+#: ``[life]``'s needle geometry, also ``[bearings.eccentric]``'s keys.
+NEEDLE_KEYS = ("needles", "needle_diameter", "needle_length")
+
+
+def _same_needles(values: dict, data: dict) -> None:
+    """Refuse ``[life]`` needle keys that contradict ``[bearings.eccentric]``'s."""
+    life = data.get("life")
+    bearing = values.get("bearings.eccentric") if "bearings.eccentric" in data else None
+    if not isinstance(life, dict) or bearing is None:
+        return
+    for k in NEEDLE_KEYS:
+        if k in life and bearing.get(k) is not None and life[k] != bearing[k]:
+            raise SceneError(
+                f"[life] {k} = {life[k]!r} contradicts [bearings.eccentric] {k} = "
+                f"{bearing[k]!r}: the life rates the drive's bearing; remove [life] {k} "
+                f"(or set it to {bearing[k]!r})"
+            )

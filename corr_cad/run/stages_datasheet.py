@@ -138,19 +138,28 @@ def _datasheet(ctx: RunContext) -> None:
         ctx.results.friction = _friction_figures(ctx)
 
 
+#: ``datasheet.json`` ``friction["forces"]`` under ``model = "drive"``.
+DRIVE_SOURCE = (
+    "drive: both rows solved together, each at its own crank angles; each cam's bearing "
+    "rated on the drive's bearing_load of that cam (forces.csv), each row's raceways on "
+    "its own forces; the hysteresis on the drive's locked-input bench"
+)
+
+
 def friction_spec(scene):
     """The :class:`Friction` and :class:`LifeSpec` of ``[friction]`` and ``[life]``.
 
     The needle bearing sits in the cam's bore: pitch diameter ``2 cam_bore_radius
     - needle_diameter``; the catalogue formula's ``d`` defaults to the raceway under
-    the needles, ``2 cam_bore_radius - 2 needle_diameter``.
+    the needles, ``2 cam_bore_radius - 2 needle_diameter``. The needles are
+    ``[bearings.eccentric]``'s where the drive floats the cams on it, else
+    ``[life]``'s (the scene refuses both given with different values).
     """
     from corr_cad.mechanics.friction import Friction
-    from corr_cad.mechanics.life import LifeSpec
 
-    fr, lf, d = scene.friction, scene.life, scene.design
+    fr, d = scene.friction, scene.design
+    life = _life_spec(scene, scene.bearing)
     bore = 2.0 * d.cam_bore_radius
-    dw = lf["needle_diameter"]
     friction = Friction(
         mu_cam=fr["mu_cam"],
         mu_slot=fr["mu_slot"],
@@ -159,22 +168,33 @@ def friction_spec(scene):
         mounting=fr["cam_mounting"],
         bearing_diameter=fr["bearing_bore_mm"]
         if fr["bearing_bore_mm"] is not None
-        else bore - 2.0 * dw,
-    )
-    life = LifeSpec(
-        rated_life_h=lf["rated_life_h"],
-        rated_speed_rpm=lf["rated_speed_rpm"],
-        dynamic_load_rating=lf["dynamic_load_rating_N"],
-        needles=lf["needles"],
-        needle_diameter=dw,
-        needle_length=lf["needle_length"],
-        pitch_diameter=bore - dw,
+        else bore - 2.0 * life.needle_diameter,
     )
     return friction, life
 
 
+def _life_spec(scene, bearing):
+    """``[life]``'s rated point with a bearing's needles (``[life]``'s own without one)."""
+    from corr_cad.mechanics.life import LifeSpec
+
+    lf = scene.life
+    if bearing is not None:
+        z, dw, lw = bearing.needles, bearing.needle_diameter, bearing.needle_length
+    else:
+        z, dw, lw = lf["needles"], lf["needle_diameter"], lf["needle_length"]
+    return LifeSpec(
+        rated_life_h=lf["rated_life_h"],
+        rated_speed_rpm=lf["rated_speed_rpm"],
+        dynamic_load_rating=lf["dynamic_load_rating_N"],
+        needles=z,
+        needle_diameter=dw,
+        needle_length=lw,
+        pitch_diameter=2.0 * scene.design.cam_bore_radius - dw,
+    )
+
+
 def _friction_figures(ctx: RunContext):
-    from corr_cad.mechanics.efficiency import friction_figures
+    from corr_cad.mechanics.efficiency import friction_figures, rows_from_drive
     from corr_cad.mechanics.hysteresis import hysteresis_figures
     from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
 
@@ -184,15 +204,36 @@ def _friction_figures(ctx: RunContext):
     errors = datasheet_errors(ctx)
     # The datasheet's span (mesh period, tooth pitch or revolution) at [friction]'s density.
     period = result_period_rad(s.design, errors, s.solver.variants)
+    if s.solver.drive:
+        period = max(period, result_period_rad(s.design, scene_errors_b(ctx), s.solver.variants))
     n = int(round(period / mesh_period_rad(s.design))) * s.friction["positions_per_mesh"]
+    x = period * np.arange(n) / n
     w = Windup(
         s.design,
-        period * np.arange(n) / n,
+        x,
         errors=errors,
         load_share=s.solver.load_share,
         variants=s.solver.variants,
         psi_contact_limit=psi_contact_limit(ctx),
     )
+    drive = {}
+    if s.solver.drive:
+        from corr_cad.mechanics.drive_windup import DriveWindup
+
+        dw = DriveWindup(
+            s.design,
+            x,
+            errors=errors,
+            contact_model=s.solver.contact_model,
+            variants=s.solver.variants,
+            psi_contact_limit=psi_contact_limit(ctx),
+            **drive_settings(ctx),
+        )
+        b = s.bearing_b if s.bearing_b is not None else s.bearing
+        drive = {
+            "rows_at": lambda T: rows_from_drive(s.design, dw.forces(T)),
+            "life_b": _life_spec(s, b) if s.life else None,
+        }
     ff = friction_figures(
         s.design,
         w,
@@ -201,8 +242,13 @@ def _friction_figures(ctx: RunContext):
         s.friction["efficiency_torques"],
         s.friction["efficiency_speeds_rpm"],
         life,
+        **drive,
     )
-    ff.hysteresis = hysteresis_figures(s.design, w, ds.spec.rated_torque, friction)
+    bench = w
+    if s.solver.drive:
+        bench = dw
+        ff.source = DRIVE_SOURCE
+    ff.hysteresis = hysteresis_figures(s.design, bench, ds.spec.rated_torque, friction)
     fr = s.friction
     if fr["housing_area_m2"] is not None:
         ff.thermal = (
