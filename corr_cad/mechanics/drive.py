@@ -242,8 +242,10 @@ class DriveSolver:
             depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
             with np.errstate(divide="ignore", invalid="ignore"):
                 u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
-        # Fixed residual scales (a zero moment with preload has forces, not M0, as its scale).
-        scale_m = abs(target) + np.sum(np.abs(a_m * F), axis=1) + 1e-300
+        # Fixed residual scales (a zero moment with preload has forces, not M0, as its scale;
+        # each on the eccentricity, as in _scales, so a zero arm leaves no 1e-300 scale).
+        e = self.design.eccentricity
+        scale_m = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F), axis=1) + 1e-300
         scale_f = (scale_m / self.design.eccentricity)[:, None]
 
         def state(tau, u, F_prev=None, h_prev=None, k_prev=None):
@@ -295,7 +297,11 @@ class DriveSolver:
                 tr = np.trace(kuu, axis1=1, axis2=2)
                 kuu += (1e-12 * tr + 1e-9)[:, None, None] * np.eye(2)
                 J[:, i, i] = kuu
-            J[:, 0, 0] += 1e-300
+            # The crank's own floor, as the cams': a loaded roller at zero arm (psi = 0 or pi)
+            # at zero moment leaves tau free, and an unfloored pivot throws a step of 1e12
+            # rad whose cap stalls the cams' step (tau e is a displacement: k e^2).
+            e2 = self.design.eccentricity**2
+            J[:, 0, 0] += e2 * (1e-12 * np.trace(J[:, 1:, 1:], axis1=1, axis2=2) + 1e-9)
             with np.errstate(invalid="ignore", over="ignore"):
                 step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
             step = np.where(np.isfinite(step), step, 0.0)
@@ -346,12 +352,14 @@ class DriveSolver:
         return tau, F, u, Qs, rel, iterations + it
 
     @staticmethod
-    def _scales(F, a_m, Qs, target, R, gross):
+    def _scales(F, a_m, Qs, target, R, gross, e):
         """Scales of the residuals: the forces, and the forces the gross terms of each
         overlap (``|a tau| + |gap| + |n . u|``, which cancel to leave it) and of each needle's
-        approach (``|u|``) would give: their round-off is all a residual can reach."""
+        approach (``|u|``) would give, and each force on the eccentricity ``e`` (the arm
+        ``-e s sin(psi) / L`` keeps ``e s / L`` times sin's round-off at zero arm): their
+        round-off is all a residual can reach."""
         gf, gq = gross
-        sm = abs(target) + np.sum(np.abs(a_m) * (np.abs(F) + gf), axis=1)
+        sm = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F) + np.abs(a_m) * gf, axis=1)
         sf = [
             np.sum(F[:, c * R : (c + 1) * R] + gf[:, c * R : (c + 1) * R], axis=1)
             + np.sum(Qs[c] + gq[c], axis=1)
@@ -360,7 +368,7 @@ class DriveSolver:
         return sm, sf
 
     def _relative(self, r, F, a_m, Qs, target, gross):
-        sm, sf = self._scales(F, a_m, Qs, target, self.R, gross)
+        sm, sf = self._scales(F, a_m, Qs, target, self.R, gross, self.design.eccentricity)
         rel = np.abs(r[:, 0]) / (sm + 1e-300)
         for c in (0, 1):
             rel = np.maximum(
