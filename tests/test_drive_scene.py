@@ -213,6 +213,26 @@ def test_drive_monte_carlo_draws_row_b_on_its_own_stream():
             assert mc.metrics[name][k] == pytest.approx(v, rel=1e-12, abs=1e-12)
 
 
+def test_drive_monte_carlo_streams_its_rows_to_the_sink_in_order():
+    """montecarlo.csv is written by the sink: the drive's chunks go to it in order, each
+    with its own magnitudes (row B's too), and together they are the result's table."""
+    from corr_cad import GearDesign
+    from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
+
+    tol = {"roller_radius": Distribution("uniform", 0.001)}
+    got = []
+    mc = monte_carlo(
+        GearDesign(), 1.1e5, tol, 5, 3, 13, chunk=2, drive={"contact_model": "palmgren"},
+        sink=lambda lo, mags, metrics: got.append((lo, mags, metrics)),
+    )  # fmt: skip
+    assert [lo for lo, _, _ in got] == [0, 2, 4]
+    for key, table in ((1, mc.magnitudes), (2, mc.metrics)):
+        assert set(got[0][key]) == set(table)
+        for name, v in table.items():
+            np.testing.assert_array_equal(np.concatenate([g[key][name] for g in got]), v)
+    assert set(mc.magnitudes) == {"roller_radius", "roller_radius_row_b"}
+
+
 def test_sweeps_run_on_the_drive_and_under_palmgren():
     from corr_cad import GearDesign
     from corr_cad.mechanics.drive import solve_drive
