@@ -322,13 +322,9 @@ def test_full_cycle_shortcut_equals_solving_every_angle():
     np.testing.assert_allclose(short.rows[1].p_gear, every.rows[1].p_gear, rtol=1e-9, atol=1e-6)
 
 
-def test_zero_moment_with_a_preloaded_roller_at_zero_arm_settles():
+def _zero_arm_preload(angles_deg):
     """A Monte Carlo sample of the allocation (palmgren, needles without clearance, a 2 um
-    equidistant clearance): at crank angle 0.8 pi row B's one loaded roller sits at zero arm,
-    so at M0 = 0 nothing fixes the crank rotation. The solve (which the free rotation of a
-    preloaded drive calls) must settle: crank moment zero, cam B's needles carry its roller."""
-    import warnings
-
+    equidistant clearance): at crank angle 0.8 pi row B's one loaded roller sits at zero arm."""
     from corr_cad.geometry.modification import ModificationGap
     from corr_cad.mechanics.drive import DriveSolver
 
@@ -348,10 +344,20 @@ def test_zero_moment_with_a_preloaded_roller_at_zero_arm_settles():
     ea = ME(0.000198374750692238, 0.0, -0.002, ra, profile_deviation=gap)
     eb = ME(0.0018123903148058468, 0.0, -0.001, rb, profile_deviation=gap)
     bearing = EccentricBearing(30, 4.0, 10.0)
-    angles = np.radians([144.0, 324.0])
-    solver = DriveSolver(
+    angles = np.radians(angles_deg)
+    return DriveSolver(
         design, angles, errors=ea, errors_b=eb, bearing=bearing, contact_model="palmgren"
     )
+
+
+def test_zero_moment_with_a_preloaded_roller_at_zero_arm_settles():
+    """At M0 = 0 nothing fixes the crank rotation of :func:`_zero_arm_preload`. The solve
+    (which the free rotation of a preloaded drive calls) must settle: crank moment zero,
+    cam B's needles carry its roller."""
+    import warnings
+
+    solver = _zero_arm_preload([144.0, 324.0])
+    bearing = solver.bearings[0]
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no overflow on the way
         res = solver.result(0.0)
@@ -366,3 +372,16 @@ def test_zero_moment_with_a_preloaded_roller_at_zero_arm_settles():
     q = res.needle_loads[1]
     resultant = np.hypot(q @ np.cos(phi), q @ np.sin(phi))
     np.testing.assert_allclose(resultant, res.bearing_load[1], rtol=1e-9)
+
+
+def test_small_moments_past_a_preloaded_roller_at_zero_arm_settle():
+    """From M0 = 0 the crank turns through its free play (the zero-arm roller gives no moment)
+    until a roller with an arm takes the moment: each small moment settles, and the crank
+    turns further for a larger one."""
+    solver = _zero_arm_preload([144.0])
+    taus = []
+    for m in (1e-3, 0.1, 1.0, 10.0):
+        res = solver.result(m)
+        assert res.success, (m, res.message)
+        taus.append(res.cam_rotation[0])
+    assert np.all(np.diff(taus) > 0), taus

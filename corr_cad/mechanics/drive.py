@@ -308,15 +308,12 @@ class DriveSolver:
             step[done] = 0.0
             # No step beyond 0.01 rad of crank or 0.01 mm of a cam: far outside the
             # small-displacement model, where a near-singular Jacobian (needles in their
-            # clearance) would throw it.
-            big = np.maximum(
-                np.abs(step[:, 0]) / _MAX_TAU_STEP,
-                np.maximum(
-                    np.linalg.norm(step[:, 1:3], axis=1), np.linalg.norm(step[:, 3:5], axis=1)
-                )
-                / _MAX_U_STEP,
-            )
-            step = step / np.maximum(big, 1.0)[:, None]
+            # clearance) would throw it. Each capped on its own: a crank in its free play
+            # (no moment stiffness yet) asks a huge rotation, which must not shrink the cams'.
+            step[:, 0] /= np.maximum(np.abs(step[:, 0]) / _MAX_TAU_STEP, 1.0)
+            for i in (slice(1, 3), slice(3, 5)):
+                big = np.linalg.norm(step[:, i], axis=1) / _MAX_U_STEP
+                step[:, i] /= np.maximum(big, 1.0)[:, None]
             m0 = merit(r)
             alpha = np.ones(P)
             ok = done.copy()
