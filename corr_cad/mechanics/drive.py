@@ -243,7 +243,7 @@ class DriveSolver:
             with np.errstate(divide="ignore", invalid="ignore"):
                 u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
         # Fixed residual scales (a zero moment with preload has forces, not M0, as its scale;
-        # each on the eccentricity, as in _scales, so a zero arm leaves no 1e-300 scale).
+        # each on the eccentricity too, as in _scales: a zero arm leaves no 1e-300 scale).
         e = self.design.eccentricity
         scale_m = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F), axis=1) + 1e-300
         scale_f = (scale_m / self.design.eccentricity)[:, None]
@@ -297,11 +297,9 @@ class DriveSolver:
                 tr = np.trace(kuu, axis1=1, axis2=2)
                 kuu += (1e-12 * tr + 1e-9)[:, None, None] * np.eye(2)
                 J[:, i, i] = kuu
-            # The crank's own floor, as the cams': a loaded roller at zero arm (psi = 0 or pi)
-            # at zero moment leaves tau free, and an unfloored pivot throws a step of 1e12
-            # rad whose cap stalls the cams' step (tau e is a displacement: k e^2).
-            e2 = self.design.eccentricity**2
-            J[:, 0, 0] += e2 * (1e-12 * np.trace(J[:, 1:, 1:], axis1=1, axis2=2) + 1e-9)
+            # The crank's floor, as the cams' (tau e is a displacement): a loaded roller at
+            # zero arm at zero moment leaves tau free; unfloored, its pivot asks 1e12 rad.
+            J[:, 0, 0] += e * e * (1e-12 * np.trace(J[:, 1:, 1:], axis1=1, axis2=2) + 1e-9)
             with np.errstate(invalid="ignore", over="ignore"):
                 step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
             step = np.where(np.isfinite(step), step, 0.0)
