@@ -320,3 +320,68 @@ def test_full_cycle_shortcut_equals_solving_every_angle():
     for name in ("row_a_share", "bearing_load", "needle_load_max", "backlash", "cam_rotation"):
         np.testing.assert_allclose(getattr(short, name), getattr(every, name), rtol=1e-9)
     np.testing.assert_allclose(short.rows[1].p_gear, every.rows[1].p_gear, rtol=1e-9, atol=1e-6)
+
+
+def _zero_arm_preload(angles_deg):
+    """A Monte Carlo sample of the allocation (palmgren, needles without clearance, a 2 um
+    equidistant clearance): at crank angle 0.8 pi row B's one loaded roller sits at zero arm."""
+    from corr_cad.geometry.modification import ModificationGap
+    from corr_cad.mechanics.drive import DriveSolver
+
+    design = GearDesign(tooth_count=9, cam_radius=45.0, roller_radius=4.0, eccentricity=1.5)
+    psi = np.linspace(-np.pi, np.pi, 1025)
+    gap = ModificationGap(psi, np.full(psi.size, 0.002), tooth_count=9)
+    # fmt: off
+    ra = (-0.0008647740442234757, -0.0007434644175907912, -0.0007478085647202493,
+          0.0003067988650118081, 0.0018867599024790188, 0.001098656539694928,
+          0.001164535792691221, 0.0010370740021583198, 0.0003879509220950257,
+          0.001670769028683651)
+    rb = (-0.001216533426928535, 0.0008057142250132898, 0.0007588107974291116,
+          0.0009537988017221295, 0.0017115866718350218, 0.0011822390424279963,
+          0.0011032607870296385, -0.000903135557959271, -0.0005307933697898922,
+          -0.001472178260026384)
+    # fmt: on
+    ea = ME(0.000198374750692238, 0.0, -0.002, ra, profile_deviation=gap)
+    eb = ME(0.0018123903148058468, 0.0, -0.001, rb, profile_deviation=gap)
+    bearing = EccentricBearing(30, 4.0, 10.0)
+    angles = np.radians(angles_deg)
+    return DriveSolver(
+        design, angles, errors=ea, errors_b=eb, bearing=bearing, contact_model="palmgren"
+    )
+
+
+def test_zero_moment_with_a_preloaded_roller_at_zero_arm_settles():
+    """At M0 = 0 nothing fixes the crank rotation of :func:`_zero_arm_preload`. The solve
+    (which the free rotation of a preloaded drive calls) must settle: crank moment zero,
+    cam B's needles carry its roller."""
+    import warnings
+
+    solver = _zero_arm_preload([144.0, 324.0])
+    bearing = solver.bearings[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow on the way
+        res = solver.result(0.0)
+        rev, fwd = solver.free_interval()
+    assert res.success, res.message
+    np.testing.assert_array_equal(rev, fwd)  # preloaded: no free rotation
+    fb = res.rows[1].F_j
+    assert np.all(fb.max(axis=1) > 100.0)  # row B's roller is loaded
+    # Cam B: its needles' resultant (directions 2 pi j / Z) is its rollers' push.
+    Z = bearing.needles
+    phi = 2.0 * np.pi * np.arange(Z) / Z
+    q = res.needle_loads[1]
+    resultant = np.hypot(q @ np.cos(phi), q @ np.sin(phi))
+    np.testing.assert_allclose(resultant, res.bearing_load[1], rtol=1e-9)
+
+
+def test_small_moments_past_a_preloaded_roller_at_zero_arm_settle():
+    """From M0 = 0 the crank turns through its free play (the zero-arm roller gives no moment)
+    until a roller with an arm takes the moment: each small moment settles, and the crank
+    turns further for a larger one."""
+    solver = _zero_arm_preload([144.0])
+    taus = []
+    for m in (1e-3, 0.1, 1.0, 10.0):
+        res = solver.result(m)
+        assert res.success, (m, res.message)
+        taus.append(res.cam_rotation[0])
+    assert np.all(np.diff(taus) > 0), taus

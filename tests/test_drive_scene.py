@@ -213,6 +213,26 @@ def test_drive_monte_carlo_draws_row_b_on_its_own_stream():
             assert mc.metrics[name][k] == pytest.approx(v, rel=1e-12, abs=1e-12)
 
 
+def test_drive_monte_carlo_streams_its_rows_to_the_sink_in_order():
+    """montecarlo.csv is written by the sink: the drive's chunks go to it in order, each
+    with its own magnitudes (row B's too), and together they are the result's table."""
+    from corr_cad import GearDesign
+    from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
+
+    tol = {"roller_radius": Distribution("uniform", 0.001)}
+    got = []
+    mc = monte_carlo(
+        GearDesign(), 1.1e5, tol, 5, 3, 13, chunk=2, drive={"contact_model": "palmgren"},
+        sink=lambda lo, mags, metrics: got.append((lo, mags, metrics)),
+    )  # fmt: skip
+    assert [lo for lo, _, _ in got] == [0, 2, 4]
+    for key, table in ((1, mc.magnitudes), (2, mc.metrics)):
+        assert set(got[0][key]) == set(table)
+        for name, v in table.items():
+            np.testing.assert_array_equal(np.concatenate([g[key][name] for g in got]), v)
+    assert set(mc.magnitudes) == {"roller_radius", "roller_radius_row_b"}
+
+
 def test_sweeps_run_on_the_drive_and_under_palmgren():
     from corr_cad import GearDesign
     from corr_cad.mechanics.drive import solve_drive
@@ -291,3 +311,55 @@ def test_paper_rigidity_check_says_it_is_one_row_upper_bound(tmp_path, capsys):
     text = capsys.readouterr()
     lines = [ln for ln in (text.out + text.err).splitlines() if "one row only" in ln]
     assert len(lines) == 1 and "upper bound" in lines[0]
+
+
+ALLOC_SCENE = """[design]
+tooth_count = 9
+cam_radius = 45.0
+roller_radius = 4.0
+eccentricity = 1.5
+[export]
+formats = ["allocation"]
+[load]
+input_torque = 2.0e4
+[solver]
+positions = 20
+model = "drive"
+contact_law = "palmgren"
+[tolerances]
+roller_radius = { uniform = 0.001 }
+cam_radius = { uniform = 0.002 }
+[montecarlo]
+positions = 20
+allocation_samples = 8
+seed = 1
+[checks]
+max_contact_pressure = 4000.0
+[modification]
+equidistant_mm = 0.002
+[errors]
+roller_radius_error = -0.002
+[errors.row_b]
+roller_radius_error = -0.001
+[bearings.eccentric]
+needles = 30
+needle_diameter = 4.0
+needle_length = 10.0
+"""
+
+
+def test_allocation_on_the_drive_through_the_cli_settles_preloaded_samples(tmp_path, capsys):
+    """Samples of this allocation preload the rows (needles without clearance) with a loaded
+    roller at zero arm: the drive's free rotation solves them at M0 = 0 and must settle,
+    without an overflow warning."""
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "alloc.toml"
+    scene.write_text(ALLOC_SCENE)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--workers", "1"]) == 0
+    err = capsys.readouterr().err
+    assert "RuntimeWarning" not in err and "error:" not in err
+    alloc = json.loads((out / "allocation.json").read_text())
+    assert alloc["rows"] and all(r["tolerance"] > 0 for r in alloc["rows"])
+    assert scene.read_text() == ALLOC_SCENE

@@ -4,7 +4,8 @@ A combination of formats and sections that no test ran once crashed the
 last stage (the report, on the Monte Carlo's datasheet metrics) and lost
 the whole run. Here ``formats = ["all"]`` runs with every section of the
 scene schema set, twice: on the design's own ring (everything but the
-inspection) and on a measured ring (the inspection too). ``[dask]`` is
+inspection) and on a measured ring (the inspection too), and once more under
+the two-row drive model (all but the one-row formats). ``[dask]`` is
 parsed, but the runs use the process pool (a cluster is the work of
 tests/test_dask_faults.py). Each run must exit 0, print no traceback,
 write every file its formats declare and show every Monte Carlo metric in
@@ -112,6 +113,18 @@ MEASURED = (
     SECTIONS.replace("[modification]\nequidistant_mm = 0.002\n", "")
     + '[errors]\nmeasured_profile = "cmm.csv"\nroller_radius_error = -0.002\n'
 )
+#: The two-row drive on Palmgren's law, both cams on needles, row B's own rollers. Its
+#: Monte Carlo keeps the force metrics, so the datasheet-metric gates are not set.
+DRIVE = (
+    NOMINAL.replace(
+        "[solver]\npositions = 40\n",
+        '[solver]\npositions = 40\nmodel = "drive"\ncontact_law = "palmgren"\n',
+    ).replace("max_binding_probability = 0.5\nmax_lost_motion_arcmin = 30.0\n", "")
+    + "[bearings.eccentric]\nneedles = 30\nneedle_diameter = 4.0\nneedle_length = 10.0\n"
+    + "[errors.row_b]\nroller_radius_error = -0.001\n"
+)
+#: The drive's Monte Carlo metrics: the four force metrics over both rows.
+DRIVE_METRICS = {"peak_gear_force", "peak_pressure", "min_loaded_rollers", "backlash_arcmin"}
 
 
 def _measured_points(m: int = 40) -> np.ndarray:
@@ -141,7 +154,7 @@ def _cli(folder, scene_text: str):
     )
 
 
-def _check_run(folder, r) -> dict:
+def _check_run(folder, r, drive: bool = False) -> dict:
     assert r.returncode == 0, r.stderr[-3000:]
     assert "Traceback" not in r.stderr, r.stderr[-3000:]
     out = folder / "out"
@@ -160,6 +173,12 @@ def _check_run(folder, r) -> dict:
     summary = json.loads((out / "montecarlo_summary.json").read_text())
     for metric in summary["percentiles"]:
         assert METRIC_LABELS[metric][0] in html, metric
+    if drive:  # the force metrics over both rows, row B's magnitudes in the table
+        assert set(summary["percentiles"]) == DRIVE_METRICS
+        with open(out / "montecarlo.csv") as f:
+            header = f.readline().strip().split(",")
+        assert DRIVE_METRICS <= set(header) and "roller_radius_row_b_magnitude" in header
+        return manifest
     assert "lost_motion_arcmin" in summary["percentiles"]
     assert "Wilson interval" in html  # the binding gate's share of binding samples
     return manifest
@@ -194,6 +213,30 @@ def test_all_formats_with_every_section_on_a_measured_ring(tmp_path):
     m = _check_run(tmp_path, r)
     assert "inspection" not in dict(m.get("formats_left_out", {}))
     assert {"inspection.csv", "inspection.json", "measured_profile.dxf"} <= set(m["files"])
+
+
+@pytest.mark.slow
+def test_all_formats_with_every_section_under_the_drive_model(tmp_path):
+    """The two-row drive: every format but the one-row ones (modification, inspection),
+    which "all" leaves out with the reason."""
+    r = _cli(tmp_path, DRIVE)
+    m = _check_run(tmp_path, r, drive=True)
+    left = dict(m.get("formats_left_out", {}))
+    assert set(left) == {"inspection", "modification"}, left
+    assert 'model = "paper"' in left["modification"]
+    expected = {
+        "roller.dxf", "preview.png", "forces.csv", "forces_summary.json", "roller.stl",
+        "roller.3mf", "roller.glb", "roller.ply", "montecarlo.csv", "allocation.csv",
+        "sweeps.json", "datasheet.json", "datasheet.html", "windup.csv", "inner_gear_edm.nc",
+        "inner_gear_nominal.csv", "assembly.json", "clearance.csv", "report.html",
+        "efficiency.csv", "life.csv", "pinion.dxf", "crank_gear.dxf", "wheel.stl",
+    }  # fmt: skip
+    if "step" not in left:
+        expected.add("roller.step")
+    assert expected <= set(m["files"]), expected - set(m["files"])
+    sheet = json.loads((tmp_path / "out" / "datasheet.json").read_text())
+    assert sheet["model"] == "drive"
+    assert m["interference"]["positions"] == 2
 
 
 SMALL = """

@@ -242,8 +242,10 @@ class DriveSolver:
             depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
             with np.errstate(divide="ignore", invalid="ignore"):
                 u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
-        # Fixed residual scales (a zero moment with preload has forces, not M0, as its scale).
-        scale_m = abs(target) + np.sum(np.abs(a_m * F), axis=1) + 1e-300
+        # Fixed residual scales (a zero moment with preload has forces, not M0, as its scale;
+        # each on the eccentricity too, as in _scales: a zero arm leaves no 1e-300 scale).
+        e = self.design.eccentricity
+        scale_m = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F), axis=1) + 1e-300
         scale_f = (scale_m / self.design.eccentricity)[:, None]
 
         def state(tau, u, F_prev=None, h_prev=None, k_prev=None):
@@ -295,22 +297,21 @@ class DriveSolver:
                 tr = np.trace(kuu, axis1=1, axis2=2)
                 kuu += (1e-12 * tr + 1e-9)[:, None, None] * np.eye(2)
                 J[:, i, i] = kuu
-            J[:, 0, 0] += 1e-300
+            # The crank's floor, as the cams' (tau e is a displacement): a loaded roller at
+            # zero arm at zero moment leaves tau free; unfloored, its pivot asks 1e12 rad.
+            J[:, 0, 0] += e * e * (1e-12 * np.trace(J[:, 1:, 1:], axis1=1, axis2=2) + 1e-9)
             with np.errstate(invalid="ignore", over="ignore"):
                 step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
             step = np.where(np.isfinite(step), step, 0.0)
             step[done] = 0.0
             # No step beyond 0.01 rad of crank or 0.01 mm of a cam: far outside the
             # small-displacement model, where a near-singular Jacobian (needles in their
-            # clearance) would throw it.
-            big = np.maximum(
-                np.abs(step[:, 0]) / _MAX_TAU_STEP,
-                np.maximum(
-                    np.linalg.norm(step[:, 1:3], axis=1), np.linalg.norm(step[:, 3:5], axis=1)
-                )
-                / _MAX_U_STEP,
-            )
-            step = step / np.maximum(big, 1.0)[:, None]
+            # clearance) would throw it. Each capped on its own: a crank in its free play
+            # (no moment stiffness yet) asks a huge rotation, which must not shrink the cams'.
+            step[:, 0] /= np.maximum(np.abs(step[:, 0]) / _MAX_TAU_STEP, 1.0)
+            for i in (slice(1, 3), slice(3, 5)):
+                big = np.linalg.norm(step[:, i], axis=1) / _MAX_U_STEP
+                step[:, i] /= np.maximum(big, 1.0)[:, None]
             m0 = merit(r)
             alpha = np.ones(P)
             ok = done.copy()
@@ -346,12 +347,14 @@ class DriveSolver:
         return tau, F, u, Qs, rel, iterations + it
 
     @staticmethod
-    def _scales(F, a_m, Qs, target, R, gross):
+    def _scales(F, a_m, Qs, target, R, gross, e):
         """Scales of the residuals: the forces, and the forces the gross terms of each
         overlap (``|a tau| + |gap| + |n . u|``, which cancel to leave it) and of each needle's
-        approach (``|u|``) would give: their round-off is all a residual can reach."""
+        approach (``|u|``) would give, and each force on the eccentricity ``e`` (the arm
+        ``-e s sin(psi) / L`` keeps ``e s / L`` times sin's round-off at zero arm): their
+        round-off is all a residual can reach."""
         gf, gq = gross
-        sm = abs(target) + np.sum(np.abs(a_m) * (np.abs(F) + gf), axis=1)
+        sm = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F) + np.abs(a_m) * gf, axis=1)
         sf = [
             np.sum(F[:, c * R : (c + 1) * R] + gf[:, c * R : (c + 1) * R], axis=1)
             + np.sum(Qs[c] + gq[c], axis=1)
@@ -360,7 +363,7 @@ class DriveSolver:
         return sm, sf
 
     def _relative(self, r, F, a_m, Qs, target, gross):
-        sm, sf = self._scales(F, a_m, Qs, target, self.R, gross)
+        sm, sf = self._scales(F, a_m, Qs, target, self.R, gross, self.design.eccentricity)
         rel = np.abs(r[:, 0]) / (sm + 1e-300)
         for c in (0, 1):
             rel = np.maximum(

@@ -504,6 +504,7 @@ def monte_carlo(
             psi_contact_limit,
             datasheet,
             drive,
+            sink,
         )
     if kernel is None:
         kernel = samples * len(angles) >= KERNEL_MIN_WORK
@@ -570,8 +571,10 @@ def _drive_monte_carlo(
     psi_contact_limit,
     datasheet,
     drive,
+    sink=None,
 ) -> MonteCarloResult:
-    """:func:`monte_carlo` under the drive model (:mod:`corr_cad.tolerance.montecarlo_drive`)."""
+    """:func:`monte_carlo` under the drive model (:mod:`corr_cad.tolerance.montecarlo_drive`);
+    each chunk's rows go to ``sink`` in order, as on the paper's row."""
     from corr_cad.tolerance import montecarlo_drive as md
 
     if datasheet is not None:
@@ -600,14 +603,17 @@ def _drive_monte_carlo(
         )
         for lo, hi in bounds
     ]
+    magnitudes = _magnitudes(units, tolerances)
+    magnitudes.update({f"{k}_row_b": v for k, v in _magnitudes(units_b, tol_b).items()})
     parts, ok = [], True
     for i, f in enumerate(futures):
         metrics, success = f.result()
         parts.append(metrics)
         ok &= bool(success)
+        if sink is not None:
+            lo, hi = bounds[i]
+            sink(lo, {k: v[lo:hi] for k, v in magnitudes.items()}, metrics)
         if progress:
             progress(bounds[i][1], samples)
     metrics = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-    magnitudes = _magnitudes(units, tolerances)
-    magnitudes.update({f"{k}_row_b": v for k, v in _magnitudes(units_b, tol_b).items()})
     return MonteCarloResult(metrics, magnitudes, ok)
