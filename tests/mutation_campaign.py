@@ -354,8 +354,8 @@ M = [
     ),
     (
         "run/cli.py",
-        "previous = signal.signal(signal.SIGTERM, _on_sigterm)",
-        "previous = signal.getsignal(signal.SIGTERM)",
+        "                    sig == signal.SIGTERM\n",
+        "                    False\n",
         "SIGTERM handler not installed (the run dies with no message, staging left)",
         "tests/test_output_contract.py -k sigint_sigterm",
     ),

@@ -146,7 +146,7 @@ def test_cam_a_bearing_l10_from_forces_csv_by_iso281(tmp_path):
     assert ds["life_h"]["bearing_row1"] == pytest.approx(L10_h, rel=10 / 3 * spread + 1e-9)
     assert ds["model"] == "drive"
     # The files and the console say where the friction figures come from.
-    from corr_cad.export.report import _friction_rows
+    from corr_cad.export.report_tables import friction_rows as _friction_rows
     from corr_cad.run.console import friction_lines
 
     assert ds["friction"]["forces"].startswith("drive: both rows")

@@ -16,7 +16,14 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad.export.files import writing
-from corr_cad.figure_text import figure
+from corr_cad.export.report_tables import (
+    assembly_rows,
+    binding_row,
+    datasheet_rows,
+    drive_rows,
+    ring_line,
+)
+from corr_cad.export.report_tables import fmt as _fmt
 
 __all__ = ["METRIC_LABELS", "ring_line", "report_context", "render_report", "write_report"]
 
@@ -52,18 +59,6 @@ _PLOT_CAPTIONS = {
     "hysteresis.png": "Hysteresis curve: output torque against windup, input locked",
     "transmission_error.png": "Transmission error over one output revolution, both directions",
 }
-
-
-def _fmt(v, digits: int = 4) -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, (int, np.integer)):
-        return f"{int(v):,}"
-    if isinstance(v, (float, np.floating)):  # the console's and the plots' formatter
-        return figure(float(v), digits)
-    return str(v)
 
 
 def _force_peaks(res) -> list[dict]:
@@ -135,46 +130,6 @@ def _accuracy_of(name: str, manifest: dict) -> str:
     return "computed data (no geometry approximation)"
 
 
-def _drive_rows(fs: dict, drive: dict | None) -> list[tuple]:
-    """The whole drive: first-stage geometry, ratio, mass, inertia and loads (name, value, unit)."""
-    g, m = fs["gears"], fs["meshes"]
-    rows = [
-        (
-            "teeth pinion / wheels (3) / crank gear",
-            " / ".join(str(g[k]["teeth"]) for k in ("pinion", "wheel", "crank_gear")),
-            "",
-        ),
-        ("module", fs["module_mm"], "mm"),
-        ("first-stage ratio i1 = -z_c / z_p", fs["ratio_i1"], ""),
-        ("centre distance (pinion to each wheel)", fs["centre_distance_mm"], "mm"),
-    ]
-    for name, label in (("pinion_wheel", "pinion-wheel"), ("wheel_crank_gear", "wheel-crank gear")):
-        rows += [
-            (f"{label}: working pressure angle", m[name]["working_pressure_angle_deg"], "deg"),
-            (f"{label}: contact ratio", m[name]["contact_ratio"], ""),
-            (f"{label}: backlash", 1e3 * m[name]["backlash_mm"], "um"),
-        ]
-    rows.append(("first-stage backlash at the crank", fs["crank_backlash_arcmin"], "arcmin"))
-    if drive:
-        rows += [
-            ("total ratio i = i1 (z + 1)", drive["total_ratio"], ""),
-            ("mass (all parts, steel)", drive["mass_kg"], "kg"),
-            ("inertia at the input", drive["input_inertia_kg_m2"], "kg m^2"),
-        ]
-        ld = drive.get("first_stage_loads")
-        if ld:
-            w = ld["per_wheel"]
-            rows += [
-                ("input torque at the pinion", ld["input_torque_Nmm"] / 1e3, "N*m"),
-                ("crank moment M0 (eta1 = 1)", ld["crank_torque_M0_Nmm"] / 1e3, "N*m"),
-                ("per wheel: tangential force, pinion mesh", w["pinion_mesh_tangential_N"], "N"),
-                ("per wheel: bearing load", w["bearing_load_N"], "N"),
-                ("root stress, largest (Lewis)", max(ld["root_bending_MPa"].values()), "MPa"),
-                ("contact stress, largest (Hertz)", max(ld["contact_stress_MPa"].values()), "MPa"),
-            ]
-    return [(a, _fmt(b) if not isinstance(b, str) else b, c) for a, b, c in rows]
-
-
 def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -> dict:
     """Everything the template shows, as plain values (numbers formatted).
 
@@ -230,7 +185,7 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
                 row_a_share=" / ".join(_fmt(sh.get(k)) for k in ("min", "mean", "max")),
             )
     if scene.first_stage is not None:
-        ctx["drive"] = _drive_rows(scene.first_stage.as_dict(), manifest.get("drive"))
+        ctx["drive"] = drive_rows(scene.first_stage.as_dict(), manifest.get("drive"))
     u = manifest.get("undercut")
     if u:
         adm = u["admissible_roller_radius_mm"]
@@ -297,7 +252,7 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
         }
     sheet = manifest.get("datasheet")
     if sheet:
-        ctx["datasheet"] = _datasheet_rows(sheet)
+        ctx["datasheet"] = datasheet_rows(sheet)
     mc = manifest.get("montecarlo")
     if mc:
         fail = mc.get("failure_probability", {})
@@ -314,7 +269,7 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
                 for m, pct in mc["percentiles"].items()
             ],
             "fail": [(k, _fmt(100.0 * v, 3)) for k, v in fail.items()],
-            "binding": _binding_row(mc.get("binding_probability")),
+            "binding": binding_row(mc.get("binding_probability")),
             "sensitivity": [
                 (s["tolerance"], _fmt(s["score"], 3)) for s in mc.get("sensitivity", [])
             ],
@@ -391,7 +346,7 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
     if mod:
         ctx["modification"] = _flat(mod)
     if manifest.get("assembly"):
-        ctx["assembly"] = _assembly_rows(Path(out) / "assembly.json")
+        ctx["assembly"] = assembly_rows(Path(out) / "assembly.json")
     ctx["files"] = [{"name": n, "accuracy": _accuracy_of(n, manifest)} for n in sorted(files)]
     ctx["plots"] = [
         {
@@ -408,211 +363,6 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
         if n.endswith(".png")
     ]
     return ctx
-
-
-def _binding_row(b: dict | None) -> dict | None:
-    """The Monte Carlo's share of binding samples with its Wilson interval, or None."""
-    if not b:
-        return None
-
-    def pct(x: float) -> str:  # round-off below 1e-9 % is 0 (a Wilson end at 0 samples)
-        x = 100.0 * float(x)
-        return _fmt(x if abs(x) > 1e-9 else 0.0, 3)
-
-    lo, hi = b["wilson_interval"]
-    return {
-        "percent": pct(b["probability"]),
-        "count": f"{b['binding_samples']} of {b['samples']}",
-        "interval": f"{pct(lo)} - {pct(hi)}",
-        "confidence": _fmt(100.0 * b["confidence"], 3),
-    }
-
-
-def _datasheet_rows(d: dict) -> dict:
-    """The datasheet table: figure, min, mean, max, unit, catalogue convention."""
-    rig = d["torsional_rigidity_Nm_per_arcmin"]
-    lm = d["lost_motion_arcmin"]
-    k = d["stiffness_Nm_per_arcmin"]
-    te = d["transmission_error_arcsec"]
-
-    def row(label, x, unit, note):
-        return {
-            "label": label,
-            "min": _fmt(x["min"]),
-            "mean": _fmt(x["mean"]),
-            "max": _fmt(x["max"]),
-            "unit": unit,
-            "note": note,
-        }
-
-    span = f"{_fmt(rig['from_torque_Nm'])}-{_fmt(rig['to_torque_Nm'])} N*m"
-    rows = [
-        row("backlash", d["backlash_arcmin"], "arcmin", "theta(0+) - theta(0-); catalogue: max"),
-        row(
-            "lost motion",
-            lm,
-            "arcmin",
-            f"at +-{_fmt(100 * lm['band'])} % T_R ({_fmt(lm['torque_Nm'])} N*m); catalogue: max",
-        ),
-    ]
-    if rig["with_series"] is not None:
-        rows.append(
-            row(
-                "torsional rigidity",
-                rig["with_series"],
-                "N*m/arcmin",
-                f"{span}, series rigidity {_fmt(rig['series_rigidity_Nm_per_arcmin'])} "
-                "N*m/arcmin included; catalogue: min",
-            )
-        )
-    if d.get("model") == "drive":
-        what = (
-            "both rows' contacts and the cams' eccentric bearings"
-            if isinstance(d.get("bearing"), dict)
-            else "both rows' contacts, cams fixed"
-        )
-        note = f"{span}; {what}; without crank, output bearings and housing"
-    else:
-        note = (
-            f"{span}; one row's contacts only (model = paper, at load_share): an upper bound, "
-            "not the reducer's rigidity"
-        )
-    rows.append(row("torsional rigidity, contacts alone", rig["contact_only"], "N*m/arcmin", note))
-    bp = ", ".join(_fmt(b) for b in k["breakpoints_Nm"])
-    for name in ("K1", "K2", "K3"):
-        rows.append(row(name, k[name], "N*m/arcmin", f"slopes between 0, {bp} N*m"))
-    return {
-        "rated_torque": _fmt(d["rated_torque_Nm"]),
-        "positions": d["positions"]["count"],
-        "span": d["positions"]["span"],
-        "rows": rows,
-        "te_forward": _fmt(te["forward_peak_to_peak"]),
-        "te_reverse": _fmt(te["reverse_peak_to_peak"]),
-        "te_torque": _fmt(te["driving_torque_Nm"]),
-        "pressure_rated": (
-            None
-            if "rated_torque_from_contact_pressure" not in d
-            else {
-                "torque": _fmt(d["rated_torque_from_contact_pressure"]["torque_Nm"]),
-                "allowable": _fmt(d["rated_torque_from_contact_pressure"]["allowable_MPa"]),
-            }
-        ),
-        "hysteresis": d["hysteresis_loss_note"],
-        "hysteresis_value": _fmt(d["hysteresis_loss_arcmin"]),
-        "friction": _friction_rows(d) if "efficiency_forward" in d else [],
-        "ring": ring_line(d.get("ring")),
-    }
-
-
-def _from_drive(d: dict) -> bool:
-    """Whether ``datasheet.json``'s friction figures come from the two-row drive."""
-    return d.get("friction", {}).get("forces", "").startswith("drive")
-
-
-def _friction_rows(d: dict) -> list[dict]:
-    """Efficiency, starting torque, lives and rated torque from life (min, mean, max)."""
-
-    def row(label, x, unit, note):
-        return {
-            "label": label,
-            "min": _fmt(x["min"]),
-            "mean": _fmt(x["mean"]),
-            "max": _fmt(x["max"]),
-            "unit": unit,
-            "note": note,
-        }
-
-    bk = d["efficiency_backdriving"]
-    rows = [
-        row(
-            "efficiency, forward",
-            d["efficiency_forward"],
-            "",
-            "over the torque-speed map" + (", both rows of the drive" if _from_drive(d) else ""),
-        ),
-        row(
-            "efficiency, backdriving",
-            bk,
-            "",
-            "self-locking at some torques" if bk["self_locking"] else "output driving",
-        ),
-        row("hysteresis width at T_R", d["hysteresis_width_at_rated_arcmin"], "arcmin", "friction"),
-        row("starting torque", d["starting_torque_Nm"], "N*m", "at the input, no load"),
-    ]
-    life = d.get("life_h")
-    if life:
-        for k, v in life.items():
-            if k in ("at_torque_Nm", "at_output_speed_rpm", "definition"):
-                continue
-            s = "inf" if v is None else _fmt(v)
-            rows.append(
-                {
-                    "label": f"L10 {k}",
-                    "min": "",
-                    "mean": "",
-                    "max": s,
-                    "unit": "h",
-                    "note": f"at {_fmt(life['at_torque_Nm'])} N*m, "
-                    f"{_fmt(life['at_output_speed_rpm'])} rpm output",
-                }
-            )
-        rt = d["rated_torque_from_life_Nm"]
-        rows.append(
-            {
-                "label": "rated torque from life",
-                "min": "",
-                "mean": "",
-                "max": _fmt(rt["value"]),
-                "unit": "N*m",
-                "note": f"L10 {_fmt(rt['rated_life_h'])} h at "
-                f"{_fmt(rt['rated_speed_rpm'])} rpm output",
-            }
-        )
-    return rows
-
-
-def _assembly_rows(path: Path) -> dict:
-    """The selective-assembly table: one row per roller class, the chosen one marked."""
-    import json
-
-    a = json.loads(path.read_text())
-    rows = [
-        {
-            "class_um": _fmt(r["class_um"]),
-            "binds": "yes" if r["binds"] else "no",
-            "backlash": _fmt(r["backlash_arcmin"]["max"]),
-            "lost_motion": _fmt(r["lost_motion_arcmin"]["max"]),
-            "rigidity": _fmt(r["torsional_rigidity_Nm_per_arcmin"]),
-            "te": _fmt(max(r["transmission_error_arcsec"].values())),
-            "pressure": _fmt(r["peak_contact_pressure_at_rated_MPa"]),
-            "chosen": r["class_um"] == a["chosen_class_um"],
-        }
-        for r in a["classes"]
-    ]
-    return {
-        "ring": a["ring"],
-        "target": _fmt(a["target_backlash_arcmin"]),
-        "chosen": a["chosen_class_um"],
-        "reason": a["reason"],
-        "rows": rows,
-    }
-
-
-def ring_line(ring: dict | None) -> str:
-    """Which ring a datasheet describes, in one line (report and console).
-
-    >>> ring_line({"profile": "measured", "file": "cmm.csv", "sha256": "ab" * 32})
-    'the measured ring cmm.csv (sha256 abababababab...) with nominal other parts'
-    """
-    if not ring:
-        return ""
-    if ring.get("profile") == "measured":
-        return (
-            f"the measured ring {ring.get('file')} (sha256 {str(ring.get('sha256'))[:12]}...) "
-            "with nominal other parts"
-        )
-    applied = ring.get("errors_applied") or []
-    return "the design" + (f" with [errors] {', '.join(applied)}" if applied else " (nominal)")
 
 
 def _flat(d: dict, prefix: str = "") -> list[tuple[str, str]]:

@@ -20,6 +20,7 @@ from typing import NoReturn
 
 from corr_cad._version import __version__
 from corr_cad.errors import CorrCadError
+from corr_cad.run import cli_messages as msg
 
 __all__ = ["main"]
 
@@ -62,7 +63,7 @@ class _OneLineParser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         hint = f"; '{self.prog} --help' lists the flags"
-        self.exit(2, _line(f"corr-cad: error: {self.prog}: {message}{hint}") + "\n")
+        self.exit(2, msg.one_line(f"corr-cad: error: {self.prog}: {message}{hint}") + "\n")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -308,7 +309,7 @@ def _worker_init(parent_pid: int) -> None:
     def one_line(message, category, filename, lineno, file=None, line=None) -> None:
         where = f"{Path(filename).name}:{lineno}"
         text = f"corr-cad: warning: {category.__name__} in {where}: {message}"
-        print(_line(text), file=sys.stderr)
+        print(msg.one_line(text), file=sys.stderr)
 
     warnings.showwarning = one_line  # never a raw two-line warning from a worker
     if sys.platform.startswith("linux"):
@@ -473,40 +474,6 @@ def _schema(args: argparse.Namespace) -> int:
 
 
 #: Longest error or warning line printed (a message quoting a file is cut).
-MAX_LINE = 300
-
-
-def _line(text: str, limit: int = MAX_LINE) -> str:
-    """``text`` on one line of at most ``limit`` characters (the middle cut out)."""
-    text = " ".join(str(text).split())
-    if len(text) <= limit:
-        return text
-    tail = limit // 3
-    return f"{text[: limit - tail - 5]} ... {text[-tail:]}"
-
-
-def _error(msg: str) -> None:
-    print(_line(f"corr-cad: error: {msg}"), file=sys.stderr)
-
-
-def _show_warnings(caught: list) -> None:
-    """Warnings from numpy, matplotlib & co. as bounded one-line notes, never raw.
-
-    Only a run that succeeds shows them (a failed run prints its one error
-    line). Known causes are refused up front with the key that caused them;
-    this is the net for the rest.
-    """
-    seen: dict[tuple[str, str], object] = {}
-    for w in caught:
-        seen.setdefault((w.category.__name__, str(w.message)), w)
-    for i, ((cat, msg), w) in enumerate(seen.items()):
-        if i == 3:
-            print(f"corr-cad: warning: {len(seen) - 3} more numerical warnings", file=sys.stderr)
-            break
-        where = f"{Path(w.filename).name}:{w.lineno}"
-        print(_line(f"corr-cad: warning: {cat} in {where}: {msg}"), file=sys.stderr)
-
-
 def _dispatch(args: argparse.Namespace, state: dict) -> int:
     _refuse_empty(args)
     if args.command == "run":
@@ -547,7 +514,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = ClosedPipeSafe(stdout)
         return _main(argv)
     except KeyboardInterrupt as exc:  # before or after _main's own handling
-        return _interrupted(exc, {})
+        return msg.interrupted(exc, {})
     finally:  # called in-process (tests, notebooks): leave nothing behind
         interrupts.clear()
         sys.unraisablehook = hook
@@ -573,94 +540,28 @@ def _main(argv: list[str] | None) -> int:
         with warnings.catch_warnings(record=True) as caught:
             code = _dispatch(args, state)
         interrupts.check()  # an interrupt swallowed on the way (a GC callback) still ends it
-        _show_warnings(caught)
+        msg.show_warnings(caught)
         return code
     except CorrCadError as exc:
-        _error(str(exc))
+        msg.error(str(exc))
         return 2
     except BrokenExecutor:
         # A pool worker died under us (killed, out of memory, a crash in a
         # native library); the staging folder is already gone.
-        _error(
+        msg.error(
             "a worker process died (killed, or out of memory?); "
             "previous outputs left as they were; --executor serial runs without workers"
         )
         return 2
     except OSError as exc:
-        where = f"{_shown_path(exc.filename)}: " if exc.filename else ""
-        _error(f"{where}{exc.strerror or exc}; previous outputs left as they were")
+        where = f"{msg.shown_path(exc.filename)}: " if exc.filename else ""
+        msg.error(f"{where}{exc.strerror or exc}; previous outputs left as they were")
         return 2
     except Exception as exc:  # a bug: one line that says what was lost, never exit 1
-        _internal_error(exc, args, state)
-        return INTERNAL_ERROR
+        msg.internal_error(exc, args, state)
+        return msg.INTERNAL_ERROR
     except KeyboardInterrupt as exc:
-        return _interrupted(exc, state)
-
-
-def _interrupted(exc: KeyboardInterrupt, state: dict) -> int:
-    """The one line of an interrupted run, and its exit status (130 SIGINT, 143 SIGTERM)."""
-    from corr_cad.run import interrupts
-
-    terminated = isinstance(exc, interrupts.Terminated)
-    name, code = ("SIGTERM", 143) if terminated else ("SIGINT", 130)
-    staging = state.get("staging")
-    left = (
-        "the new outputs were already in place"
-        if staging is not None and staging.committed
-        else "previous outputs left as they were"
-    )
-    print(f"corr-cad: interrupted ({name}); {left}", file=sys.stderr)
-    return code
-
-
-#: Exit code of an unexpected exception (a bug in corr-cad or a library it calls).
-INTERNAL_ERROR = 3
-
-
-def _internal_error(exc: Exception, args: argparse.Namespace, state: dict) -> None:
-    """The one stderr line of an unexpected exception: where, what, and what was lost.
-
-    A run keeps all its files or none (docs/output-folder.md): the line says
-    which finished stages' files were discarded with the failed one, or that
-    the outputs were already in place. ``CORR_CAD_DEBUG=1`` prints the
-    traceback first.
-    """
-    if os.environ.get("CORR_CAD_DEBUG", "") not in ("", "0"):
-        import traceback
-
-        traceback.print_exception(exc, file=sys.stderr)
-    what = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    what = _line(what, 100)
-    staging = state.get("staging")
-    failure = getattr(exc, "corr_cad_failure", None)
-    where = f" in stage {failure.stage}" if failure is not None else ""
-    if args.command != "run":  # new, schema, bench: what they wrote is whole files
-        lost = ""
-    elif staging is not None and staging.committed:
-        lost = f"the run's files are complete in {_shown_path(staging.given)}"
-    elif failure is not None and failure.finished:
-        lost = (
-            f"the {failure.files} files staged by {', '.join(failure.finished)} were discarded "
-            "(a run keeps all its files or none) and "
-            f"{_shown_path(staging.given) if staging is not None else 'the output folder'} "
-            "holds its previous outputs"
-        )
-    else:
-        lost = "nothing was written; previous outputs left as they were"
-    print(
-        _line(
-            f"corr-cad: internal error{where} ({what}); {lost + '; ' if lost else ''}this is a "
-            "bug, please report it with the scene (CORR_CAD_DEBUG=1 shows the traceback)",
-            600,
-        ),
-        file=sys.stderr,
-    )
-
-
-def _shown_path(name: object) -> str:
-    """A file name for an error line: the path as given, its start cut if very long."""
-    text = os.fsdecode(name) if isinstance(name, (str, bytes)) else str(name)
-    return text if len(text) <= 160 else "..." + text[-157:]
+        return msg.interrupted(exc, state)
 
 
 if __name__ == "__main__":  # pragma: no cover
