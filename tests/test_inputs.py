@@ -614,3 +614,17 @@ def test_dxf_vertex_limit_is_the_approximators_budget():
     from corr_cad.run import resources
 
     assert resources.MAX_PROFILE_VERTICES == sampling._MAX_VERTICES
+
+
+def test_a_quiet_run_in_process_leaves_the_next_run_its_progress(tmp_path):
+    """main(["run", ..., "--quiet"]) turned progress off for the whole process: a later
+    in-process run (a notebook, a test in the same worker) printed no progress."""
+    from corr_cad.run import progress
+    from corr_cad.run.cli import main
+
+    scene = tmp_path / "s.toml"
+    scene.write_text('[export]\nformats = ["dxf"]\n')
+    assert main(["run", str(scene), "--out", str(tmp_path / "a"), "--quiet"]) == 0
+    assert not progress.enabled()
+    assert main(["run", str(scene), "--out", str(tmp_path / "b")]) == 0
+    assert progress.enabled()

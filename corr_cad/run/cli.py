@@ -213,10 +213,9 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     workers = 1 if args.executor == "serial" else args.workers or default_workers()
     est = check_scene(scene, workers, budget, args.executor)
     slow = time_warning(scene, est, budget, args.executor)
-    if args.quiet:
-        from corr_cad.run import progress
+    from corr_cad.run import progress
 
-        progress.set_enabled(False)
+    progress.set_enabled(not args.quiet)  # each call its own: a --quiet run before stays its own
     out = args.out if args.out is not None else Path("outputs") / safe_folder_name(scene.name)
     check_out_dir(out)  # refuse before anything is created or started
     check_disk(est, out)  # the files must fit where they go
