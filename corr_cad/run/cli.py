@@ -120,6 +120,7 @@ def _parser() -> argparse.ArgumentParser:
             "resources",
             "drive",
             "progress",
+            "compound",
         ),
         help="run only this study (repeatable); default all",
     )
