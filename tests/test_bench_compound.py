@@ -1,4 +1,4 @@
-"""The whole-drive speed benchmark's scene: the prototype with the compound template's first stage."""
+"""The whole-drive speed benchmark's scene: the prototype with compound.toml's first stage."""
 
 import tomllib
 from pathlib import Path
