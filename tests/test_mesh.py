@@ -220,3 +220,16 @@ def test_assembly_files_have_one_named_node_per_frame_plate(tmp_path):
         placed = glb.graph.get(f"frame_{k}")[0] @ np.r_[0.0, 0.0, 0.0, 1.0]
         bounds = glb.geometry[glb.graph.get(f"frame_{k}")[1]].bounds
         np.testing.assert_allclose((bounds[:, 2] + placed[2]) * 1000.0, [z0, z0 + t], atol=1e-6)
+
+
+def test_3mf_is_deflated_once_to_the_bytes_of_trimesh_s_own_archive(built, tmp_path):
+    """write_mesh deflates the 3MF once; trimesh's deflated archive, made stable, is the same."""
+    import zipfile
+
+    _, _, solids = built
+    tm = mesh.to_trimesh(solids["roller"])
+    path = mesh.write_mesh(tm, tmp_path / "r.3mf", "3mf")
+    reference = mesh.stable_3mf(tm.export(file_type="3mf"))  # trimesh deflates (level 5)
+    assert path.read_bytes() == reference
+    with zipfile.ZipFile(path) as z:
+        assert {i.compress_type for i in z.infolist()} == {zipfile.ZIP_DEFLATED}

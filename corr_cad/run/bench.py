@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad.run.bench_accuracy import fidelity, interference, profile_export, solids
+from corr_cad.run.bench_compound import compound_speed
 from corr_cad.run.bench_datasheet import datasheet_speed
 from corr_cad.run.bench_drive import drive_speed
 from corr_cad.run.bench_friction import friction_speed
@@ -45,6 +46,7 @@ STUDIES = {
     "resources": resources,
     "drive": drive_speed,
     "progress": progress_study,
+    "compound": compound_speed,
 }
 
 

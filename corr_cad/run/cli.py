@@ -132,6 +132,7 @@ def _parser() -> argparse.ArgumentParser:
             "resources",
             "drive",
             "progress",
+            "compound",
         ),
         help="run only this study (repeatable); default all",
     )
