@@ -523,16 +523,33 @@ def test_a_modified_curve_beyond_the_vertex_budget_is_refused_when_the_scene_loa
 
 @pytest.mark.slow
 def test_a_modified_curve_the_approximation_cannot_follow_writes_nothing(folder):
-    """z = 8: within the budget, but the approximation misses 0.001 mm by 0.5 mm: exit 2 in
-    the stage before the files, nothing written (the run used to write it and exit 1)."""
+    """z = 8: the swinging table is measured at load (the modified ring approximated once):
+    refused up front with a tolerance that works, nothing written."""
     _swinging_table(folder / "swing.csv")
     scene = DESIGN + '[export]\nformats = ["dxf"]\n[modification]\nnormal_table = "swing.csv"\n'
     line = refused(folder, cli(folder, scene, "--quiet"), "swing.csv")
-    assert line.startswith(
-        "corr-cad: error: [export] tolerance = 0.001: the modified working profile cannot be "
-        "drawn within it: [modification] normal_table swing.csv bends it too sharply"
+    assert line.startswith("corr-cad: error: [export] tolerance = 0.001: too fine for this design")
+    assert "would work" in line
+
+
+def test_the_stage_s_own_refusal_of_a_curve_it_cannot_follow_says_nothing_was_written():
+    """The approximation's own check, behind the load-time estimate: one line naming the
+    table, the measured deviation and a way out."""
+    from types import SimpleNamespace
+
+    from corr_cad.errors import SceneError
+    from corr_cad.run.stages_profile import _refuse_modified
+
+    scene = SimpleNamespace(
+        tolerance=0.001,
+        modification=SimpleNamespace(normal_table=SimpleNamespace(source="swing.csv")),
     )
-    assert "nothing was written" in line
+    approx = SimpleNamespace(max_deviation=0.507, representation="polyline", entity_vertex_count=9)
+    with pytest.raises(SceneError) as e:
+        _refuse_modified(scene, approx)
+    msg = str(e.value)
+    assert msg.startswith("[export] tolerance = 0.001: the modified working profile cannot be")
+    assert "swing.csv" in msg and "0.507 mm" in msg and msg.endswith("nothing was written")
 
 
 @pytest.mark.parametrize("kind", ["symlink", "folder"])
