@@ -177,6 +177,7 @@ class DriveSolver:
         psi_contact_limit: float = math.pi,
         geometry: tuple[RollerGeometry, RollerGeometry] | None = None,
         rtol: float = _RTOL,
+        compiled: bool = False,
     ):
         if contact_model not in CONTACT_MODELS:
             raise SolverError(
@@ -200,6 +201,13 @@ class DriveSolver:
         self.rtol = rtol
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
+        # ``compiled``: the bearing Newton inverts the paper's law in a compiled loop
+        # (:mod:`corr_cad.mechanics.drive_kernel`; the same to round-off, the Monte Carlo's).
+        self._inverse = None
+        if compiled and not getattr(self.comp, "explicit", False) and not self.comp.linear:
+            from corr_cad.mechanics.drive_kernel import CompiledInverse
+
+            self._inverse = CompiledInverse(self.comp, self.n.shape[:2])
 
     # ------------------------------------------------------------------ solve
 
@@ -222,6 +230,8 @@ class DriveSolver:
         if F_prev is not None:
             pred = F_prev + (h - h_prev) * k_prev
             start = np.where(F_prev > 0, np.maximum(pred, 0.0), start)
+        if self._inverse is not None:
+            return self._inverse(h, start)
         return _invert_convex(comp, h, start)
 
     def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
