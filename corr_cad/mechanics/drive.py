@@ -201,13 +201,9 @@ class DriveSolver:
         self.rtol = rtol
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
-        # ``compiled``: the bearing Newton inverts the paper's law in a compiled loop
+        # ``compiled``: the bearing Newton runs compiled, position by position
         # (:mod:`corr_cad.mechanics.drive_kernel`; the same to round-off, the Monte Carlo's).
-        self._inverse = None
-        if compiled and not getattr(self.comp, "explicit", False) and not self.comp.linear:
-            from corr_cad.mechanics.drive_kernel import CompiledInverse
-
-            self._inverse = CompiledInverse(self.comp, self.n.shape[:2])
+        self.compiled = bool(compiled) and not getattr(self.comp, "linear", False)
 
     # ------------------------------------------------------------------ solve
 
@@ -230,11 +226,13 @@ class DriveSolver:
         if F_prev is not None:
             pred = F_prev + (h - h_prev) * k_prev
             start = np.where(F_prev > 0, np.maximum(pred, 0.0), start)
-        if self._inverse is not None:
-            return self._inverse(h, start)
         return _invert_convex(comp, h, start)
 
     def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
+        if self.compiled:
+            from corr_cad.mechanics.drive_kernel import bearing_solve
+
+            return bearing_solve(self, target, tau, F, iterations, max_iter)
         geo, R = self.geo_joined, self.R
         a_c = np.where(geo.loadable, geo.advance, 0.0)
         a_m = np.where(geo.loadable, geo.arm, 0.0)
