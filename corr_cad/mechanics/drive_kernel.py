@@ -32,10 +32,12 @@ CJ, K1, KC, UKJ, CN, WN, KG, UKN, CS, WS, UKS = range(11)
 
 @_jit
 def _invert_one(hi, f, T, i):
-    """``(F, dF/dh)`` of roller ``i`` at overlap ``hi > 0`` by Newton from ``f``."""
+    """``(F, dF/dh)`` of roller ``i`` at overlap ``hi > 0`` by Newton from ``f``
+    (``T``: the contacts' table, a column per roller)."""
     cj, k1, kc, ukj = T[CJ, i], T[K1, i], T[KC, i], T[UKJ, i]
     cn, wn, kg, ukn = T[CN, i], T[WN, i], T[KG, i], T[UKN, i]
     cs, ws, uks = T[CS, i], T[WS, i], T[UKS, i]
+    dg = 1.0
     for _ in range(60):
         vj, sj = _approach(cj * f, ukj, k1, kc)
         vn, sn = _approach(cn * f, ukn, k1, kg)
@@ -46,10 +48,7 @@ def _invert_one(hi, f, T, i):
         f = max(f - step, 0.0)
         if abs(step) <= 1e-15 * f + 1e-300:
             break
-    vj, sj = _approach(cj * f, ukj, k1, kc)
-    vn, sn = _approach(cn * f, ukn, k1, kg)
-    vs, ss = _approach(cs * f, uks, k1, 0.0)
-    dg = cj * sj + wn * cn * sn + ws * cs * ss
+    # G' of the last iterate: within 1e-15 of the force's own (the step was below it).
     return f, (1.0 / dg if f > 0.0 else 0.0)
 
 
