@@ -34,7 +34,7 @@ def _own_errors(base, tolerances, draws, k):
     return draws["errors"][k]
 
 
-@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren", "linear"])
 @pytest.mark.parametrize("bearing", [NEEDLES, None])
 def test_block_equals_the_drive_solver_sample_by_sample(law, bearing):
     R = DESIGN.roller_count

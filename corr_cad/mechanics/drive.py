@@ -177,7 +177,6 @@ class DriveSolver:
         psi_contact_limit: float = math.pi,
         geometry: tuple[RollerGeometry, RollerGeometry] | None = None,
         rtol: float = _RTOL,
-        compiled: bool = False,
     ):
         if contact_model not in CONTACT_MODELS:
             raise SolverError(
@@ -201,9 +200,6 @@ class DriveSolver:
         self.rtol = rtol
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
-        # ``compiled``: the bearing Newton runs compiled, position by position
-        # (:mod:`corr_cad.mechanics.drive_kernel`; the same to round-off, the Monte Carlo's).
-        self.compiled = bool(compiled) and not getattr(self.comp, "linear", False)
 
     # ------------------------------------------------------------------ solve
 
@@ -229,10 +225,6 @@ class DriveSolver:
         return _invert_convex(comp, h, start)
 
     def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
-        if self.compiled:
-            from corr_cad.mechanics.drive_kernel import bearing_solve
-
-            return bearing_solve(self, target, tau, F, iterations, max_iter)
         geo, R = self.geo_joined, self.R
         a_c = np.where(geo.loadable, geo.advance, 0.0)
         a_m = np.where(geo.loadable, geo.arm, 0.0)

@@ -21,9 +21,10 @@ import math
 
 import numpy as np
 
+from corr_cad.mechanics.drive import DRIVE_RTOL, DriveSolver
 from corr_cad.mechanics.mc_kernel import _approach, _jit
 
-__all__ = ["CompiledInverse", "bearing_solve"]
+__all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
 
 # Rows of the per-roller table: cam, gear and slot contacts (b^2 per unit force,
 # weight, curvatures, knee).
@@ -366,11 +367,10 @@ def bearing_newton(
             rel_out[p] = np.inf
 
 
-def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int = 100):
+def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int, rtol: float):
     """:meth:`DriveSolver._with_bearings <corr_cad.mechanics.drive.DriveSolver>` compiled:
-    ``(tau, F, u, Qs, rel, iterations)`` from the rigid solution ``tau``, ``F``."""
-    from corr_cad.mechanics.drive import DRIVE_RTOL
-
+    ``(tau, F, u, Qs, rel, iterations)`` from the rigid solution ``tau``, ``F``; ``rtol``:
+    the relative residual each position reaches (``drive.DRIVE_RTOL``)."""
     geo, comp = solver.geo_joined, solver.comp
     P, N = F.shape
     g = np.ascontiguousarray(
@@ -420,10 +420,20 @@ def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int 
         tau,
         F,
         float(target),
-        DRIVE_RTOL,
+        float(rtol),
         int(max_iter),
         u,
         Q,
         rel,
     )
     return tau, F, u, [Q[0], Q[1]], rel, iterations
+
+
+class CompiledDriveSolver(DriveSolver):
+    """:class:`~corr_cad.mechanics.drive.DriveSolver` whose bearing Newton runs compiled
+    (:func:`bearing_newton`; the linear contact law keeps the numpy Newton)."""
+
+    def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
+        if getattr(self.comp, "linear", False):
+            return super()._with_bearings(target, tau, F, iterations, max_iter)
+        return bearing_solve(self, target, tau, F, iterations, max_iter, DRIVE_RTOL)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from corr_cad.mechanics.drive import DriveSolver, drive_geometry, row_errors
+from corr_cad.mechanics.drive import drive_geometry, row_errors
 from corr_cad.mechanics.solver import loaded_mask
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 from corr_cad.tolerance.checks import ARCMIN_PER_RAD
@@ -123,6 +123,8 @@ def drive_chunk(
     ``errors_for(base, tolerances, draws, k)``: sample ``k``'s errors (the Monte
     Carlo's own mapping of draws to errors).
     """
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
+
     tol_b = row_b_tolerances(tolerances)
     angles = np.asarray(angles, dtype=float).reshape(-1)
     P = len(angles)
@@ -135,14 +137,13 @@ def drive_chunk(
             (errors_for(base, tolerances, draws, k), errors_for(base_b, tol_b, draws_b, k))
             for k in range(lo, hi)
         ]
-        solver = DriveSolver(
+        solver = CompiledDriveSolver(
             design,
             np.tile(angles, hi - lo),
             geometry=stacked_geometry(design, angles, pairs, psi_limit),
             bearing=drive.get("bearing"),
             bearing_b=drive.get("bearing_b"),
             contact_model=drive.get("contact_model", "nonlinear"),
-            compiled=True,
         )
         res = solver.result(float(input_torque))
         ok &= bool(res.success)
