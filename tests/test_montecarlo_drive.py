@@ -118,3 +118,29 @@ def test_monte_carlo_on_the_drive_is_seeded_and_independent_of_chunking():
     assert one.success
     for name, v in one.metrics.items():
         np.testing.assert_array_equal(v, two.metrics[name])
+
+
+def test_stacked_geometry_is_each_samples_drive_geometry_bit_for_bit():
+    from corr_cad.mechanics.drive import drive_geometry, row_errors
+    from corr_cad.tolerance.montecarlo_drive import stacked_geometry
+
+    R = DESIGN.roller_count
+    rng = np.random.default_rng(3)
+
+    def errors():
+        return replace(
+            _errors(rng, R),
+            slot_clearance=float(abs(rng.normal(0.0, 0.003))),
+            cam_phase_error=math.radians(float(rng.normal(0.0, 0.05))),
+            slot_angle_errors=tuple(rng.normal(0.0, 1e-4, R)),
+        )
+
+    pairs = [(errors(), errors()) for _ in range(3)] + [(ME(), ME())]
+    angles = cycle_angles(17)
+    stacked = stacked_geometry(DESIGN, angles, pairs, 2.5)
+    for k, (ea, eb) in enumerate(pairs):
+        alone = drive_geometry(DESIGN, angles, *row_errors(ea, eb), (), 2.5)
+        for big, g in zip(stacked, alone, strict=True):
+            for name in g.__dataclass_fields__:
+                got = getattr(big, name)[17 * k : 17 * (k + 1)]
+                np.testing.assert_array_equal(got, np.broadcast_to(getattr(g, name), got.shape))

@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from corr_cad.mechanics.drive import drive_geometry, row_errors
+from corr_cad.mechanics.drive import row_errors
 from corr_cad.mechanics.solver import loaded_mask
-from corr_cad.mechanics.solver_geometry import RollerGeometry
+from corr_cad.mechanics.solver_geometry import RollerGeometry, _error_gaps, roller_geometry
 from corr_cad.tolerance.checks import ARCMIN_PER_RAD
 
 __all__ = [
@@ -68,26 +68,44 @@ def stacked_geometry(
     """Rows A and B of the samples ``pairs`` (``(errors, errors_b)`` each), stacked
     sample-major: positions ``k P .. (k+1) P - 1`` are sample ``k``'s (``P`` angles).
 
-    Each sample's rows are :func:`~corr_cad.mechanics.drive.drive_geometry`'s;
-    a row's cam curvature becomes a (n P, 1) column (one per sample).
+    Each row is :func:`~corr_cad.mechanics.drive.drive_geometry`'s, bit for bit: the
+    nominal geometry (row B's at ``phi + pi``) is built once and each sample adds its
+    own gaps and curvatures (as :class:`~corr_cad.mechanics.batch.BatchSolver` does
+    for one row); a row's cam curvature becomes a (n P, 1) column.
     """
-    P = len(angles)
-    rows: tuple[list, list] = ([], [])
+    phi = np.asarray(angles, dtype=float).reshape(-1)
+    phis = (phi, phi + np.pi)
+    nominal = [roller_geometry(design, x, None, (), psi_limit) for x in phis]
+    theta = np.arange(design.roller_count) * design.slot_pitch_rad
+    r, Rj = design.roller_radius, design.cam_radius
+    parts: tuple[dict, dict] = (
+        {"gap": [], "k_roller": [], "k_cam": []},
+        {"gap": [], "k_roller": [], "k_cam": []},
+    )
     for ea, eb in pairs:
-        geo = drive_geometry(design, angles, *row_errors(ea, eb), (), psi_limit)
-        for out, g in zip(rows, geo, strict=True):
-            out.append(g)
+        for c, err in enumerate(row_errors(ea, eb)):
+            g0 = nominal[c]
+            if err.any:
+                gap, dr = _error_gaps(design, err, phis[c], theta, g0.psi, g0.s, g0.rho_n, g0.rho_s)
+            else:
+                gap, dr = np.zeros_like(g0.psi), np.zeros_like(g0.psi)
+            parts[c]["gap"].append(gap)
+            parts[c]["k_roller"].append(1.0 / (r + dr))
+            parts[c]["k_cam"].append(1.0 / (Rj + err.cam_radius_error))
+    n, P = len(pairs), len(phi)
 
-    def stack(gs):
+    def stack(g0, part):
         kw = {
-            k: np.concatenate([getattr(g, k) for g in gs], axis=0)
+            k: np.tile(getattr(g0, k), (n, 1))
             for k in RollerGeometry.__dataclass_fields__
-            if k != "k_cam"
+            if k not in part
         }
-        kw["k_cam"] = np.repeat(np.array([float(g.k_cam) for g in gs]), P)[:, None]
+        kw["gap"] = np.concatenate(part["gap"], axis=0)
+        kw["k_roller"] = np.concatenate(part["k_roller"], axis=0)
+        kw["k_cam"] = np.repeat(np.asarray(part["k_cam"], dtype=float), P)[:, None]
         return RollerGeometry(**kw)
 
-    return stack(rows[0]), stack(rows[1])
+    return stack(nominal[0], parts[0]), stack(nominal[1], parts[1])
 
 
 def _block_metrics(res, interval, ratio: float, n: int, P: int) -> dict:
