@@ -41,7 +41,7 @@ ROW_B_KINDS = ("cam_radius", "eccentricity", "roller_radius")
 ROW_B_STREAM = 1
 #: Positions (samples x crank angles) solved together: large enough to spread numpy's
 #: per-call overhead, small enough to stay in the CPU cache.
-BLOCK_POSITIONS = 2400
+BLOCK_POSITIONS = 1000
 
 
 def row_b_tolerances(tolerances: dict) -> dict:
