@@ -176,14 +176,14 @@ def _needles(u, dirs, bear, Q, kq, gq, r):
 
 
 @_jit
-def _relative(r, w, geo, p, Q, gq, target):
+def _relative(r, w, geo, p, Q, gq, target, e):
     """The residual relative to the round-off of its terms (drive.DriveSolver._relative)."""
     N = w.shape[1]
     R = N // 2
     sm = abs(target)
     sf = np.zeros(2)
     for i in range(N):
-        sm += abs(geo[1, p, i]) * (abs(w[1, i]) + w[3, i])
+        sm += (abs(geo[1, p, i]) + e) * abs(w[1, i]) + abs(geo[1, p, i]) * w[3, i]
         sf[0 if i < R else 1] += w[1, i] + w[3, i]
     for c in range(2):
         for j in range(Q.shape[1]):
@@ -264,7 +264,7 @@ def bearing_newton(
         t = tau[p]
         sm = abs(target)
         for i in range(N):
-            sm += abs(geo[1, p, i] * F0[p, i])
+            sm += (abs(geo[1, p, i]) + e) * abs(F0[p, i])
         sm += 1e-300
         sf = sm / e
         # Start: each cam displaced along its load by the clearance and Stribeck's approach.
@@ -287,7 +287,7 @@ def bearing_newton(
             for i in range(N):
                 fmax = max(fmax, w[1, i])
             idle = fmax <= _IDLE
-        done = idle or _relative(r, w, geo, p, Q, gq, target) <= rtol
+        done = idle or _relative(r, w, geo, p, Q, gq, target, e) <= rtol
         for _ in range(max_iter):
             if done:
                 break
@@ -316,20 +316,21 @@ def bearing_newton(
                 tr = J[a, a] + J[d, d]
                 J[a, a] += 1e-12 * tr + 1e-9
                 J[d, d] += 1e-12 * tr + 1e-9
-            J[0, 0] += 1e-300
+            # The crank's floor, as the cams' (drive.DriveSolver._with_bearings).
+            J[0, 0] += e * e * (1e-12 * (J[1, 1] + J[2, 2] + J[3, 3] + J[4, 4]) + 1e-9)
             for k in range(5):
                 b[k] = -r[k]
             _solve5(J, b, step)
             for k in range(5):
                 if not math.isfinite(step[k]):
                     step[k] = 0.0
-            big = max(
-                abs(step[0]) / _MAX_STEP,
-                max(math.hypot(step[1], step[2]), math.hypot(step[3], step[4])) / _MAX_STEP,
-            )
-            if big > 1.0:
-                for k in range(5):
-                    step[k] /= big
+            # Each capped on its own (drive.DriveSolver._with_bearings).
+            step[0] /= max(abs(step[0]) / _MAX_STEP, 1.0)
+            for a in (1, 3):
+                big = math.hypot(step[a], step[a + 1]) / _MAX_STEP
+                if big > 1.0:
+                    step[a] /= big
+                    step[a + 1] /= big
             m0 = _merit(r, sm, sf)
             alpha = 1.0
             ok = False
@@ -352,7 +353,7 @@ def bearing_newton(
             w[:, :] = wt
             r[:] = rt
             Q[:, :], kq[:, :], gq[:, :] = Qt, kqt, gqt
-            done = _relative(r, w, geo, p, Q, gq, target) <= rtol
+            done = _relative(r, w, geo, p, Q, gq, target, e) <= rtol
         tau[p] = t
         for i in range(N):
             F0[p, i] = w[1, i]
@@ -362,7 +363,7 @@ def bearing_newton(
         if idle:
             rel_out[p] = 0.0
         elif done:
-            rel_out[p] = _relative(r, w, geo, p, Q, gq, target)
+            rel_out[p] = _relative(r, w, geo, p, Q, gq, target, e)
         else:
             rel_out[p] = np.inf
 
