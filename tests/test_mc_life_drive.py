@@ -24,7 +24,12 @@ import pytest
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.drive_windup import DriveWindup
-from corr_cad.mechanics.efficiency import friction_figures, rows_from_drive
+from corr_cad.mechanics.efficiency import (
+    drive_friction,
+    drive_life,
+    friction_figures,
+    rows_from_drive,
+)
 from corr_cad.mechanics.friction import Friction
 from corr_cad.mechanics.life import LifeSpec
 from corr_cad.tolerance.mc_life import life_percentiles, life_samples
@@ -84,6 +89,23 @@ def test_row_b_draws_its_own_rollers():
     # Row B scatters too, from its own stream: its raceway leaves the nominal life.
     nominal = life_samples(D, ManufacturingErrors(), ZERO, 1, 7, LifeSpec(), FR, T_R, drive=RIGID)
     assert not np.allclose(lives["ring_row2"], nominal["ring_row2"][0], rtol=1e-6)
+    # Sample 1 rebuilt from the streams by hand: draw_samples draws, kind by kind in
+    # TOLERANCE_KINDS' order, every sample's normals then uniforms; roller_radius comes
+    # after three scalar kinds. Row A: the seed's generator; row B: [seed, 1].
+    R, n = D.roller_count, 2
+
+    def rollers(rng):
+        for _ in range(3):  # cam_radius, eccentricity, cam_phase: normal, uniform
+            rng.standard_normal(n)
+            rng.uniform(-1.0, 1.0, n)
+        return tuple(0.001 * rng.standard_normal((n, R))[1])
+
+    a = ManufacturingErrors(roller_radius_errors=rollers(np.random.default_rng(7)))
+    b = ManufacturingErrors(roller_radius_errors=rollers(np.random.default_rng([7, 1])))
+    rows = rows_from_drive(D, DriveWindup(D, X, errors=a, errors_b=b).forces(-T_R))
+    by_hand = drive_life(D, rows, drive_friction(D, rows, FR), LifeSpec(), "bearing", 15.0)
+    for name in ("ring_row1", "ring_row2", "bearing_row2", "system"):
+        assert lives[name][1] == pytest.approx(by_hand[name], rel=1e-9), name
     p = life_percentiles(lives, model="drive")
     assert p["model"] == "drive" and "drive" in p["definition"]
     assert "model" not in life_percentiles(lives)
