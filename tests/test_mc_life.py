@@ -76,3 +76,20 @@ def test_montecarlo_run_reports_life_percentiles(tmp_path):
     assert life["system"]["p5"] <= life["system"]["p50"] <= life["system"]["p95"]
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["montecarlo"]["life_h"] == life
+
+
+def test_life_with_a_monte_carlo_alone_has_an_effect_and_says_nothing():
+    """[life] with a Monte Carlo (no datasheet) gives the life percentiles: no "has no
+    effect" line; with neither format it has none, and says so."""
+    from corr_cad.run.scene import parse_scene
+
+    data = {
+        "export": {"formats": ["montecarlo"]},
+        "load": {"input_torque": 1.1e5},
+        "tolerances": {"roller_radius": {"normal": 0.001}},
+        "life": {},
+    }
+    assert not [w for w in parse_scene(data).warnings if "[life]" in w]
+    data["export"]["formats"] = ["dxf"]
+    del data["tolerances"]
+    assert [w for w in parse_scene(data).warnings if w.startswith("[life]")]

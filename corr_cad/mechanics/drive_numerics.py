@@ -148,12 +148,16 @@ def joined(ga: RollerGeometry, gb: RollerGeometry) -> RollerGeometry:
     out = {}
     for k in RollerGeometry.__dataclass_fields__:
         a, b = getattr(ga, k), getattr(gb, k)
-        if np.ndim(a) == 2:
-            out[k] = np.concatenate([a, b], axis=1)
-        else:  # k_cam: one per cam
+        if k == "k_cam":  # one per cam (a float, or (P, 1) when samples are stacked)
             out[k] = np.concatenate(
-                [np.full(ga.psi.shape, float(a)), np.full(gb.psi.shape, float(b))], axis=1
+                [
+                    np.broadcast_to(np.asarray(a, dtype=float), ga.psi.shape),
+                    np.broadcast_to(np.asarray(b, dtype=float), gb.psi.shape),
+                ],
+                axis=1,
             )
+        else:
+            out[k] = np.concatenate([a, b], axis=1)
     return RollerGeometry(**out)
 
 

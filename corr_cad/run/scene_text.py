@@ -81,9 +81,13 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
             'formats lists none of "datasheet", "montecarlo", "allocation" '
             "and no [checks] limit needs it",
         )
-    for section in ("friction", "life"):
-        if section in data and not sheet:
-            warn(f"[{section}]", 'formats does not list "datasheet" and no [checks] limit needs it')
+    if "friction" in data and not sheet:
+        warn("[friction]", 'formats does not list "datasheet" and no [checks] limit needs it')
+    if "life" in data and not sheet and "montecarlo" not in f:  # the Monte Carlo's life_h
+        warn(
+            "[life]",
+            'formats lists neither "datasheet" nor "montecarlo" and no [checks] limit needs it',
+        )
     ex = data.get("export", {})
     if "representation" in ex and "dxf" not in f:
         warn("[export] representation", 'formats does not list "dxf"')

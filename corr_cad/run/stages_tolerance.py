@@ -183,7 +183,7 @@ def _montecarlo(ctx: RunContext) -> None:
 
 def _life_under_tolerances(ctx: RunContext) -> dict:
     """``[life]`` with a Monte Carlo: L10 percentiles over its first samples."""
-    from corr_cad.run.stages_datasheet import friction_spec, rated_torque_Nmm
+    from corr_cad.run.stages_datasheet import _life_spec, friction_spec, rated_torque_Nmm
     from corr_cad.tolerance.mc_life import life_percentiles, life_samples
 
     s = ctx.scene
@@ -204,8 +204,10 @@ def _life_under_tolerances(ctx: RunContext) -> dict:
         psi_contact_limit=psi_contact_limit(ctx),
         positions_per_mesh=s.friction["positions_per_mesh"],
         draws=s.montecarlo["samples"],
+        drive=_drive_mc(ctx),
+        life_b=_life_spec(s, s.bearing if s.bearing_b is None else s.bearing_b),
     )
-    return life_percentiles(lives)
+    return life_percentiles(lives, model="drive" if s.solver.drive else "paper")
 
 
 def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:

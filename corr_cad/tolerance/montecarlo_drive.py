@@ -8,22 +8,40 @@ roller radii) are drawn from a second generator seeded with ``[seed, 1]``.
 Each sample is then solved by :class:`~corr_cad.mechanics.drive.DriveSolver`
 at the Monte Carlo's crank positions, and keeps the four force metrics over
 both rows (the drive's free rotation for the backlash).
+
+Samples are solved in blocks: a block's geometries are stacked sample-major
+along the positions (as :mod:`corr_cad.mechanics.batch` does for one row) and
+solved by one :class:`DriveSolver`. Every position's solve (the rigid
+Newton-bisection, the bearing Newton and its line search, the free interval)
+is its own, so a sample's metrics are those of solving it alone
+(``tests/test_montecarlo_drive.py``); the block only shares numpy's overhead.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.drive import row_errors
 from corr_cad.mechanics.solver import loaded_mask
+from corr_cad.mechanics.solver_geometry import RollerGeometry, _error_gaps, roller_geometry
 from corr_cad.tolerance.checks import ARCMIN_PER_RAD
 
-__all__ = ["ROW_B_KINDS", "ROW_B_STREAM", "row_b_tolerances", "drive_chunk", "drive_metrics"]
+__all__ = [
+    "ROW_B_KINDS",
+    "ROW_B_STREAM",
+    "row_b_tolerances",
+    "drive_chunk",
+    "drive_metrics",
+    "stacked_geometry",
+]
 
 #: Tolerance kinds each row has of its own (drawn again for row B).
 ROW_B_KINDS = ("cam_radius", "eccentricity", "roller_radius")
 #: Row B's generator: ``numpy.random.default_rng([seed, ROW_B_STREAM])``.
 ROW_B_STREAM = 1
+#: Positions (samples x crank angles) solved together: large enough to spread numpy's
+#: per-call overhead, small enough to stay in the CPU cache.
+BLOCK_POSITIONS = 1000
 
 
 def row_b_tolerances(tolerances: dict) -> dict:
@@ -41,6 +59,66 @@ def drive_metrics(res, interval: tuple[np.ndarray, np.ndarray], ratio: float) ->
         "peak_pressure": float(max(x.max() for x in p)),
         "min_loaded_rollers": float(min(x.min() for x in loaded)),
         "backlash_arcmin": float(np.max(fwd - rev) / ratio * ARCMIN_PER_RAD),
+    }
+
+
+def stacked_geometry(
+    design, angles: np.ndarray, pairs: list, psi_limit: float
+) -> tuple[RollerGeometry, RollerGeometry]:
+    """Rows A and B of the samples ``pairs`` (``(errors, errors_b)`` each), stacked
+    sample-major: positions ``k P .. (k+1) P - 1`` are sample ``k``'s (``P`` angles).
+
+    Each row is :func:`~corr_cad.mechanics.drive.drive_geometry`'s, bit for bit: the
+    nominal geometry (row B's at ``phi + pi``) is built once and each sample adds its
+    own gaps and curvatures (as :class:`~corr_cad.mechanics.batch.BatchSolver` does
+    for one row); a row's cam curvature becomes a (n P, 1) column.
+    """
+    phi = np.asarray(angles, dtype=float).reshape(-1)
+    phis = (phi, phi + np.pi)
+    nominal = [roller_geometry(design, x, None, (), psi_limit) for x in phis]
+    theta = np.arange(design.roller_count) * design.slot_pitch_rad
+    r, Rj = design.roller_radius, design.cam_radius
+    parts: tuple[dict, dict] = (
+        {"gap": [], "k_roller": [], "k_cam": []},
+        {"gap": [], "k_roller": [], "k_cam": []},
+    )
+    for ea, eb in pairs:
+        for c, err in enumerate(row_errors(ea, eb)):
+            g0 = nominal[c]
+            if err.any:
+                gap, dr = _error_gaps(design, err, phis[c], theta, g0.psi, g0.s, g0.rho_n, g0.rho_s)
+            else:
+                gap, dr = np.zeros_like(g0.psi), np.zeros_like(g0.psi)
+            parts[c]["gap"].append(gap)
+            parts[c]["k_roller"].append(1.0 / (r + dr))
+            parts[c]["k_cam"].append(1.0 / (Rj + err.cam_radius_error))
+    n, P = len(pairs), len(phi)
+
+    def stack(g0, part):
+        kw = {
+            k: np.tile(getattr(g0, k), (n, 1))
+            for k in RollerGeometry.__dataclass_fields__
+            if k not in part
+        }
+        kw["gap"] = np.concatenate(part["gap"], axis=0)
+        kw["k_roller"] = np.concatenate(part["k_roller"], axis=0)
+        kw["k_cam"] = np.repeat(np.asarray(part["k_cam"], dtype=float), P)[:, None]
+        return RollerGeometry(**kw)
+
+    return stack(nominal[0], parts[0]), stack(nominal[1], parts[1])
+
+
+def _block_metrics(res, interval, ratio: float, n: int, P: int) -> dict:
+    """:func:`drive_metrics` of each of the ``n`` stacked samples, arrays (n,)."""
+    p = [np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear) for r in res.rows]
+    loaded = [loaded_mask(r.F_j).sum(axis=1).reshape(n, P) for r in res.rows]
+    rev, fwd = interval
+    F_n = res.F_n.reshape(2, n, P, -1)
+    return {
+        "peak_gear_force": F_n.max(axis=(0, 2, 3)),
+        "peak_pressure": np.maximum(*(x.reshape(n, -1).max(axis=1) for x in p)),
+        "min_loaded_rollers": np.minimum(*(x.min(axis=1) for x in loaded)).astype(float),
+        "backlash_arcmin": (fwd - rev).reshape(n, P).max(axis=1) / ratio * ARCMIN_PER_RAD,
     }
 
 
@@ -63,27 +141,29 @@ def drive_chunk(
     ``errors_for(base, tolerances, draws, k)``: sample ``k``'s errors (the Monte
     Carlo's own mapping of draws to errors).
     """
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
+
     tol_b = row_b_tolerances(tolerances)
-    names = ("peak_gear_force", "peak_pressure", "min_loaded_rollers", "backlash_arcmin")
-    out = {k: np.empty(n) for k in names}
-    ok = True
+    angles = np.asarray(angles, dtype=float).reshape(-1)
+    P = len(angles)
+    block = max(1, BLOCK_POSITIONS // P)
+    parts, ok = [], True
     ratio = float(design.roller_count)
-    for k in range(n):
-        ea = errors_for(base, tolerances, draws, k)
-        eb = errors_for(base_b, tol_b, draws_b, k)
-        solver = DriveSolver(
+    for lo in range(0, n, block):
+        hi = min(lo + block, n)
+        pairs = [
+            (errors_for(base, tolerances, draws, k), errors_for(base_b, tol_b, draws_b, k))
+            for k in range(lo, hi)
+        ]
+        solver = CompiledDriveSolver(
             design,
-            angles,
-            errors=ea,
-            errors_b=eb,
+            np.tile(angles, hi - lo),
+            geometry=stacked_geometry(design, angles, pairs, psi_limit),
             bearing=drive.get("bearing"),
             bearing_b=drive.get("bearing_b"),
             contact_model=drive.get("contact_model", "nonlinear"),
-            psi_contact_limit=psi_limit,
         )
         res = solver.result(float(input_torque))
         ok &= bool(res.success)
-        m = drive_metrics(res, solver.free_interval(), ratio)
-        for name in names:
-            out[name][k] = m[name]
-    return out, ok
+        parts.append(_block_metrics(res, solver.free_interval(), ratio, hi - lo, P))
+    return {k: np.concatenate([q[k] for q in parts]) for k in parts[0]}, ok

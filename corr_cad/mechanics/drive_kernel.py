@@ -1,0 +1,440 @@
+"""Compiled inversion of the paper's contact law for the drive's bearing Newton.
+
+:class:`~corr_cad.mechanics.drive.DriveSolver` finds each roller's force
+``F`` from its overlap ``h`` (``G(F) = h``, ``G`` the three contacts in
+series) at every step of its Newton on ``(tau, u_A, u_B)``. The numpy
+inversion (:func:`corr_cad.mechanics.drive_numerics._invert_convex`) iterates
+every roller until the slowest one settles and builds some twenty temporaries
+per iteration; here each roller is inverted on its own, in a compiled loop,
+with the same Newton from the same start and the same stop (a step below
+``1e-15`` of its force). The contact law is the one of the compiled Monte
+Carlo kernel (:func:`corr_cad.mechanics.mc_kernel._approach`). The forces
+agree with the numpy inversion to round-off (a roller stops when it has
+settled, not when the slowest has), so a drive solved with it agrees with
+the numpy one to the bearing Newton's tolerance; the drive's Monte Carlo
+uses it (``tests/test_montecarlo_drive.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from corr_cad.mechanics.drive import DRIVE_RTOL, DriveSolver
+from corr_cad.mechanics.mc_kernel import _approach, _jit
+
+__all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
+
+# Rows of the per-roller table: cam, gear and slot contacts (b^2 per unit force,
+# weight, curvatures, knee).
+CJ, K1, KC, UKJ, CN, WN, KG, UKN, CS, WS, UKS = range(11)
+
+
+@_jit
+def _invert_one(hi, f, T, i):
+    """``(F, dF/dh)`` of roller ``i`` at overlap ``hi > 0`` by Newton from ``f``
+    (``T``: the contacts' table, a column per roller)."""
+    cj, k1, kc, ukj = T[CJ, i], T[K1, i], T[KC, i], T[UKJ, i]
+    cn, wn, kg, ukn = T[CN, i], T[WN, i], T[KG, i], T[UKN, i]
+    cs, ws, uks = T[CS, i], T[WS, i], T[UKS, i]
+    dg = 1.0
+    for _ in range(60):
+        vj, sj = _approach(cj * f, ukj, k1, kc)
+        vn, sn = _approach(cn * f, ukn, k1, kg)
+        vs, ss = _approach(cs * f, uks, k1, 0.0)
+        g = vj + wn * vn + ws * vs
+        dg = cj * sj + wn * cn * sn + ws * cs * ss
+        step = (g - hi) / dg
+        f = max(f - step, 0.0)
+        if abs(step) <= 1e-15 * f + 1e-300:
+            break
+    # G' of the last iterate: within 1e-15 of the force's own (the step was below it).
+    return f, (1.0 / dg if f > 0.0 else 0.0)
+
+
+@_jit
+def _invert(h, start, T, F_out, k_out):
+    """``F`` with ``G(F) = h`` (0 where ``h <= 0``) and ``dF/dh`` per roller (flat arrays)."""
+    for i in range(h.shape[0]):
+        if not h[i] > 0.0:
+            F_out[i] = 0.0
+            k_out[i] = 0.0
+        else:
+            F_out[i], k_out[i] = _invert_one(h[i], start[i], T, i)
+
+
+class CompiledInverse:
+    """``(F, dF/dh)`` at overlaps ``h`` (P, N) for a compliance of the paper's law
+    (:class:`~corr_cad.mechanics.solver_numerics._Compliance`, ``model = "nonlinear"``)."""
+
+    def __init__(self, comp, shape: tuple[int, int]):
+        cam, gear, slot = comp.contacts
+
+        def full(x):
+            return np.broadcast_to(np.asarray(x, dtype=float), shape).reshape(-1)
+
+        self.table = np.ascontiguousarray(
+            np.stack(
+                [
+                    full(cam.cw),
+                    full(cam.k1),
+                    full(cam.k2),
+                    full(cam.uk),
+                    full(gear.cw),
+                    full(gear.w),
+                    full(gear.k2),
+                    full(gear.uk),
+                    full(slot.cw),
+                    full(slot.w),
+                    full(slot.uk),
+                ]
+            )
+        )
+        self.shape = shape
+
+    def __call__(self, h: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n = self.table.shape[1]
+        F, k = np.empty(n), np.empty(n)
+        _invert(
+            np.ascontiguousarray(h, dtype=float).reshape(-1),
+            np.ascontiguousarray(start, dtype=float).reshape(-1),
+            self.table,
+            F,
+            k,
+        )
+        return F.reshape(self.shape), k.reshape(self.shape)
+
+
+# ---------------------------------------------------------------- the bearing Newton
+
+_EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
+_IDLE = 1e-9  # drive._IDLE_FORCE
+_MAX_STEP = 1e-2  # drive._MAX_TAU_STEP, drive._MAX_U_STEP
+
+
+@_jit
+def _palmgren(d, c):
+    """``(Q, dQ/d delta)`` of ``delta = c Q^0.9`` (both 0 for ``delta <= 0``)."""
+    if not d > 0.0:
+        return 0.0, 0.0
+    q = (d / c) ** (1.0 / _EXP)
+    return q, q / (_EXP * d)
+
+
+@_jit
+def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r):
+    """Roller overlaps, forces and stiffnesses at ``(tau, u)`` of position ``p``, and
+    the residual ``r`` (5,) less the needles' share (:func:`_needles` adds it).
+
+    ``geo`` (5, P, N): advance, arm, gap (-1e300 where not loadable), n_x, n_y;
+    ``w`` (4, N) out: h, F, dF/dh, gross overlap x stiffness; ``prev``: the last
+    state's ``w`` (its loaded rollers start from the tangent), NaN for the first.
+    """
+    N = geo.shape[2]
+    R = N // 2
+    first = math.isnan(prev[0, 0])
+    r[:] = 0.0
+    r[0] = -target
+    for i in range(N):
+        c = 0 if i < R else 1
+        a, h0 = geo[0, p, i], geo[2, p, i]
+        nu = geo[3, p, i] * u[c, 0] + geo[4, p, i] * u[c, 1]
+        h = a * tau + h0 + nu
+        if law == 0:
+            if not h > 0.0:
+                F, k = 0.0, 0.0
+            else:
+                start = h / slope0[p, i]
+                if not first and prev[1, i] > 0.0:
+                    start = max(prev[1, i] + (h - prev[0, i]) * prev[2, i], 0.0)
+                F, k = _invert_one(h, start, T[:, p, :], i)
+        else:
+            F, k = _palmgren(h, K[p, i])
+        w[0, i], w[1, i], w[2, i] = h, F, k
+        w[3, i] = (abs(a * tau) + abs(h0) + abs(nu)) * k if h0 > -1e300 else 0.0
+        r[0] += geo[1, p, i] * F
+        r[1 + 2 * c] += F * geo[3, p, i]
+        r[2 + 2 * c] += F * geo[4, p, i]
+
+
+@_jit
+def _needles(u, dirs, bear, Q, kq, gq, r):
+    """Each cam's needle loads ``Q`` (2, Z), stiffness and gross terms; subtracts
+    ``sum_j Q_j e_j`` from the cams' force residuals ``r[1:5]``."""
+    Z = dirs.shape[1]
+    for c in range(2):
+        norm_u = math.sqrt(u[c, 0] ** 2 + u[c, 1] ** 2)
+        for j in range(Z):
+            ex, ey = dirs[c, j, 0], dirs[c, j, 1]
+            d = -(u[c, 0] * ex + u[c, 1] * ey) - bear[c, 0]
+            q, k = _palmgren(d, bear[c, 1])
+            Q[c, j], kq[c, j] = q, k
+            gq[c, j] = k * (norm_u + bear[c, 2])
+            r[1 + 2 * c] -= q * ex
+            r[2 + 2 * c] -= q * ey
+
+
+@_jit
+def _relative(r, w, geo, p, Q, gq, target, e):
+    """The residual relative to the round-off of its terms (drive.DriveSolver._relative)."""
+    N = w.shape[1]
+    R = N // 2
+    sm = abs(target)
+    sf = np.zeros(2)
+    for i in range(N):
+        sm += (abs(geo[1, p, i]) + e) * abs(w[1, i]) + abs(geo[1, p, i]) * w[3, i]
+        sf[0 if i < R else 1] += w[1, i] + w[3, i]
+    for c in range(2):
+        for j in range(Q.shape[1]):
+            sf[c] += Q[c, j] + gq[c, j]
+    rel = abs(r[0]) / (sm + 1e-300)
+    for c in range(2):
+        rel = max(rel, math.sqrt(r[1 + 2 * c] ** 2 + r[2 + 2 * c] ** 2) / (sf[c] + 1e-300))
+    return rel
+
+
+@_jit
+def _merit(r, sm, sf):
+    return (r[0] / sm) ** 2 + (
+        (r[1] / sf) ** 2 + (r[2] / sf) ** 2 + (r[3] / sf) ** 2 + (r[4] / sf) ** 2
+    )
+
+
+@_jit
+def _solve5(J, b, x):
+    """``x = J^-1 b`` by Gaussian elimination with partial pivoting (J, b overwritten)."""
+    n = 5
+    for col in range(n):
+        piv = col
+        for row in range(col + 1, n):
+            if abs(J[row, col]) > abs(J[piv, col]):
+                piv = row
+        if piv != col:
+            for k in range(n):
+                J[col, k], J[piv, k] = J[piv, k], J[col, k]
+            b[col], b[piv] = b[piv], b[col]
+        for row in range(col + 1, n):
+            f = J[row, col] / J[col, col]
+            for k in range(col, n):
+                J[row, k] -= f * J[col, k]
+            b[row] -= f * b[col]
+    for row in range(n - 1, -1, -1):
+        s = b[row]
+        for k in range(row + 1, n):
+            s -= J[row, k] * x[k]
+        x[row] = s / J[row, row]
+
+
+@_jit
+def bearing_newton(
+    geo,
+    law,
+    T,
+    K,
+    slope0,
+    bear,
+    strib,
+    dirs,
+    e,
+    tau,
+    F0,
+    target,
+    rtol,
+    max_iter,
+    u_out,
+    Q_out,
+    rel_out,
+):
+    """The joint Newton on ``(tau, u_A, u_B)`` of every position (drive.DriveSolver's
+    ``_with_bearings``, one position at a time); ``tau`` (P,) in: the rigid solution, out:
+    the solution; ``F0`` (P, N) in: the rigid forces, out: the forces."""
+    P, N = geo.shape[1], geo.shape[2]
+    R = N // 2
+    Z = dirs.shape[1]
+    w = np.empty((4, N))
+    wt = np.empty((4, N))
+    Q, kq, gq = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
+    Qt, kqt, gqt = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
+    r, rt = np.empty(5), np.empty(5)
+    u, ut = np.empty((2, 2)), np.empty((2, 2))
+    J, b, step = np.empty((5, 5)), np.empty(5), np.empty(5)
+    nan_prev = np.full((4, N), np.nan)
+    for p in range(P):
+        t = tau[p]
+        sm = abs(target)
+        for i in range(N):
+            sm += (abs(geo[1, p, i]) + e) * abs(F0[p, i])
+        sm += 1e-300
+        sf = sm / e
+        # Start: each cam displaced along its load by the clearance and Stribeck's approach.
+        for c in range(2):
+            px, py = 0.0, 0.0
+            for i in range(c * R, (c + 1) * R):
+                px += F0[p, i] * geo[3, p, i]
+                py += F0[p, i] * geo[4, p, i]
+            mag = math.sqrt(px * px + py * py)
+            depth = 0.5 * bear[c, 2] + bear[c, 1] * (strib[c] * mag) ** 0.9
+            if mag > 0:
+                u[c, 0], u[c, 1] = -px / mag * depth, -py / mag * depth
+            else:
+                u[c, 0], u[c, 1] = 0.0, 0.0
+        _state(p, t, u, geo, law, T, K, slope0, target, nan_prev, w, r)
+        _needles(u, dirs, bear, Q, kq, gq, r)
+        idle = False
+        if target == 0.0:
+            fmax = -np.inf
+            for i in range(N):
+                fmax = max(fmax, w[1, i])
+            idle = fmax <= _IDLE
+        done = idle or _relative(r, w, geo, p, Q, gq, target, e) <= rtol
+        for _ in range(max_iter):
+            if done:
+                break
+            J[:, :] = 0.0
+            for i in range(N):
+                c = 0 if i < R else 1
+                ac, am, kf = geo[0, p, i], geo[1, p, i], w[2, i]
+                nx, ny = geo[3, p, i], geo[4, p, i]
+                J[0, 0] += am * ac * kf
+                J[0, 1 + 2 * c] += am * kf * nx
+                J[0, 2 + 2 * c] += am * kf * ny
+                J[1 + 2 * c, 0] += ac * kf * nx
+                J[2 + 2 * c, 0] += ac * kf * ny
+                J[1 + 2 * c, 1 + 2 * c] += kf * nx * nx
+                J[1 + 2 * c, 2 + 2 * c] += kf * nx * ny
+                J[2 + 2 * c, 1 + 2 * c] += kf * ny * nx
+                J[2 + 2 * c, 2 + 2 * c] += kf * ny * ny
+            for c in range(2):
+                a, d = 1 + 2 * c, 2 + 2 * c
+                for j in range(Z):
+                    ex, ey = dirs[c, j, 0], dirs[c, j, 1]
+                    J[a, a] += kq[c, j] * ex * ex
+                    J[a, d] += kq[c, j] * ex * ey
+                    J[d, a] += kq[c, j] * ey * ex
+                    J[d, d] += kq[c, j] * ey * ey
+                tr = J[a, a] + J[d, d]
+                J[a, a] += 1e-12 * tr + 1e-9
+                J[d, d] += 1e-12 * tr + 1e-9
+            # The crank's floor, as the cams' (drive.DriveSolver._with_bearings).
+            J[0, 0] += e * e * (1e-12 * (J[1, 1] + J[2, 2] + J[3, 3] + J[4, 4]) + 1e-9)
+            for k in range(5):
+                b[k] = -r[k]
+            _solve5(J, b, step)
+            for k in range(5):
+                if not math.isfinite(step[k]):
+                    step[k] = 0.0
+            # Each capped on its own (drive.DriveSolver._with_bearings).
+            step[0] /= max(abs(step[0]) / _MAX_STEP, 1.0)
+            for a in (1, 3):
+                big = math.hypot(step[a], step[a + 1]) / _MAX_STEP
+                if big > 1.0:
+                    step[a] /= big
+                    step[a + 1] /= big
+            m0 = _merit(r, sm, sf)
+            alpha = 1.0
+            ok = False
+            tt = t
+            for _ls in range(50):
+                tt = t + alpha * step[0]
+                for c in range(2):
+                    ut[c, 0] = u[c, 0] + alpha * step[1 + 2 * c]
+                    ut[c, 1] = u[c, 1] + alpha * step[2 + 2 * c]
+                _state(p, tt, ut, geo, law, T, K, slope0, target, w, wt, rt)
+                _needles(ut, dirs, bear, Qt, kqt, gqt, rt)
+                ok = _merit(rt, sm, sf) <= (1.0 - 1e-4 * alpha) * m0
+                if ok:
+                    break
+                alpha *= 0.5
+            if not ok:  # no decrease along the step: the position keeps its state
+                break
+            t = tt
+            u[:, :] = ut
+            w[:, :] = wt
+            r[:] = rt
+            Q[:, :], kq[:, :], gq[:, :] = Qt, kqt, gqt
+            done = _relative(r, w, geo, p, Q, gq, target, e) <= rtol
+        tau[p] = t
+        for i in range(N):
+            F0[p, i] = w[1, i]
+        u_out[:, p, :] = u
+        Q_out[0, p, :] = Q[0]
+        Q_out[1, p, :] = Q[1]
+        if idle:
+            rel_out[p] = 0.0
+        elif done:
+            rel_out[p] = _relative(r, w, geo, p, Q, gq, target, e)
+        else:
+            rel_out[p] = np.inf
+
+
+def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int, rtol: float):
+    """:meth:`DriveSolver._with_bearings <corr_cad.mechanics.drive.DriveSolver>` compiled:
+    ``(tau, F, u, Qs, rel, iterations)`` from the rigid solution ``tau``, ``F``; ``rtol``:
+    the relative residual each position reaches (``drive.DRIVE_RTOL``)."""
+    geo, comp = solver.geo_joined, solver.comp
+    P, N = F.shape
+    g = np.ascontiguousarray(
+        np.stack(
+            [
+                np.where(geo.loadable, geo.advance, 0.0),
+                np.where(geo.loadable, geo.arm, 0.0),
+                np.where(geo.loadable, geo.gap, -1e300),
+                solver.n[..., 0],
+                solver.n[..., 1],
+            ]
+        )
+    )
+    explicit = getattr(comp, "explicit", False)
+    if explicit:
+        law, T, K = 1, np.zeros((11, 1, 1)), np.ascontiguousarray(comp.K, dtype=float)
+        slope0 = K
+    else:
+        law = 0
+        T = CompiledInverse(comp, (P, N)).table.reshape(11, P, N)
+        K = np.zeros((1, 1))
+        slope0 = np.ascontiguousarray(np.broadcast_to(comp.slope0, (P, N)), dtype=float)
+    bearings = solver.bearings
+    dirs = np.ascontiguousarray(np.stack([b.directions() for b in bearings]))
+    bear = np.array(
+        [
+            [0.5 * b.diametral_clearance, b.needle_coefficient, b.diametral_clearance]
+            for b in bearings
+        ]
+    )
+    strib = np.array([b.stribeck_max_load(1.0) for b in bearings])
+    tau = np.array(tau, dtype=float)
+    F = np.array(F, dtype=float)
+    u = np.empty((2, P, 2))
+    Q = np.empty((2, P, dirs.shape[1]))
+    rel = np.empty(P)
+    bearing_newton(
+        g,
+        law,
+        T,
+        K,
+        slope0,
+        bear,
+        strib,
+        dirs,
+        float(solver.design.eccentricity),
+        tau,
+        F,
+        float(target),
+        float(rtol),
+        int(max_iter),
+        u,
+        Q,
+        rel,
+    )
+    return tau, F, u, [Q[0], Q[1]], rel, iterations
+
+
+class CompiledDriveSolver(DriveSolver):
+    """:class:`~corr_cad.mechanics.drive.DriveSolver` whose bearing Newton runs compiled
+    (:func:`bearing_newton`; the linear contact law keeps the numpy Newton)."""
+
+    def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
+        if getattr(self.comp, "linear", False):
+            return super()._with_bearings(target, tau, F, iterations, max_iter)
+        return bearing_solve(self, target, tau, F, iterations, max_iter, DRIVE_RTOL)
