@@ -61,8 +61,8 @@ def _patch_everywhere(monkeypatch, name: str, fn) -> None:
     import corr_cad.run
 
     hits = 0
-    for info in pkgutil.iter_modules(corr_cad.run.__path__):
-        mod = importlib.import_module(f"corr_cad.run.{info.name}")
+    for info in pkgutil.walk_packages(corr_cad.run.__path__, "corr_cad.run."):
+        mod = importlib.import_module(info.name)
         if hasattr(mod, name):
             monkeypatch.setattr(mod, name, fn)
             hits += 1
