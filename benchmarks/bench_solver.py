@@ -7,7 +7,7 @@ Prints a table and writes CSV and PNG under outputs/bench/.
 import sys
 from pathlib import Path
 
-from corr_cad.run.bench import run
+from corr_cad.run.bench.bench import run
 
 if __name__ == "__main__":
     run(Path(__file__).resolve().parents[1] / "outputs" / "bench", ["speed"])

@@ -49,9 +49,9 @@ from corr_cad.geometry.sampling import ProfileApproximation, approximate
 
 #: Public names loaded on first access: name -> module.
 _LAZY = {
-    "load_scene": "run.scene",
-    "parse_scene": "run.scene",
-    "Scene": "run.scene",
+    "load_scene": "run.scene.scene",
+    "parse_scene": "run.scene.scene",
+    "Scene": "run.scene.scene",
     "run_scene": "run.pipeline",
     "solve_forces": "mechanics.solver",
     "ForceResult": "mechanics.solver",
@@ -64,7 +64,7 @@ _LAZY = {
     "Distribution": "tolerance.montecarlo",
     "Checks": "tolerance.checks",
     "MonteCarloResult": "tolerance.montecarlo",
-    "scene_json_schema": "run.schema_json",
+    "scene_json_schema": "run.scene.schema_json",
 }
 
 __all__ = [

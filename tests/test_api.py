@@ -26,12 +26,12 @@ DOCTEST_MODULES = [
     "corr_cad.mechanics.windup",
     "corr_cad.mechanics.datasheet",
     "corr_cad.tolerance.montecarlo",
-    "corr_cad.run.scene",
+    "corr_cad.run.scene.scene",
     "corr_cad.run.pipeline",
     "corr_cad.tolerance.sweeps",
-    "corr_cad.run.schema_json",
+    "corr_cad.run.scene.schema_json",
     "corr_cad.export.plots",
-    "corr_cad.run.bench_progress",
+    "corr_cad.run.bench.bench_progress",
 ]
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 

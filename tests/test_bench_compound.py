@@ -3,8 +3,8 @@
 import tomllib
 from pathlib import Path
 
-from corr_cad.run.bench_compound import FIRST_STAGE_SCENE
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.bench.bench_compound import FIRST_STAGE_SCENE
+from corr_cad.run.scene.scene import parse_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 

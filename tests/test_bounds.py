@@ -92,8 +92,8 @@ def test_exact_interference_of_a_z1000_drive_refused_with_a_value_that_fits(tmp_
     assert rss < 400  # refused before the work (the memory says so; no wall clock)
     assert not (tmp_path / "out").exists()
     ok = int(_fits(line))
-    from corr_cad.run.resources import budget_for, estimate
-    from corr_cad.run.scene import load_scene
+    from corr_cad.run.budget.resources import budget_for, estimate
+    from corr_cad.run.scene.scene import load_scene
 
     scene = load_scene(tmp_path / "s.toml")
     from dataclasses import replace
@@ -163,8 +163,8 @@ def test_memory_refusal_names_the_budget_and_the_override(tmp_path):
     # the budget that holds it: 9.18 GB and a tenth, rounded up (or: more than this machine has)
     assert "--max-memory 11 (or [budget] memory_gb = 11)" in line or "GB allowed here" in line
     ok = int(_fits(line))
-    from corr_cad.run.resources import GB, estimate
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.budget.resources import GB, estimate
+    from corr_cad.run.scene.scene import parse_scene
 
     def est(p):
         return estimate(
@@ -331,8 +331,8 @@ SMALL = {
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(SMALL))
 def test_small_runs_stay_within_their_estimate(tmp_path, name):
-    from corr_cad.run.resources import estimate
-    from corr_cad.run.scene import load_scene
+    from corr_cad.run.budget.resources import estimate
+    from corr_cad.run.scene.scene import load_scene
 
     proc, rss = _peak(tmp_path, SMALL[name], "--executor", "serial")
     assert proc.returncode in (0, 1), proc.stderr
@@ -342,9 +342,9 @@ def test_small_runs_stay_within_their_estimate(tmp_path, name):
 
 
 def test_every_stage_has_an_estimator():
-    """A new stage (a datasheet, a modification study) registers its cost in run/costs.py."""
-    from corr_cad.run.costs import ESTIMATORS
-    from corr_cad.run.stages import STAGES
+    """A new stage (a datasheet, a modification study) registers its cost in run/budget/costs.py."""
+    from corr_cad.run.budget.costs import ESTIMATORS
+    from corr_cad.run.stages.stages import STAGES
 
     assert sorted(STAGES) == sorted(ESTIMATORS)
 
@@ -355,8 +355,8 @@ def test_files_beyond_the_free_disk_refused(tmp_path, monkeypatch):
     from collections import namedtuple
 
     from corr_cad.errors import SceneError
-    from corr_cad.run.resources import check_disk, estimate
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.budget.resources import check_disk, estimate
+    from corr_cad.run.scene.scene import parse_scene
 
     est = estimate(parse_scene({"export": {"formats": ["stl"]}}), 1, "serial")
     check_disk(est, tmp_path / "new" / "out")  # the real disk has room

@@ -12,8 +12,8 @@ import numpy as np
 
 from corr_cad.figure_text import figure
 from corr_cad.run.console import assembly_line, summary_lines
-from corr_cad.run.scene import parse_scene
-from corr_cad.run.stages_datasheet import ring_label
+from corr_cad.run.scene.scene import parse_scene
+from corr_cad.run.stages.stages_datasheet import ring_label
 from corr_cad.tolerance.mc_datasheet import binding_probability
 
 SCI = re.compile(r"\d[eE][+-]?\d")

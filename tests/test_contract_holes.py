@@ -3,7 +3,7 @@
 Like ``test_output_contract.py``: every test runs ``python -m corr_cad`` in
 its own process on a real folder that holds other files, and reads what it
 checks with ``json``, ``hashlib`` and ``os`` (no code shared with
-``corr_cad/run/outputs.py``).
+``corr_cad/run/folder/outputs.py``).
 """
 
 from __future__ import annotations
@@ -217,8 +217,8 @@ def test_recovery_removes_only_its_own_staging_folders(done):
 
 
 def test_every_format_declares_its_names():
-    from corr_cad.run.names import OUTPUT_PATTERNS
-    from corr_cad.run.scene_schema import FORMATS
+    from corr_cad.run.folder.names import OUTPUT_PATTERNS
+    from corr_cad.run.scene.scene_schema import FORMATS
 
     assert set(OUTPUT_PATTERNS) == set(FORMATS)
 
@@ -286,7 +286,7 @@ def _fill(fs: Path, leave: int) -> None:
 #: (another process filling it meanwhile; the estimate is never below the files).
 NO_DISK_CHECK = """
 import sys
-from corr_cad.run import resources
+from corr_cad.run.budget import resources
 resources.check_disk = lambda est, out: None
 from corr_cad.run.cli import main
 sys.exit(main(["run", *sys.argv[1:]]))
@@ -337,7 +337,7 @@ def test_bench_refuses_a_folder_it_did_not_write(tmp_path):
 
 
 def test_bench_writes_into_its_own_folder(tmp_path):
-    from corr_cad.run.bench import check_bench_folder
+    from corr_cad.run.bench.bench import check_bench_folder
 
     check_bench_folder(tmp_path / "new")  # absent: fine
     check_bench_folder(tmp_path)  # empty: fine

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign
-from corr_cad.run.costs_montecarlo import SUMMARY_TEMP_BYTES, kept_bytes_per_sample
-from corr_cad.run.resources import GB, Budget, check_scene, estimate
-from corr_cad.run.scene import load_scene
+from corr_cad.run.budget.costs_montecarlo import SUMMARY_TEMP_BYTES, kept_bytes_per_sample
+from corr_cad.run.budget.resources import GB, Budget, check_scene, estimate
+from corr_cad.run.scene.scene import load_scene
 from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 
 SCENE = (
@@ -72,7 +72,7 @@ def test_the_longest_task_is_a_whole_chunk(tmp_path):
 
 
 def test_bench_worker_counts_default_to_powers_of_two_up_to_the_cores(monkeypatch):
-    from corr_cad.run import bench_scaling
+    from corr_cad.run.bench import bench_scaling
 
     monkeypatch.setattr(bench_scaling.os, "cpu_count", lambda: 12)
     assert bench_scaling.default_worker_counts() == [1, 2, 4, 8, 12]

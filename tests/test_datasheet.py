@@ -758,7 +758,7 @@ def test_datasheet_needs_a_rated_torque_and_lost_motion_gates_the_montecarlo(tmp
 
 
 def test_scenes_without_the_datasheet_are_unchanged_and_a_lone_section_warns():
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     forces = {"export": {"formats": ["forces"]}, "load": {"input_torque": M0}}
     sc = parse_scene(forces)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from corr_cad.run.scene_schema import SCHEMA
+from corr_cad.run.scene.scene_schema import SCHEMA
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -196,7 +196,7 @@ PATH_REF = re.compile(
 
 @pytest.mark.parametrize("doc", LINKED, ids=lambda p: str(p.relative_to(ROOT)))
 def test_named_files_and_tests_exist(doc):
-    """Every repository path a page names in code (``corr_cad/run/outputs.py``,
+    """Every repository path a page names in code (``corr_cad/run/folder/outputs.py``,
     ``tests/test_solver.py::test_...``) exists, so a moved module shows here."""
     bad = []
     for path, test in PATH_REF.findall(doc.read_text()):
@@ -217,7 +217,7 @@ DOTTED = re.compile(r"`(corr_cad(?:\.\w+)+)(?:\(\))?`")
     "doc", [d for d in LINKED if d.name != "CHANGELOG.md"], ids=lambda p: str(p.relative_to(ROOT))
 )
 def test_named_modules_and_objects_import(doc):
-    """``corr_cad.run.memory.keep_freed_memory`` and the like resolve (the changelog,
+    """``corr_cad.run.budget.memory.keep_freed_memory`` and the like resolve (the changelog,
     which names the old module paths, aside)."""
     import importlib
 
@@ -311,9 +311,9 @@ def test_stated_ranges_are_the_loaders():
     """The key reference's range of max_failure_probability is what the loader refuses,
     and every memory-budget note names the loader's default budget."""
     from corr_cad.errors import SceneError
-    from corr_cad.run.resources import DEFAULT_MEMORY_GB
-    from corr_cad.run.scene import parse_scene
-    from corr_cad.run.scene_key import key_range
+    from corr_cad.run.budget.resources import DEFAULT_MEMORY_GB
+    from corr_cad.run.scene.scene import parse_scene
+    from corr_cad.run.scene.scene_key import key_range
 
     assert key_range(SCHEMA["checks"]["max_failure_probability"]) == "[0, 1]"
     for bad in ("-0.01", "1.01"):

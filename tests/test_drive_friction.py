@@ -173,7 +173,7 @@ def test_the_life_takes_the_needles_of_the_drives_bearing(tmp_path):
     assert main(["run", str(bad), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     same = tmp_path / "same.toml"
     same.write_text(SCENE + "[life]\nneedles = 40\n")
-    from corr_cad.run.scene import load_scene
+    from corr_cad.run.scene.scene import load_scene
 
     assert load_scene(same).life["needles"] == 40
     assert math.isfinite(ratings[40])

@@ -9,7 +9,7 @@ import pytest
 
 from corr_cad.errors import SceneError
 from corr_cad.geometry.deviations import ManufacturingErrors as ME
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.scene.scene import parse_scene
 
 BEARING = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
 

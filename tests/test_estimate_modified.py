@@ -12,9 +12,9 @@ from corr_cad import GearDesign
 from corr_cad.errors import SceneError
 from corr_cad.geometry.modification import Modification, NormalTable, modified_profile
 from corr_cad.geometry.sampling import approximate
-from corr_cad.run.limits import mesh_triangles, modified_ratio, profile_vertices
-from corr_cad.run.resources import check_scene, estimate
-from corr_cad.run.scene import load_scene
+from corr_cad.run.budget.resources import check_scene, estimate
+from corr_cad.run.scene.limits import mesh_triangles, modified_ratio, profile_vertices
+from corr_cad.run.scene.scene import load_scene
 
 
 def _wave(rows: int = 200, amplitude: float = 0.002) -> NormalTable:
@@ -94,7 +94,7 @@ positions = 8
 def test_free_family_of_twenty_steps_is_estimated_from_its_candidates(tmp_path):
     """160,000 candidates of 2080 cells: 11.5 ms each measured (CPU), 31 min in all;
     the estimate was 5m37s (a microsecond a cell and nothing a candidate)."""
-    from corr_cad.run.resources import Budget, time_warning
+    from corr_cad.run.budget.resources import Budget, time_warning
 
     (tmp_path / "s.toml").write_text(FREE)
     scene = load_scene(tmp_path / "s.toml")
@@ -110,7 +110,7 @@ def test_free_family_of_twenty_steps_is_estimated_from_its_candidates(tmp_path):
 def test_selective_assembly_of_a_measured_ring_counts_a_datasheet_per_class(tmp_path):
     """100 classes with a measured ring were estimated at 20 s and took 8 min, unwarned."""
     from corr_cad.geometry.profile import working_profile
-    from corr_cad.run.resources import Budget, time_warning
+    from corr_cad.run.budget.resources import Budget, time_warning
 
     t = np.linspace(0.0, 2 * np.pi, 5000, endpoint=False)
     pts = working_profile(GearDesign()).points(t)

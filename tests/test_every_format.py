@@ -260,8 +260,8 @@ def test_an_unexpected_error_in_a_late_stage_is_one_line_exit_3_and_loses_nothin
 ):
     """A bug in the last stage: one line naming the stage, the error and what was
     discarded (exit 3, not the 1 of a failed check), the previous outputs intact."""
-    from corr_cad.run import stages
-    from corr_cad.run.context import Stage
+    from corr_cad.run.stages import stages
+    from corr_cad.run.stages.context import Stage
 
     scene = tmp_path / "s.toml"
     scene.write_text(SMALL)

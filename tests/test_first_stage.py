@@ -16,7 +16,7 @@ from corr_cad.geometry.first_stage import (
     zero_backlash_pressure_angle,
 )
 from corr_cad.geometry.involute import GearTeeth
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.scene.scene import parse_scene
 
 #: templates/compound.toml's first stage
 GOOD = dict(

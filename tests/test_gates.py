@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from corr_cad.errors import SceneError
-from corr_cad.run.scene import SCHEMA, parse_scene
+from corr_cad.run.scene.scene import SCHEMA, parse_scene
 
 
 def run(scene_text, tmp_path, *extra, name="s"):

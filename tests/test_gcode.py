@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from pygcode import Line
 
 from corr_cad import SceneError, load_scene, run_scene
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.scene.scene import parse_scene
 from tests.test_edm import TOL, D, R, arc_points, distance, edm_run  # noqa: F401 (fixture)
 
 DIALECTS = ("iso", "fanuc", "linuxcnc")

@@ -417,7 +417,7 @@ def test_silent_sections_warn_like_every_other_section_without_effect(folder):
     ],
 )
 def test_no_warning_where_the_section_acts(data):
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     design = {k: v for k, v in (ln.split(" = ") for ln in DESIGN.strip().splitlines()[1:])}
     data = {"design": {k: float(v) if "." in v else int(v) for k, v in design.items()}, **data}
@@ -428,7 +428,7 @@ def test_the_template_writes_no_section_that_would_warn():
     """``corr-cad new`` comments out what its formats leave without effect."""
     import tomllib
 
-    from corr_cad.run.scene import parse_scene, template_text
+    from corr_cad.run.scene.scene import parse_scene, template_text
 
     data = tomllib.loads(template_text())
     assert "design" not in data.get("modification", {})
@@ -538,7 +538,7 @@ def test_the_stage_s_own_refusal_of_a_curve_it_cannot_follow_says_nothing_was_wr
     from types import SimpleNamespace
 
     from corr_cad.errors import SceneError
-    from corr_cad.run.stages_profile import _refuse_modified
+    from corr_cad.run.stages.stages_profile import _refuse_modified
 
     scene = SimpleNamespace(
         tolerance=0.001,

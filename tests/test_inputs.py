@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from corr_cad.run.cli import main
-from corr_cad.run.scene import SCHEMA
+from corr_cad.run.scene.scene import SCHEMA
 from tests.helpers import without_progress
 
 Z, RJ, E, R = 25, 135.0, 3.5, 8.0  # the prototype (Table 1)
@@ -315,7 +315,7 @@ WARN_CASES = [
 
 def test_assembly_angles_not_warned_for_step_alone():
     """STEP writes assembly_<angle>deg.step at each angle: the key has an effect."""
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     s = parse_scene({"export": {"formats": ["step"], "assembly_angles_deg": [5.0]}})
     assert s.warnings == ()
@@ -325,7 +325,7 @@ def test_assembly_angles_not_warned_for_step_alone():
 def test_no_effect_is_warned(extra, needle):
     import tomllib
 
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     data = tomllib.loads('[export]\nformats = ["png"]\n' + extra.replace("[export]\n", ""))
     if extra.startswith("[export]"):
@@ -345,7 +345,7 @@ def test_warning_printed_even_with_quiet(folder):
 
 
 def test_a_used_section_is_not_warned():
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     s = parse_scene(
         {
@@ -368,8 +368,8 @@ def test_polyline_estimate_bounds_the_real_count():
     """
     from corr_cad import GearDesign, working_profile
     from corr_cad.geometry.sampling import approximate
-    from corr_cad.run.resources import estimate
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.budget.resources import estimate
+    from corr_cad.run.scene.scene import parse_scene
 
     w = working_profile(GearDesign())
     for tol in (1e-2, 1e-3):
@@ -406,7 +406,7 @@ def test_huge_positions_refused_up_front_with_a_value_that_works(folder):
     assert rss < 400  # refused before any array was made
     ok = int(line.split("; ")[-1].split()[0])
     # The suggested value is accepted by the loader.
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     parse_scene({"export": {"formats": ["forces"]}, "load": {"input_torque": 1.1e5},
                  "solver": {"positions": ok}})  # fmt: skip
@@ -414,8 +414,8 @@ def test_huge_positions_refused_up_front_with_a_value_that_works(folder):
 
 def test_large_positions_run_within_the_estimate(folder):
     """A legitimate large run stays under its own memory estimate (child peak RSS)."""
-    from corr_cad.run.resources import estimate
-    from corr_cad.run.scene import load_scene
+    from corr_cad.run.budget.resources import estimate
+    from corr_cad.run.scene.scene import load_scene
 
     scene = (
         '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
@@ -586,7 +586,7 @@ def test_published_bounds_are_the_schemas():
     """
     import importlib.util
 
-    from corr_cad.run.scene import bounds_table
+    from corr_cad.run.scene.scene import bounds_table
 
     docs = Path(__file__).resolve().parents[1] / "docs"
     assert "```{include} _generated/scene_keys.md" in (docs / "scenes.md").read_text()
@@ -611,7 +611,7 @@ def test_published_bounds_are_the_schemas():
 def test_dxf_vertex_limit_is_the_approximators_budget():
     """A tolerance the approximator cannot reach is refused up front, not after the work."""
     from corr_cad.geometry import sampling
-    from corr_cad.run import resources
+    from corr_cad.run.budget import resources
 
     assert resources.MAX_PROFILE_VERTICES == sampling._MAX_VERTICES
 

@@ -348,9 +348,9 @@ def test_inspection_png_marks_the_same_teeth_as_the_csv(tmp_path, monkeypatch):
     import matplotlib.pyplot as plt
 
     from corr_cad.export import plots
-    from corr_cad.run.outputs import StagingDir
+    from corr_cad.run.folder.outputs import StagingDir
     from corr_cad.run.pipeline import run_scene
-    from corr_cad.run.scene import load_scene
+    from corr_cad.run.scene.scene import load_scene
 
     figs = []
 

@@ -32,6 +32,25 @@ LAYERS = {
     "__main__": 6,
 }
 
+#: Inside ``run``: each module at ``run/`` or subpackage of it and its rank,
+#: lowest first. A module of ``run`` may import from its own rank or a lower
+#: one, never from a higher one; two at one rank never import each other.
+RUN_LAYERS = {
+    "": 0,  # corr_cad/run/__init__.py
+    "interrupts": 0,
+    "progress": 0,
+    "console": 0,
+    "dask_exec": 0,
+    "cli_messages": 0,
+    "scene": 1,
+    "folder": 1,
+    "stages": 2,
+    "budget": 3,
+    "pipeline": 4,
+    "bench": 5,
+    "cli": 6,
+}
+
 #: Third-party packages only the exporters may import (file formats, drawing).
 EXPORT_ONLY = ("ezdxf", "trimesh", "manifold3d", "OCP", "matplotlib", "jinja2")
 
@@ -114,6 +133,38 @@ def test_no_upward_import():
     assert not bad, "upward imports:\n" + "\n".join(bad)
 
 
+def _run_part(mod: str) -> str | None:
+    """The module or subpackage of ``run`` that ``mod`` belongs to, or None outside ``run``."""
+    parts = mod.split(".")
+    if len(parts) < 2 or parts[1] != "run":
+        return None
+    return parts[2] if len(parts) > 2 else ""
+
+
+def test_every_module_of_run_has_a_rank():
+    unknown = sorted({_run_part(m) for m in MODULES} - {None} - set(RUN_LAYERS))
+    assert not unknown, f"modules of run outside any rank: {unknown}"
+
+
+def test_run_imports_one_way():
+    bad = []
+    for a, (deps, _) in GRAPH.items():
+        pa = _run_part(a)
+        if pa is None:
+            continue
+        for b in sorted(deps):
+            pb = _run_part(b)
+            if pb is None or pb == pa:
+                continue
+            if RUN_LAYERS[pb] > RUN_LAYERS[pa] or (
+                RUN_LAYERS[pb] == RUN_LAYERS[pa] and pb != "" and RUN_LAYERS[pa] > 0
+            ):
+                bad.append(
+                    f"{a} ({pa}, rank {RUN_LAYERS[pa]}) imports {b} ({pb}, rank {RUN_LAYERS[pb]})"
+                )
+    assert not bad, "imports against the order inside run:\n" + "\n".join(bad)
+
+
 def _cycle() -> list[str] | None:
     """One import cycle among the package's modules, or None."""
     state: dict[str, int] = {}
@@ -186,6 +237,18 @@ def test_no_module_is_too_long(name):
 
 
 def test_each_subpackage_says_what_it_holds_and_may_import():
-    for sub in ("geometry", "mechanics", "tolerance", "shop", "export", "run"):
+    subs = ("geometry", "mechanics", "tolerance", "shop", "export", "run")
+    subs += tuple(
+        f"run/{s}" for s in RUN_LAYERS if (PKG / "run" / s / "__init__.py").is_file() and s
+    )
+    for sub in subs:
         doc = ast.get_docstring(ast.parse((PKG / sub / "__init__.py").read_text())) or ""
         assert "May import" in doc and len(doc.splitlines()) >= 3, sub
+
+
+def test_the_run_order_sees_an_import_against_it(monkeypatch):
+    """One added edge from the scene to the stage graph breaks the order inside run."""
+    a, b = "corr_cad.run.scene.scene", "corr_cad.run.stages.stages"
+    monkeypatch.setitem(GRAPH, a, (GRAPH[a][0] | {b}, GRAPH[a][1]))
+    with pytest.raises(AssertionError, match="scene, rank 1"):
+        test_run_imports_one_way()

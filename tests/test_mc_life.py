@@ -81,7 +81,7 @@ def test_montecarlo_run_reports_life_percentiles(tmp_path):
 def test_life_with_a_monte_carlo_alone_has_an_effect_and_says_nothing():
     """[life] with a Monte Carlo (no datasheet) gives the life percentiles: no "has no
     effect" line; with neither format it has none, and says so."""
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     data = {
         "export": {"formats": ["montecarlo"]},

@@ -108,7 +108,7 @@ def test_chunk_is_bounded_whatever_the_sample_count():
 def test_streamed_montecarlo_csv_has_the_bytes_of_the_whole_table(tmp_path):
     """The stage writes montecarlo.csv chunk by chunk; the bytes are those of one write."""
     from corr_cad.export.files import atomic_writer
-    from corr_cad.run.stages_tolerance import _RowStream
+    from corr_cad.run.stages.stages_tolerance import _RowStream
 
     tol = {"roller_radius": ALL["roller_radius"], "cam_radius": ALL["cam_radius"]}
     with atomic_writer(tmp_path / "streamed.csv") as f:

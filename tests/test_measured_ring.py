@@ -246,7 +246,7 @@ def test_play_figures_equal_the_datasheets_on_the_same_positions():
 
 
 def test_other_errors_have_no_effect_on_a_measured_rings_datasheet():
-    from corr_cad.run.scene_text import no_effect_warnings
+    from corr_cad.run.scene.scene_text import no_effect_warnings
 
     data = {
         "errors": {"measured_profile": "ring.csv", "roller_radius_error": 0.004},

@@ -1,4 +1,4 @@
-"""The CLI keeps freed memory for reuse (corr_cad/run/memory.py): no page faults per solve.
+"""The CLI keeps freed memory for reuse (corr_cad/run/budget/memory.py): no page faults per solve.
 
 Counted, not timed: ``ru_minflt`` of a second full-cycle solve in a fresh
 process, with and without what ``corr-cad`` sets at start.

@@ -9,9 +9,9 @@ import trimesh
 from corr_cad import GearDesign, working_profile
 from corr_cad.export import mesh
 from corr_cad.geometry.parts import part_outlines
-from corr_cad.run.outputs import StagingDir
+from corr_cad.run.folder.outputs import StagingDir
 from corr_cad.run.pipeline import interference_allowance, run_scene
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.scene.scene import parse_scene
 
 TOL = 1e-3
 

@@ -83,7 +83,7 @@ PSI = np.radians(np.array([0.0, 20.0, 45.0, 90.0, 135.0, 170.0, -60.0, -150.0]))
 def test_family_clearance_along_the_flank_matches_dense_geometry(kw, tmp_path):
     from corr_cad import GearDesign
     from corr_cad.geometry.modification import Modification, flank_clearance, modified_profile
-    from corr_cad.run.scene_modification import read_normal_table
+    from corr_cad.run.scene.scene_modification import read_normal_table
 
     table = read_normal_table(table_csv(tmp_path / "n.csv")) if kw.get("table") else None
     mod = Modification(kw.get("eq", 0.0), kw.get("sh", 0.0), table)
@@ -105,7 +105,7 @@ def test_shift_clearance_varies_with_the_pressure_angle():
 
 
 def test_normal_table_is_c2_across_the_tooth_tip(tmp_path):
-    from corr_cad.run.scene_modification import read_normal_table
+    from corr_cad.run.scene.scene_modification import read_normal_table
 
     tab = read_normal_table(table_csv(tmp_path / "n.csv", symmetric=False))
     eps = 1e-7
@@ -274,7 +274,7 @@ def test_manifest_clearance_at_named_roll_angles_is_the_curve_there():
 
     from corr_cad import GearDesign
     from corr_cad.geometry.modification import Modification
-    from corr_cad.run.stages_modification import modification_manifest
+    from corr_cad.run.stages.stages_modification import modification_manifest
 
     scene = SimpleNamespace(design=GearDesign(), modification=Modification(0.0, 0.015, None))
     at = modification_manifest(SimpleNamespace(scene=scene))["flank_clearance_mm"]["at_psi_deg"]

@@ -108,7 +108,7 @@ def test_design_writes_its_files_and_meets_the_targets(designed):
 
 @pytest.mark.slow
 def test_modified_toml_meets_the_targets_with_a_fresh_seed(designed):
-    from corr_cad.run.scene import load_scene
+    from corr_cad.run.scene.scene import load_scene
     from corr_cad.tolerance.modification_design import design_modification
 
     _, out = designed

@@ -14,8 +14,8 @@ import tomllib
 
 import pytest
 
-from corr_cad.run.scene import load_scene
-from corr_cad.run.stages_modification import SHOP_FORMATS, modified_toml
+from corr_cad.run.scene.scene import load_scene
+from corr_cad.run.stages.stages_modification import SHOP_FORMATS, modified_toml
 
 DESIGN = """
 [design]

@@ -2,7 +2,7 @@
 
 Every test starts ``python -m corr_cad`` in its own process on a real folder
 that holds other files. The checks read ``manifest.json`` with ``json`` and
-hash with ``hashlib``; they share no code with ``corr_cad/run/outputs.py``.
+hash with ``hashlib``; they share no code with ``corr_cad/run/folder/outputs.py``.
 """
 
 from __future__ import annotations

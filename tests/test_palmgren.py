@@ -108,7 +108,7 @@ def test_nominal_drive_rigidity_against_finite_differences():
 
 
 def test_scene_contact_law_reaches_the_solver(tmp_path):
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     scene = parse_scene({"solver": {"contact_law": "palmgren"}, "load": {"input_torque": 1e5}})
     assert scene.solver.contact_model == "palmgren"

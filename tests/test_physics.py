@@ -56,7 +56,7 @@ def test_harmonic_phase_is_in_degrees():
 
 
 def test_scene_angles_are_degrees():
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     sc = parse_scene(
         {

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from corr_cad.run import pipeline
-from corr_cad.run.outputs import StagingDir
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.folder.outputs import StagingDir
+from corr_cad.run.scene.scene import parse_scene
 
 PROTO = {
     "export": {"formats": ["dxf", "png", "forces"], "representation": "arcs"},
@@ -30,7 +30,7 @@ def test_plan_is_minimal_and_ordered():
     assert pipeline.plan(("png",)) == ["undercut", "profiles", "preview_png"]
     assert pipeline.plan(("stl", "glb")) == ["undercut", "profiles", "solids", "mesh_files"]
     assert pipeline.plan(("step",)) == ["undercut", "profiles", "step_files"]
-    from corr_cad.run.scene import FORMATS
+    from corr_cad.run.scene.scene import FORMATS
 
     full = pipeline.plan(
         FORMATS, checks=True, measured=True, interference_method="both", first_stage=True
@@ -61,8 +61,8 @@ def _patch_everywhere(monkeypatch, name: str, fn) -> None:
     import corr_cad.run
 
     hits = 0
-    for info in pkgutil.iter_modules(corr_cad.run.__path__):
-        mod = importlib.import_module(f"corr_cad.run.{info.name}")
+    for info in pkgutil.walk_packages(corr_cad.run.__path__, "corr_cad.run."):
+        mod = importlib.import_module(info.name)
         if hasattr(mod, name):
             monkeypatch.setattr(mod, name, fn)
             hits += 1
@@ -168,7 +168,7 @@ def test_failed_run_leaves_previous_outputs(tmp_path, monkeypatch):
 
 def test_staging_replaces_previous(tmp_path):
     out = tmp_path / "o"
-    # names a run can write (a run may stage nothing else: run/names.py)
+    # names a run can write (a run may stage nothing else: run/folder/names.py)
     with StagingDir(out) as s:
         Path(s, "forces.csv").write_text("1")
     with StagingDir(out) as s:
@@ -179,7 +179,7 @@ def test_staging_replaces_previous(tmp_path):
 
 
 def test_worker_stages_only_beside_other_work():
-    from corr_cad.run.concurrent import worker_stages
+    from corr_cad.run.stages.concurrent import worker_stages
 
     assert worker_stages(pipeline.plan(("step",))) == ()  # nothing to overlap it with
     assert worker_stages(pipeline.plan(("dxf", "forces"))) == ()
@@ -195,7 +195,7 @@ import psutil
 from corr_cad.run import pipeline
 from corr_cad.run.cli import _worker_init
 from corr_cad.errors import SolverError
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.scene.scene import parse_scene
 
 def boom(ctx):
     # Fail once the worker has begun writing STEP files (four more to come).

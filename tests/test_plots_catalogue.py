@@ -208,7 +208,7 @@ def _candidate(eq, sh, backlash, binding, solved=False, pressure=None):
 
 def test_modification_tradeoff_scatters_labels_shades_and_flags_the_edge(figures, tmp_path):
     from corr_cad.export.modification_plots import tradeoff_png
-    from corr_cad.run.stages_modification import range_edges
+    from corr_cad.run.stages.stages_modification import range_edges
 
     cands = [
         _candidate(0.0, 0.02, 1.8, 0.0, True, 2708.0),
@@ -260,7 +260,7 @@ def test_modification_tradeoff_scatters_labels_shades_and_flags_the_edge(figures
 
 
 def test_range_edges_top_always_bottom_unless_zero():
-    from corr_cad.run.stages_modification import range_edges
+    from corr_cad.run.stages.stages_modification import range_edges
 
     md = {
         "family": "equidistant+shift",
@@ -347,7 +347,7 @@ def _class(c, bmin, bmax, binds, inter, meets):
 
 def test_assembly_png_each_class_against_the_target(figures, tmp_path):
     from corr_cad.export.datasheet_plots import assembly_png
-    from corr_cad.run.names import is_output_name
+    from corr_cad.run.folder.names import is_output_name
 
     res = {
         "ring": "modified ring, equidistant +0.004 mm",

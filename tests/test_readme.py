@@ -50,7 +50,7 @@ def test_constraints_pin_every_dependency():
 
 def test_readme_formats_are_the_schemas_and_the_docs_list_their_files():
     """The README's short table names every format once; docs/outputs.md holds each file name."""
-    from corr_cad.run.scene_schema import FORMATS
+    from corr_cad.run.scene.scene_schema import FORMATS
 
     text = (ROOT / "README.md").read_text()
     table = text.split("## What it makes", 1)[1].split("\n\n", 2)[1]

@@ -11,9 +11,9 @@ from hypothesis import strategies as st
 from corr_cad import CorrCadError, ProfileError, SceneError, working_profile
 from corr_cad.export.measured_io import read_measured_points
 from corr_cad.mechanics import solver_geometry
-from corr_cad.run.outputs import StagingDir
+from corr_cad.run.folder.outputs import StagingDir
 from corr_cad.run.pipeline import run_scene
-from corr_cad.run.scene import SCHEMA, parse_scene
+from corr_cad.run.scene.scene import SCHEMA, parse_scene
 from corr_cad.tolerance.measured import validate_points
 
 scalars = st.one_of(
@@ -144,7 +144,7 @@ def test_errors_are_corrcad_errors():
 
 
 def test_bench_quick_writes_tables_and_plots(tmp_path):
-    from corr_cad.run.bench import run
+    from corr_cad.run.bench.bench import run
 
     rows = run(tmp_path, ["solids"], quick=True)
     assert len(rows["solids"]) == 3
@@ -172,7 +172,8 @@ def test_bench_study_names_in_the_cli_are_the_bench_studies():
     """The CLI lists them without importing the bench (cold start); they must agree."""
     import argparse
 
-    from corr_cad.run import bench, cli
+    from corr_cad.run import cli
+    from corr_cad.run.bench import bench
 
     sub = next(a for a in cli._parser()._actions if isinstance(a, argparse._SubParsersAction))
     study = next(a for a in sub.choices["bench"]._actions if "--study" in a.option_strings)

@@ -5,7 +5,7 @@ import tomllib
 import pytest
 
 from corr_cad import SceneError
-from corr_cad.run.scene import SCHEMA, parse_scene, template_text
+from corr_cad.run.scene.scene import SCHEMA, parse_scene, template_text
 
 
 def test_template_parses_to_prototype_defaults():

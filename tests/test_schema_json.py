@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from corr_cad.errors import SceneError
-from corr_cad.run.scene import SCHEMA, parse_scene
+from corr_cad.run.scene.scene import SCHEMA, parse_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -16,7 +16,7 @@ import pytest
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.modification import Modification, NormalTable, describe_profile
-from corr_cad.run.stages import plan
+from corr_cad.run.stages.stages import plan
 
 
 def _run(folder, text, name="s.toml", out="out"):

@@ -253,7 +253,7 @@ def test_assembly_step_has_named_parts_where_the_mesh_assembly_has_them(run):
     from corr_cad.export import mesh
     from corr_cad.geometry.parts import part_outlines
     from corr_cad.geometry.profile import working_profile
-    from corr_cad.run.scene import parse_scene
+    from corr_cad.run.scene.scene import parse_scene
 
     name, d, out, manifest = run
     tag = f"{int(ANGLE[name]):03d}deg"

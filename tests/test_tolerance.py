@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign, SceneError
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.scene.scene import parse_scene
 from corr_cad.tolerance.allocation import allocate
 from corr_cad.tolerance.checks import CHECK_METRICS, DATASHEET_METRICS, Checks, evaluate_checks
 from corr_cad.tolerance.montecarlo import Distribution, SerialExecutor, monte_carlo

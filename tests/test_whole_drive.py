@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from corr_cad.errors import SceneError
-from corr_cad.run.scene import parse_scene
+from corr_cad.run.scene.scene import parse_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = dict(

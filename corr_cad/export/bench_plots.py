@@ -57,7 +57,7 @@ def resources_png(path: Path, rows: list) -> Path:
     """Estimate over measured, per scene: memory (the guarantee: >= 1), time and files.
 
     ``rows``: ``[scene, est_MB, peak_MB, memory_ratio, est_s, s, time_ratio,
-    est_out_MB, out_MB, output_ratio, ...]`` (``corr_cad.run.bench_resources``).
+    est_out_MB, out_MB, output_ratio, ...]`` (``corr_cad.run.bench.bench_resources``).
     """
     import matplotlib
 
@@ -118,7 +118,7 @@ def progress_png(path: Path, rows: list, total: float) -> Path:
     """Stated against actual time left over the run, and the gaps between lines.
 
     ``rows``: ``[t_s, gap_s, done, total, time_left_from, stated_left_s,
-    actual_left_s]`` (``corr_cad.run.bench_progress``); ``total``: the run's s.
+    actual_left_s]`` (``corr_cad.run.bench.bench_progress``); ``total``: the run's s.
     """
     import matplotlib
 

@@ -3,7 +3,7 @@
 The text writers every exporter and stage uses (JSON, CSV, column-formatted
 CSV), the sha256 the output folder's manifest records, and the file-name tag
 of a crank angle. The output folder itself (staging, commit, recovery) is
-:mod:`corr_cad.run.outputs`; this module knows nothing of it.
+:mod:`corr_cad.run.folder.outputs`; this module knows nothing of it.
 """
 
 from __future__ import annotations

@@ -161,7 +161,7 @@ def _check_workers(args: argparse.Namespace) -> None:
     import math
 
     from corr_cad.errors import SceneError
-    from corr_cad.run.scene_schema import SCHEMA, key_range
+    from corr_cad.run.scene.scene_schema import SCHEMA, key_range
 
     cores = os.cpu_count() or 1
     if args.workers is not None and not 1 <= args.workers <= cores:
@@ -192,16 +192,16 @@ _FLAG_KEYS = (
 
 
 def _run(args: argparse.Namespace, state: dict) -> int:
-    from corr_cad.run.outputs import StagingDir, check_out_dir, safe_folder_name
-    from corr_cad.run.pipeline import run_scene
-    from corr_cad.run.resources import (
+    from corr_cad.run.budget.resources import (
         budget_for,
         check_disk,
         check_scene,
         default_workers,
         time_warning,
     )
-    from corr_cad.run.scene import load_scene
+    from corr_cad.run.folder.outputs import StagingDir, check_out_dir, safe_folder_name
+    from corr_cad.run.pipeline import run_scene
+    from corr_cad.run.scene.scene import load_scene
 
     _check_workers(args)
     if args.executor == "dask" and args.scheduler:
@@ -337,10 +337,10 @@ def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
 
     With the process executor and two or more workers (``--workers``, default
     all cores), when the scene has other work to overlap it with
-    (:mod:`corr_cad.run.concurrent`).
+    (:mod:`corr_cad.run.stages.concurrent`).
     """
-    from corr_cad.run.concurrent import worker_stages
     from corr_cad.run.pipeline import plan
+    from corr_cad.run.stages.concurrent import worker_stages
 
     if args.executor != "process" or (args.workers or os.cpu_count() or 1) < 2:
         return False
@@ -395,7 +395,7 @@ def _executor(
         return
     from concurrent.futures import ProcessPoolExecutor
 
-    from corr_cad.run.concurrent import kill_pool
+    from corr_cad.run.stages.concurrent import kill_pool
 
     pool = _start_pool(ProcessPoolExecutor, args.workers)
     try:
@@ -448,7 +448,7 @@ def _create(path: Path, text: str) -> None:
 
 
 def _new(args: argparse.Namespace) -> int:
-    from corr_cad.run.scene import template_text
+    from corr_cad.run.scene.scene import template_text
 
     _create(args.scene, template_text())
     return 0
@@ -463,7 +463,7 @@ def _on_signal(signum, frame) -> None:
 
 
 def _schema(args: argparse.Namespace) -> int:
-    from corr_cad.run.schema_json import schema_text
+    from corr_cad.run.scene.schema_json import schema_text
 
     text = schema_text()
     if args.out is None:
@@ -479,7 +479,7 @@ def _dispatch(args: argparse.Namespace, state: dict) -> int:
     if args.command == "run":
         return _run(args, state)
     if args.command == "bench":
-        from corr_cad.run.bench import STUDIES, run
+        from corr_cad.run.bench.bench import STUDIES, run
 
         run(args.out, args.study or list(STUDIES), quick=args.quick, workers=args.workers)
         print(f"wrote the benchmark tables and plots to {args.out}")
@@ -534,7 +534,7 @@ def _main(argv: list[str] | None) -> int:
     state: dict = {}
     try:
         args = _parser().parse_args(argv)
-        from corr_cad.run.memory import keep_freed_memory
+        from corr_cad.run.budget.memory import keep_freed_memory
 
         keep_freed_memory()  # fresh pages fault at every new array otherwise: see memory.py
         with warnings.catch_warnings(record=True) as caught:

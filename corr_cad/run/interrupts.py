@@ -5,7 +5,7 @@ before they raise. Python prints and drops an exception raised inside a
 garbage-collector callback, a ``__del__`` or a weakref callback ("Exception
 ignored in ... KeyboardInterrupt"); the run would then go on, commit and
 exit 0. The record survives: the output folder checks it before its commit
-(:meth:`corr_cad.run.outputs.StagingDir`), and ``main`` once more at the
+(:meth:`corr_cad.run.folder.outputs.StagingDir`), and ``main`` once more at the
 end, so the run ends as an interrupt always does (exit 130 or 143, one
 line).
 """

@@ -1,8 +1,8 @@
 """The run pipeline: plan the stages a scene needs, run them, write the manifest.
 
-The stage graph is :mod:`corr_cad.run.stages`; the stage bodies live there
+The stage graph is :mod:`corr_cad.run.stages.stages`; the stage bodies live there
 by concept. :func:`run_scene` runs the planned stages in order (the STEP
-export in a pool worker when asked, :mod:`corr_cad.run.concurrent`) and
+export in a pool worker when asked, :mod:`corr_cad.run.stages.concurrent`) and
 writes ``manifest.json``.
 """
 
@@ -20,10 +20,10 @@ import numpy as np
 
 from corr_cad._version import __version__
 from corr_cad.run import interrupts
-from corr_cad.run.context import RunContext
-from corr_cad.run.scene import Scene
-from corr_cad.run.stages import FORMAT_TARGETS, STAGES, plan
-from corr_cad.run.stages_geometry import (  # noqa: F401  (re-exported)
+from corr_cad.run.scene.scene import Scene
+from corr_cad.run.stages.context import RunContext
+from corr_cad.run.stages.stages import FORMAT_TARGETS, STAGES, plan
+from corr_cad.run.stages.stages_geometry import (  # noqa: F401  (re-exported)
     MESH_FORMATS,
     PART_NAMES,
     interference_allowance,
@@ -116,9 +116,9 @@ def _clean(obj):
 
 def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[dict]:
     """Run ``stages`` in order (some in a pool worker if ``concurrent``); their timings."""
-    from corr_cad.run.concurrent import kill_pool, run_stage_in_worker, worker_stages
-    from corr_cad.run.context import expected_seconds
     from corr_cad.run.progress import close_all, heartbeat
+    from corr_cad.run.stages.concurrent import kill_pool, run_stage_in_worker, worker_stages
+    from corr_cad.run.stages.context import expected_seconds
 
     pending = {}
     if concurrent and ctx.executor is not None:
@@ -191,15 +191,15 @@ def run_scene(
     this in a staging folder that it swaps in when everything is written.
     With ``concurrent_stages`` (``executor`` must then be a process pool),
     the STEP export runs in a pool worker beside the other stages
-    (:mod:`corr_cad.run.concurrent`); the files and the manifest are
+    (:mod:`corr_cad.run.stages.concurrent`); the files and the manifest are
     the same as in a serial run, but for the ``stages`` timings.
-    ``budget`` (:class:`~corr_cad.run.resources.Budget`, default the scene's
+    ``budget`` (:class:`~corr_cad.run.budget.resources.Budget`, default the scene's
     ``[budget]``) and its ``estimate``: without an estimate the scene is
-    checked against the budget first (:func:`~corr_cad.run.resources.check_scene`).
+    checked against the budget first (:func:`~corr_cad.run.budget.resources.check_scene`).
 
     >>> import tempfile, pathlib
     >>> from corr_cad import GearDesign, run_scene
-    >>> from corr_cad.run.scene import Scene
+    >>> from corr_cad.run.scene.scene import Scene
     >>> out = pathlib.Path(tempfile.mkdtemp())
     >>> m = run_scene(Scene(name="demo", design=GearDesign(), formats=("dxf",)), out)
     >>> sorted(m["files"])
@@ -218,7 +218,7 @@ def run_scene(
         datasheet_checks=bool(scene.checks.datasheet_active()),
         first_stage=scene.first_stage is not None,
     )
-    from corr_cad.run.resources import budget_for, check_scene
+    from corr_cad.run.budget.resources import budget_for, check_scene
 
     budget = budget or budget_for(scene)
     if estimate is None:  # called from Python: the same budget check as the CLI's
@@ -236,7 +236,7 @@ def run_scene(
 def _write_manifest(ctx: RunContext, scene: Scene, timings: list[dict]) -> dict:
     """``manifest.json`` of a run whose stages all succeeded; returns its content."""
     from corr_cad.export.files import sha256_of, write_json
-    from corr_cad.run.outputs import GENERATOR
+    from corr_cad.run.folder.outputs import GENERATOR
 
     files = {
         name: {"sha256": sha256_of(ctx.out / name), "bytes": (ctx.out / name).stat().st_size}

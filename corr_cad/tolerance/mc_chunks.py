@@ -2,7 +2,7 @@
 
 The sizes bound a worker's memory whatever the sample count, keep a task's
 fixed cost small and let a stall be seen within seconds; the resource model
-(:mod:`corr_cad.run.costs_montecarlo`) estimates with the same numbers.
+(:mod:`corr_cad.run.budget.costs_montecarlo`) estimates with the same numbers.
 """
 
 from __future__ import annotations

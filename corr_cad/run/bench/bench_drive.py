@@ -1,0 +1,107 @@
+"""Benchmark of the two-row drive (``[solver] model = "drive"``), timed.
+
+``corr-cad bench --study drive``. The targets (the drive model's issue): on
+the prototype, 3,600 positions of the drive with bearings in 0.3 s or less;
+the datasheet stage in 1.5 s or less; the Monte Carlo with the datasheet
+metrics at 300 samples/s or more on 2 cores at the default grid. Measured,
+never asserted; the Monte Carlo rows measure the force metrics (the drive's
+Monte Carlo keeps no datasheet metrics), in this process and on 2 pool workers.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from pathlib import Path
+
+from corr_cad.geometry.design import GearDesign
+from corr_cad.run.bench.bench_common import M0, _table, _write_csv
+
+__all__ = ["drive_speed"]
+
+
+def _timed(fn, repeat: int) -> tuple[float, float, float]:
+    fn()  # warm-up
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), min(times), max(times)
+
+
+def drive_speed(out: Path, quick: bool = False) -> list:
+    """Wall time of the drive's solve, datasheet and Monte Carlo, per contact law."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
+
+    design = GearDesign()
+    needles = EccentricBearing(40, 6.0, 12.0)
+    spec = DatasheetSpec(rated_torque=design.roller_count * M0)
+    tol = {"roller_radius": Distribution("normal", 0.001)}
+    repeat = 1 if quick else 3
+    samples = 20 if quick else 100
+    many = 4 * samples
+    rows = []
+    for law in ("nonlinear", "palmgren"):
+        drive = {"errors_b": None, "bearing": needles, "bearing_b": None}
+        t = _timed(
+            lambda law=law: solve_drive(
+                design, M0, positions=3600, bearing=needles, contact_model=law
+            ),
+            repeat,
+        )
+        rows.append([f"3600 positions, bearings, {law}", *t, 0.3, "", ""])
+        t = _timed(
+            lambda law=law, drive=drive: datasheet(design, spec, contact_model=law, drive=drive),
+            repeat,
+        )
+        rows.append([f"datasheet stage, bearings, {law}", *t, 1.5, "", ""])
+        mc = {"bearing": needles, "contact_model": law}
+        t = _timed(lambda law=law, mc=mc: monte_carlo(design, M0, tol, samples, 1, 72, drive=mc), 1)
+        # CPU time per sample in this process: what the machine's other load cannot
+        # inflate; two idle cores give about 2 / cpu samples per second.
+        c0 = time.process_time()
+        monte_carlo(design, M0, tol, samples, 1, 72, drive=mc)
+        cpu = (time.process_time() - c0) / samples
+        rows.append(
+            [
+                f"Monte Carlo {samples} samples (72 positions), {law}",
+                *t,
+                "",
+                samples / t[0],
+                2.0 / cpu,
+            ]
+        )
+        with ProcessPoolExecutor(2) as ex:
+            t = _timed(
+                lambda mc=mc, ex=ex: monte_carlo(
+                    design, M0, tol, many, 1, 72, drive=mc, executor=ex, chunk=many // 2
+                ),
+                repeat,
+            )
+        rows.append(
+            [
+                f"Monte Carlo {many} samples (72 positions), {law}, 2 workers",
+                *t,
+                "",
+                many / t[0],
+                "",
+            ]
+        )
+    header = [
+        "case",
+        "median_s",
+        "min_s",
+        "max_s",
+        "target_s",
+        "samples_per_s",
+        "two_idle_cores_per_s",
+    ]
+    _table("drive model, prototype, one process", header, rows)
+    _write_csv(out, "drive_speed.csv", header, rows)
+    return rows

@@ -1,0 +1,127 @@
+"""How the Monte Carlo scales with workers: ``corr-cad bench --study montecarlo --workers``.
+
+For each worker count the prototype's Monte Carlo (four tolerances, the
+datasheet metrics, 36 positions a sample) runs through the real CLI
+(``corr-cad run --workers N``) in a child process at two sample counts.
+From the Monte Carlo stage's own time (``manifest.json``) come the marginal
+rate (samples/s between the two runs), the fixed cost (the stage's time at
+the smaller count less its samples at that rate: pool tasks, numba loading
+the cached kernels in every worker, the nominal solve, the plot) and the
+parallel efficiency (the rate over ``N`` times the one-worker rate). The
+peak memory of the larger run is the machine's (``tree`` of
+:func:`~corr_cad.run.bench.bench_resources.measure`), beside the estimate. The
+first run warms the kernels' cache; it is not reported.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from corr_cad.run.bench.bench_common import _table, _write_csv
+
+__all__ = ["SCENE", "machine_line", "workers_sweep", "default_worker_counts"]
+
+#: The sweep's scene; ``{samples}`` is filled in.
+SCENE = (
+    '[export]\nformats = ["montecarlo"]\n[load]\ninput_torque = 1.1e5\n'
+    "[tolerances]\nroller_radius = { normal = 0.001 }\ncam_radius = { uniform = 0.002 }\n"
+    "eccentricity = { uniform = 0.002 }\nslot_angle = { normal = 0.005 }\n"
+    "[checks]\nmax_lost_motion_arcmin = 3.0\n"
+    "[montecarlo]\nsamples = {samples}\npositions = 36\n"
+)
+
+
+def default_worker_counts() -> list[int]:
+    """1, 2, 4, 8, 16, ... up to this machine's cores (and the core count itself)."""
+    cores = os.cpu_count() or 1
+    counts = [n for n in (1, 2, 4, 8, 16, 32, 64) if n <= cores]
+    return counts + ([cores] if cores not in counts else [])
+
+
+def machine_line() -> str:
+    """The processor's model, its cores and memory, as this machine reports them."""
+    model = "unknown processor"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    from corr_cad.run.budget.resources import machine_memory
+
+    return f"{model}, {os.cpu_count()} cores, {machine_memory() / 1024**3:.0f} GB"
+
+
+def _stage_seconds(folder: Path) -> float:
+    manifest = json.loads((folder / "out" / "manifest.json").read_text())
+    return next(s["seconds"] for s in manifest["stages"] if s["name"] == "montecarlo")
+
+
+def _one(samples: int, workers: int) -> tuple[float, dict, float]:
+    """Stage seconds, the measurement and the memory estimate of one run."""
+    from corr_cad.run.bench.bench_resources import measure
+    from corr_cad.run.budget.resources import estimate
+    from corr_cad.run.scene.scene import load_scene
+
+    folder = Path(tempfile.mkdtemp(prefix="corr-cad-bench-"))
+    try:
+        scene = SCENE.replace("{samples}", str(samples))
+        (folder / "s.toml").write_text(scene)
+        est = estimate(load_scene(folder / "s.toml"), workers, "process")
+        got = measure(folder, scene, ("--workers", str(workers)), timeout=3600)
+        return _stage_seconds(folder), got, est.memory
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = None) -> list:
+    """Samples/s, parallel efficiency, fixed cost and peak memory per worker count."""
+    counts = workers or default_worker_counts()
+    small, large = (200, 4_000) if quick else (2_000, 100_000)
+    _one(small, counts[0])  # the kernels' cache, compiled once per installation
+    rows, base = [], None
+    mb = 1024.0**2
+    machine = machine_line()
+    for n in counts:
+        t_small, _, _ = _one(small, n)
+        t_large, got, est = _one(large, n)
+        rate = (large - small) / max(t_large - t_small, 1e-9)
+        base = base or (n, rate)  # efficiency against the first count (1 by default)
+        fixed = max(t_small - small / rate, 0.0)
+        rows.append(
+            [
+                machine,
+                n,
+                large,
+                t_large,
+                rate,
+                rate * base[0] / (n * base[1]),
+                fixed,
+                got["tree"] / mb,
+                est / mb,
+                est / got["tree"],
+            ]
+        )
+    header = [
+        "machine",
+        "workers",
+        "samples",
+        "stage_s",
+        "samples_per_s",
+        "parallel_efficiency",
+        "fixed_cost_s",
+        "peak_MB",
+        "est_memory_MB",
+        "memory_ratio",
+    ]
+    _table(
+        "Monte Carlo workers sweep (4 tolerances, datasheet metrics, 36 positions)", header, rows
+    )
+    _write_csv(out, "montecarlo_workers.csv", header, rows)
+    return rows

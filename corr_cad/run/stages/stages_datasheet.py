@@ -1,0 +1,436 @@
+"""Pipeline stages of the datasheet: the figures (``datasheet``) and their files.
+
+Registered in :data:`corr_cad.run.stages.stages.STAGES`. The ``datasheet`` stage
+computes the windup curve and the transmission error
+(:func:`corr_cad.mechanics.datasheet.datasheet`); ``datasheet_files`` writes
+``datasheet.json``, ``windup.csv``, ``transmission_error.csv``,
+``hysteresis.png`` and ``transmission_error.png``. The checks on datasheet
+figures read the first, without the files.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+
+import numpy as np
+
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+from corr_cad.mechanics.windup import NMM_PER_NM
+from corr_cad.run.stages.context import (
+    RunContext,
+    modified_curve,
+    psi_contact_limit,
+    scene_errors,
+    scene_errors_b,
+)
+
+__all__ = [
+    "datasheet_spec",
+    "rated_torque_Nmm",
+    "datasheet_errors",
+    "ring_description",
+    "ring_label",
+]
+
+
+def rated_torque_Nmm(scene) -> float:
+    """T_R in N*mm: ``[datasheet] rated_torque_Nm``, or ``(z + 1) [load] input_torque``.
+
+    The crank moment ``M0`` is N*mm; without friction the output torque is
+    ``(z + 1) M0`` (virtual work, ratio ``z + 1``).
+    """
+    given = scene.datasheet.get("rated_torque_Nm")
+    if given is not None:
+        return float(given) * NMM_PER_NM
+    return scene.design.roller_count * abs(float(scene.load.input_torque))
+
+
+def datasheet_spec(scene) -> DatasheetSpec:
+    """The :class:`DatasheetSpec` of a scene's ``[datasheet]`` (its defaults where not set)."""
+    ds = scene.datasheet
+    return DatasheetSpec(
+        rated_torque=rated_torque_Nmm(scene),
+        lost_motion_band=ds.get("lost_motion_band", 0.03),
+        rigidity_range=tuple(ds.get("rigidity_range", (0.5, 1.0))),
+        transmission_error_torque_band=ds.get("transmission_error_torque_band", 0.03),
+        positions_per_mesh=ds.get("positions_per_mesh", 16),
+        transmission_error_positions_per_turn=ds.get("transmission_error_positions_per_turn", 360),
+        allowable_contact_pressure=ds.get("allowable_contact_pressure_MPa"),
+        series_rigidity_Nm_per_arcmin=ds.get("series_rigidity_Nm_per_arcmin"),
+    )
+
+
+def datasheet_errors(ctx: RunContext) -> ManufacturingErrors:
+    """The errors the datasheet describes.
+
+    With ``[errors] measured_profile`` it is the datasheet of the measured
+    ring with nominal other parts: the registered profile deviation alone
+    (the scene's other ``[errors]`` still reach the forces and the Monte
+    Carlo, not the datasheet). Without one, the scene's errors.
+    """
+    reg = ctx.results.registration
+    if reg is None:
+        return scene_errors(ctx)
+    measured = ManufacturingErrors(profile_deviation=reg.deviation)
+    if modified_curve(ctx) is None:
+        return measured
+    # The deviation is registered against the modified nominal: add the designed clearance.
+    from corr_cad.geometry.modification import with_modification
+
+    scene_errors(ctx)
+    return with_modification(measured, ctx.results.modification_gap)
+
+
+def _set_errors(errors: ManufacturingErrors) -> list[str]:
+    """Names of the error fields that differ from the nominal."""
+    nominal = ManufacturingErrors()
+    return [
+        f.name
+        for f in fields(errors)
+        if getattr(errors, f.name) is not None
+        and getattr(errors, f.name) != getattr(nominal, f.name)
+        and not (isinstance(getattr(errors, f.name), tuple) and not any(getattr(errors, f.name)))
+    ]
+
+
+def ring_description(ctx: RunContext) -> dict:
+    """Which ring (and which other parts) the datasheet describes: ``datasheet.json["ring"]``."""
+    reg = ctx.results.registration
+    if reg is None:
+        errs = _set_errors(ctx.scene.errors)
+        out = {
+            "profile": "nominal" if "profile_deviation" not in errs else "nominal with deviation",
+            "errors_applied": errs,
+            "other_parts": "as [errors] gives them" if errs else "nominal",
+        }
+        label = ring_label(ctx.scene)
+        if label.startswith("modified"):  # the designed clearance is in the windup
+            out["profile"] = out["profile"].replace("nominal", "modified", 1)
+            out["modification"] = label.removeprefix("modified ring, ")
+        return out
+    m = ctx.manifest.get("measured_profile", {})
+    ignored = [k for k in _set_errors(ctx.scene.errors) if k != "profile_deviation"]
+    return {
+        "profile": "measured",
+        "file": m.get("source"),
+        "sha256": m.get("sha256"),
+        "registration": reg.as_dict(),
+        "other_parts": "nominal",
+        "errors_not_applied": ignored,
+    }
+
+
+def _datasheet(ctx: RunContext) -> None:
+    s = ctx.scene
+    ctx.results.datasheet = datasheet(
+        s.design,
+        datasheet_spec(s),
+        errors=datasheet_errors(ctx),
+        load_share=s.solver.load_share,
+        contact_model=s.solver.contact_model,
+        variants=s.solver.variants,
+        psi_contact_limit=psi_contact_limit(ctx),
+        drive=drive_settings(ctx),
+    )
+    if s.friction:
+        ctx.results.friction = _friction_figures(ctx)
+
+
+#: ``datasheet.json`` ``friction["forces"]`` under ``model = "drive"``.
+DRIVE_SOURCE = (
+    "drive: both rows solved together, each at its own crank angles; each cam's bearing "
+    "rated on the drive's bearing_load of that cam (forces.csv), each row's raceways on "
+    "its own forces; the hysteresis on the drive's locked-input bench"
+)
+
+
+def friction_spec(scene):
+    """The :class:`Friction` and :class:`LifeSpec` of ``[friction]`` and ``[life]``.
+
+    The needle bearing sits in the cam's bore: pitch diameter ``2 cam_bore_radius
+    - needle_diameter``; the catalogue formula's ``d`` defaults to the raceway under
+    the needles, ``2 cam_bore_radius - 2 needle_diameter``. The needles are
+    ``[bearings.eccentric]``'s where the drive floats the cams on it, else
+    ``[life]``'s (the scene refuses both given with different values).
+    """
+    from corr_cad.mechanics.friction import Friction
+
+    fr, d = scene.friction, scene.design
+    life = _life_spec(scene, scene.bearing)
+    bore = 2.0 * d.cam_bore_radius
+    friction = Friction(
+        mu_cam=fr["mu_cam"],
+        mu_slot=fr["mu_slot"],
+        mu_ring=fr["mu_ring"],
+        mu_bearing=fr["mu_bearing"],
+        mounting=fr["cam_mounting"],
+        bearing_diameter=fr["bearing_bore_mm"]
+        if fr["bearing_bore_mm"] is not None
+        else bore - 2.0 * life.needle_diameter,
+    )
+    return friction, life
+
+
+def _life_spec(scene, bearing):
+    """``[life]``'s rated point with a bearing's needles (``[life]``'s own without one)."""
+    from corr_cad.mechanics.life import LifeSpec
+
+    lf = scene.life
+    if bearing is not None:
+        z, dw, lw = bearing.needles, bearing.needle_diameter, bearing.needle_length
+    else:
+        z, dw, lw = lf["needles"], lf["needle_diameter"], lf["needle_length"]
+    return LifeSpec(
+        rated_life_h=lf["rated_life_h"],
+        rated_speed_rpm=lf["rated_speed_rpm"],
+        dynamic_load_rating=lf["dynamic_load_rating_N"],
+        needles=z,
+        needle_diameter=dw,
+        needle_length=lw,
+        pitch_diameter=2.0 * scene.design.cam_bore_radius - dw,
+    )
+
+
+def _friction_figures(ctx: RunContext):
+    from corr_cad.mechanics.efficiency import friction_figures, rows_from_drive
+    from corr_cad.mechanics.hysteresis import hysteresis_figures
+    from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
+
+    s = ctx.scene
+    ds = ctx.results.datasheet
+    friction, life = friction_spec(s)
+    errors = datasheet_errors(ctx)
+    # The datasheet's span (mesh period, tooth pitch or revolution) at [friction]'s density.
+    period = result_period_rad(s.design, errors, s.solver.variants)
+    if s.solver.drive:
+        period = max(period, result_period_rad(s.design, scene_errors_b(ctx), s.solver.variants))
+    n = int(round(period / mesh_period_rad(s.design))) * s.friction["positions_per_mesh"]
+    x = period * np.arange(n) / n
+    w = Windup(
+        s.design,
+        x,
+        errors=errors,
+        load_share=s.solver.load_share,
+        variants=s.solver.variants,
+        psi_contact_limit=psi_contact_limit(ctx),
+    )
+    drive = {}
+    if s.solver.drive:
+        from corr_cad.mechanics.drive_windup import DriveWindup
+
+        dw = DriveWindup(
+            s.design,
+            x,
+            errors=errors,
+            contact_model=s.solver.contact_model,
+            variants=s.solver.variants,
+            psi_contact_limit=psi_contact_limit(ctx),
+            **drive_settings(ctx),
+        )
+        b = s.bearing_b if s.bearing_b is not None else s.bearing
+        drive = {
+            "rows_at": lambda T: rows_from_drive(s.design, dw.forces(T)),
+            "life_b": _life_spec(s, b) if s.life else None,
+        }
+    ff = friction_figures(
+        s.design,
+        w,
+        ds.spec.rated_torque,
+        friction,
+        s.friction["efficiency_torques"],
+        s.friction["efficiency_speeds_rpm"],
+        life,
+        **drive,
+    )
+    bench = w
+    if s.solver.drive:
+        bench = dw
+        ff.source = DRIVE_SOURCE
+    ff.hysteresis = hysteresis_figures(s.design, bench, ds.spec.rated_torque, friction)
+    fr = s.friction
+    if fr["housing_area_m2"] is not None:
+        ff.thermal = (
+            fr["housing_area_m2"],
+            fr["heat_transfer_W_per_m2K"],
+            fr["max_temperature_rise_K"],
+        )
+    return ff
+
+
+def drive_settings(ctx: RunContext) -> dict | None:
+    """The datasheet's ``drive`` argument under ``model = "drive"`` (None: the paper's row)."""
+    s = ctx.scene
+    if not s.solver.drive:
+        return None
+    return {"errors_b": scene_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+
+
+def _whole_drive(ctx: RunContext) -> dict:
+    """With ``[first_stage]``: the whole drive's figures and the first stage's share."""
+    s, d = ctx.scene, ctx.manifest.get("drive")
+    if s.first_stage is None or d is None:
+        return {}
+    crank = math.degrees(s.first_stage.crank_backlash_rad) * 60.0
+    return {
+        "total_ratio": d["total_ratio"],
+        "input_inertia_kg_m2": d["input_inertia_kg_m2"],
+        "mass_kg": d["mass_kg"],
+        "first_stage": {
+            "backlash_at_crank_arcmin": crank,
+            "lost_motion_arcmin": crank / s.design.roller_count,
+            "transmission_error_arcsec": 0.0,
+            "definition": "the first stage's backlash (pinion held) reflected to the output, "
+            "backlash_1 / (z + 1); exact involutes are conjugate: no transmission error of "
+            "their own; both add to the second stage's figures above",
+        },
+    }
+
+
+def _meta(ctx: RunContext) -> dict:
+    s = ctx.scene
+    given = s.datasheet.get("rated_torque_Nm") is not None
+    return {
+        **_whole_drive(ctx),
+        "ring": ring_description(ctx),
+        "rated_torque_source": (
+            "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"
+        ),
+        **_model_meta(s),
+        "variants": list(s.solver.variants),
+        "units": {"torque": "N*m", "windup": "arcmin", "transmission_error": "arcsec"},
+        "conventions": {
+            "windup": "output rotation under output torque T, input (crank) locked, ring "
+            "fixed, from the zero-load kinematic position of the nominal design; "
+            "positive with T",
+            "output_angle": "frame angle over one output revolution, ring fixed; 0 is crank "
+            "angle 0",
+            "forward": "the input drives the output in the + direction against the load, "
+            "i.e. output torque -T_TE",
+            "catalogue_figure": "the maximum over the positions for backlash, lost motion and "
+            "transmission error; the minimum for rigidities",
+        },
+    }
+
+
+def _model_meta(s) -> dict:
+    """The model, contact law and bearing as ``datasheet.json`` states them.
+
+    The paper's model with its contact law keeps the two keys it always had.
+    """
+    if not s.solver.drive and s.solver.contact_law == "paper":
+        return {"load_share": s.solver.load_share, "contact_model": "nonlinear"}
+    from corr_cad.run.stages.stages_drive import model_description
+
+    out = model_description(s)
+    if not s.solver.drive:
+        out["load_share"] = s.solver.load_share
+        out.pop("bearing", None)
+    return out
+
+
+def _datasheet_files(ctx: RunContext) -> None:
+    from corr_cad.export.datasheet_io import write_datasheet_files
+    from corr_cad.export.datasheet_plots import hysteresis_png, transmission_error_png
+
+    ds = ctx.results.datasheet
+    s = ctx.scene
+    meta = _meta(ctx)
+    names = write_datasheet_files(ds, ctx.out, meta)
+    ring = ring_description(ctx)
+    note = (
+        f"measured ring {ring['file']}, other parts nominal"
+        if ring["profile"] == "measured"
+        else ""
+    )
+    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note)
+    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
+    ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
+    ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
+    ff = ctx.results.friction
+    figs = ff.figures() if ff is not None else {}
+    if ff is not None:
+        from corr_cad.export.files import write_json
+        from corr_cad.export.friction_io import efficiency_png, write_friction_files
+
+        write_json(ctx.out / "datasheet.json", {**_meta(ctx), **ds.figures(), **figs})
+        ctx.files.extend(write_friction_files(ff, ctx.out))
+        efficiency_png(ff, ctx.out / "efficiency.png", note)
+        ctx.files.append("efficiency.png")
+        ctx.manifest["datasheet"].update(figs)
+    if s.solver.drive or s.solver.contact_law != "paper":
+        ctx.manifest["datasheet"].update(_model_meta(s))
+    _datasheet_html(ctx, {**meta, **ds.figures(), **figs})
+    if s.assembly:
+        _assembly(ctx)
+
+
+def _datasheet_html(ctx: RunContext, sheet: dict) -> None:
+    """``datasheet.html`` from the dictionary ``datasheet.json`` holds, beside the PNGs."""
+    from corr_cad._version import __version__
+    from corr_cad.export.datasheet_html import catalogue_number, write_datasheet_html
+
+    mod = ctx.scene.modification
+    text = ""
+    if mod is not None and not mod.is_zero:
+        parts = [
+            f"{name} {catalogue_number(v)} mm"
+            for name, v in (("equidistant", mod.equidistant_mm), ("shift", mod.shift_mm))
+            if v
+        ]
+        if mod.normal_table is not None:
+            parts.append("normal table")
+        text = ", ".join(parts) + " (+ = clearance)"
+    write_datasheet_html(sheet, ctx.scene.design, ctx.out, ctx.scene.name, text, __version__)
+
+
+def ring_label(scene) -> str:
+    """Which ring the selective assembly fits: measured, modified (its amounts) or nominal."""
+    if scene.measured_profile is not None:
+        return "measured ring"
+    mod = scene.modification
+    if mod is not None and not mod.is_zero:
+        from corr_cad.geometry.modification import amounts_text
+
+        return f"modified ring, {amounts_text(mod)}"
+    return "nominal ring"
+
+
+def _assembly(ctx: RunContext) -> None:
+    """``[assembly]``: the roller class to fit, with each class's datasheet (assembly.json)."""
+    from corr_cad.export.files import write_json
+    from corr_cad.tolerance.assembly import selective_assembly
+
+    s = ctx.scene
+    ring = ring_label(s)
+    ctx.progress(
+        f"      selective assembly ({ring}): {len(s.assembly['roller_classes_um'])} classes"
+    )
+    res = selective_assembly(
+        s.design,
+        datasheet_spec(s),
+        datasheet_errors(ctx),
+        s.assembly["roller_classes_um"],
+        s.assembly["target_backlash_arcmin"],
+        load_share=s.solver.load_share,
+        variants=s.solver.variants,
+        psi_contact_limit=psi_contact_limit(ctx),
+        progress=ctx.progress,
+        contact_model=s.solver.contact_model,
+        drive=drive_settings(ctx),
+    )
+    res = {"ring": ring, **res}
+    write_json(ctx.out / "assembly.json", res)
+    from corr_cad.export.datasheet_plots import assembly_png
+
+    assembly_png(res, ctx.out / "assembly.png", s.design)
+    ctx.files.extend(["assembly.json", "assembly.png"])
+    ctx.manifest["assembly"] = {
+        k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")
+    }
+    chosen = [r for r in res["classes"] if r["class_um"] == res["chosen_class_um"]]
+    if chosen:
+        ctx.manifest["assembly"]["chosen_backlash_arcmin"] = chosen[0]["backlash_arcmin"]["max"]
+    if res["chosen_class_um"] is None:
+        ctx.manifest["assembly"]["failed"] = [f"selective assembly failed: {res['reason']}"]

@@ -1,0 +1,178 @@
+"""The force stage under ``[solver] model = "drive"``: both rows' solve and its files.
+
+Called from :mod:`corr_cad.run.stages.stages_forces` when the scene's model is the drive.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from corr_cad.errors import SolverError
+from corr_cad.mechanics.drive import DriveResult, solve_drive
+from corr_cad.run.stages.context import RunContext, drive_kwargs
+
+__all__ = ["drive_forces", "drive_force_files", "drive_check_values", "model_description"]
+
+ROWS = ("A", "B")
+
+
+def model_description(scene) -> dict:
+    """The model, the contact law and the bearings as the files state them."""
+    sv = scene.solver
+    out = {
+        "model": sv.model,
+        "contact_law": sv.contact_law,
+        "bearing": scene.bearing.as_dict() if scene.bearing is not None else "none (cams fixed)",
+    }
+    if scene.bearing_b is not None and scene.bearing_b != scene.bearing:
+        out["bearing_b"] = scene.bearing_b.as_dict()
+    return out
+
+
+def solve_scene_drive(ctx: RunContext, design, input_torque: float, psi_limit: float):
+    """One drive solve with the scene's settings (both rows)."""
+    s = ctx.scene
+    kw = drive_kwargs(ctx)
+    kw["psi_contact_limit"] = psi_limit
+    angles = (
+        np.radians(np.asarray(s.solver.crank_angles_deg, dtype=float))
+        if s.solver.crank_angles_deg is not None
+        else None
+    )
+    return solve_drive(design, input_torque, angles, positions=s.solver.positions, **kw)
+
+
+def drive_forces(ctx: RunContext, psi_limit: float) -> None:
+    s = ctx.scene
+    res = solve_scene_drive(ctx, s.design, s.load.input_torque, psi_limit)
+    if not res.success:
+        raise SolverError(f"drive solver: {res.message}")
+    ctx.results.drive = res
+    ctx.results.forces = res.rows[0]
+
+
+def _stats(v: np.ndarray) -> dict:
+    v = np.asarray(v, dtype=float).reshape(-1)
+    return {"min": float(v.min()), "mean": float(v.mean()), "max": float(v.max())}
+
+
+def drive_check_values(res: DriveResult, check_values) -> dict[str, float]:
+    """The check metrics over both rows (names of ``CHECK_METRICS``), ``check_values`` of
+    each row's :class:`~corr_cad.mechanics.solver.ForceResult` combined."""
+    from corr_cad.tolerance.checks import ARCMIN_PER_RAD
+
+    per_row = [check_values(r) for r in res.rows]
+    return {
+        "peak_gear_force": max(v["peak_gear_force"] for v in per_row),
+        "peak_pressure": max(v["peak_pressure"] for v in per_row),
+        "min_loaded_rollers": min(v["min_loaded_rollers"] for v in per_row),
+        # The drive's own free rotation: both rows' intersection, with the bearings.
+        "backlash_arcmin": float(res.backlash.max() * ARCMIN_PER_RAD),
+    }
+
+
+def drive_force_files(ctx: RunContext) -> None:
+    """``forces.csv`` (a row per position, row and roller), ``forces_summary.json`` per row."""
+    from corr_cad.export import plots
+    from corr_cad.export.files import write_columns, write_json
+    from corr_cad.run.console import force_peaks
+
+    res: DriveResult = ctx.results.drive
+    s = ctx.scene
+    _, P, R = res.F_j.shape
+    ang = np.degrees(res.crank_angles)
+    cols: list = [[] for _ in range(13)]
+    for i, row in enumerate(res.rows):
+        psi = np.degrees(np.mod(row.psi, 2 * np.pi))
+        share = res.row_a_share if i == 0 else 1.0 - res.row_a_share
+        parts = [
+            np.repeat(ang, R),
+            np.full(P * R, ROWS[i]),
+            np.tile(np.arange(1, R + 1), P),
+            psi.ravel(),
+            row.F_j.ravel(),
+            row.F_s.ravel(),
+            row.F_n.ravel(),
+            row.p_cam.ravel(),
+            row.p_slot.ravel(),
+            row.p_gear.ravel(),
+            np.repeat(share, R),
+            np.repeat(res.bearing_load[i], R),
+            np.repeat(res.needle_load_max[i], R),
+        ]
+        for c, p in zip(cols, parts, strict=True):
+            c.append(p)
+    cols = [np.concatenate(c) for c in cols]
+    header = [
+        "crank_angle_deg",
+        "row",
+        "roller",
+        "psi_deg",
+        "F_j",
+        "F_s",
+        "F_n",
+        "p_cam",
+        "p_slot",
+        "p_gear",
+        "row_share",
+        "bearing_load",
+        "needle_load_max",
+    ]
+    fmts = ("%.6f", "%s", "%d", "%.6f") + ("%.9g",) * 9
+    write_columns(ctx.out / "forces.csv", header, cols, fmts)
+    rows = {}
+    for i, row in enumerate(res.rows):
+        summary = row.summary()
+        summary["roller"] = 1
+        summary["peak"] = force_peaks(row, s.design)
+        share = res.row_a_share if i == 0 else 1.0 - res.row_a_share
+        summary["share"] = _stats(share)
+        summary["bearing_load_N"] = _stats(res.bearing_load[i])
+        if res.bearings[i] is not None:
+            summary["needle_load_max_N"] = _stats(res.needle_load_max[i])
+            summary["bearing"] = res.bearings[i].as_dict()
+        rows[ROWS[i]] = summary
+    summary = {
+        **model_description(s),
+        "row_a_share": _stats(res.row_a_share),
+        "rows": rows,
+        "solver": {
+            "success": res.success,
+            "message": res.message,
+            "iterations": res.iterations,
+            "moment_residual": res.moment_residual,
+            "positions": P,
+            "full_cycle": s.solver.crank_angles_deg is None,
+            "input_torque_Nmm": s.load.input_torque,
+            "variants": list(s.solver.variants),
+            "conventions": {
+                "row A": "cam at the crank angle, its rollers in slots k",
+                "row B": "cam at crank angle + 180 deg + cam_phase_error_deg, its rollers in "
+                "the same slots; psi_deg is row B's own",
+                "row_share": "share of the crank moment M0 carried by the row",
+                "bearing_load": "radial load of the row's cam bearing, N (|sum F_j n_k|)",
+                "needle_load_max": "largest needle load of the row's cam bearing, N "
+                "(nan: no bearing, the cam is fixed)",
+            },
+        },
+    }
+    write_json(ctx.out / "forces_summary.json", summary)
+    row = res.rows[0]
+    plots.forces_png(row, ctx.out / "forces.png", s.design, s.load.input_torque)
+    at = int(np.unravel_index(np.argmax(row.F_n), row.F_n.shape)[0])
+    plots.load_distribution_png(
+        s.design,
+        float(ang[at]),
+        row.F_j[at],
+        row.F_n[at],
+        row.F_s[at],
+        ctx.out / "load_distribution.png",
+        s.load.input_torque,
+        " (row A, peak $F_n$)",
+    )
+    ctx.files.extend(["forces.csv", "forces_summary.json", "forces.png", "load_distribution.png"])
+    # Row A's roller-1 figures where the one-row model has them (console, report), and the drive's.
+    ctx.manifest["forces"] = {
+        **rows["A"],
+        **{k: v for k, v in summary.items() if k != "solver"},
+    }

@@ -1,0 +1,156 @@
+"""The first gear stage inside the solid stages: its outlines, solids, meshes and STEP.
+
+Called by the bodies in :mod:`corr_cad.run.stages.stages_geometry` when the scene has
+``[first_stage]``; a scene without it never reaches this module.
+"""
+
+from __future__ import annotations
+
+import math
+
+from corr_cad.errors import ExportError
+from corr_cad.geometry.first_stage_parts import (
+    exact_volume,
+    first_stage_outlines,
+    first_stage_placements,
+    first_stage_profiles,
+)
+from corr_cad.geometry.gear_outline import approximate_gear
+from corr_cad.run.stages.context import RunContext
+
+__all__ = ["gear_outlines", "part_pieces", "solids", "placements", "step_parts", "drive"]
+
+GEARS = ("pinion", "wheel", "crank_gear")
+
+
+def gear_outlines(ctx: RunContext, tol: float) -> dict:
+    """Each gear's measured outline at ``tol`` (reused when the DXF stage made it)."""
+    have = ctx.results.gear_outlines
+    if have is not None and all(o.tolerance == tol for o in have.values()):
+        return have
+    fs = ctx.scene.first_stage
+    made = {part: approximate_gear(getattr(fs, part), tol) for part in GEARS}
+    if tol == ctx.scene.tolerance:
+        ctx.results.gear_outlines = made
+    return made
+
+
+def drive(ctx: RunContext) -> None:
+    """The whole drive: ratio, masses, inertia at the input; the first stage's loads."""
+    from corr_cad.geometry.parts import part_outlines
+    from corr_cad.mechanics.first_stage_loads import drive_mass_inertia, first_stage_loads
+    from corr_cad.run.scene.scene_first_stage import FIRST_STAGE_CHECKS
+
+    s = ctx.scene
+    fs, tol = s.first_stage, s.tolerance
+    verts = {k: o.vertices for k, o in gear_outlines(ctx, tol).items()}
+    profiles = first_stage_profiles(s.design, fs, verts)
+    outlines = ctx.results.outlines or part_outlines(s.design, ctx.results.working, tol)
+    report = drive_mass_inertia(s.design, fs, profiles, outlines)
+    if s.load is not None:
+        t_in = s.load.input_torque * fs.stage.pinion_teeth / fs.stage.crank_gear_teeth
+        loads = first_stage_loads(
+            fs, t_in, s.design.material.young_modulus, s.design.material.poisson_ratio
+        )
+        report["first_stage_loads"] = loads.as_dict()
+        values = {
+            "max_first_stage_bending_MPa": max(loads.bending.values()),
+            "max_first_stage_contact_MPa": max(loads.contact),
+        }
+        for key in FIRST_STAGE_CHECKS:
+            limit = getattr(s.checks, key)
+            if limit is not None:
+                v = values[key]
+                ctx.manifest.setdefault("checks", {})[key] = {
+                    "value": v,
+                    "limit": limit,
+                    "margin": limit - v,
+                    "passed": bool(v <= limit),
+                }
+    ctx.manifest["drive"] = report
+
+
+def part_pieces(ctx: RunContext, tol: float) -> dict:
+    """``{part: [(PartOutline, z0), ...]}`` of every first-stage part at ``tol``."""
+    outlines = gear_outlines(ctx, tol)
+    verts = {k: o.vertices for k, o in outlines.items()}
+    return first_stage_outlines(ctx.scene.design, ctx.scene.first_stage, verts, tol)
+
+
+def solids(ctx: RunContext, report: dict) -> dict:
+    """Manifold solids of the first-stage parts; their mesh facts go into ``report``."""
+    from corr_cad.export import mesh
+
+    tol = ctx.scene.chord_tolerance
+    gears = gear_outlines(ctx, tol)
+    out = {}
+    for part, pieces in part_pieces(ctx, tol).items():
+        solid = mesh.stacked_solid(pieces)
+        facts = mesh.check_mesh(mesh.to_trimesh(solid), part)
+        exact = sum(o.exact_volume for o, _ in pieces)
+        dev = gears[part].max_deviation if part in gears else 0.0
+        length = sum(o.boundary_length * o.thickness for o, _ in pieces)
+        facts.update(
+            {
+                "exact_volume_mm3": exact,
+                "volume_error_mm3": facts["volume_mm3"] - exact,
+                "volume_error_bound_mm3": (tol + dev) * length,
+                "chord_tolerance_mm": tol,
+            }
+        )
+        report[part] = facts
+        out[part] = solid
+    return out
+
+
+def placements(ctx: RunContext, angle_deg: float) -> list:
+    return first_stage_placements(ctx.scene.design, ctx.scene.first_stage, math.radians(angle_deg))
+
+
+def step_parts(ctx: RunContext, report: dict) -> dict:
+    """Write ``<part>.step`` of each first-stage part, read it back; returns the shapes."""
+    from corr_cad.export import step
+    from corr_cad.geometry.gear_outline import spline_gear
+
+    tol = ctx.scene.chord_tolerance
+    fs = ctx.scene.first_stage
+    splines = {k: spline_gear(getattr(fs, k), tol) for k in GEARS}
+    verts = {k: o.vertices for k, o in gear_outlines(ctx, tol).items()}
+    exact_profiles = first_stage_profiles(ctx.scene.design, fs, verts)
+    profiles = first_stage_profiles(ctx.scene.design, fs, splines)
+    lengths = {
+        part: sum(o.boundary_length * o.thickness for o, _ in pcs)
+        for part, pcs in part_pieces(ctx, tol).items()
+    }
+    shapes = {}
+    for part, pieces in profiles.items():
+        shape = step.stacked_shape(pieces)
+        fname = f"{part}.step"
+        path = step.write_step(shape, ctx.out / fname, part)
+        product, parts = step.read_step(path, heal=False)
+        volume, area = step.mass_properties(parts[0].shape)
+        # the exact volume: circles exact, the gear outline by its polyline, whose
+        # measured deviation (and the splines') bound the difference
+        exact = exact_volume(exact_profiles[part])
+        bound = 1e-9 * exact
+        if part in splines:
+            dev = splines[part].max_deviation + gear_outlines(ctx, tol)[part].max_deviation
+            bound += dev * lengths[part]
+        facts = {
+            "product_name": product,
+            "readback_volume_mm3": volume,
+            "readback_area_mm2": area,
+            "exact_volume_mm3": exact,
+            "volume_error_mm3": volume - exact,
+            "volume_relative_error": (volume - exact) / exact,
+            "volume_error_bound_mm3": bound,
+            "bbox_mm": step.bounding_box(parts[0].shape).tolist(),
+        }
+        if product != part or not abs(facts["volume_error_mm3"]) <= bound:
+            raise ExportError(f"{fname}: read-back check failed ({facts})")
+        if part in splines:
+            facts["profile_spline_deviation_mm"] = splines[part].max_deviation
+        report[fname] = facts
+        ctx.files.append(fname)
+        shapes[part] = shape
+    return shapes
