@@ -167,6 +167,20 @@ def test_hysteresis_png_marks_the_catalogue_figures_where_they_are(figures, shee
     assert not [t for t in text if SCI.search(t)], [t for t in text if SCI.search(t)]
 
 
+def test_hysteresis_png_title_with_friction_names_the_loop_not_coinciding_branches(
+    figures, sheet, tmp_path
+):
+    from corr_cad.export.datasheet_plots import hysteresis_png
+
+    hysteresis_png(sheet, tmp_path / "a.png", GearDesign())
+    hysteresis_png(sheet, tmp_path / "b.png", GearDesign(), friction_width_arcmin=0.6262)
+    plain, rubbing = ("\n".join(t.get_text() for t in f.texts) for f in figures)
+    assert "branches coincide: no friction in the model" in plain
+    # with [friction] the figure must not claim there is none; it names the loop's width
+    assert "no friction" not in rubbing and "coincide" not in rubbing
+    assert "opens the loop by up to 0.6262 arcmin at +-$T_R$" in rubbing
+
+
 def test_transmission_error_png_each_direction_about_its_mean_on_its_own_scale(
     figures, sheet, tmp_path
 ):

@@ -123,12 +123,19 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
 
 
 def hysteresis_png(
-    ds: Datasheet, path: Path, design: GearDesign | None = None, note: str = ""
+    ds: Datasheet,
+    path: Path,
+    design: GearDesign | None = None,
+    note: str = "",
+    friction_width_arcmin: float | None = None,
 ) -> Path:
     """The torque-windup curve at every position, the worst one marked (largest lost motion).
 
     Each position in its own colour (by output angle), drawn over the marked one
-    (black, dashed), so that none hides another.
+    (black, dashed), so that none hides another. The curves are the frictionless
+    windup; ``friction_width_arcmin`` (with ``[friction]``: the loop's largest width
+    at +-T_R, ``datasheet.json`` ``hysteresis_width_at_rated_arcmin``) is named in
+    the title instead of the line that the branches coincide.
     """
     T_R = ds.spec.rated_torque / NMM_PER_NM
     j = int(np.argmax(ds.lost_motion()))
@@ -181,7 +188,13 @@ def hysteresis_png(
     axes[1].set_ylim(-y, y)
     axes[1].set_title(f"near zero torque (+-{400 * b:g} % $T_R$)", fontsize=9)
     title = "Hysteresis curve: output torque against windup, input locked, ring fixed"
-    title += "\nloading and unloading branches coincide: no friction in the model"
+    if friction_width_arcmin is None:
+        title += "\nloading and unloading branches coincide: no friction in the model"
+    else:
+        title += (
+            "\nthe frictionless windup; [friction] opens the loop by up to "
+            f"{figure(friction_width_arcmin)} arcmin at +-$T_R$ (datasheet.json)"
+        )
     if note:
         title += f"; {note}"
     _title(fig, title, design, None)

@@ -16,7 +16,13 @@ from pathlib import Path
 from corr_cad.export.files import write_csv
 from corr_cad.mechanics.efficiency import FrictionFigures
 
-__all__ = ["EFFICIENCY_COLUMNS", "LIFE_COLUMNS", "write_friction_files", "efficiency_png"]
+__all__ = [
+    "EFFICIENCY_COLUMNS",
+    "LIFE_COLUMNS",
+    "write_friction_files",
+    "efficiency_figure",
+    "efficiency_png",
+]
 
 EFFICIENCY_COLUMNS = (
     "input_speed_rpm",
@@ -80,12 +86,16 @@ def write_friction_files(ff: FrictionFigures, out: Path) -> list[str]:
     return names
 
 
-def efficiency_png(ff: FrictionFigures, path: Path, note: str = "") -> Path:
-    """The catalogue's efficiency against output torque, one curve per input speed."""
+def efficiency_figure(ff: FrictionFigures, note: str = ""):
+    """The matplotlib figure of :func:`efficiency_png` (torques with thousands separators,
+    efficiencies in plain percent, the title on lines that fit the figure)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, ScalarFormatter
+
+    from corr_cad.figure_text import figure
 
     T = ff.shares * ff.rated_torque / 1000.0
     fig, ax = plt.subplots(figsize=(7, 4.6))
@@ -94,16 +104,28 @@ def efficiency_png(ff: FrictionFigures, path: Path, note: str = "") -> Path:
     ax.plot(T, 100 * ff.backdriving, color="0.4", ls="--", label="backdriving")
     ax.set_xlabel("output torque [N*m]")
     ax.set_ylabel("efficiency [%]")
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
+    plain = ScalarFormatter(useOffset=False)
+    plain.set_scientific(False)
+    ax.yaxis.set_major_formatter(plain)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fr = ff.friction
     ax.set_title(
         f"mu cam/slot/ring {fr.mu_cam:g}/{fr.mu_slot:g}/{fr.mu_ring:g}, bearing "
-        f"{fr.mu_bearing:g} ({fr.mounting} cam); Coulomb: the same at every speed"
+        f"{fr.mu_bearing:g} ({fr.mounting} cam)\nCoulomb: the same at every speed"
         + (f"\n{note}" if note else ""),
         fontsize=9,
     )
     fig.tight_layout()
+    return fig
+
+
+def efficiency_png(ff: FrictionFigures, path: Path, note: str = "") -> Path:
+    """The catalogue's efficiency against output torque, one curve per input speed."""
+    import matplotlib.pyplot as plt
+
+    fig = efficiency_figure(ff, note)
     fig.savefig(path, dpi=110, metadata={"Software": None})
     plt.close(fig)
     return Path(path)

@@ -17,7 +17,7 @@ import numpy as np
 
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
-from corr_cad.mechanics.windup import NMM_PER_NM
+from corr_cad.mechanics.windup import ARCMIN_PER_RAD, NMM_PER_NM
 from corr_cad.run.stages.context import (
     RunContext,
     modified_curve,
@@ -344,7 +344,11 @@ def _datasheet_files(ctx: RunContext) -> None:
         if ring["profile"] == "measured"
         else ""
     )
-    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note)
+    ff = ctx.results.friction
+    width = None
+    if ff is not None and ff.hysteresis is not None:
+        width = float(np.max(ff.hysteresis["width_at_rated"]) * ARCMIN_PER_RAD)
+    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note, width)
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
