@@ -401,3 +401,26 @@ def test_the_compiled_bearing_newton_settles_where_the_numpy_one_does():
             assert a.success and b.success, (m, b.message)
             np.testing.assert_allclose(b.cam_rotation, a.cam_rotation, rtol=1e-6, atol=1e-12)
             np.testing.assert_allclose(b.F_j, a.F_j, rtol=1e-6, atol=1e-6 * a.F_j.max())
+
+
+def test_the_datasheet_spans_the_row_that_repeats_last():
+    """Row B's own rollers need a tooth pitch even when row A's parts are alike: the same
+    errors on row B alone or on row A alone give the same span and the same figures
+    (the rows are alike but for a half turn of the crank)."""
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+
+    d = GearDesign()
+    rr = tuple(0.001 * np.sin(np.arange(d.roller_count)))
+    bearing = EccentricBearing(40, 6.0, 12.0)
+    spec = DatasheetSpec(
+        rated_torque=2.86e6, positions_per_mesh=2, transmission_error_positions_per_turn=4
+    )
+    figs = []
+    for ea, eb in ((ME(), ME(0, 0, 0, rr)), (ME(0, 0, 0, rr), ME())):
+        drive = {"errors_b": eb, "bearing": bearing, "bearing_b": bearing}
+        figs.append(datasheet(d, spec, errors=ea, drive=drive).figures())
+    for f in figs:
+        assert f["positions"]["span"] == "one tooth pitch (repeats z times)"
+    te = [f["transmission_error_arcsec"]["forward_peak_to_peak"] for f in figs]
+    assert te[0] > 0.1
+    np.testing.assert_allclose(te[0], te[1], rtol=1e-9)

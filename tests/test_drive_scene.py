@@ -3,6 +3,7 @@
 
 import csv
 import json
+import math
 
 import numpy as np
 import pytest
@@ -363,3 +364,25 @@ def test_allocation_on_the_drive_through_the_cli_settles_preloaded_samples(tmp_p
     alloc = json.loads((out / "allocation.json").read_text())
     assert alloc["rows"] and all(r["tolerance"] > 0 for r in alloc["rows"])
     assert scene.read_text() == ALLOC_SCENE
+
+
+def test_the_datasheet_estimate_follows_row_b_s_span_and_the_drive_s_cost():
+    """Row B's own rollers make the drive's datasheet span a tooth pitch: the estimate counts
+    those positions, at the drive's cost per cell (DRIVE_CELLS times the row's)."""
+    from corr_cad.run.budget.costs import DRIVE_CELLS, ESTIMATORS, _datasheet_size
+
+    rr = [0.001 * math.sin(k) for k in range(26)]
+    base = {
+        "export": {"formats": ["datasheet"]},
+        "load": {"input_torque": 1.1e5},
+        "datasheet": {"positions_per_mesh": 2},
+    }
+    paper = parse_scene(base)
+    drive = parse_scene(
+        {**base, "solver": {"model": "drive"}, "errors.row_b": {"roller_radius_errors": rr}}
+    )
+    assert _datasheet_size(paper)[0] == 2
+    assert _datasheet_size(drive)[0] == 2 * 26  # a tooth pitch of z + 1 mesh periods
+    t_paper = ESTIMATORS["datasheet"](paper, None).seconds - 0.05
+    t_drive = ESTIMATORS["datasheet"](drive, None).seconds - 0.05
+    assert t_drive > DRIVE_CELLS * 26 * t_paper * 0.9

@@ -413,7 +413,8 @@ def datasheet(
         "series_rigidity_Nm_per_arcmin": spec.series_rigidity_Nm_per_arcmin,
     }
     make = _windup_factory(common, drive)
-    period = result_period_rad(design, errors, variants)
+    periodic = span_errors(design, errors, drive, variants)
+    period = result_period_rad(design, periodic, variants)
     mesh = mesh_period_rad(design)
     n = int(round(period / mesh)) * spec.positions_per_mesh
     span = {1: "one mesh period", design.roller_count: "one tooth pitch (repeats z times)"}.get(
@@ -427,7 +428,7 @@ def datasheet(
     k_series = series_rigidity_Nmm_per_rad(spec.series_rigidity_Nm_per_arcmin)
     total = contact + torques[:, None] / k_series
     te_x, index = revolution_classes(
-        design, spec.transmission_error_positions_per_turn, errors, variants
+        design, spec.transmission_error_positions_per_turn, periodic, variants
     )
     wt = make(design, te_x)
     T_te = spec.transmission_error_torque_band * spec.rated_torque
@@ -453,6 +454,18 @@ def datasheet(
             w, spec.allowable_contact_pressure, spec.rated_torque
         )
     return out
+
+
+def span_errors(design, errors, drive: dict | None, variants: tuple[str, ...] = ()):
+    """The errors whose periodicity the positions follow: under the drive, the row that
+    repeats last (row B's own rollers or ring deviation need their span even when row A's
+    parts are alike). The periods nest (a mesh period divides a tooth pitch divides a
+    revolution), so the longer one is both rows' common period."""
+    b = (drive or {}).get("errors_b")
+    if b is None:
+        return errors
+    longer = result_period_rad(design, b, variants) > result_period_rad(design, errors, variants)
+    return b if longer else errors
 
 
 def _windup_factory(common: dict, drive: dict | None):
@@ -487,7 +500,10 @@ def play_figures(
     """
     errors = errors or ManufacturingErrors()
     x, index = revolution_classes(
-        design, spec.transmission_error_positions_per_turn, errors, variants
+        design,
+        spec.transmission_error_positions_per_turn,
+        span_errors(design, errors, drive, variants),
+        variants,
     )
     common = {
         "errors": errors,

@@ -243,19 +243,27 @@ def _datasheet_size(scene) -> tuple[int, int, int, int]:
     the transmission error solves at most ``per_turn`` classes for alike
     parts, else every one of its ``per_turn (z + 1)`` positions.
     """
-    from corr_cad.mechanics.datasheet import TORQUE_LEVELS
+    from corr_cad.mechanics.datasheet import TORQUE_LEVELS, span_errors
     from corr_cad.mechanics.windup import mesh_period_rad, result_period_rad
 
     d = scene.design
     z, R = d.tooth_count, d.roller_count
     ds = scene.datasheet
-    mult = round(result_period_rad(d, scene.errors, scene.solver.variants) / mesh_period_rad(d))
+    drive = {"errors_b": scene.errors_b} if scene.solver.drive else None
+    periodic = span_errors(d, scene.errors, drive, scene.solver.variants)
+    mult = round(result_period_rad(d, periodic, scene.solver.variants) / mesh_period_rad(d))
     if scene.measured_profile is not None:
         mult = z * R
     ppm, turn = ds["positions_per_mesh"], ds["transmission_error_positions_per_turn"]
     levels = TORQUE_LEVELS + 3  # the grid, 0- and 0+, the band rows
     solved = turn * (1 if mult == 1 else R)
     return mult * ppm, levels, solved, turn * R
+
+
+#: A drive windup cell (both rows, the cams on their bearings) against the paper's row:
+#: 0.76-0.89 s for 52 positions and 104 transmission-error classes of the prototype
+#: with 40-needle bearings (tests/test_drive.py's span case), 0.12 s by the row's rate.
+DRIVE_CELLS = 10.0
 
 
 @stage_cost("datasheet")
@@ -270,7 +278,11 @@ def _datasheet(scene, env):
     return Cost(
         memory=memory,
         keeps=cells * 16 * levels + solved * 32,
-        seconds=0.05 + 1.1e-6 * R * (levels * positions + 2 * solved),
+        seconds=0.05
+        + 1.1e-6
+        * R
+        * (levels * positions + 2 * solved)
+        * (DRIVE_CELLS if scene.solver.drive else 1),
         knobs=(
             "[datasheet] positions_per_mesh",
             "[datasheet] transmission_error_positions_per_turn",
