@@ -214,9 +214,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     workers = 1 if args.executor == "serial" else args.workers or default_workers()
     est = check_scene(scene, workers, budget, args.executor)
     slow = time_warning(scene, est, budget, args.executor)
-    from corr_cad.run import progress
+    if args.quiet:
+        from corr_cad.run import progress
 
-    progress.set_enabled(not args.quiet)  # each call its own: a --quiet run before stays its own
+        progress.set_enabled(False)  # main() restores it when the call ends
     out = args.out if args.out is not None else Path("outputs") / safe_folder_name(scene.name)
     check_out_dir(out)  # refuse before anything is created or started
     check_disk(est, out)  # the files must fit where they go
@@ -493,12 +494,12 @@ def main(argv: list[str] | None = None) -> int:
     import signal
 
     import corr_cad._startup as _startup
-    from corr_cad.run import interrupts
+    from corr_cad.run import interrupts, progress
     from corr_cad.run.console import ClosedPipeSafe
 
     interrupts.clear()
     handlers: dict = {}
-    hook, stdout = sys.unraisablehook, sys.stdout
+    hook, stdout, shown = sys.unraisablehook, sys.stdout, progress.enabled()
     try:
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
@@ -519,6 +520,7 @@ def main(argv: list[str] | None = None) -> int:
         interrupts.clear()
         sys.unraisablehook = hook
         sys.stdout = stdout
+        progress.set_enabled(shown)  # a --quiet call leaves the next one its progress
         for sig, previous in handlers.items():
             # The command's start-up guard says "previous outputs left": wrong once the
             # run is over, so a Ctrl-C while the process exits is ignored instead.
