@@ -323,6 +323,7 @@ def test_stated_ranges_are_the_loaders():
     assert notes and all(f"default {DEFAULT_MEMORY_GB:g} GB" in n for n in notes), notes
 
 
+@pytest.mark.slow
 def test_wide_tables_wrap_in_the_content_column(site):
     """docs/_static/tables.css lets table cells wrap instead of scrolling out of sight
     (checked by eye in headless Chromium at 1280 px); every page links it."""

@@ -34,6 +34,7 @@ UNDERCUT = (
 DXF = '[export]\nformats = ["png"]\n'
 
 
+@pytest.mark.slow
 def test_undercut_names_the_e_and_rj_that_keep_the_roller(tmp_path):
     """The template's example (z = 31, e = 3, Rj = 120, r = 7) is undercut."""
     r = _run(tmp_path, "u", UNDERCUT.format(e=3.0, rj=120.0) + DXF)
@@ -94,6 +95,7 @@ def _passed(tmp: Path, name: str, **kw) -> bool:
     return m["checks"]["max_contact_pressure"]["passed"]
 
 
+@pytest.mark.slow
 def test_a_failed_check_names_the_nearest_changes_that_pass(tmp_path):
     r = _run(tmp_path, "fail", _scene(), "--quiet")
     assert r.returncode == 1

@@ -55,6 +55,7 @@ def rings(tmp_path_factory):
     }
 
 
+@pytest.mark.slow
 def test_nc_header_names_the_profile_and_two_rings_never_read_alike(rings):
     heads = {k: _header((v / "inner_gear_edm.nc").read_text()) for k, v in rings.items()}
     conj = " ".join(heads["conjugate"])
@@ -120,6 +121,7 @@ def test_edm_stage_places_its_lead_in_without_a_force_solve(rings, tmp_path):
     assert man["edm"]["lead_in_point"]["positions"] == 90
 
 
+@pytest.mark.slow
 def test_inspection_names_its_nominal_and_reads_the_cmm_file_back(rings, tmp_path):
     """The modified ring's own CMM nominal file, measured: it inspects against the
     modified profile, and the reader skips the profile line."""
