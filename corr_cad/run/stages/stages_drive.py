@@ -83,19 +83,11 @@ def drive_force_files(ctx: RunContext) -> None:
     ang = np.degrees(res.crank_angles)
     cols: list = [[] for _ in range(13)]
     for i, row in enumerate(res.rows):
-        psi = np.degrees(np.mod(row.psi, 2 * np.pi))
         share = res.row_a_share if i == 0 else 1.0 - res.row_a_share
         parts = [
             np.repeat(ang, R),
             np.full(P * R, ROWS[i]),
-            np.tile(np.arange(1, R + 1), P),
-            psi.ravel(),
-            row.F_j.ravel(),
-            row.F_s.ravel(),
-            row.F_n.ravel(),
-            row.p_cam.ravel(),
-            row.p_slot.ravel(),
-            row.p_gear.ravel(),
+            *roller_columns(row),
             np.repeat(share, R),
             np.repeat(res.bearing_load[i], R),
             np.repeat(res.needle_load_max[i], R),
@@ -176,3 +168,12 @@ def drive_force_files(ctx: RunContext) -> None:
         **rows["A"],
         **{k: v for k, v in summary.items() if k != "solver"},
     }
+
+
+def roller_columns(res) -> list[np.ndarray]:
+    """forces.csv's per-roller columns of one row, position-major: ``roller, psi_deg, F_j,
+    F_s, F_n, p_cam, p_slot, p_gear``."""
+    P, R = res.F_j.shape
+    psi = np.degrees(np.mod(res.psi, 2 * np.pi))
+    forces = (res.F_j, res.F_s, res.F_n, res.p_cam, res.p_slot, res.p_gear)
+    return [np.tile(np.arange(1, R + 1), P), psi.ravel(), *(f.ravel() for f in forces)]

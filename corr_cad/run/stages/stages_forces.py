@@ -58,20 +58,11 @@ def _force_files(ctx: RunContext) -> None:
         return
     res = ctx.results.forces
     s = ctx.scene
+    from corr_cad.run.stages.stages_drive import roller_columns
+
     P, R = res.F_j.shape
     ang = np.degrees(res.crank_angles)
-    psi = np.degrees(np.mod(res.psi, 2 * np.pi))
-    cols = [
-        np.repeat(ang, R),
-        np.tile(np.arange(1, R + 1), P),
-        psi.ravel(),
-        res.F_j.ravel(),
-        res.F_s.ravel(),
-        res.F_n.ravel(),
-        res.p_cam.ravel(),
-        res.p_slot.ravel(),
-        res.p_gear.ravel(),
-    ]
+    cols = [np.repeat(ang, R), *roller_columns(res)]
     header = [
         "crank_angle_deg",
         "roller",
