@@ -229,7 +229,8 @@ def test_all_formats_with_every_section_under_the_drive_model(tmp_path):
         "roller.3mf", "roller.glb", "roller.ply", "montecarlo.csv", "allocation.csv",
         "sweeps.json", "datasheet.json", "datasheet.html", "windup.csv", "inner_gear_edm.nc",
         "inner_gear_nominal.csv", "assembly.json", "clearance.csv", "report.html",
-        "efficiency.csv", "life.csv", "pinion.dxf", "crank_gear.dxf", "wheel.stl",
+        "efficiency.csv", "life.csv", "hysteresis.csv", "pinion.dxf", "crank_gear.dxf",
+        "wheel.stl",
     }  # fmt: skip
     if "step" not in left:
         expected.add("roller.step")

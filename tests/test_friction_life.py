@@ -263,6 +263,17 @@ def test_datasheet_run_writes_efficiency_and_life(tmp_path):
     )
     life = (out / "life.csv").read_text()
     assert "bearing_row1" in life and "system" in life
+    # The loop: torque rising left of the frictionless windup, falling right of it, as
+    # wide at +-T_R (mean of both signs) as datasheet.json's widest.
+    h = np.genfromtxt(out / "hysteresis.csv", delimiter=",", names=True)
+    w = np.genfromtxt(out / "windup.csv", delimiter=",", names=True)
+    assert len(h) == np.sum(w["output_angle_deg"] == w["output_angle_deg"][0])  # every level
+    assert len(set(h["output_angle_deg"])) == 1
+    assert np.all(h["windup_rising_arcmin"] <= h["windup_frictionless_arcmin"])
+    assert np.all(h["windup_falling_arcmin"] >= h["windup_frictionless_arcmin"])
+    ends = np.abs(np.abs(h["output_torque_Nm"]) - ds["rated_torque_Nm"]) < 1e-6
+    width = np.mean(h["windup_falling_arcmin"][ends] - h["windup_rising_arcmin"][ends])
+    assert width == pytest.approx(ds["hysteresis_width_at_rated_arcmin"]["max"], rel=1e-9)
     m = json.loads((out / "manifest.json").read_text())
     assert m["checks"]["min_efficiency"]["passed"] is False
     assert m["checks"]["min_life_h"]["passed"] is True

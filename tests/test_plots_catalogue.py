@@ -173,12 +173,25 @@ def test_hysteresis_png_title_with_friction_names_the_loop_not_coinciding_branch
     from corr_cad.export.datasheet_plots import hysteresis_png
 
     hysteresis_png(sheet, tmp_path / "a.png", GearDesign())
-    hysteresis_png(sheet, tmp_path / "b.png", GearDesign(), friction_width_arcmin=0.6262)
+    from matplotlib.colors import same_color
+
+    T = np.asarray(sheet.torques, dtype=float)
+    theta = sheet.windup[:, 0]
+    loop = {"torques": T, "output_angle": 0.0, "frictionless": theta,
+            "rising": theta - 1e-5, "falling": theta + 1e-5}  # fmt: skip
+    hysteresis_png(sheet, tmp_path / "b.png", GearDesign(), friction_width_arcmin=0.6262, loop=loop)
     plain, rubbing = ("\n".join(t.get_text() for t in f.texts) for f in figures)
     assert "branches coincide: no friction in the model" in plain
     # with [friction] the figure must not claim there is none; it names the loop's width
     assert "no friction" not in rubbing and "coincide" not in rubbing
-    assert "opens the loop by up to 0.6262 arcmin at +-$T_R$" in rubbing
+    assert "opens the loop (red) by up to 0.6262 arcmin at +-$T_R$" in rubbing
+    # both branches drawn on both panels, in arcmin against N*m
+    arcmin = 10800 / np.pi
+    for ax in figures[1].axes[:2]:
+        red = [ln for ln in ax.get_lines() if same_color(ln.get_color(), "C3")]
+        xs = [np.asarray(ln.get_xdata()) for ln in red]
+        assert any(np.allclose(x, (theta - 1e-5) * arcmin) for x in xs)
+        assert any(np.allclose(x, (theta + 1e-5) * arcmin) for x in xs)
 
 
 def test_transmission_error_png_each_direction_about_its_mean_on_its_own_scale(

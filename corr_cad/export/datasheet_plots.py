@@ -128,6 +128,7 @@ def hysteresis_png(
     design: GearDesign | None = None,
     note: str = "",
     friction_width_arcmin: float | None = None,
+    loop: dict | None = None,
 ) -> Path:
     """The torque-windup curve at every position, the worst one marked (largest lost motion).
 
@@ -135,7 +136,8 @@ def hysteresis_png(
     (black, dashed), so that none hides another. The curves are the frictionless
     windup; ``friction_width_arcmin`` (with ``[friction]``: the loop's largest width
     at +-T_R, ``datasheet.json`` ``hysteresis_width_at_rated_arcmin``) is named in
-    the title instead of the line that the branches coincide.
+    the title instead of the line that the branches coincide, and ``loop`` (the
+    branches at the position of that width, ``hysteresis.csv``) is drawn in red.
     """
     T_R = ds.spec.rated_torque / NMM_PER_NM
     j = int(np.argmax(ds.lost_motion()))
@@ -153,6 +155,11 @@ def hysteresis_png(
         x, y = _curve(ds, j)
         ax.plot(x, y, color="k", lw=1.0, ls=(0, (4, 3)), marker="." if zoom else None, ms=4,
                 zorder=4)  # fmt: skip
+        if loop is not None:
+            t = loop["torques"] / NMM_PER_NM
+            ax.plot(loop["rising"] * ARCMIN_PER_RAD, t, color="C3", lw=1.3, zorder=5)
+            ax.plot(loop["falling"] * ARCMIN_PER_RAD, t, color="C3", lw=1.3, ls="-.",
+                    zorder=5)  # fmt: skip
         ax.axhline(0.0, color="0.3", lw=0.5)
         ax.axvline(0.0, color="0.3", lw=0.5)
         _marks(ax, ds, j, zoom)
@@ -169,12 +176,20 @@ def hysteresis_png(
         Line2D([], [], color=colours[len(colours) // 2], lw=0.9),
         Line2D([], [], color="k", lw=1.0, ls=(0, (4, 3))),
     ]
+    labels = [
+        f"each of {P} positions over {span}\n(colour: output angle, dark first)",
+        "the position of the largest lost motion",
+    ]
+    if loop is not None:
+        at = f"{np.degrees(loop['output_angle']):.2f}"
+        handles += [Line2D([], [], color="C3", lw=1.3), Line2D([], [], color="C3", lw=1.3, ls="-.")]
+        labels += [
+            f"torque rising, with friction (output angle {at} deg)",
+            "torque falling, with friction",
+        ]
     axes[0].legend(
         handles,
-        [
-            f"each of {P} positions over {span}\n(colour: output angle, dark first)",
-            "the position of the largest lost motion",
-        ],
+        labels,
         loc="lower right",
         bbox_to_anchor=(1.0, 0.09),
         fontsize=8,
@@ -183,6 +198,11 @@ def hysteresis_png(
     y = 4.0 * b * T_R
     keep = np.abs(ds.torques / NMM_PER_NM) <= y * (1 + 1e-9)
     x = ds.windup[keep] * ARCMIN_PER_RAD
+    if loop is not None:
+        near = np.abs(loop["torques"] / NMM_PER_NM) <= y * (1 + 1e-9)
+        x = np.concatenate(
+            [x.ravel(), *(loop[k][near] * ARCMIN_PER_RAD for k in ("rising", "falling"))]
+        )
     pad = 0.1 * max(float(np.ptp(x)), 1e-6)
     axes[1].set_xlim(float(x.min()) - pad, float(x.max()) + pad)
     axes[1].set_ylim(-y, y)
@@ -192,7 +212,7 @@ def hysteresis_png(
         title += "\nloading and unloading branches coincide: no friction in the model"
     else:
         title += (
-            "\nthe frictionless windup; [friction] opens the loop by up to "
+            "\nthe frictionless windup; [friction] opens the loop (red) by up to "
             f"{figure(friction_width_arcmin)} arcmin at +-$T_R$ (datasheet.json)"
         )
     if note:

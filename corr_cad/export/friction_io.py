@@ -1,11 +1,14 @@
-"""Files of the efficiency map and the rated life: efficiency.csv, efficiency.png, life.csv.
+"""Files of the efficiency map, the rated life and the hysteresis loop: efficiency.csv,
+efficiency.png, life.csv, hysteresis.csv.
 
 ``efficiency.csv``: one row per input speed and output torque, both
 directions' efficiencies; the forward powers in W at that speed for the
 whole drive (output power ``T omega_out``; Coulomb losses scale with the
 speed, so the efficiency does not). ``life.csv``: one row per component,
 L10 in hours at T_R and at the rated torque from life, both at the rated
-output speed.
+output speed. ``hysteresis.csv``: the loop at the position of the widest
+loop at +-T_R, one row per torque level of the datasheet (-T_R .. -0,
++0 .. +T_R), the frictionless windup and both branches.
 """
 
 from __future__ import annotations
@@ -19,7 +22,9 @@ from corr_cad.mechanics.efficiency import FrictionFigures
 __all__ = [
     "EFFICIENCY_COLUMNS",
     "LIFE_COLUMNS",
+    "HYSTERESIS_COLUMNS",
     "write_friction_files",
+    "write_hysteresis_csv",
     "efficiency_figure",
     "efficiency_png",
 ]
@@ -37,6 +42,15 @@ EFFICIENCY_COLUMNS = (
     "loss_bearing_W",
 )
 LIFE_COLUMNS = ("component", "method", "life_h", "life_h_at_rated_torque_from_life")
+HYSTERESIS_COLUMNS = (
+    "output_angle_deg",
+    "output_torque_Nm",
+    "windup_frictionless_arcmin",
+    "windup_rising_arcmin",
+    "windup_falling_arcmin",
+)
+#: arcmin per rad.
+_ARCMIN = 60.0 * 180.0 / math.pi
 
 _METHOD = {
     "bearing": "ISO 281 basic rating life, equivalent load exponent 10/3",
@@ -84,6 +98,22 @@ def write_friction_files(ff: FrictionFigures, out: Path) -> list[str]:
         write_csv(out / "life.csv", LIFE_COLUMNS, life_rows)
         names.append("life.csv")
     return names
+
+
+def write_hysteresis_csv(loop: dict, out: Path) -> str:
+    """Write ``hysteresis.csv`` from a loop (:func:`corr_cad.mechanics.hysteresis.hysteresis_loop`
+    at one position, rad and N*mm); returns its name."""
+    angle = f"{math.degrees(loop['output_angle']):.9g}"
+    rows = [
+        [
+            angle,
+            f"{t / 1000.0:.9g}",
+            *(f"{loop[k][i] * _ARCMIN:.12g}" for k in ("frictionless", "rising", "falling")),
+        ]
+        for i, t in enumerate(loop["torques"])
+    ]
+    write_csv(Path(out) / "hysteresis.csv", HYSTERESIS_COLUMNS, rows)
+    return "hysteresis.csv"
 
 
 def efficiency_figure(ff: FrictionFigures, note: str = ""):

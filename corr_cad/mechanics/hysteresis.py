@@ -30,6 +30,18 @@ the drive's windup stiffness; no share or cam count is applied. A cam
 floating on its bearing moves with the bearing's deflection; that motion is
 not in the rollers' slide along their slots (first order).
 
+The loop
+--------
+:func:`hysteresis_loop` draws the loop itself: at every torque level of the
+datasheet's curve, the branch of a rising torque (-T_R to +T_R, the
+loading branch above) stands ``D(T) / K(T)`` below the frictionless
+windup and the branch of a falling torque as far above it (``D`` per
+unit rotation at the contacts and ``K`` the contacts' stiffness, so a
+compliance in series moves both branches alike and leaves the width as it
+is). At zero torque each branch keeps the side it arrives from: rising
+``D0(0-) / K0(0-)``, falling ``D0(0+) / K0(0+)``, whose sum is the
+hysteresis loss.
+
 Starting torque
 ---------------
 The crank moment that starts the drive at no output load: the running
@@ -50,7 +62,7 @@ from corr_cad.mechanics.contact import linear_compliance
 from corr_cad.mechanics.efficiency import drive_friction, row_loads_from_forces
 from corr_cad.mechanics.friction import Friction, row_contacts, row_friction
 
-__all__ = ["bench_dissipation", "hysteresis_figures"]
+__all__ = ["bench_dissipation", "hysteresis_figures", "hysteresis_loop"]
 
 #: Relative torque step of the finite differences (share of T_R).
 _STEP = 1e-3
@@ -178,3 +190,37 @@ def hysteresis_figures(
     out["starting_torque"] = rows * _at_zero(f1, f2) / float(design.roller_count)
     out["backdriving_torque"] = rows * _at_zero(b1, b2)
     return out
+
+
+def hysteresis_loop(
+    design, windup, torques: np.ndarray, rated_torque: float, friction: Friction, rows: int = 2
+) -> dict:
+    """The loop's branches about the frictionless windup at each torque level, per position.
+
+    ``torques`` (L,) N*mm, the datasheet's levels (``-0.0`` and ``+0.0`` for
+    zero torque from either side); ``windup`` as for :func:`hysteresis_figures`,
+    with the same scaling to the drive. Returns ``rising`` and ``falling``
+    (L, P) rad, the distances of each branch from the frictionless curve
+    (the branch of a rising torque at ``theta(T) - rising``, of a falling
+    torque at ``theta(T) + falling``; both zero with ``mu = 0``).
+    """
+    step = _STEP * rated_torque
+    zero = _ZERO * rated_torque
+    share = getattr(windup, "load_share", None)
+    if share is None:
+        rows, share = 1, 1.0
+    at_zero = {}
+    for s in (1.0, -1.0):
+        D1, K = bench_dissipation(design, windup, s * zero, step, friction)
+        D2, _ = bench_dissipation(design, windup, 2.0 * s * zero, step, friction)
+        at_zero[s] = rows * _at_zero(D1, D2) / K
+    T = np.asarray(torques, dtype=float)
+    P = len(windup.output_angles)
+    rising, falling = np.zeros((len(T), P)), np.zeros((len(T), P))
+    for i, t in enumerate(T):
+        if abs(t) <= zero:
+            rising[i], falling[i] = at_zero[-1.0], at_zero[1.0]
+            continue
+        D, K = bench_dissipation(design, windup, float(t), step, friction)
+        rising[i] = falling[i] = D / share / K
+    return {"rising": rising, "falling": falling}

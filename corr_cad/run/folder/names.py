@@ -70,7 +70,7 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     "datasheet": (
         r"datasheet\.(?:json|html)",
         r"assembly\.(?:json|png)",
-        r"(?:windup|transmission_error)\.csv",
+        r"(?:windup|transmission_error|hysteresis)\.csv",
         r"(?:hysteresis|transmission_error)\.png",
         r"efficiency\.(?:csv|png)",
         r"life\.csv",

@@ -208,27 +208,37 @@ def _friction_figures(ctx: RunContext):
         period = max(period, result_period_rad(s.design, scene_errors_b(ctx), s.solver.variants))
     n = int(round(period / mesh_period_rad(s.design))) * s.friction["positions_per_mesh"]
     x = period * np.arange(n) / n
-    w = Windup(
-        s.design,
-        x,
-        errors=errors,
-        load_share=s.solver.load_share,
-        variants=s.solver.variants,
-        psi_contact_limit=psi_contact_limit(ctx),
-    )
-    drive = {}
-    if s.solver.drive:
+
+    def row_at(xs: np.ndarray) -> Windup:
+        return Windup(
+            s.design,
+            xs,
+            errors=errors,
+            load_share=s.solver.load_share,
+            variants=s.solver.variants,
+            psi_contact_limit=psi_contact_limit(ctx),
+        )
+
+    def bench_at(xs: np.ndarray):
+        """The locked-input bench at the output angles ``xs``: the paper's row or the drive."""
+        if not s.solver.drive:
+            return row_at(xs)
         from corr_cad.mechanics.drive_windup import DriveWindup
 
-        dw = DriveWindup(
+        return DriveWindup(
             s.design,
-            x,
+            xs,
             errors=errors,
             contact_model=s.solver.contact_model,
             variants=s.solver.variants,
             psi_contact_limit=psi_contact_limit(ctx),
             **drive_settings(ctx),
         )
+
+    w = row_at(x)
+    drive = {}
+    if s.solver.drive:
+        dw = bench_at(x)
         b = s.bearing_b if s.bearing_b is not None else s.bearing
         drive = {
             "rows_at": lambda T: rows_from_drive(s.design, dw.forces(T)),
@@ -249,6 +259,9 @@ def _friction_figures(ctx: RunContext):
         bench = dw
         ff.source = DRIVE_SOURCE
     ff.hysteresis = hysteresis_figures(s.design, bench, ds.spec.rated_torque, friction)
+    # The loop at the widest position alone (each position's solve is its own).
+    j = int(np.argmax(ff.hysteresis["width_at_rated"]))
+    ff.hysteresis["loop"] = _loop(s.design, bench_at(x[j : j + 1]), ds, friction)
     fr = s.friction
     if fr["housing_area_m2"] is not None:
         ff.thermal = (
@@ -257,6 +270,24 @@ def _friction_figures(ctx: RunContext):
             fr["max_temperature_rise_K"],
         )
     return ff
+
+
+def _loop(design, bench, ds, friction) -> dict:
+    """The hysteresis loop on a one-position bench (the widest loop at +-T_R), rad and N*mm."""
+    from corr_cad.mechanics.hysteresis import hysteresis_loop
+    from corr_cad.mechanics.windup import series_rigidity_Nmm_per_rad
+
+    T = np.asarray(ds.torques, dtype=float)
+    branches = hysteresis_loop(design, bench, T, ds.spec.rated_torque, friction)
+    k = series_rigidity_Nmm_per_rad(ds.spec.series_rigidity_Nm_per_arcmin)
+    theta = np.array([bench.contact_theta(float(t))[0] for t in T]) + T / k
+    return {
+        "torques": T,
+        "output_angle": float(bench.output_angles[0]),
+        "frictionless": theta,
+        "rising": theta - branches["rising"][:, 0],
+        "falling": theta + branches["falling"][:, 0],
+    }
 
 
 def drive_settings(ctx: RunContext) -> dict | None:
@@ -348,7 +379,8 @@ def _datasheet_files(ctx: RunContext) -> None:
     width = None
     if ff is not None and ff.hysteresis is not None:
         width = float(np.max(ff.hysteresis["width_at_rated"]) * ARCMIN_PER_RAD)
-    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note, width)
+    loop = ff.hysteresis["loop"] if width is not None else None
+    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note, width, loop)
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
@@ -360,6 +392,10 @@ def _datasheet_files(ctx: RunContext) -> None:
 
         write_json(ctx.out / "datasheet.json", {**_meta(ctx), **ds.figures(), **figs})
         ctx.files.extend(write_friction_files(ff, ctx.out))
+        if loop is not None:
+            from corr_cad.export.friction_io import write_hysteresis_csv
+
+            ctx.files.append(write_hysteresis_csv(loop, ctx.out))
         efficiency_png(ff, ctx.out / "efficiency.png", note)
         ctx.files.append("efficiency.png")
         ctx.manifest["datasheet"].update(figs)
