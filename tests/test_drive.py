@@ -439,9 +439,10 @@ def _row_b_ring_harmonic(solver_class=None, bearing=NEEDLES):
     return (solver_class or DriveSolver)(GearDesign(), angles, errors_b=eb, bearing=bearing)
 
 
-def _balance(res, design=GearDesign()):
+def _balance(res, design=None):
     """Each cam's needles' resultant less its rollers' push (2, P, 2), N, and the crank
     moment (P,), N*mm, from the forces and the geometry written out (crank-slider)."""
+    design = design or GearDesign()
     e, L = design.eccentricity, design.cam_radius + design.roller_radius
     out, moment = [], 0.0
     for c in (0, 1):
