@@ -386,3 +386,88 @@ def test_the_datasheet_estimate_follows_row_b_s_span_and_the_drive_s_cost():
     t_paper = ESTIMATORS["datasheet"](paper, None).seconds - 0.05
     t_drive = ESTIMATORS["datasheet"](drive, None).seconds - 0.05
     assert t_drive > DRIVE_CELLS * 26 * t_paper * 0.9
+
+
+def _ring_points(deviation):
+    """Ring points from the closed form written out (roller-centre locus plus r along its
+    outward normal, less the deviation: + = material added), 6000 a revolution."""
+    z, e, L, r = 25, 3.5, 143.0, 8.0
+    t = np.linspace(0, 2 * np.pi, 6000, endpoint=False)
+    psi = z * t
+    W = np.sqrt(L * L - (e * np.sin(psi)) ** 2)
+    s = e * np.cos(psi) + W
+    ds = z * (-e * np.sin(psi) - e * e * np.sin(psi) * np.cos(psi) / W)
+    tx, ty = ds * np.sin(t) + s * np.cos(t), ds * np.cos(t) - s * np.sin(t)
+    n = np.stack([ty, -tx], axis=1) / np.hypot(tx, ty)[:, None]
+    n *= np.sign(n[:, 0] * np.sin(t) + n[:, 1] * np.cos(t))[:, None]
+    P = s[:, None] * np.stack([np.sin(t), np.cos(t)], axis=1)
+    return P + (r - deviation(t))[:, None] * n
+
+
+def _flat(d, prefix=""):
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict) and k not in ("ring", "units", "positions"):
+            out.update(_flat(v, f"{prefix}{k}."))
+        elif isinstance(v, (int, float)) and not isinstance(v, bool) and k != "positions_solved":
+            out[prefix + k] = v
+    return out
+
+
+@pytest.mark.slow
+def test_row_b_measured_ring_gives_the_datasheet_of_its_deviation(tmp_path):
+    """Through the CLI: ring B measured equal to the nominal contour gives the nominal drive's
+    datasheet (over a revolution, where the nominal one spans a mesh period); measured with a
+    third harmonic of 2 um, the datasheet of the same harmonic
+    given as profile_deviation_harmonics. Tolerance: the registered deviation is sampled
+    at the 6000 points of a revolution and interpolated between them, an error of at most
+    A (k dt)^2 / 8 = 2.5e-9 mm (A = 2 um, k = 3, dt = 2 pi / 6000), 1.2e-6 of A; each
+    figure moves by at most that fraction of the largest change the whole deviation makes
+    in its family (min, mean, max), here within 100 times (the registration's own fit of
+    centre and rotation, and rigidities that are quotients of windup differences)."""
+    import subprocess
+    import sys
+
+    for name, dev in (("nominal", lambda t: 0 * t), ("h3", lambda t: 0.002 * np.cos(3 * t))):
+        pts = _ring_points(dev)
+        (tmp_path / f"{name}.csv").write_text(
+            "x,y\n" + "\n".join(f"{x:.12f},{y:.12f}" for x, y in pts) + "\n"
+        )
+    base = (
+        '[export]\nformats = ["datasheet"]\n[load]\ninput_torque = 1.1e5\n'
+        '[solver]\nmodel = "drive"\n'
+        "[datasheet]\npositions_per_mesh = 1\ntransmission_error_positions_per_turn = 4\n"
+    )
+    scenes = {
+        "plain": base,
+        "mnom": base + '[errors.row_b]\nmeasured_profile = "nominal.csv"\n',
+        "mh3": base + '[errors.row_b]\nmeasured_profile = "h3.csv"\n',
+        "hh3": base + "[errors.row_b]\nprofile_deviation_harmonics = [[3, 0.002, 0]]\n",
+    }
+    sheets = {}
+    for name, text in scenes.items():
+        (tmp_path / f"{name}.toml").write_text(text)
+        r = subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", f"{name}.toml", "--out", name, "--quiet"],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+        )
+        assert r.returncode == 0, r.stderr
+        sheets[name] = json.loads((tmp_path / name / "datasheet.json").read_text())
+    ring_b = sheets["mh3"]["ring"]["ring_b"]
+    assert ring_b["profile"] == "measured" and ring_b["file"] == "h3.csv"
+    assert "ring_b" not in sheets["hh3"]["ring"]
+    f = {k: _flat(v) for k, v in sheets.items()}
+    assert f["plain"].keys() == f["mnom"].keys() == f["mh3"].keys()
+    for k, v in f["plain"].items():
+        assert f["mnom"][k] == pytest.approx(v, rel=1e-6, abs=1e-9), k
+    family = {}
+    for k, v in f["plain"].items():
+        fam = k.rsplit(".", 1)[0]
+        family[fam] = max(family.get(fam, 0.0), abs(f["hh3"][k] - v))
+    bound = 100 * 0.002 * (3 * 2 * math.pi / 6000) ** 2 / 8 / 0.002
+    for k, v in f["hh3"].items():
+        effect = family[k.rsplit(".", 1)[0]]
+        assert abs(f["mh3"][k] - v) <= bound * effect + 1e-12 * abs(v), (k, f["mh3"][k], v)
+    assert f["hh3"]["transmission_error_arcsec.catalogue"] > 0.1  # the deviation shows

@@ -107,6 +107,8 @@ class Scene:
     bearing_b: Any = None
     checks: Checks = field(default_factory=Checks)
     measured_profile: Path | None = None
+    #: ``[errors.row_b] measured_profile``: ring B's measured contour (drive only).
+    measured_profile_b: Path | None = None
     measured_exaggeration: float = 200.0
     tolerances: dict = field(default_factory=dict)
     montecarlo: dict = field(default_factory=dict)
@@ -478,6 +480,11 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         measured_profile=(
             (Path(base_dir or ".") / er["measured_profile"])
             if er["measured_profile"] is not None
+            else None
+        ),
+        measured_profile_b=(
+            (Path(base_dir or ".") / drive["measured_profile_b"])
+            if drive["measured_profile_b"] is not None
             else None
         ),
         measured_exaggeration=er["measured_exaggeration"],

@@ -261,10 +261,17 @@ def parse_drive(values: dict[str, dict[str, Any]], data: dict, design) -> dict:
             f"[solver] variants = {sv['variants']!r}: the printed-paper variants reproduce the "
             'paper\'s one-row model; remove them, or use model = "paper"'
         )
+    measured_b = values["errors.row_b"]["measured_profile"] if "errors.row_b" in data else None
+    if measured_b is not None and values["errors.row_b"]["profile_deviation_harmonics"]:
+        raise SceneError(
+            "[errors.row_b] measured_profile and profile_deviation_harmonics both describe ring "
+            "B's profile; keep one"
+        )
     return {
         "model": model,
         "contact_law": law,
         "errors_b": errors_b,
+        "measured_profile_b": measured_b,
         "bearing": bearing,
         "bearing_b": bearing_b,
     }
