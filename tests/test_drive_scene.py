@@ -471,3 +471,37 @@ def test_row_b_measured_ring_gives_the_datasheet_of_its_deviation(tmp_path):
         effect = family[k.rsplit(".", 1)[0]]
         assert abs(f["mh3"][k] - v) <= bound * effect + 1e-12 * abs(v), (k, f["mh3"][k], v)
     assert f["hh3"]["transmission_error_arcsec.catalogue"] > 0.1  # the deviation shows
+
+
+def test_row_b_measured_ring_is_estimated_and_refused_beside_harmonics():
+    """The measured_profile stage's estimate reads and registers ring B as it does ring A
+    (the same file size costs the same, without measured_profile.dxf's picture); ring B
+    measured and given as harmonics at once is refused in one line."""
+    from corr_cad.run.budget.costs import ESTIMATORS, Env
+
+    base = {"export": {"formats": ["forces"]}, "load": {"input_torque": 1.1e5}}
+    drive = {**base, "solver": {"model": "drive"}}
+    a = parse_scene({**drive, "errors": {"measured_profile": "a.csv"}})
+    both = parse_scene(
+        {
+            **drive,
+            "errors": {"measured_profile": "a.csv"},
+            "errors.row_b": {"measured_profile": "b.csv"},
+        }
+    )
+    assert both.measured_profile_b.name == "b.csv"
+    env = Env(measured_bytes=1_600_000, measured_b_bytes=1_600_000)
+    one, two = ESTIMATORS["measured_profile"](a, env), ESTIMATORS["measured_profile"](both, env)
+    assert two.seconds == pytest.approx(2 * one.seconds)
+    assert two.keeps == pytest.approx(2 * one.keeps)
+    assert "[errors.row_b] measured_profile" in two.knobs
+    with pytest.raises(SceneError, match=r"^\[errors.row_b\] measured_profile and profile_dev"):
+        parse_scene(
+            {
+                **drive,
+                "errors.row_b": {
+                    "measured_profile": "b.csv",
+                    "profile_deviation_harmonics": [[3, 0.002, 0]],
+                },
+            }
+        )

@@ -57,8 +57,10 @@ from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.mechanics.drive_numerics import (
     _forces_of,
     _invert_convex,
+    expand_drive,
     free_row,
     joined,
+    rest_idle_cams,
     roller_directions,
 )
 from corr_cad.mechanics.solver import CONTACT_MODELS, ForceResult, _result
@@ -284,8 +286,11 @@ class DriveSolver:
         for it in range(1, max_iter + 1):
             done = self._converged(r, F, a_m, Qs, target, gross) | idle
             if not np.all(done):
-                rest = self._rest_idle_cams(
-                    ~done, target, tau, u, F, kf, Qs, kqs, r, gross, a_m, scale_f[:, 0], state
+                rest = rest_idle_cams(
+                    (~done, target, tau, u, F, kf, Qs, kqs, r, gross, a_m),
+                    scale_f[:, 0] * DRIVE_RTOL,
+                    state,
+                    lambda *a: self._converged(*a),
                 )
                 if rest is not None:
                     settled, (u, F, kf, Qs, kqs, r, gross) = rest
@@ -352,64 +357,6 @@ class DriveSolver:
         if not np.all(done):
             rel = np.maximum(rel, np.where(done, 0.0, np.inf))
         return tau, F, u, Qs, rel, iterations + it
-
-    def _rest_idle_cams(self, cand, target, tau, u, F, kf, Qs, kqs, r, gross, a_m, scale, state):
-        """Settle each cam that carries nothing at positions ``cand`` (P,) where the Newton
-        has not converged: ``(settled (P,), (u, F, kf, Qs, kqs, r, gross))``, or None.
-
-        A cam whose rollers and needles carry no more than the drive's round-off
-        (``DRIVE_RTOL`` of the forces that fix the crank, ``scale``, N) is located by
-        nothing: its rollers touch (or keep their gaps) without load, and its needles at
-        zero load have no stiffness (Palmgren's ``dQ/d delta = 0`` at ``Q = 0``). Its
-        balance, relative to its own vanishing forces, is then round-off of the other
-        row's, which no Newton step can reduce. Such a cam rests centred on its eccentric
-        (``u = 0``) where that presses none of its rollers beyond the same round-off,
-        otherwise where its rollers left it in its free play; it carries exactly nothing.
-        The position is settled when the moment and the other cam are then in
-        equilibrium to ``DRIVE_RTOL``.
-        """
-        R = self.R
-        carried = [
-            np.sum(F[:, c * R : (c + 1) * R], axis=1) + np.sum(Qs[c], axis=1) for c in (0, 1)
-        ]
-        tiny = [cand & (carried[c] <= DRIVE_RTOL * scale) for c in (0, 1)]
-        if not (np.any(tiny[0]) or np.any(tiny[1])):
-            return None
-        centred = u.copy()
-        for c in (0, 1):
-            centred[c][tiny[c]] = 0.0
-        with np.errstate(all="ignore"):
-            F0 = state(tau, centred)[1]  # the rollers' forces with the idle cams centred
-        v, G, kg, rr = u.copy(), F.copy(), kf.copy(), r.copy()
-        Qv, kqv = [q.copy() for q in Qs], [k.copy() for k in kqs]
-        gf, gq = gross[0].copy(), [g.copy() for g in gross[1]]
-        for c in (0, 1):
-            sl, t = slice(c * R, (c + 1) * R), tiny[c]
-            v[c][t & (np.sum(F0[:, sl], axis=1) <= DRIVE_RTOL * scale)] = 0.0
-            for arr in (G, kg, gf):
-                arr[t, sl] = 0.0
-            for arr in (Qv[c], kqv[c], gq[c]):
-                arr[t] = 0.0
-            rr[t, 1 + 2 * c : 3 + 2 * c] = 0.0
-        idle = tiny[0] | tiny[1]
-        rr[idle, 0] = np.sum(a_m[idle] * G[idle], axis=1) - target
-        settled = idle & self._converged(rr, G, a_m, Qv, target, (gf, gq))
-        if not np.any(settled):
-            return None
-        s1, s2 = settled[:, None], settled[None, :, None]
-
-        def pick(new, old, m=s1):
-            return np.where(m, new, old)
-
-        return settled, (
-            pick(v, u, s2),
-            pick(G, F),
-            pick(kg, kf),
-            [pick(a, b) for a, b in zip(Qv, Qs, strict=True)],
-            [pick(a, b) for a, b in zip(kqv, kqs, strict=True)],
-            pick(rr, r),
-            (pick(gf, gross[0]), [pick(a, b) for a, b in zip(gq, gross[1], strict=True)]),
-        )
 
     @staticmethod
     def _scales(F, a_m, Qs, target, R, gross, e):
@@ -654,31 +601,5 @@ def solve_drive(
     rev, fwd = solver.free_interval()
     res.backlash = (fwd - rev) / design.roller_count
     if inverse is not None:
-        res = _expand_drive(res, full, inverse, shift, design.slot_pitch_rad)
+        res = expand_drive(res, full, inverse, shift, design.slot_pitch_rad)
     return res
-
-
-def _expand_drive(res: DriveResult, angles, idx, shift, pitch: float) -> DriveResult:
-    """The full cycle from its solved classes (:func:`corr_cad.mechanics.solver._expand`
-    for each row; the cams' quantities, in the eccentrics' frames, repeat as they are)."""
-    from corr_cad.mechanics.solver import _expand
-
-    rows = (
-        _expand(res.rows[0], angles, idx, shift, pitch),
-        _expand(res.rows[1], angles + np.pi, idx, shift, pitch),
-    )
-    return replace(
-        res,
-        crank_angles=angles,
-        F_j=np.stack([r.F_j for r in rows]),
-        F_n=np.stack([r.F_n for r in rows]),
-        F_s=np.stack([r.F_s for r in rows]),
-        row_a_share=res.row_a_share[idx],
-        bearing_load=res.bearing_load[:, idx],
-        needle_load_max=res.needle_load_max[:, idx],
-        needle_loads=None if res.needle_loads is None else tuple(q[idx] for q in res.needle_loads),
-        cam_displacement=res.cam_displacement[:, idx],
-        cam_rotation=res.cam_rotation[idx],
-        backlash=res.backlash[idx],
-        rows=rows,
-    )

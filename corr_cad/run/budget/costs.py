@@ -23,6 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.budget.costs_measured import measured_read
 from corr_cad.run.budget.costs_montecarlo import datasheet_pass
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
@@ -169,10 +170,28 @@ def _measured(scene, env):
     costs = []
     if scene.measured_profile is not None:
         costs.append(
-            _measured_one(scene.measured_profile, env.measured_bytes, env.measured_dxf, scene)
+            Cost(
+                **measured_read(
+                    scene.measured_profile,
+                    env.measured_bytes,
+                    env.measured_dxf,
+                    "dxf" in scene.formats,
+                    "[errors] measured_profile",
+                )
+            )
         )
     if path_b is not None:  # ring B: read and registered the same way, no picture
-        costs.append(_measured_one(path_b, env.measured_b_bytes, env.measured_b_dxf, None))
+        costs.append(
+            Cost(
+                **measured_read(
+                    path_b,
+                    env.measured_b_bytes,
+                    env.measured_b_dxf,
+                    False,
+                    "[errors.row_b] measured_profile",
+                )
+            )
+        )
     if len(costs) == 1:
         return costs[0]
     a, b = costs
@@ -183,42 +202,6 @@ def _measured(scene, env):
         output=a.output,
         libraries=tuple(dict.fromkeys(a.libraries + b.libraries)),
         knobs=("[errors] measured_profile", "[errors.row_b] measured_profile"),
-    )
-
-
-def _measured_one(path, size, is_dxf, scene):
-    """One measured ring's read and registration; ``scene``: its picture's formats (None:
-    no picture)."""
-    from corr_cad.export.measured_io import MAX_MEASURED_POINTS
-
-    mesh = str(path).lower().endswith((".stl", ".ply"))
-    if mesh:
-        # trimesh holds the file, its vertices and faces: 609 MB above the
-        # interpreter for a 50 MB binary STL of 1e6 triangles (ru_maxrss), ~13 bytes a
-        # byte; 11.6 s to read and slice it.
-        rows = 20_000.0  # the section, decimated to at most this
-        read, parse = 14.0 * size, 12.0 * size / 50e6
-    elif is_dxf:
-        # ezdxf holds every entity: ~40 bytes of memory per byte of DXF (measured
-        # on LWPOLYLINE contours), then the flattened points.
-        rows = size / 30.0
-        read, parse = 40.0 * size, 5e-7 * size
-    else:
-        rows = size / 16.0  # "154.5008,0.0003": the shortest useful row
-        read, parse = 24 * MB, 7e-7 * rows  # one 4 MB block at a time
-    kept = min(rows, MAX_MEASURED_POINTS)
-    # Registration and deviations: ~1.3 kB a kept point; the deviation table it keeps.
-    picture = scene is not None and "dxf" in scene.formats
-    out = {"measured_profile.dxf": 90 * kept + 0.5 * MB} if picture else {}
-    return Cost(
-        memory=max(read, 1300 * kept) + 600 * kept,
-        keeps=1200 * kept,
-        seconds=1.0 + parse + 50e-6 * kept,
-        output=out,
-        libraries=(("trimesh",) if mesh else ()) + (("ezdxf",) if is_dxf or out else ()),
-        knobs=(
-            "[errors] measured_profile" if scene is not None else "[errors.row_b] measured_profile",
-        ),
     )
 
 
