@@ -23,7 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from corr_cad.run.budget.costs_measured import measured_read
+from corr_cad.run.budget.costs_measured import measured_stage
 from corr_cad.run.budget.costs_montecarlo import datasheet_pass
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
@@ -166,43 +166,7 @@ def _preview_png(scene, env):
 
 @stage_cost("measured_profile")
 def _measured(scene, env):
-    path_b = getattr(scene, "measured_profile_b", None)
-    costs = []
-    if scene.measured_profile is not None:
-        costs.append(
-            Cost(
-                **measured_read(
-                    scene.measured_profile,
-                    env.measured_bytes,
-                    env.measured_dxf,
-                    "dxf" in scene.formats,
-                    "[errors] measured_profile",
-                )
-            )
-        )
-    if path_b is not None:  # ring B: read and registered the same way, no picture
-        costs.append(
-            Cost(
-                **measured_read(
-                    path_b,
-                    env.measured_b_bytes,
-                    env.measured_b_dxf,
-                    False,
-                    "[errors.row_b] measured_profile",
-                )
-            )
-        )
-    if len(costs) == 1:
-        return costs[0]
-    a, b = costs
-    return Cost(
-        memory=max(a.memory, a.keeps + b.memory),  # one after the other
-        keeps=a.keeps + b.keeps,
-        seconds=a.seconds + b.seconds,
-        output=a.output,
-        libraries=tuple(dict.fromkeys(a.libraries + b.libraries)),
-        knobs=("[errors] measured_profile", "[errors.row_b] measured_profile"),
-    )
+    return Cost(**measured_stage(scene, env))
 
 
 # --- forces ------------------------------------------------------------------------
@@ -592,23 +556,28 @@ def _cmm_points(scene, env):
 def _inspection(scene, env):
     from corr_cad.export.measured_io import MAX_MEASURED_POINTS
 
-    kept = min(env.measured_bytes / 16.0, MAX_MEASURED_POINTS)
+    drive = scene.solver.drive
+    row_b = (scene.inspection.get("row") or "a") == "b"
+    kept = min((env.measured_b_bytes if row_b else env.measured_bytes) / 16.0, MAX_MEASURED_POINTS)
     key, cells = _force_cells(scene)
     memory, seconds, knobs = 0.0, 0.0, ()
-    if not ("datasheet" in scene.formats or scene.checks.datasheet_active()):
+    if drive:  # both rows, at the drive's cost per cell (bearings included)
+        cells *= DRIVE_CELLS
+    if drive or not ("datasheet" in scene.formats or scene.checks.datasheet_active()):
         # inspection.json "predicted": five windup solves at every transmission-error
-        # position of the measured ring (mechanics.datasheet.play_figures).
+        # position of the measured ring (mechanics.datasheet.play_figures); under the drive
+        # always (the datasheet follows the scene's rows, the prediction the measured ring).
         R = _rollers(scene)
         turn = scene.datasheet["transmission_error_positions_per_turn"]
         memory = turn * (600.0 * R * R + 40 * R)
-        seconds = 1.1e-6 * R * 5 * R * turn
+        seconds = 1.1e-6 * R * 5 * R * turn * (DRIVE_CELLS if drive else 1.0)
         knobs = ("[datasheet] transmission_error_positions_per_turn",)
     return Cost(
         memory=30 * MB + 600 * kept + 2 * 240 * cells + memory,
         seconds=6.0 + 2e-5 * kept + 2e-6 * cells + seconds,
         output={"inspection.*": 0.3 * MB},
         libraries=("matplotlib",),
-        knobs=("[errors] measured_profile", *knobs),
+        knobs=(f"[errors{'.row_b' if row_b else ''}] measured_profile", *knobs),
     )
 
 

@@ -3,7 +3,7 @@ estimate in :mod:`corr_cad.run.budget.costs`, once per measured ring)."""
 
 from __future__ import annotations
 
-__all__ = ["measured_read"]
+__all__ = ["measured_read", "measured_stage"]
 
 MB = 1024.0**2
 
@@ -39,4 +39,43 @@ def measured_read(path, size: int, is_dxf: bool, picture: bool, knob: str) -> di
         output=out,
         libraries=(("trimesh",) if mesh else ()) + (("ezdxf",) if is_dxf or out else ()),
         knobs=(knob,),
+    )
+
+
+def measured_stage(scene, env) -> dict:
+    """The ``measured_profile`` stage: ring A's read (with its picture under ``"dxf"``) and
+    ring B's (``[errors.row_b] measured_profile``), one after the other."""
+    costs = []
+    if scene.measured_profile is not None:
+        picture = "dxf" in scene.formats
+        costs.append(
+            measured_read(
+                scene.measured_profile,
+                env.measured_bytes,
+                env.measured_dxf,
+                picture,
+                "[errors] measured_profile",
+            )
+        )
+    path_b = getattr(scene, "measured_profile_b", None)
+    if path_b is not None:  # ring B: read and registered the same way, no picture
+        costs.append(
+            measured_read(
+                path_b,
+                env.measured_b_bytes,
+                env.measured_b_dxf,
+                False,
+                "[errors.row_b] measured_profile",
+            )
+        )
+    if len(costs) == 1:
+        return costs[0]
+    a, b = costs
+    return dict(
+        memory=max(a["memory"], a["keeps"] + b["memory"]),
+        keeps=a["keeps"] + b["keeps"],
+        seconds=a["seconds"] + b["seconds"],
+        output=a["output"],
+        libraries=tuple(dict.fromkeys(a["libraries"] + b["libraries"])),
+        knobs=a["knobs"] + b["knobs"],
     )

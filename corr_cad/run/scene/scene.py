@@ -440,10 +440,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"= {ex['interference_method']!r} is (0, {MESH_POSITIONS_MAX}] (about 0.8 s of mesh "
             'booleans per position); use interference_method = "exact" for finer sweeps'
         )
-    if "inspection" in formats and er["measured_profile"] is None:
-        raise SceneError(
-            "[export] formats lists 'inspection' but [errors] measured_profile is not set"
-        )
+    drv.check_inspection_row(
+        values["inspection"]["row"], formats, er["measured_profile"], drive, solver.model
+    )
     if "edm" in formats:  # the dialect against tolerance, design size and its M-codes
         check_edm_scene(values["edm"], ex["tolerance"], design)
     spacing = values["inspection"]["point_spacing"]

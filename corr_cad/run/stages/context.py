@@ -60,6 +60,7 @@ class Results:
     errors: ManufacturingErrors | None = None
     #: ``measured_profile`` with ``[errors.row_b] measured_profile``: ring B's registration.
     registration_b: Registration | None = None
+    measured_points_b: np.ndarray | None = None
     #: ``forces``: the mesh-force solution over the cycle.
     forces: ForceResult | None = None
     #: ``forces`` under ``[solver] model = "drive"``: both rows (``forces`` is row A's).

@@ -206,7 +206,8 @@ def _measured(ctx: RunContext) -> None:
     w = ctx.results.working
     if getattr(s, "measured_profile_b", None) is not None:
         # Ring B's measured contour (``[errors.row_b]``): its deviation is row B's.
-        ctx.results.registration_b = _register(ctx, s.measured_profile_b, "measured_profile_b")[0]
+        reg_b, pts_b = _register(ctx, s.measured_profile_b, "measured_profile_b")
+        ctx.results.registration_b, ctx.results.measured_points_b = reg_b, pts_b
     if s.measured_profile is None:
         return
     reg, pts = _register(ctx, s.measured_profile, "measured_profile")
