@@ -510,3 +510,27 @@ def test_small_moments_about_an_idle_row_are_continuous(compiled):
     assert np.all(carried[4] == 0.0)
     assert np.all(np.diff(carried[4:], axis=0) >= 0) and np.all(np.diff(carried[:5], axis=0) <= 0)
     assert np.all(carried[[0, 8]] > 0.05)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_an_idle_cam_on_a_loose_bearing_rests_within_its_free_play(compiled):
+    """With a 4 um clearance, cam A idles at zero moment at every position of
+    :func:`_row_b_ring_harmonic` (it slides in its clearance instead of pressing its
+    rollers): it carries nothing (its rollers at most 1e-12 of the drive's forces, its
+    needles none) and sits within Pd / 2 of its eccentric's centre; the moment and cam B
+    are in equilibrium."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+
+    Pd = 0.004
+    solver = _row_b_ring_harmonic(
+        CompiledDriveSolver if compiled else None, EccentricBearing(40, 6.0, 12.0, Pd)
+    )
+    res = solver.result(0.0)
+    assert res.success, res.message
+    scale = res.F_j.sum(axis=(0, 2))
+    assert np.all(res.F_j[0].sum(axis=1) <= 1e-12 * scale)
+    assert np.all(res.needle_loads[0] == 0.0)
+    assert np.all(np.linalg.norm(res.cam_displacement[0], axis=1) <= Pd / 2)
+    unbalanced, moment = _balance(res)
+    assert np.all(np.linalg.norm(unbalanced, axis=2) <= 1e-9 * scale)
+    assert np.all(np.abs(moment) <= 1e-9 * GearDesign().eccentricity * scale)

@@ -438,11 +438,14 @@ def test_row_b_measured_ring_gives_the_datasheet_of_its_deviation(tmp_path):
         '[solver]\nmodel = "drive"\n'
         "[datasheet]\npositions_per_mesh = 1\ntransmission_error_positions_per_turn = 4\n"
     )
+    forces = base.replace('["datasheet"]', '["datasheet", "forces"]').replace(
+        'model = "drive"\n', 'model = "drive"\ncrank_angles_deg = [0.0, 7.0, 33.0]\n'
+    )
     scenes = {
         "plain": base,
         "mnom": base + '[errors.row_b]\nmeasured_profile = "nominal.csv"\n',
-        "mh3": base + '[errors.row_b]\nmeasured_profile = "h3.csv"\n',
-        "hh3": base + "[errors.row_b]\nprofile_deviation_harmonics = [[3, 0.002, 0]]\n",
+        "mh3": forces + '[errors.row_b]\nmeasured_profile = "h3.csv"\n',
+        "hh3": forces + "[errors.row_b]\nprofile_deviation_harmonics = [[3, 0.002, 0]]\n",
     }
     sheets = {}
     for name, text in scenes.items():
@@ -471,6 +474,29 @@ def test_row_b_measured_ring_gives_the_datasheet_of_its_deviation(tmp_path):
         effect = family[k.rsplit(".", 1)[0]]
         assert abs(f["mh3"][k] - v) <= bound * effect + 1e-12 * abs(v), (k, f["mh3"][k], v)
     assert f["hh3"]["transmission_error_arcsec.catalogue"] > 0.1  # the deviation shows
+    # The forces (row B's ring in the scene's errors): a contact's stiffness is about
+    # 2e6 N/mm at 2 kN (1.2 um), so the 2.5e-9 mm of discretization moves a force by
+    # about 5e-3 N; within 100 times that.
+    tables = []
+    for k in ("mh3", "hh3"):
+        with open(tmp_path / k / "forces.csv") as fh:
+            rows = list(csv.reader(fh))
+        tables.append(rows)
+    assert tables[0][0] == tables[1][0] and len(tables[0]) == len(tables[1])
+
+    def number(v):
+        try:
+            return math.isfinite(float(v))
+        except ValueError:
+            return False
+
+    numeric = [j for j, v in enumerate(tables[1][1]) if number(v)]
+    meas, harm = (np.array([[float(r[j]) for j in numeric] for r in t[1:]]) for t in tables)
+    np.testing.assert_allclose(meas, harm, atol=0.5)
+    assert [r[j] for r in tables[0] for j in range(len(r)) if j not in numeric] == [
+        r[j] for r in tables[1] for j in range(len(r)) if j not in numeric
+    ]
+    assert np.ptp(harm, axis=0).max() > 100.0  # the forces vary
 
 
 def test_row_b_measured_ring_is_estimated_and_refused_beside_harmonics():
