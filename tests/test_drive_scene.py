@@ -531,3 +531,32 @@ def test_row_b_measured_ring_is_estimated_and_refused_beside_harmonics():
                 },
             }
         )
+
+
+@pytest.mark.parametrize(
+    "content,message",
+    [
+        (None, "measured profile 'b.csv' does not exist"),
+        ("x,y\n0,1\n1,0\n", "b.csv: 2 points are too few; need at least 500 (20 per tooth)"),
+    ],
+)
+def test_a_bad_row_b_measured_ring_is_refused_as_row_a_s(tmp_path, content, message):
+    """Ring B's file goes through row A's reader and checks: one line, exit 2."""
+    import subprocess
+    import sys
+
+    if content is not None:
+        (tmp_path / "b.csv").write_text(content)
+    (tmp_path / "s.toml").write_text(
+        '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
+        '[solver]\nmodel = "drive"\ncrank_angles_deg = [0.0]\n'
+        '[errors.row_b]\nmeasured_profile = "b.csv"\n'
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 2
+    assert r.stderr.splitlines() == [f"corr-cad: error: {message}"]
