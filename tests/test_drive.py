@@ -424,3 +424,113 @@ def test_the_datasheet_spans_the_row_that_repeats_last():
     te = [f["transmission_error_arcsec"]["forward_peak_to_peak"] for f in figs]
     assert te[0] > 0.1
     np.testing.assert_allclose(te[0], te[1], rtol=1e-9)
+
+
+def _row_b_ring_harmonic(solver_class=None, bearing=NEEDLES):
+    """Row B's ring with a 2 um third harmonic, row A nominal, both cams on needles without
+    clearance. At 2 pi k / 2600 for k = 1200 and 2450 (positions of the datasheet's grid)
+    row B's preload is symmetric about the eccentric: it gives no moment at tau = 0, and
+    row A's rollers touch there without load."""
+    from corr_cad.geometry.deviations import harmonic_deviation
+    from corr_cad.mechanics.drive import DriveSolver
+
+    eb = ME(profile_deviation=harmonic_deviation([(3, 0.002, 0.0)]))
+    angles = np.concatenate([2 * np.pi * np.array([1200, 2450]) / 2600, np.radians([100.0])])
+    return (solver_class or DriveSolver)(GearDesign(), angles, errors_b=eb, bearing=bearing)
+
+
+def _balance(res, design=None):
+    """Each cam's needles' resultant less its rollers' push (2, P, 2), N, and the crank
+    moment (P,), N*mm, from the forces and the geometry written out (crank-slider)."""
+    design = design or GearDesign()
+    e, L = design.eccentricity, design.cam_radius + design.roller_radius
+    out, moment = [], 0.0
+    for c in (0, 1):
+        row = res.rows[c]
+        psi = row.psi
+        s = e * np.cos(psi) + np.sqrt(L**2 - (e * np.sin(psi)) ** 2)
+        n = np.stack([-s * np.sin(psi) / L, (s * np.cos(psi) - e) / L], axis=-1)
+        push = np.einsum("pk,pkx->px", row.F_j, n)
+        Z = res.needle_loads[c].shape[1]
+        a = 2 * np.pi * np.arange(Z) / Z
+        out.append(res.needle_loads[c] @ np.stack([np.sin(a), np.cos(a)], axis=1) - push)
+        moment = moment + np.sum(row.geometry.arm * row.F_j, axis=1)
+    return np.stack(out), moment
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_zero_moment_with_an_idle_row_rests_its_cam_centred(compiled):
+    """At zero moment row A carries nothing where row B's preload is symmetric: cam A is
+    held by nothing (its rollers touch without load, its needles have no stiffness at no
+    load), so it rests centred and carries exactly nothing; row B's bearing carries its
+    rollers' resultant, and the moment is zero, to 1e-9 of the drive's forces."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+
+    solver = _row_b_ring_harmonic(CompiledDriveSolver if compiled else None)
+    res = solver.result(0.0)
+    assert res.success, res.message
+    unbalanced, moment = _balance(res)
+    scale = res.F_j.sum(axis=(0, 2))  # every roller force of the drive, N
+    assert np.all(np.linalg.norm(unbalanced, axis=2) <= 1e-9 * scale)
+    e = GearDesign().eccentricity
+    assert np.all(np.abs(moment) <= 1e-9 * e * scale)
+    idle = slice(0, 2)  # the two symmetric positions
+    assert np.all(res.F_j[0, idle] == 0.0) and np.all(res.needle_loads[0][idle] == 0.0)
+    assert np.all(res.cam_displacement[0, idle] == 0.0)
+    assert np.all(res.F_j[1, idle].sum(axis=1) > 1e4)  # row B preloaded
+    assert res.F_j[0, 2].sum() > 10.0  # elsewhere row A balances row B's preload moment
+    rev, fwd = solver.free_interval()  # the CLI's path: the preloaded drive's free ends
+    np.testing.assert_array_equal(rev, fwd)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_small_moments_about_an_idle_row_are_continuous(compiled):
+    """Moments of +-1e-9 to +-1 N*mm about zero: every solve converges with the moment and
+    each bearing in equilibrium; the crank turns monotonically; row A's forces grow from
+    nothing with the moment's size either way
+    and row B's move by no more than 1e3 N per N*mm."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+
+    solver = _row_b_ring_harmonic(CompiledDriveSolver if compiled else None)
+    moments = np.array([-1.0, -1e-3, -1e-6, -1e-9, 0.0, 1e-9, 1e-6, 1e-3, 1.0])
+    results = [solver.result(m) for m in moments]
+    assert all(r.success for r in results), [r.message for r in results]
+    for m, r in zip(moments, results, strict=True):
+        unbalanced, moment = _balance(r)
+        scale = r.F_j.sum(axis=(0, 2))
+        assert np.all(np.linalg.norm(unbalanced, axis=2) <= 1e-9 * scale)
+        assert np.all(np.abs(moment - m) <= 1e-9 * GearDesign().eccentricity * scale)
+    tau = np.stack([r.cam_rotation for r in results])
+    assert np.all(np.diff(tau, axis=0) >= -1e-18)
+    zero = results[4]
+    for m, r in zip(moments, results, strict=True):
+        change = np.abs(r.F_j - zero.F_j).max(axis=(0, 2))
+        assert np.all(change <= 1e3 * abs(m) + 1e-9), (m, change)
+    carried = np.stack([r.F_j[0, :2].sum(axis=1) for r in results])  # row A, idle positions
+    assert np.all(carried[4] == 0.0)
+    assert np.all(np.diff(carried[4:], axis=0) >= 0) and np.all(np.diff(carried[:5], axis=0) <= 0)
+    assert np.all(carried[[0, 8]] > 0.05)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_an_idle_cam_on_a_loose_bearing_rests_within_its_free_play(compiled):
+    """With a 4 um clearance, cam A idles at zero moment at every position of
+    :func:`_row_b_ring_harmonic` (it slides in its clearance instead of pressing its
+    rollers): it carries nothing (its rollers at most 1e-12 of the drive's forces, its
+    needles none) and sits within Pd / 2 of its eccentric's centre; the moment and cam B
+    are in equilibrium."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+
+    Pd = 0.004
+    solver = _row_b_ring_harmonic(
+        CompiledDriveSolver if compiled else None, EccentricBearing(40, 6.0, 12.0, Pd)
+    )
+    res = solver.result(0.0)
+    assert res.success, res.message
+    scale = res.F_j.sum(axis=(0, 2))
+    assert np.all(res.F_j[0].sum(axis=1) <= 1e-12 * scale)
+    assert np.all(res.needle_loads[0] == 0.0)
+    assert np.all(np.linalg.norm(res.cam_displacement[0], axis=1) <= Pd / 2)
+    unbalanced, moment = _balance(res)
+    assert np.all(np.linalg.norm(unbalanced, axis=2) <= 1e-9 * scale)
+    assert np.all(np.abs(moment) <= 1e-9 * GearDesign().eccentricity * scale)

@@ -386,3 +386,177 @@ def test_the_datasheet_estimate_follows_row_b_s_span_and_the_drive_s_cost():
     t_paper = ESTIMATORS["datasheet"](paper, None).seconds - 0.05
     t_drive = ESTIMATORS["datasheet"](drive, None).seconds - 0.05
     assert t_drive > DRIVE_CELLS * 26 * t_paper * 0.9
+
+
+def _ring_points(deviation):
+    """Ring points from the closed form written out (roller-centre locus plus r along its
+    outward normal, less the deviation: + = material added), 6000 a revolution."""
+    z, e, L, r = 25, 3.5, 143.0, 8.0
+    t = np.linspace(0, 2 * np.pi, 6000, endpoint=False)
+    psi = z * t
+    W = np.sqrt(L * L - (e * np.sin(psi)) ** 2)
+    s = e * np.cos(psi) + W
+    ds = z * (-e * np.sin(psi) - e * e * np.sin(psi) * np.cos(psi) / W)
+    tx, ty = ds * np.sin(t) + s * np.cos(t), ds * np.cos(t) - s * np.sin(t)
+    n = np.stack([ty, -tx], axis=1) / np.hypot(tx, ty)[:, None]
+    n *= np.sign(n[:, 0] * np.sin(t) + n[:, 1] * np.cos(t))[:, None]
+    P = s[:, None] * np.stack([np.sin(t), np.cos(t)], axis=1)
+    return P + (r - deviation(t))[:, None] * n
+
+
+def _flat(d, prefix=""):
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict) and k not in ("ring", "units", "positions"):
+            out.update(_flat(v, f"{prefix}{k}."))
+        elif isinstance(v, (int, float)) and not isinstance(v, bool) and k != "positions_solved":
+            out[prefix + k] = v
+    return out
+
+
+@pytest.mark.slow
+def test_row_b_measured_ring_gives_the_datasheet_of_its_deviation(tmp_path):
+    """Through the CLI: ring B measured equal to the nominal contour gives the nominal drive's
+    datasheet (over a revolution, where the nominal one spans a mesh period); measured with a
+    third harmonic of 2 um, the datasheet of the same harmonic
+    given as profile_deviation_harmonics. Tolerance: the registered deviation is sampled
+    at the 6000 points of a revolution and interpolated between them, an error of at most
+    A (k dt)^2 / 8 = 2.5e-9 mm (A = 2 um, k = 3, dt = 2 pi / 6000), 1.2e-6 of A; each
+    figure moves by at most that fraction of the largest change the whole deviation makes
+    in its family (min, mean, max), here within 100 times (the registration's own fit of
+    centre and rotation, and rigidities that are quotients of windup differences)."""
+    import subprocess
+    import sys
+
+    for name, dev in (("nominal", lambda t: 0 * t), ("h3", lambda t: 0.002 * np.cos(3 * t))):
+        pts = _ring_points(dev)
+        (tmp_path / f"{name}.csv").write_text(
+            "x,y\n" + "\n".join(f"{x:.12f},{y:.12f}" for x, y in pts) + "\n"
+        )
+    base = (
+        '[export]\nformats = ["datasheet"]\n[load]\ninput_torque = 1.1e5\n'
+        '[solver]\nmodel = "drive"\n'
+        "[datasheet]\npositions_per_mesh = 1\ntransmission_error_positions_per_turn = 4\n"
+    )
+    forces = base.replace('["datasheet"]', '["datasheet", "forces"]').replace(
+        'model = "drive"\n', 'model = "drive"\ncrank_angles_deg = [0.0, 7.0, 33.0]\n'
+    )
+    scenes = {
+        "plain": base,
+        "mnom": base + '[errors.row_b]\nmeasured_profile = "nominal.csv"\n',
+        "mh3": forces + '[errors.row_b]\nmeasured_profile = "h3.csv"\n',
+        "hh3": forces + "[errors.row_b]\nprofile_deviation_harmonics = [[3, 0.002, 0]]\n",
+    }
+    sheets = {}
+    for name, text in scenes.items():
+        (tmp_path / f"{name}.toml").write_text(text)
+        r = subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", f"{name}.toml", "--out", name, "--quiet"],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+        )
+        assert r.returncode == 0, r.stderr
+        sheets[name] = json.loads((tmp_path / name / "datasheet.json").read_text())
+    ring_b = sheets["mh3"]["ring"]["ring_b"]
+    assert ring_b["profile"] == "measured" and ring_b["file"] == "h3.csv"
+    assert "ring_b" not in sheets["hh3"]["ring"]
+    f = {k: _flat(v) for k, v in sheets.items()}
+    assert f["plain"].keys() == f["mnom"].keys() == f["mh3"].keys()
+    for k, v in f["plain"].items():
+        assert f["mnom"][k] == pytest.approx(v, rel=1e-6, abs=1e-9), k
+    family = {}
+    for k, v in f["plain"].items():
+        fam = k.rsplit(".", 1)[0]
+        family[fam] = max(family.get(fam, 0.0), abs(f["hh3"][k] - v))
+    bound = 100 * 0.002 * (3 * 2 * math.pi / 6000) ** 2 / 8 / 0.002
+    for k, v in f["hh3"].items():
+        effect = family[k.rsplit(".", 1)[0]]
+        assert abs(f["mh3"][k] - v) <= bound * effect + 1e-12 * abs(v), (k, f["mh3"][k], v)
+    assert f["hh3"]["transmission_error_arcsec.catalogue"] > 0.1  # the deviation shows
+    # The forces (row B's ring in the scene's errors): a contact's stiffness is about
+    # 2e6 N/mm at 2 kN (1.2 um), so the 2.5e-9 mm of discretization moves a force by
+    # about 5e-3 N; within 100 times that.
+    tables = []
+    for k in ("mh3", "hh3"):
+        with open(tmp_path / k / "forces.csv") as fh:
+            rows = list(csv.reader(fh))
+        tables.append(rows)
+    assert tables[0][0] == tables[1][0] and len(tables[0]) == len(tables[1])
+
+    def number(v):
+        try:
+            return math.isfinite(float(v))
+        except ValueError:
+            return False
+
+    numeric = [j for j, v in enumerate(tables[1][1]) if number(v)]
+    meas, harm = (np.array([[float(r[j]) for j in numeric] for r in t[1:]]) for t in tables)
+    np.testing.assert_allclose(meas, harm, atol=0.5)
+    assert [r[j] for r in tables[0] for j in range(len(r)) if j not in numeric] == [
+        r[j] for r in tables[1] for j in range(len(r)) if j not in numeric
+    ]
+    assert np.ptp(harm, axis=0).max() > 100.0  # the forces vary
+
+
+def test_row_b_measured_ring_is_estimated_and_refused_beside_harmonics():
+    """The measured_profile stage's estimate reads and registers ring B as it does ring A
+    (the same file size costs the same, without measured_profile.dxf's picture); ring B
+    measured and given as harmonics at once is refused in one line."""
+    from corr_cad.run.budget.costs import ESTIMATORS, Env
+
+    base = {"export": {"formats": ["forces"]}, "load": {"input_torque": 1.1e5}}
+    drive = {**base, "solver": {"model": "drive"}}
+    a = parse_scene({**drive, "errors": {"measured_profile": "a.csv"}})
+    both = parse_scene(
+        {
+            **drive,
+            "errors": {"measured_profile": "a.csv"},
+            "errors.row_b": {"measured_profile": "b.csv"},
+        }
+    )
+    assert both.measured_profile_b.name == "b.csv"
+    env = Env(measured_bytes=1_600_000, measured_b_bytes=1_600_000)
+    one, two = ESTIMATORS["measured_profile"](a, env), ESTIMATORS["measured_profile"](both, env)
+    assert two.seconds == pytest.approx(2 * one.seconds)
+    assert two.keeps == pytest.approx(2 * one.keeps)
+    assert "[errors.row_b] measured_profile" in two.knobs
+    with pytest.raises(SceneError, match=r"^\[errors.row_b\] measured_profile and profile_dev"):
+        parse_scene(
+            {
+                **drive,
+                "errors.row_b": {
+                    "measured_profile": "b.csv",
+                    "profile_deviation_harmonics": [[3, 0.002, 0]],
+                },
+            }
+        )
+
+
+@pytest.mark.parametrize(
+    "content,message",
+    [
+        (None, "measured profile 'b.csv' does not exist"),
+        ("x,y\n0,1\n1,0\n", "b.csv: 2 points are too few; need at least 500 (20 per tooth)"),
+    ],
+)
+def test_a_bad_row_b_measured_ring_is_refused_as_row_a_s(tmp_path, content, message):
+    """Ring B's file goes through row A's reader and checks: one line, exit 2."""
+    import subprocess
+    import sys
+
+    if content is not None:
+        (tmp_path / "b.csv").write_text(content)
+    (tmp_path / "s.toml").write_text(
+        '[export]\nformats = ["forces"]\n[load]\ninput_torque = 1.1e5\n'
+        '[solver]\nmodel = "drive"\ncrank_angles_deg = [0.0]\n'
+        '[errors.row_b]\nmeasured_profile = "b.csv"\n'
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 2
+    assert r.stderr.splitlines() == [f"corr-cad: error: {message}"]

@@ -224,6 +224,7 @@ def test_all_formats_with_every_section_under_the_drive_model(tmp_path):
     left = dict(m.get("formats_left_out", {}))
     assert set(left) == {"inspection", "modification"}, left
     assert 'model = "paper"' in left["modification"]
+    assert left["inspection"] == "no [errors] measured_profile"  # no measured ring here
     expected = {
         "roller.dxf", "preview.png", "forces.csv", "forces_summary.json", "roller.stl",
         "roller.3mf", "roller.glb", "roller.ply", "montecarlo.csv", "allocation.csv",

@@ -395,3 +395,112 @@ def test_inspection_png_marks_the_same_teeth_as_the_csv(tmp_path, monkeypatch):
     assert "profile_tolerance: FAIL teeth 5, 12 (worst tooth" in console[0]
     assert "z = 25, Rj = 135 mm" in fig._suptitle.get_text()
     plt.close(fig)
+
+
+def _cli(folder, name, text):
+    (folder / f"{name}.toml").write_text(text)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", f"{name}.toml", "--out", name, "--quiet"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+@pytest.mark.slow
+def test_inspection_under_the_drive_predicts_the_drive_with_the_ring_in_its_row(tmp_path):
+    """A ring with a 2 um third harmonic, inspected as ring A and as ring B of the drive:
+    the measurement (teeth, pitches, registration, limits) is the same either way; the
+    predicted transmission error is that of the drive's datasheet with the same harmonic
+    in that row's ring alone (the other ring nominal), within the measurement's
+    discretization (at most A (k dt)^2 / 8 of the deviation, 1.2e-6 of it at 6000 points,
+    here within 100 times that); inspection.json says which model and row."""
+    t = np.linspace(0, 2 * np.pi, 6000, endpoint=False)
+    p, n = working(t)
+    pts = p - (0.002 * np.cos(3 * t))[:, None] * n  # + = material added = into the opening
+    (tmp_path / "h3.csv").write_text(
+        "x,y\n" + "\n".join(f"{x:.12f},{y:.12f}" for x, y in pts) + "\n"
+    )
+    base = (
+        '[load]\ninput_torque = 1.1e5\n[solver]\nmodel = "drive"\n'
+        "[datasheet]\npositions_per_mesh = 1\ntransmission_error_positions_per_turn = 4\n"
+    )
+    insp = '[export]\nformats = ["inspection"]\n'
+    sheet = '[export]\nformats = ["datasheet"]\n'
+    harmonic = "profile_deviation_harmonics = [[3, 0.002, 0]]\n"
+    _cli(tmp_path, "ia", base + insp + '[errors]\nmeasured_profile = "h3.csv"\n')
+    _cli(
+        tmp_path,
+        "ib",
+        base + insp + '[inspection]\nrow = "b"\n[errors.row_b]\nmeasured_profile = "h3.csv"\n',
+    )
+    _cli(tmp_path, "da", base + sheet + f"[errors]\n{harmonic}[errors.row_b]\n")
+    _cli(tmp_path, "db", base + sheet + f"[errors.row_b]\n{harmonic}")
+    got = {k: json.loads((tmp_path / k / "inspection.json").read_text()) for k in ("ia", "ib")}
+    assert (got["ia"]["model"], got["ia"]["row"]) == ("drive", "a")
+    assert (got["ib"]["model"], got["ib"]["row"]) == ("drive", "b")
+    for k in got["ia"]:
+        if k not in ("row", "predicted", "forces"):
+            assert got["ia"][k] == got["ib"][k], k
+    bound = 100 * (3 * 2 * math.pi / 6000) ** 2 / 8
+    for row, ds in (("a", "da"), ("b", "db")):
+        pred = got[f"i{row}"]["predicted"]
+        assert (pred["model"], pred["row"], pred["ring"]["row"]) == ("drive", row, row)
+        assert pred["ring"]["other_ring"] == "nominal"
+        sheet_te = json.loads((tmp_path / ds / "datasheet.json").read_text())
+        sheet_te = sheet_te["transmission_error_arcsec"]
+        for way in ("forward_peak_to_peak", "reverse_peak_to_peak"):
+            te = pred["measured"]["transmission_error_arcsec"][way]
+            assert te == pytest.approx(sheet_te[way], rel=bound), (row, way)
+            assert te > 1e3 * pred["nominal"]["transmission_error_arcsec"][way]
+        assert pred["measured"]["backlash_arcmin"]["max"] == 0.0  # the harmonic preloads
+    forces = got["ib"]["forces"]
+    assert forces["measured_includes"].startswith("the drive's row B")
+    assert forces["roller_1_and_all"]["F_n_peak_any_roller"]["change_percent"] > 10.0
+
+
+@pytest.mark.parametrize(
+    "data,pattern",
+    [
+        (
+            {"inspection": {"row": "b"}},
+            r'^\[inspection\] row = "b": ring B is solved under \[solver\] model = "drive" only',
+        ),
+        (
+            {
+                "solver": {"model": "drive"},
+                "export": {"formats": ["inspection"]},
+                "inspection": {"row": "b"},
+                "errors": {"measured_profile": "a.csv"},
+            },
+            r"^\[export\] formats lists 'inspection' with \[inspection\] row = \"b\" but "
+            r"\[errors.row_b\] measured_profile is not set",
+        ),
+        (
+            {"inspection": {"row": "c"}},
+            r"^\[inspection\] row = 'c': must be one of a, b",
+        ),
+    ],
+)
+def test_the_inspected_row_is_checked_in_one_line(data, pattern):
+    from corr_cad.errors import SceneError
+    from corr_cad.run.scene.scene import parse_scene
+
+    with pytest.raises(SceneError, match=pattern):
+        parse_scene({"load": {"input_torque": 1.1e5}, **data})
+
+
+def test_inspection_under_the_drive_is_no_longer_refused():
+    from corr_cad.run.scene.scene import parse_scene
+
+    scene = parse_scene(
+        {
+            "load": {"input_torque": 1.1e5},
+            "solver": {"model": "drive", "contact_law": "palmgren"},
+            "export": {"formats": ["inspection"]},
+            "errors": {"measured_profile": "a.csv"},
+        }
+    )
+    assert scene.formats == ("inspection",) and scene.inspection.get("row") is None

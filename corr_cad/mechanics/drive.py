@@ -57,8 +57,10 @@ from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.mechanics.drive_numerics import (
     _forces_of,
     _invert_convex,
+    expand_drive,
     free_row,
     joined,
+    rest_idle_cams,
     roller_directions,
 )
 from corr_cad.mechanics.solver import CONTACT_MODELS, ForceResult, _result
@@ -283,6 +285,16 @@ class DriveSolver:
         it = 0
         for it in range(1, max_iter + 1):
             done = self._converged(r, F, a_m, Qs, target, gross) | idle
+            if not np.all(done):
+                rest = rest_idle_cams(
+                    (~done, target, tau, u, F, kf, Qs, kqs, r, gross, a_m),
+                    scale_f[:, 0] * DRIVE_RTOL,
+                    state,
+                    lambda *a: self._converged(*a),
+                )
+                if rest is not None:
+                    settled, (u, F, kf, Qs, kqs, r, gross) = rest
+                    done |= settled
             if np.all(done):
                 break
             J = np.zeros((P, 5, 5))
@@ -589,31 +601,5 @@ def solve_drive(
     rev, fwd = solver.free_interval()
     res.backlash = (fwd - rev) / design.roller_count
     if inverse is not None:
-        res = _expand_drive(res, full, inverse, shift, design.slot_pitch_rad)
+        res = expand_drive(res, full, inverse, shift, design.slot_pitch_rad)
     return res
-
-
-def _expand_drive(res: DriveResult, angles, idx, shift, pitch: float) -> DriveResult:
-    """The full cycle from its solved classes (:func:`corr_cad.mechanics.solver._expand`
-    for each row; the cams' quantities, in the eccentrics' frames, repeat as they are)."""
-    from corr_cad.mechanics.solver import _expand
-
-    rows = (
-        _expand(res.rows[0], angles, idx, shift, pitch),
-        _expand(res.rows[1], angles + np.pi, idx, shift, pitch),
-    )
-    return replace(
-        res,
-        crank_angles=angles,
-        F_j=np.stack([r.F_j for r in rows]),
-        F_n=np.stack([r.F_n for r in rows]),
-        F_s=np.stack([r.F_s for r in rows]),
-        row_a_share=res.row_a_share[idx],
-        bearing_load=res.bearing_load[:, idx],
-        needle_load_max=res.needle_load_max[:, idx],
-        needle_loads=None if res.needle_loads is None else tuple(q[idx] for q in res.needle_loads),
-        cam_displacement=res.cam_displacement[:, idx],
-        cam_rotation=res.cam_rotation[idx],
-        backlash=res.backlash[idx],
-        rows=rows,
-    )

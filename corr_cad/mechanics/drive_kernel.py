@@ -195,6 +195,58 @@ def _relative(r, w, geo, p, Q, gq, target, e):
 
 
 @_jit
+def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp):
+    """Settle the cams that carry nothing (drive.DriveSolver._rest_idle_cams): True, and
+    the settled state in ``u, w, r, Q, kq, gq``, when the position is then converged.
+    ``tmp``: scratch ``(ut (2, 2), wt (4, N), rt (5,), Qt, kqt, gqt (2, Z))``."""
+    ut, wt, rt, Qt, kqt, gqt = tmp
+    N = w.shape[1]
+    R = N // 2
+    tiny = np.zeros(2, dtype=np.bool_)
+    for c in range(2):
+        carried = 0.0
+        for i in range(c * R, (c + 1) * R):
+            carried += w[1, i]
+        for j in range(Q.shape[1]):
+            carried += Q[c, j]
+        tiny[c] = carried <= rtol * sf
+    if not (tiny[0] or tiny[1]):
+        return False
+    ut[:, :] = u
+    for c in range(2):
+        if tiny[c]:
+            ut[c, 0], ut[c, 1] = 0.0, 0.0
+    _state(p, t, ut, geo, law, T, K, slope0, target, w, wt, rt)  # the idle cams centred
+    centred = np.zeros(2, dtype=np.bool_)
+    for c in range(2):
+        pressed = 0.0
+        for i in range(c * R, (c + 1) * R):
+            pressed += wt[1, i]
+        centred[c] = tiny[c] and pressed <= rtol * sf
+    wt[:, :] = w
+    rt[:] = r
+    Qt[:, :], kqt[:, :], gqt[:, :] = Q, kq, gq
+    ut[:, :] = u
+    for c in range(2):
+        if not tiny[c]:
+            continue
+        if centred[c]:
+            ut[c, 0], ut[c, 1] = 0.0, 0.0
+        for i in range(c * R, (c + 1) * R):
+            wt[1, i], wt[2, i], wt[3, i] = 0.0, 0.0, 0.0
+        Qt[c, :], kqt[c, :], gqt[c, :] = 0.0, 0.0, 0.0
+        rt[1 + 2 * c], rt[2 + 2 * c] = 0.0, 0.0
+    rt[0] = -target
+    for i in range(N):
+        rt[0] += geo[1, p, i] * wt[1, i]
+    if not _relative(rt, wt, geo, p, Qt, gqt, target, e) <= rtol:
+        return False
+    u[:, :], w[:, :], r[:] = ut, wt, rt
+    Q[:, :], kq[:, :], gq[:, :] = Qt, kqt, gqt
+    return True
+
+
+@_jit
 def _merit(r, sm, sf):
     return (r[0] / sm) ** 2 + (
         (r[1] / sf) ** 2 + (r[2] / sf) ** 2 + (r[3] / sf) ** 2 + (r[4] / sf) ** 2
@@ -260,6 +312,14 @@ def bearing_newton(
     u, ut = np.empty((2, 2)), np.empty((2, 2))
     J, b, step = np.empty((5, 5)), np.empty(5), np.empty(5)
     nan_prev = np.full((4, N), np.nan)
+    tmp = (
+        np.empty((2, 2)),
+        np.empty((4, N)),
+        np.empty(5),
+        np.empty((2, Z)),
+        np.empty((2, Z)),
+        np.empty((2, Z)),
+    )
     for p in range(P):
         t = tau[p]
         sm = abs(target)
@@ -288,6 +348,10 @@ def bearing_newton(
                 fmax = max(fmax, w[1, i])
             idle = fmax <= _IDLE
         done = idle or _relative(r, w, geo, p, Q, gq, target, e) <= rtol
+        if not done:
+            done = _rest_idle(
+                p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
+            )
         for _ in range(max_iter):
             if done:
                 break
@@ -354,6 +418,10 @@ def bearing_newton(
             r[:] = rt
             Q[:, :], kq[:, :], gq[:, :] = Qt, kqt, gqt
             done = _relative(r, w, geo, p, Q, gq, target, e) <= rtol
+            if not done:
+                done = _rest_idle(
+                    p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
+                )
         tau[p] = t
         for i in range(N):
             F0[p, i] = w[1, i]

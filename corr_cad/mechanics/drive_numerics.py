@@ -6,13 +6,14 @@ geometry joined.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 
-__all__ = ["free_row", "joined", "roller_directions"]
+__all__ = ["expand_drive", "free_row", "joined", "rest_idle_cams", "roller_directions"]
 
 #: ``|n_x|`` below which a roller's normal counts as along the eccentric (:func:`free_row`).
 _FLAT = 1e-9
@@ -171,3 +172,93 @@ def roller_directions(design: GearDesign, geo: RollerGeometry) -> np.ndarray:
     e, L = design.eccentricity, design.link_length
     s, psi = geo.s, geo.psi
     return np.stack([-s * np.sin(psi) / L, (s * np.cos(psi) - e) / L], axis=-1)
+
+
+def rest_idle_cams(at, floor, state, converged):
+    """Settle each cam of the drive's bearing Newton that carries nothing
+    (:meth:`~corr_cad.mechanics.drive.DriveSolver._with_bearings`): ``(settled (P,),
+    (u, F, kf, Qs, kqs, r, gross))``, or None.
+
+    ``at``: ``(cand, target, tau, u, F, kf, Qs, kqs, r, gross, a_m)``, the Newton's
+    state and the positions ``cand`` (P,) where it has not converged; ``floor`` (P,), N:
+    the drive's round-off, ``DRIVE_RTOL`` of the forces that fix the crank;
+    ``state(tau, u)``: the Newton's state function; ``converged(r, F, a_m, Qs, target,
+    gross)``: its test.
+
+    A cam whose rollers and needles carry no more than ``floor`` is located by nothing:
+    its rollers touch (or keep their gaps) without load, and its needles at zero load
+    have no stiffness (Palmgren's ``dQ/d delta = 0`` at ``Q = 0``). Its balance,
+    relative to its own vanishing forces, is then round-off of the other row's, which
+    no Newton step can reduce. Such a cam rests centred on its eccentric (``u = 0``)
+    where that presses none of its rollers beyond the same round-off, otherwise where
+    its rollers left it in its free play; it carries exactly nothing. The position is
+    settled when the moment and the other cam are then in equilibrium to ``DRIVE_RTOL``.
+    """
+    cand, target, tau, u, F, kf, Qs, kqs, r, gross, a_m = at
+    R = F.shape[1] // 2
+    carried = [np.sum(F[:, c * R : (c + 1) * R], axis=1) + np.sum(Qs[c], axis=1) for c in (0, 1)]
+    tiny = [cand & (carried[c] <= floor) for c in (0, 1)]
+    if not (np.any(tiny[0]) or np.any(tiny[1])):
+        return None
+    centred = u.copy()
+    for c in (0, 1):
+        centred[c][tiny[c]] = 0.0
+    with np.errstate(all="ignore"):
+        F0 = state(tau, centred)[1]  # the rollers' forces with the idle cams centred
+    v, G, kg, rr = u.copy(), F.copy(), kf.copy(), r.copy()
+    Qv, kqv = [q.copy() for q in Qs], [k.copy() for k in kqs]
+    gf, gq = gross[0].copy(), [g.copy() for g in gross[1]]
+    for c in (0, 1):
+        sl, t = slice(c * R, (c + 1) * R), tiny[c]
+        v[c][t & (np.sum(F0[:, sl], axis=1) <= floor)] = 0.0
+        for arr in (G, kg, gf):
+            arr[t, sl] = 0.0
+        for arr in (Qv[c], kqv[c], gq[c]):
+            arr[t] = 0.0
+        rr[t, 1 + 2 * c : 3 + 2 * c] = 0.0
+    idle = tiny[0] | tiny[1]
+    rr[idle, 0] = np.sum(a_m[idle] * G[idle], axis=1) - target
+    settled = idle & converged(rr, G, a_m, Qv, target, (gf, gq))
+    if not np.any(settled):
+        return None
+    s1, s2 = settled[:, None], settled[None, :, None]
+
+    def pick(new, old, m=s1):
+        return np.where(m, new, old)
+
+    return settled, (
+        pick(v, u, s2),
+        pick(G, F),
+        pick(kg, kf),
+        [pick(a, b) for a, b in zip(Qv, Qs, strict=True)],
+        [pick(a, b) for a, b in zip(kqv, kqs, strict=True)],
+        pick(rr, r),
+        (pick(gf, gross[0]), [pick(a, b) for a, b in zip(gq, gross[1], strict=True)]),
+    )
+
+
+def expand_drive(res, angles, idx, shift, pitch: float):
+    """A :class:`~corr_cad.mechanics.drive.DriveResult` over the full cycle from its solved
+    classes (:func:`corr_cad.mechanics.solver._expand` for each row; the cams' quantities,
+    in the eccentrics' frames, repeat as they are)."""
+    from corr_cad.mechanics.solver import _expand
+
+    rows = (
+        _expand(res.rows[0], angles, idx, shift, pitch),
+        _expand(res.rows[1], angles + np.pi, idx, shift, pitch),
+    )
+    return replace(
+        res,
+        crank_angles=angles,
+        F_j=np.stack([r.F_j for r in rows]),
+        F_n=np.stack([r.F_n for r in rows]),
+        F_s=np.stack([r.F_s for r in rows]),
+        row_a_share=res.row_a_share[idx],
+        bearing_load=res.bearing_load[:, idx],
+        needle_load_max=res.needle_load_max[:, idx],
+        needle_loads=None if res.needle_loads is None else tuple(q[idx] for q in res.needle_loads),
+        cam_displacement=res.cam_displacement[:, idx],
+        cam_rotation=res.cam_rotation[idx],
+        backlash=res.backlash[idx],
+        rows=rows,
+    )

@@ -213,7 +213,7 @@ def run_scene(
     stages = plan(
         scene.formats,
         checks=bool(scene.checks.active()),
-        measured=scene.measured_profile is not None,
+        measured=scene.measured_profile is not None or scene.measured_profile_b is not None,
         interference_method=scene.interference_method,
         datasheet_checks=bool(scene.checks.datasheet_active()),
         first_stage=scene.first_stage is not None,

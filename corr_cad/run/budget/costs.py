@@ -23,6 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.budget.costs_measured import measured_stage
 from corr_cad.run.budget.costs_montecarlo import datasheet_pass
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
@@ -61,6 +62,9 @@ class Env:
     #: Bytes of the measured-profile file (0: none).
     measured_bytes: int = 0
     measured_dxf: bool = False
+    #: The same of ``[errors.row_b] measured_profile`` (ring B's).
+    measured_b_bytes: int = 0
+    measured_b_dxf: bool = False
 
 
 @dataclass(frozen=True)
@@ -162,35 +166,7 @@ def _preview_png(scene, env):
 
 @stage_cost("measured_profile")
 def _measured(scene, env):
-    from corr_cad.export.measured_io import MAX_MEASURED_POINTS
-
-    size = env.measured_bytes
-    mesh = str(scene.measured_profile).lower().endswith((".stl", ".ply"))
-    if mesh:
-        # trimesh holds the file, its vertices and faces: 609 MB above the
-        # interpreter for a 50 MB binary STL of 1e6 triangles (ru_maxrss), ~13 bytes a
-        # byte; 11.6 s to read and slice it.
-        rows = 20_000.0  # the section, decimated to at most this
-        read, parse = 14.0 * size, 12.0 * size / 50e6
-    elif env.measured_dxf:
-        # ezdxf holds every entity: ~40 bytes of memory per byte of DXF (measured
-        # on LWPOLYLINE contours), then the flattened points.
-        rows = size / 30.0
-        read, parse = 40.0 * size, 5e-7 * size
-    else:
-        rows = size / 16.0  # "154.5008,0.0003": the shortest useful row
-        read, parse = 24 * MB, 7e-7 * rows  # one 4 MB block at a time
-    kept = min(rows, MAX_MEASURED_POINTS)
-    # Registration and deviations: ~1.3 kB a kept point; the deviation table it keeps.
-    out = {"measured_profile.dxf": 90 * kept + 0.5 * MB} if "dxf" in scene.formats else {}
-    return Cost(
-        memory=max(read, 1300 * kept) + 600 * kept,
-        keeps=1200 * kept,
-        seconds=1.0 + parse + 50e-6 * kept,
-        output=out,
-        libraries=(("trimesh",) if mesh else ()) + (("ezdxf",) if env.measured_dxf or out else ()),
-        knobs=("[errors] measured_profile",),
-    )
+    return Cost(**measured_stage(scene, env))
 
 
 # --- forces ------------------------------------------------------------------------
@@ -580,23 +556,28 @@ def _cmm_points(scene, env):
 def _inspection(scene, env):
     from corr_cad.export.measured_io import MAX_MEASURED_POINTS
 
-    kept = min(env.measured_bytes / 16.0, MAX_MEASURED_POINTS)
+    drive = scene.solver.drive
+    row_b = (scene.inspection.get("row") or "a") == "b"
+    kept = min((env.measured_b_bytes if row_b else env.measured_bytes) / 16.0, MAX_MEASURED_POINTS)
     key, cells = _force_cells(scene)
     memory, seconds, knobs = 0.0, 0.0, ()
-    if not ("datasheet" in scene.formats or scene.checks.datasheet_active()):
+    if drive:  # both rows, at the drive's cost per cell (bearings included)
+        cells *= DRIVE_CELLS
+    if drive or not ("datasheet" in scene.formats or scene.checks.datasheet_active()):
         # inspection.json "predicted": five windup solves at every transmission-error
-        # position of the measured ring (mechanics.datasheet.play_figures).
+        # position of the measured ring (mechanics.datasheet.play_figures); under the drive
+        # always (the datasheet follows the scene's rows, the prediction the measured ring).
         R = _rollers(scene)
         turn = scene.datasheet["transmission_error_positions_per_turn"]
         memory = turn * (600.0 * R * R + 40 * R)
-        seconds = 1.1e-6 * R * 5 * R * turn
+        seconds = 1.1e-6 * R * 5 * R * turn * (DRIVE_CELLS if drive else 1.0)
         knobs = ("[datasheet] transmission_error_positions_per_turn",)
     return Cost(
         memory=30 * MB + 600 * kept + 2 * 240 * cells + memory,
         seconds=6.0 + 2e-5 * kept + 2e-6 * cells + seconds,
         output={"inspection.*": 0.3 * MB},
         libraries=("matplotlib",),
-        knobs=("[errors] measured_profile", *knobs),
+        knobs=(f"[errors{'.row_b' if row_b else ''}] measured_profile", *knobs),
     )
 
 

@@ -191,13 +191,8 @@ def _env(scene, workers: int, executor: str, vertices: float, stages: list[str])
         if "step_files" in stages
         else 0
     )
-    size, is_dxf = 0, False
-    if scene.measured_profile is not None:
-        try:
-            size = os.stat(scene.measured_profile).st_size
-        except OSError:
-            size = 0  # the stage reports it
-        is_dxf = str(scene.measured_profile).lower().endswith(".dxf")
+    size, is_dxf = _file_size(scene.measured_profile)
+    size_b, is_dxf_b = _file_size(getattr(scene, "measured_profile_b", None))
     local = workers if executor == "process" else 0
     return Env(
         workers=1 if executor == "serial" else workers,
@@ -209,7 +204,21 @@ def _env(scene, workers: int, executor: str, vertices: float, stages: list[str])
         spline_points=spline,
         measured_bytes=size,
         measured_dxf=is_dxf,
+        measured_b_bytes=size_b,
+        measured_b_dxf=is_dxf_b,
     )
+
+
+def _file_size(path) -> tuple[int, bool]:
+    """A measured profile's size in bytes (0: none, or unreadable: the stage reports it) and
+    whether it is a DXF."""
+    if path is None:
+        return 0, False
+    try:
+        size = os.stat(path).st_size
+    except OSError:
+        size = 0
+    return size, str(path).lower().endswith(".dxf")
 
 
 def _unknown(scene, env) -> Cost:
@@ -223,7 +232,7 @@ def _stages(scene) -> list[str]:
     return plan(
         scene.formats,
         checks=bool(scene.checks.active()),
-        measured=scene.measured_profile is not None,
+        measured=scene.measured_profile is not None or scene.measured_profile_b is not None,
         interference_method=scene.interference_method,
         datasheet_checks=bool(scene.checks.datasheet_active()),
         first_stage=scene.first_stage is not None,

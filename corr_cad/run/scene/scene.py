@@ -107,6 +107,8 @@ class Scene:
     bearing_b: Any = None
     checks: Checks = field(default_factory=Checks)
     measured_profile: Path | None = None
+    #: ``[errors.row_b] measured_profile``: ring B's measured contour (drive only).
+    measured_profile_b: Path | None = None
     measured_exaggeration: float = 200.0
     tolerances: dict = field(default_factory=dict)
     montecarlo: dict = field(default_factory=dict)
@@ -438,10 +440,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"= {ex['interference_method']!r} is (0, {MESH_POSITIONS_MAX}] (about 0.8 s of mesh "
             'booleans per position); use interference_method = "exact" for finer sweeps'
         )
-    if "inspection" in formats and er["measured_profile"] is None:
-        raise SceneError(
-            "[export] formats lists 'inspection' but [errors] measured_profile is not set"
-        )
+    drv.check_inspection_row(
+        values["inspection"]["row"], formats, er["measured_profile"], drive, solver.model
+    )
     if "edm" in formats:  # the dialect against tolerance, design size and its M-codes
         check_edm_scene(values["edm"], ex["tolerance"], design)
     spacing = values["inspection"]["point_spacing"]
@@ -478,6 +479,11 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         measured_profile=(
             (Path(base_dir or ".") / er["measured_profile"])
             if er["measured_profile"] is not None
+            else None
+        ),
+        measured_profile_b=(
+            (Path(base_dir or ".") / drive["measured_profile_b"])
+            if drive["measured_profile_b"] is not None
             else None
         ),
         measured_exaggeration=er["measured_exaggeration"],

@@ -15,6 +15,7 @@ from corr_cad.run.scene.scene_schema_drive import SECTIONS
 
 __all__ = [
     "check_drive_tolerances",
+    "check_inspection_row",
     "with_slot_fit",
     "SolverSpec",
     "split_drive_tables",
@@ -152,7 +153,7 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
 
 #: Formats whose sample solves run the paper's one-row model only (compiled kernels,
 #: the batch solver): refused under the drive model and under Palmgren's law.
-ONE_ROW_FORMATS = ("modification", "inspection")
+ONE_ROW_FORMATS = ("modification",)
 
 
 def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data=None) -> None:
@@ -202,6 +203,27 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
             f"[checks] {next(iter(gated))} with max_failure_probability: the drive's Monte "
             "Carlo gates the force metrics only (contact pressure, gear force, loaded rollers, "
             "backlash); remove it or max_failure_probability"
+        )
+
+
+def check_inspection_row(row, formats, measured_a, drive: dict, model: str) -> None:
+    """``[inspection] row``: which measured ring the inspection reads, refused in one line
+    where that ring is not given (ring B exists under the drive only)."""
+    if row == "b" and model != "drive":
+        raise SceneError(
+            '[inspection] row = "b": ring B is solved under [solver] model = "drive" only; '
+            'remove it (row "a" is the default) or set model = "drive"'
+        )
+    if "inspection" not in formats:
+        return
+    if row == "b" and drive["measured_profile_b"] is None:
+        raise SceneError(
+            "[export] formats lists 'inspection' with [inspection] row = \"b\" but "
+            "[errors.row_b] measured_profile is not set"
+        )
+    if row != "b" and measured_a is None:
+        raise SceneError(
+            "[export] formats lists 'inspection' but [errors] measured_profile is not set"
         )
 
 
@@ -261,10 +283,17 @@ def parse_drive(values: dict[str, dict[str, Any]], data: dict, design) -> dict:
             f"[solver] variants = {sv['variants']!r}: the printed-paper variants reproduce the "
             'paper\'s one-row model; remove them, or use model = "paper"'
         )
+    measured_b = values["errors.row_b"]["measured_profile"] if "errors.row_b" in data else None
+    if measured_b is not None and values["errors.row_b"]["profile_deviation_harmonics"]:
+        raise SceneError(
+            "[errors.row_b] measured_profile and profile_deviation_harmonics both describe ring "
+            "B's profile; keep one"
+        )
     return {
         "model": model,
         "contact_law": law,
         "errors_b": errors_b,
+        "measured_profile_b": measured_b,
         "bearing": bearing,
         "bearing_b": bearing_b,
     }

@@ -57,7 +57,7 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
     Left out: what needs an input the scene lacks (a torque for the forces
     and the studies built on them, tolerances, a limit for the allocation, a
     measured profile for the inspection), ``step`` without Open CASCADE, and
-    the one-row formats (modification, inspection) under the drive model or
+    the one-row format (modification) under the drive model or
     Palmgren's law.
     """
     import importlib.util
@@ -75,6 +75,9 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         "no limit in [checks]",
     )
     measured = (values["errors"]["measured_profile"] is not None, "no [errors] measured_profile")
+    if (values["inspection"].get("row") or "a") == "b":  # ring B inspected
+        ring_b = (values.get("errors.row_b") or {}).get("measured_profile")
+        measured = (ring_b is not None, "no [errors.row_b] measured_profile")
     ocp = (
         importlib.util.find_spec("OCP") is not None,
         "Open CASCADE is not installed (the step extra: pip install -e '.[step]')",
@@ -99,7 +102,7 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         "montecarlo": (load, tol, paper_law),
         "allocation": (load, tol, limit, paper_law),
         "sweeps": (load,),
-        "inspection": (measured, one_row),
+        "inspection": (measured,),
         "step": (ocp,),
         "modification": (
             one_row,

@@ -42,6 +42,7 @@ ROW_B_KEYS = (
     "roller_radius_error",
     "roller_radius_errors",
     "profile_deviation_harmonics",
+    "measured_profile",
 )
 
 SECTIONS: dict[str, dict[str, Key]] = {
@@ -69,6 +70,13 @@ SECTIONS: dict[str, dict[str, Key]] = {
             example=[[3.0, 0.002, 0.0]],
             max_len=100,
             note="order an integer in [1, 10000], amplitude in (-r/2, r/2), phase in [-3600, 3600]",
+        ),
+        "measured_profile": Key(
+            "str",
+            None,
+            "row B: ring B's measured gear profile: CSV x,y (mm), DXF, or a ring mesh (STL, "
+            "PLY; sliced at mid face width), path relative to the scene",
+            example="measured_b.csv",
         ),
     },
     "bearings.eccentric": _bearing(False),

@@ -117,5 +117,14 @@ SECTIONS: dict[str, dict[str, Key]] = {
         "runout_tolerance": Key(
             "float", None, "runout of the tooth spaces, mm", low=0, high=10.0, example=0.02
         ),
+        "row": Key(
+            "str",
+            None,
+            'the measured ring inspected: "a" ([errors] measured_profile, the default) or '
+            '"b" ([errors.row_b] measured_profile, model = "drive"); the drive\'s play is '
+            "predicted with it in its row",
+            choices=("a", "b"),
+            example="a",
+        ),
     },
 }

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -58,6 +58,9 @@ class Results:
     registration: Registration | None = None
     measured_points: np.ndarray | None = None
     errors: ManufacturingErrors | None = None
+    #: ``measured_profile`` with ``[errors.row_b] measured_profile``: ring B's registration.
+    registration_b: Registration | None = None
+    measured_points_b: np.ndarray | None = None
     #: ``forces``: the mesh-force solution over the cycle.
     forces: ForceResult | None = None
     #: ``forces`` under ``[solver] model = "drive"``: both rows (``forces`` is row A's).
@@ -148,6 +151,8 @@ def scene_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
     eb = getattr(ctx.scene, "errors_b", None)
     if eb is None:
         return None
+    if ctx.results.registration_b is not None:
+        eb = replace(eb, profile_deviation=ctx.results.registration_b.deviation)
     curve = modified_curve(ctx)
     if curve is None:
         return eb

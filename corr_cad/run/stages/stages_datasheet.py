@@ -96,7 +96,23 @@ def _set_errors(errors: ManufacturingErrors) -> list[str]:
 
 
 def ring_description(ctx: RunContext) -> dict:
-    """Which ring (and which other parts) the datasheet describes: ``datasheet.json["ring"]``."""
+    """Which ring (and which other parts) the datasheet describes: ``datasheet.json["ring"]``;
+    with ``[errors.row_b] measured_profile`` also ring B's (``"ring_b"``)."""
+    out = _ring_a(ctx)
+    reg = ctx.results.registration_b
+    if reg is not None:
+        m = ctx.manifest.get("measured_profile_b", {})
+        out["ring_b"] = {
+            "profile": "measured",
+            "file": m.get("source"),
+            "sha256": m.get("sha256"),
+            "registration": reg.as_dict(),
+            "other_parts": "nominal",
+        }
+    return out
+
+
+def _ring_a(ctx: RunContext) -> dict:
     reg = ctx.results.registration
     if reg is None:
         errs = _set_errors(ctx.scene.errors)
@@ -205,7 +221,9 @@ def _friction_figures(ctx: RunContext):
     # The datasheet's span (mesh period, tooth pitch or revolution) at [friction]'s density.
     period = result_period_rad(s.design, errors, s.solver.variants)
     if s.solver.drive:
-        period = max(period, result_period_rad(s.design, scene_errors_b(ctx), s.solver.variants))
+        period = max(
+            period, result_period_rad(s.design, datasheet_errors_b(ctx), s.solver.variants)
+        )
     n = int(round(period / mesh_period_rad(s.design))) * s.friction["positions_per_mesh"]
     x = period * np.arange(n) / n
 
@@ -295,7 +313,22 @@ def drive_settings(ctx: RunContext) -> dict | None:
     s = ctx.scene
     if not s.solver.drive:
         return None
-    return {"errors_b": scene_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+    return {"errors_b": datasheet_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+
+
+def datasheet_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
+    """Row B's errors in the datasheet: with ``[errors.row_b] measured_profile`` the measured
+    ring B with row B's other parts nominal (as :func:`datasheet_errors` for row A)."""
+    reg = ctx.results.registration_b
+    if reg is None:
+        return scene_errors_b(ctx)
+    measured = ManufacturingErrors(profile_deviation=reg.deviation)
+    if modified_curve(ctx) is None:
+        return measured
+    from corr_cad.geometry.modification import with_modification
+
+    scene_errors_b(ctx)  # makes the designed clearance once
+    return with_modification(measured, ctx.results.modification_gap)
 
 
 def _whole_drive(ctx: RunContext) -> dict:

@@ -166,16 +166,14 @@ def _sha256(path) -> str:
     return h.hexdigest()
 
 
-def _measured(ctx: RunContext) -> None:
-    from dataclasses import replace
-
-    from corr_cad.export.measured_io import MAX_MEASURED_POINTS, read_measured, write_deviation_dxf
+def _register(ctx: RunContext, path, key: str):
+    """Read, check and register one measured ring; its manifest entry under ``key``."""
+    from corr_cad.export.measured_io import MAX_MEASURED_POINTS, read_measured
     from corr_cad.tolerance.measured import check_fit, register, validate_points
 
-    s = ctx.scene
-    w = ctx.results.working
-    src = str(s.measured_profile)
-    got = read_measured(s.measured_profile, design=s.design)
+    s, w = ctx.scene, ctx.results.working
+    src = str(path)
+    got = read_measured(path, design=s.design)
     if got.stride > 1:
         ctx.progress(
             f"      measured profile: {got.rows} points read, 1 in {got.stride} kept "
@@ -185,18 +183,36 @@ def _measured(ctx: RunContext) -> None:
     pts = validate_points(got.points, w, src)
     reg = register(w, pts)
     check_fit(reg, s.design.eccentricity, src)
-    ctx.results.registration, ctx.results.measured_points = reg, pts
-    ctx.results.errors = replace(s.errors, profile_deviation=reg.deviation)
-    ctx.manifest["measured_profile"] = {
-        "source": s.measured_profile.name,
-        "sha256": _sha256(s.measured_profile),
+    ctx.manifest[key] = {
+        "source": path.name,
+        "sha256": _sha256(path),
         **reg.as_dict(),
         "read": got.as_dict(),
     }
     ctx.progress(
-        f"      registered: rotation {reg.rotation_deg:.4g} deg, centre "
-        f"({reg.centre_mm[0]:.4g}, {reg.centre_mm[1]:.4g}) mm, rms {reg.rms_mm:.3g} mm"
+        f"      registered{' ring B' if key.endswith('_b') else ''}: rotation "
+        f"{reg.rotation_deg:.4g} deg, centre ({reg.centre_mm[0]:.4g}, {reg.centre_mm[1]:.4g}) "
+        f"mm, rms {reg.rms_mm:.3g} mm"
     )
+    return reg, pts
+
+
+def _measured(ctx: RunContext) -> None:
+    from dataclasses import replace
+
+    from corr_cad.export.measured_io import write_deviation_dxf
+
+    s = ctx.scene
+    w = ctx.results.working
+    if getattr(s, "measured_profile_b", None) is not None:
+        # Ring B's measured contour (``[errors.row_b]``): its deviation is row B's.
+        reg_b, pts_b = _register(ctx, s.measured_profile_b, "measured_profile_b")
+        ctx.results.registration_b, ctx.results.measured_points_b = reg_b, pts_b
+    if s.measured_profile is None:
+        return
+    reg, pts = _register(ctx, s.measured_profile, "measured_profile")
+    ctx.results.registration, ctx.results.measured_points = reg, pts
+    ctx.results.errors = replace(s.errors, profile_deviation=reg.deviation)
     if "dxf" in s.formats:
         write_deviation_dxf(
             s.design,

@@ -1,7 +1,8 @@
 """Pipeline stages for the shop floor and the inspection lab (issue 12).
 
 ``edm_files`` (format ``edm``), ``cmm_points`` (``cmm``) and ``inspection``
-(``inspection``, needs ``[errors] measured_profile``). Registered in
+(``inspection``, needs ``[errors] measured_profile``, or ``[errors.row_b]``'s with
+``[inspection] row = "b"``). Registered in
 ``corr_cad.run.stages.stages.STAGES``; kept here so that the stage graph stays readable.
 """
 
@@ -11,7 +12,13 @@ import math
 
 import numpy as np
 
-from corr_cad.run.stages.context import RunContext, psi_contact_limit, scene_errors
+from corr_cad.run.stages.context import (
+    RunContext,
+    drive_kwargs,
+    modified_curve,
+    psi_contact_limit,
+    scene_errors,
+)
 
 __all__ = ["edm_files", "cmm_points", "inspection", "predicted_line"]
 
@@ -104,6 +111,46 @@ def cmm_points(ctx: RunContext) -> None:
     }
 
 
+def inspected_row(ctx: RunContext) -> str:
+    """``[inspection] row``: ``"a"`` (the default) or ``"b"``."""
+    return ctx.scene.inspection.get("row") or "a"
+
+
+def _drive_prediction(ctx: RunContext, row: str):
+    """Row A's errors and the drive's settings with the inspected ring measured in its row,
+    the other ring and every other part nominal (with a ``[modification]``'s designed
+    clearance in both rings)."""
+    from corr_cad.geometry.deviations import ManufacturingErrors
+    from corr_cad.run.stages.stages_datasheet import datasheet_errors, datasheet_errors_b
+
+    s = ctx.scene
+    other = ManufacturingErrors()
+    if modified_curve(ctx) is not None:
+        from corr_cad.geometry.modification import with_modification
+
+        scene_errors(ctx)  # makes the designed clearance once
+        other = with_modification(other, ctx.results.modification_gap)
+    measured = datasheet_errors(ctx) if row == "a" else datasheet_errors_b(ctx)
+    a, b = (measured, other) if row == "a" else (other, measured)
+    return a, {"errors_b": b, "bearing": s.bearing, "bearing_b": s.bearing_b}
+
+
+def _drive_ring(ctx: RunContext, row: str) -> dict:
+    """Which ring the drive's prediction puts where: ``predicted["ring"]`` under the drive."""
+    key = "measured_profile" if row == "a" else "measured_profile_b"
+    reg = ctx.results.registration if row == "a" else ctx.results.registration_b
+    m = ctx.manifest.get(key, {})
+    return {
+        "profile": "measured",
+        "row": row,
+        "file": m.get("source"),
+        "sha256": m.get("sha256"),
+        "registration": reg.as_dict(),
+        "other_ring": "nominal",
+        "other_parts": "nominal",
+    }
+
+
 def _predicted(ctx: RunContext) -> dict:
     """The measured ring's predicted backlash, lost motion and transmission error.
 
@@ -111,9 +158,12 @@ def _predicted(ctx: RunContext) -> dict:
     it), beside the nominal design, in catalogue units. From the datasheet
     when this run made it, else from five windup solves per ring
     (:func:`corr_cad.mechanics.datasheet.play_figures`). Lost motion and
-    transmission error need the rated torque; backlash does not.
+    transmission error need the rated torque; backlash does not. Under
+    ``model = "drive"`` the drive's figures, the measured ring in the row of
+    ``[inspection] row``, the other ring nominal (never the datasheet's, which
+    follows the scene's rows).
     """
-    from corr_cad.mechanics.datasheet import DatasheetSpec, play_figures
+    from corr_cad.mechanics.datasheet import DatasheetSpec, play_figures, span_errors
     from corr_cad.mechanics.windup import ARCMIN_PER_RAD, Windup, revolution_classes
     from corr_cad.run.stages.stages_datasheet import (
         datasheet_errors,
@@ -122,21 +172,38 @@ def _predicted(ctx: RunContext) -> dict:
     )
 
     s = ctx.scene
-    errors = datasheet_errors(ctx)
+    row = inspected_row(ctx)
+    drive = nominal_drive = None
+    if s.solver.drive:
+        errors, drive = _drive_prediction(ctx, row)
+        nominal_drive = {"errors_b": None, "bearing": s.bearing, "bearing_b": s.bearing_b}
+    else:
+        errors = datasheet_errors(ctx)
     common = {
         "load_share": s.solver.load_share,
         "variants": s.solver.variants,
         "psi_contact_limit": psi_contact_limit(ctx),
+        "contact_model": s.solver.contact_model,
     }
     out: dict = {
-        "ring": ring_description(ctx),
+        "ring": _drive_ring(ctx, row) if drive else ring_description(ctx),
         "convention": "output windup, input locked, ring fixed (see datasheet.json)",
     }
+    if drive:
+        out.update(model="drive", row=row, contact_law=s.solver.contact_law)
     if s.datasheet.get("rated_torque_Nm") is None and s.load is None:
         per_turn = s.datasheet.get("transmission_error_positions_per_turn", 360)
-        for name, err in (("measured", errors), ("nominal", None)):
-            x, _ = revolution_classes(s.design, per_turn, err, s.solver.variants)
-            b = Windup(s.design, x, errors=err, **common).backlash() * ARCMIN_PER_RAD
+        for name, err, dk in (("measured", errors, drive), ("nominal", None, nominal_drive)):
+            span = span_errors(s.design, err, dk, s.solver.variants) if dk else err
+            x, _ = revolution_classes(s.design, per_turn, span, s.solver.variants)
+            if dk is None:
+                w = Windup(s.design, x, errors=err, **common)
+            else:
+                from corr_cad.mechanics.drive_windup import DriveWindup
+
+                kw = {k: v for k, v in common.items() if k != "load_share"}
+                w = DriveWindup(s.design, x, errors=err, **kw, **dk)
+            b = w.backlash() * ARCMIN_PER_RAD
             out[name] = {
                 "backlash_arcmin": {
                     "min": float(b.min()),
@@ -152,14 +219,14 @@ def _predicted(ctx: RunContext) -> dict:
         return out
     spec: DatasheetSpec = datasheet_spec(s)
     ds = ctx.results.datasheet
-    if ds is not None:
+    if ds is not None and drive is None:
         fig = ds.figures()
         out["measured"] = {k: fig[k] for k in _PLAY}
         out["measured_source"] = "datasheet.json (same figures)"
     else:
-        out["measured"] = play_figures(s.design, spec, errors=errors, **common)
+        out["measured"] = play_figures(s.design, spec, errors=errors, drive=drive, **common)
         out["measured_source"] = "windup at the transmission-error positions"
-    out["nominal"] = play_figures(s.design, spec, errors=None, **common)
+    out["nominal"] = play_figures(s.design, spec, errors=None, drive=nominal_drive, **common)
     out["rated_torque_Nm"] = spec.rated_torque / 1000.0
     return out
 
@@ -171,6 +238,7 @@ def predicted_line(p: dict) -> str:
     'measured ring, other parts nominal: backlash 0.5 arcmin'
     """
     m = p["measured"]
+    who = f"measured ring {p['row'].upper()} in the drive" if "row" in p else "measured ring"
     parts = [f"backlash {m['backlash_arcmin']['max']:.4g} arcmin"]
     if "lost_motion_arcmin" in m:
         parts.append(f"lost motion {m['lost_motion_arcmin']['max']:.4g} arcmin")
@@ -179,7 +247,7 @@ def predicted_line(p: dict) -> str:
             f"transmission error {te['forward_peak_to_peak']:.4g} / "
             f"{te['reverse_peak_to_peak']:.4g} arcsec (forward / reverse)"
         )
-    return "measured ring, other parts nominal: " + ", ".join(parts)
+    return f"{who}, other parts nominal: " + ", ".join(parts)
 
 
 def _force_comparison(ctx: RunContext) -> dict:
@@ -195,16 +263,38 @@ def _force_comparison(ctx: RunContext) -> dict:
         else None
     )
     kw = {"positions": s.solver.positions, "load_share": s.solver.load_share}
+    if s.solver.contact_model != "nonlinear":
+        kw["contact_model"] = s.solver.contact_model
     nominal_errors = ManufacturingErrors()
     if s.modification is not None:  # the nominal is the modified design
         from corr_cad.geometry.modification import with_modification
 
         scene_errors(ctx)
         nominal_errors = with_modification(nominal_errors, ctx.results.modification_gap)
-    nom = solve_forces(s.design, s.load.input_torque, angles, errors=nominal_errors, **kw)
-    mea = ctx.results.forces or solve_forces(
-        s.design, s.load.input_torque, angles, errors=scene_errors(ctx), **kw
-    )
+    includes = "the measured profile as a gear-contact gap, with the scene's other [errors]"
+    if s.solver.drive:
+        # The drive's forces; the inspected ring's row compared (the measured drive has the
+        # scene's errors in both rows, as the forces stage solves it).
+        from corr_cad.mechanics.drive import solve_drive
+
+        row = inspected_row(ctx)
+        c = 0 if row == "a" else 1
+        dk = drive_kwargs(ctx)
+        dk.pop("errors"), dk.pop("errors_b")
+        T, n = s.load.input_torque, s.solver.positions
+        nom = solve_drive(
+            s.design, T, angles, positions=n, errors=nominal_errors, errors_b=nominal_errors, **dk
+        ).rows[c]
+        both = ctx.results.drive or solve_drive(
+            s.design, T, angles, positions=n, **drive_kwargs(ctx)
+        )
+        mea = both.rows[c]
+        includes = f"the drive's row {row.upper()}, its ring measured; " + includes
+    else:
+        nom = solve_forces(s.design, s.load.input_torque, angles, errors=nominal_errors, **kw)
+        mea = ctx.results.forces or solve_forces(
+            s.design, s.load.input_torque, angles, errors=scene_errors(ctx), **kw
+        )
     a, b = nom.summary(), mea.summary()
     rows = {}
     for key in ("F_j_mean", "F_j_peak", "F_n_peak", "p_max", "loaded_rollers_min"):
@@ -222,8 +312,7 @@ def _force_comparison(ctx: RunContext) -> dict:
         "computed": True,
         "input_torque_Nmm": s.load.input_torque,
         "positions": int(nom.F_j.shape[0]),
-        "measured_includes": "the measured profile as a gear-contact gap, with the scene's "
-        "other [errors]",
+        "measured_includes": includes,
         "roller_1_and_all": rows,
     }
 
@@ -241,8 +330,9 @@ def inspection(ctx: RunContext) -> None:
 
     s = ctx.scene
     w = ctx.results.working
-    reg = ctx.results.registration
-    raw = ctx.results.measured_points
+    row = inspected_row(ctx)
+    reg = ctx.results.registration if row == "a" else ctx.results.registration_b
+    raw = ctx.results.measured_points if row == "a" else ctx.results.measured_points_b
     against = None
     if s.modification is not None:
         against = s.source["modification"].get("inspect_against", "modified")
@@ -280,6 +370,8 @@ def inspection(ctx: RunContext) -> None:
     }
     if against is not None:
         summary["nominal"] = f"{against} profile ([modification] inspect_against)"
+    if s.solver.drive:  # which ring of the drive was measured (the paper's row has one)
+        summary["model"], summary["row"] = "drive", row
     files = write_inspection(res, summary, ctx.out)
     inspection_png(res, limits, verdicts, ctx.out / "inspection.png", s.design)
     ctx.files.extend(files + ["inspection.png"])
