@@ -107,7 +107,7 @@ def drive_datasheet_samples(
             else:
                 moments[j] = -float(T) / ratio
         moments[-1] = 0.0  # binding: the zero-moment equilibrium
-        sols, good = _solve_all(solver, moments, drive.get("contact_model", "nonlinear"))
+        sols, good = _solve_all(solver, moments)
         ok &= good
         for j, sol in sols.items():
             if j >= 0:
@@ -118,73 +118,20 @@ def drive_datasheet_samples(
     return windup_metrics(theta, cfg, pressure), ok
 
 
-def _solve_all(solver, moments: dict, contact_model: str) -> tuple[dict, bool]:
+def _solve_all(solver, moments: dict) -> tuple[dict, bool]:
     """Each crank moment's solution ``{key: (tau, F, u, Qs, rel, it)}`` and whether every
-    position reached equilibrium.
-
-    With bearings the drive's Newton on ``(tau, u_A, u_B)`` starts from the rigid
-    solution; where that finds no descent (a cam in its clearance, whose stiffness is
-    zero there), the position is solved again from its own solution at another moment,
-    nearest first: the equilibrium is unique (the contacts' energy is convex), so any
-    start that converges gives the same state to the solver's tolerance. Each position
-    depends on its own data only (a sample in a block equals the sample alone).
-    """
-    from corr_cad.mechanics.drive import DRIVE_RTOL
-    from corr_cad.mechanics.drive_kernel import bearing_solve
+    position reached equilibrium; positions the bearing Newton misses from its rigid start
+    are solved again from their own solution at the other moments, nearest first
+    (:func:`~corr_cad.mechanics.drive_restart.restart_missed`)."""
+    from corr_cad.mechanics.drive_restart import restart_missed
 
     limit = max(solver.rtol, 1e-9)
-    sols = {k: list(solver.solve(m)) for k, m in moments.items()}
-    bad = {k: ~(sol[4] <= limit) for k, sol in sols.items()}
-    if solver.bearings[0] is not None and contact_model != "linear":
-        for k, m in moments.items():
-            for other in sorted(moments, key=lambda o: abs(moments[o] - m)):
-                idx = np.flatnonzero(bad[k] & ~bad[other])
-                if other == k or idx.size == 0:
-                    continue
-                tau, F = sols[other][0][idx], sols[other][1][idx]
-                sub = _subset(solver, idx, contact_model)
-                got = bearing_solve(sub, m, tau, F, 0, 100, DRIVE_RTOL)
-                _replace_positions(sols[k], got, idx, got[4] <= limit)
-                bad[k] = ~(sols[k][4] <= limit)
-    return {k: tuple(v) for k, v in sols.items()}, not any(b.any() for b in bad.values())
-
-
-def _replace_positions(sol: list, got, idx: np.ndarray, fixed: np.ndarray) -> None:
-    """Positions ``idx[fixed]`` of ``sol`` (``tau, F, u, Qs, rel, it``) from ``got``."""
-    pick = idx[fixed]
-    for i in (0, 1, 4):
-        sol[i] = sol[i].copy()
-        sol[i][pick] = got[i][fixed]
-    sol[2] = sol[2].copy()
-    sol[2][:, pick] = got[2][:, fixed]
-    sol[3] = [q.copy() for q in sol[3]]
-    for c in (0, 1):
-        sol[3][c][pick] = got[3][c][fixed]
-
-
-def _subset(solver, idx: np.ndarray, contact_model: str):
-    """The drive solver of the positions ``idx`` (its geometry's rows; the same arrays)."""
-    from dataclasses import fields, replace
-
-    P = len(solver.crank_angles)
-
-    def take(g):
-        kw = {}
-        for f in fields(g):
-            v = getattr(g, f.name)
-            if isinstance(v, np.ndarray) and v.ndim >= 1 and v.shape[0] == P:
-                kw[f.name] = v[idx]
-        return replace(g, **kw)
-
-    return type(solver)(
-        solver.design,
-        solver.crank_angles[idx],
-        geometry=tuple(take(g) for g in solver.geo),
-        bearing=solver.bearings[0],
-        bearing_b=solver.bearings[1],
-        contact_model=contact_model,
-        rtol=solver.rtol,
-    )
+    first = {k: solver.solve(m) for k, m in moments.items()}
+    sols = {}
+    for k, m in moments.items():
+        others = sorted((o for o in moments if o != k), key=lambda o: abs(moments[o] - m))
+        sols[k] = restart_missed(solver, m, first[k], [first[o] for o in others])
+    return sols, all(bool(np.all(s[4] <= limit)) for s in sols.values())
 
 
 def drive_task(
