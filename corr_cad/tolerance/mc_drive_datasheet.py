@@ -58,8 +58,9 @@ BINDING_DEFINITION = (
     "sample's grid; a sample binds above binding_pressure_MPa"
 )
 
-#: Positions (samples x grid positions) solved together.
-BLOCK_POSITIONS = 2000
+#: Positions (samples x grid positions) solved together: small enough to stay in the CPU
+#: cache (500 measured 1.3x faster than 2,000 without bearings, 1.1x with them).
+BLOCK_POSITIONS = 500
 
 
 def drive_grid(design, base, base_b, tolerance_kinds, positions_per_mesh: int) -> np.ndarray:
