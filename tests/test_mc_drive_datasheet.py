@@ -426,3 +426,33 @@ def test_the_drive_datasheet_on_needles_settles_every_torque_level():
         got.append(w.theta(-0.35 * T_R))
     np.testing.assert_allclose(got[0], got[1], rtol=1e-9)
     np.testing.assert_allclose(got[0], ds.at(-0.35, contact_only=True)[:4], rtol=1e-9)
+
+
+def test_the_estimate_counts_the_drive_s_datasheet_pass_over_row_b_s_span():
+    """Under the drive the Monte Carlo's estimate counts its datasheet pass at the drive's
+    cost a cell (more with bearings) over the span of the row that repeats last (row B's
+    own rollers: a tooth pitch even with no tolerance on them)."""
+    from corr_cad.run.budget.costs_montecarlo import DRIVE_DATASHEET_SECONDS, datasheet_pass
+    from corr_cad.run.scene.scene import parse_scene
+
+    base = {
+        "export": {"formats": ["montecarlo"]},
+        "load": {"input_torque": 1.1e5},
+        "tolerances": {"cam_radius": {"normal": 0.001}},
+        "checks": {"max_lost_motion_arcmin": 1.0},
+        "montecarlo": {"samples": 1000},
+    }
+    rr = [0.001 * math.sin(k) for k in range(26)]
+    drive = {"solver": {"model": "drive"}, "errors": {"row_b": {"roller_radius_errors": rr}}}
+    bearing = {"bearings": {"eccentric": {"needles": 40, "needle_diameter": 6.0}}}
+    bearing["bearings"]["eccentric"]["needle_length"] = 12.0
+    s_paper, g_paper = datasheet_pass(parse_scene(base), 1000, 2)
+    s_rigid, g_rigid = datasheet_pass(parse_scene({**base, **drive}), 1000, 2)
+    s_needles, _ = datasheet_pass(parse_scene({**base, **drive, **bearing}), 1000, 2)
+    assert g_paper == 4 and g_rigid == 4 * 26  # a mesh period; row B's tooth pitch
+    per = (s_rigid - 8.0) / (1000 * g_rigid * 26 / 2)
+    assert per == pytest.approx(DRIVE_DATASHEET_SECONDS[False], rel=1e-12)
+    assert s_needles - 8.0 == pytest.approx(
+        (s_rigid - 8.0) * DRIVE_DATASHEET_SECONDS[True] / DRIVE_DATASHEET_SECONDS[False]
+    )
+    assert (s_rigid - 8.0) > 26 * (s_paper - 8.0)
