@@ -360,10 +360,8 @@ class DriveSolver:
             + np.sum(Qs[c] + gq[c], axis=1)
             for c in (0, 1)
         ]
-        # An unloaded cam floating in its needles (Palmgren's law: no stiffness at no load,
-        # so Newton nears u = 0 only linearly) is measured against the loaded cam's forces.
-        top = np.maximum(sf[0], sf[1])
-        return sm, [top, top]
+        # Both cams against the larger scale: an unloading cam nears u = 0 only linearly.
+        return sm, [np.maximum(sf[0], sf[1])] * 2
 
     def _relative(self, r, F, a_m, Qs, target, gross):
         sm, sf = self._scales(F, a_m, Qs, target, self.R, gross, self.design.eccentricity)
