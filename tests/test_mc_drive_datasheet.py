@@ -369,7 +369,7 @@ def test_positions_the_newton_misses_from_the_rigid_start_are_solved_from_anothe
     """Needles with a clearance, a drive with play, +-3 % of T_R: from the rigid start the
     Newton finds no descent at some positions; solved again from their own solution at
     another moment they reach equilibrium (moment M0, each cam's needles carrying its
-    rollers' resultant), and the other positions keep their first solution."""
+    rollers' resultant), and the other positions are the rigid start's equilibrium."""
     from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
     from corr_cad.tolerance.mc_drive_datasheet import _solve_all
     from corr_cad.tolerance.montecarlo_drive import stacked_geometry
@@ -397,8 +397,10 @@ def test_positions_the_newton_misses_from_the_rigid_start_are_solved_from_anothe
             q = res.needle_loads[c]
             resultant = np.hypot(q @ np.cos(ang), q @ np.sin(ang))
             np.testing.assert_allclose(resultant, res.bearing_load[c], rtol=1e-9, atol=1e-6)
+        # Where the rigid start settles, the same equilibrium (the larger moments start from
+        # the smaller one's solution: the solver's tolerance apart).
         kept = np.setdiff1d(np.arange(len(phi) * 4), missed[k])
-        np.testing.assert_array_equal(sols[k][0][kept], first[k][0][kept])
+        np.testing.assert_allclose(sols[k][0][kept], first[k][0][kept], rtol=1e-9)
 
 
 @pytest.mark.slow

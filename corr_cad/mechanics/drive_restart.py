@@ -22,7 +22,7 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-__all__ = ["restart_missed"]
+__all__ = ["restart_missed", "subset_solver", "replace_positions"]
 
 
 def restart_missed(solver, target: float, sol, starts: list) -> tuple:
@@ -37,13 +37,13 @@ def restart_missed(solver, target: float, sol, starts: list) -> tuple:
         idx = np.flatnonzero(~(out[4] <= limit) & (start[4] <= limit))
         if idx.size == 0:
             continue
-        sub = _subset(solver, idx)
+        sub = subset_solver(solver, idx)
         got = sub._with_bearings(target, start[0][idx], start[1][idx], 0)
-        _replace_positions(out, got, idx, got[4] <= limit)
+        replace_positions(out, got, idx, got[4] <= limit)
     return tuple(out)
 
 
-def _replace_positions(sol: list, got, idx: np.ndarray, fixed: np.ndarray) -> None:
+def replace_positions(sol: list, got, idx: np.ndarray, fixed: np.ndarray) -> None:
     """Positions ``idx[fixed]`` of ``sol`` (``tau, F, u, Qs, rel, it``) from ``got``."""
     pick = idx[fixed]
     for i in (0, 1, 4):
@@ -62,7 +62,7 @@ def _contact_model(comp) -> str:
     return "linear" if getattr(comp, "linear", False) else "nonlinear"
 
 
-def _subset(solver, idx: np.ndarray):
+def subset_solver(solver, idx: np.ndarray):
     """The drive solver (same class) of the positions ``idx``: its geometry's rows."""
     P = len(solver.crank_angles)
 
