@@ -458,3 +458,38 @@ def test_the_estimate_counts_the_drive_s_datasheet_pass_over_row_b_s_span():
         (s_rigid - 8.0) * DRIVE_DATASHEET_SECONDS[True] / DRIVE_DATASHEET_SECONDS[False]
     )
     assert (s_rigid - 8.0) > 26 * (s_paper - 8.0)
+
+
+def test_allocation_on_the_drive_gates_transmission_error():
+    """Allocation on the drive on the transmission error (its scatter grows with the rollers'
+    scatter): a tighter limit allots a tighter roller tolerance, and the allotted one keeps
+    the limit at the percentile (a direct Monte Carlo with the same draws)."""
+    from corr_cad.tolerance.allocation import allocate
+    from corr_cad.tolerance.checks import Checks
+
+    cfg = DatasheetMC(_spec(), positions_per_mesh=1)
+    kw = {
+        "samples": 6,
+        "positions": 12,
+        "datasheet": cfg,
+        "drive": {"bearing": None, "contact_model": "nonlinear"},
+        "base_errors": ME(roller_radius_error=-0.002),
+    }
+    got = {}
+    for limit in (2.0, 4.0):
+        checks = Checks(max_transmission_error_arcsec=limit)
+        got[limit] = allocate(DESIGN, M0, {}, checks, "roller_radius", **kw)
+    assert 0 < got[2.0]["tolerance"] < got[4.0]["tolerance"] < 0.002
+    for T, ok in ((got[2.0]["tolerance"], True), (got[2.0]["failing_at"], False)):
+        mc = monte_carlo(
+            DESIGN,
+            M0,
+            {"roller_radius": Distribution("uniform", T)},
+            6,
+            1,
+            12,
+            base_errors=kw["base_errors"],
+            datasheet=cfg,
+            drive=kw["drive"],
+        )
+        assert (np.percentile(mc.metrics["transmission_error_arcsec"], 95) <= 2.0) == ok
