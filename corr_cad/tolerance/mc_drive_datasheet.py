@@ -28,9 +28,12 @@ it binds above ``[montecarlo] binding_pressure_MPa``.
 
 Samples are solved in blocks: their geometries stacked sample-major
 (:func:`~corr_cad.tolerance.montecarlo_drive.stacked_geometry`), one
-:class:`~corr_cad.mechanics.drive_kernel.CompiledDriveSolver` per block and
-torque. Every position's solve is its own, so a sample's metrics are those
-of solving it alone (``tests/test_mc_drive_datasheet.py``).
+:class:`~corr_cad.mechanics.drive_kernel.CompiledDriveSolver` per block for
+the six windup torques and the zero moment (with bearings, each sign's
+larger torques start from the smaller one's solution; positions the Newton
+misses are restarted, :mod:`corr_cad.mechanics.drive_restart`). Every
+position's solve is its own, so a sample's metrics are those of solving it
+alone (``tests/test_mc_drive_datasheet.py``).
 """
 
 from __future__ import annotations
