@@ -110,16 +110,48 @@ def drive_datasheet_samples(
                 theta[lo : lo + n, :, j] = ends[0 if zero[j] < 0 else 1].reshape(n, P)
             else:
                 moments[j] = -float(T) / ratio
-        moments[-1] = 0.0  # binding: the zero-moment equilibrium
         sols, good = _solve_all(solver, moments)
-        ok &= good
         for j, sol in sols.items():
-            if j >= 0:
-                theta[lo : lo + n, :, j] = (-sol[0] / ratio).reshape(n, P)
-        res = solver._build(0.0, *sols[-1])
-        peak = [np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear) for r in res.rows]
-        pressure[lo : lo + n] = np.maximum(*(p.reshape(n, -1).max(axis=1) for p in peak))
+            theta[lo : lo + n, :, j] = (-sol[0] / ratio).reshape(n, P)
+        at, good_zero = _preload_pressure(solver, sols, moments)
+        ok &= good and good_zero
+        pressure[lo : lo + n] = at.reshape(n, P).max(axis=1)
     return windup_metrics(theta, cfg, pressure), ok
+
+
+def _preload_pressure(solver, sols: dict, moments: dict) -> tuple[np.ndarray, bool]:
+    """The largest contact pressure at zero crank moment at each position, MPa, and whether
+    every position settled. Where the rows' gaps leave the crank free play (the rigid
+    rows' free intervals intersect) nothing presses: 0 without a solve (the zero-moment
+    equilibrium is then force-free, with or without bearings); elsewhere the drive's
+    equilibrium at zero moment, restarted where missed from the torques' solutions."""
+    from corr_cad.mechanics.drive_restart import restart_missed, subset_solver
+
+    geo = solver.geo_joined
+    a = np.where(geo.loadable, geo.advance, 0.0)
+    g = np.where(geo.loadable, geo.gap, -np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -g / a
+    fwd = np.min(np.where(a > 0, t, np.inf), axis=1)
+    rev = np.max(np.where(a < 0, t, -np.inf), axis=1)
+    out = np.zeros(len(fwd))
+    idx = np.flatnonzero(~(fwd > rev))
+    if idx.size == 0:
+        return out, True
+    sub = subset_solver(solver, idx)
+    near = sorted(sols, key=lambda k: abs(moments[k]))
+    starts = [_take(sols[k], idx) for k in near]
+    zero = restart_missed(sub, 0.0, sub.solve(0.0), starts)
+    res = sub._build(0.0, *zero)
+    peak = [np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear).max(axis=1) for r in res.rows]
+    out[idx] = np.maximum(*peak)
+    return out, bool(np.all(zero[4] <= max(solver.rtol, 1e-9)))
+
+
+def _take(sol, idx: np.ndarray) -> tuple:
+    """The positions ``idx`` of a solution ``(tau, F, u, Qs, rel, it)``."""
+    tau, F, u, Qs, rel, it = sol
+    return tau[idx], F[idx], u[:, idx], None if Qs is None else [q[idx] for q in Qs], rel[idx], it
 
 
 def _solve_all(solver, moments: dict) -> tuple[dict, bool]:
