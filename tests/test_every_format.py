@@ -113,18 +113,27 @@ MEASURED = (
     SECTIONS.replace("[modification]\nequidistant_mm = 0.002\n", "")
     + '[errors]\nmeasured_profile = "cmm.csv"\nroller_radius_error = -0.002\n'
 )
-#: The two-row drive on Palmgren's law, both cams on needles, row B's own rollers. Its
-#: Monte Carlo keeps the force metrics, so the datasheet-metric gates are not set.
+#: The two-row drive on Palmgren's law, both cams on needles, row B's own rollers; the
+#: Monte Carlo and allocation gate binding and lost motion on the drive too.
 DRIVE = (
     NOMINAL.replace(
         "[solver]\npositions = 40\n",
         '[solver]\npositions = 40\nmodel = "drive"\ncontact_law = "palmgren"\n',
-    ).replace("max_binding_probability = 0.5\nmax_lost_motion_arcmin = 30.0\n", "")
+    )
     + "[bearings.eccentric]\nneedles = 30\nneedle_diameter = 4.0\nneedle_length = 10.0\n"
     + "[errors.row_b]\nroller_radius_error = -0.001\n"
 )
-#: The drive's Monte Carlo metrics: the four force metrics over both rows.
-DRIVE_METRICS = {"peak_gear_force", "peak_pressure", "min_loaded_rollers", "backlash_arcmin"}
+#: The drive's Monte Carlo metrics: the force metrics over both rows and the datasheet's.
+DRIVE_METRICS = {
+    "peak_gear_force",
+    "peak_pressure",
+    "min_loaded_rollers",
+    "backlash_arcmin",
+    "lost_motion_arcmin",
+    "torsional_rigidity_Nm_per_arcmin",
+    "transmission_error_arcsec",
+    "binding_pressure_MPa",
+}
 
 
 def _measured_points(m: int = 40) -> np.ndarray:
@@ -173,11 +182,13 @@ def _check_run(folder, r, drive: bool = False) -> dict:
     summary = json.loads((out / "montecarlo_summary.json").read_text())
     for metric in summary["percentiles"]:
         assert METRIC_LABELS[metric][0] in html, metric
-    if drive:  # the force metrics over both rows, row B's magnitudes in the table
+    if drive:  # both rows' metrics, row B's magnitudes in the table, the model stated
         assert set(summary["percentiles"]) == DRIVE_METRICS
         with open(out / "montecarlo.csv") as f:
             header = f.readline().strip().split(",")
         assert DRIVE_METRICS <= set(header) and "roller_radius_row_b_magnitude" in header
+        assert summary["model"]["model"] == "drive" and "binding" in summary["model"]
+        assert "Wilson interval" in html
         return manifest
     assert "lost_motion_arcmin" in summary["percentiles"]
     assert "Wilson interval" in html  # the binding gate's share of binding samples

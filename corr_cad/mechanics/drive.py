@@ -372,7 +372,8 @@ class DriveSolver:
             + np.sum(Qs[c] + gq[c], axis=1)
             for c in (0, 1)
         ]
-        return sm, sf
+        # Both cams against the larger scale: an unloading cam nears u = 0 only linearly.
+        return sm, [np.maximum(sf[0], sf[1])] * 2
 
     def _relative(self, r, F, a_m, Qs, target, gross):
         sm, sf = self._scales(F, a_m, Qs, target, self.R, gross, self.design.eccentricity)

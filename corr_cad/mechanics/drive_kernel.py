@@ -189,8 +189,9 @@ def _relative(r, w, geo, p, Q, gq, target, e):
         for j in range(Q.shape[1]):
             sf[c] += Q[c, j] + gq[c, j]
     rel = abs(r[0]) / (sm + 1e-300)
+    top = max(sf[0], sf[1])  # an unloaded cam: against the loaded one's forces (drive._scales)
     for c in range(2):
-        rel = max(rel, math.sqrt(r[1 + 2 * c] ** 2 + r[2 + 2 * c] ** 2) / (sf[c] + 1e-300))
+        rel = max(rel, math.sqrt(r[1 + 2 * c] ** 2 + r[2 + 2 * c] ** 2) / (top + 1e-300))
     return rel
 
 

@@ -27,12 +27,15 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.drive_restart import restart_missed
 from corr_cad.mechanics.solver_numerics import _RTOL
 from corr_cad.mechanics.windup import crank_angles_of, series_rigidity_Nmm_per_rad
 
 __all__ = ["DriveWindup"]
 
 _BLOCK_ELEMENTS = 6000
+#: Solutions kept per block as starts of a restart (drive_restart).
+_RESTARTS = 2
 
 
 class DriveWindup:
@@ -85,6 +88,8 @@ class DriveWindup:
             )
             self._blocks.append((sl, solver))
         self._cache: dict[float, tuple] = {}
+        #: Each block's last solutions ``(crank moment, solution)``: restarts' starts.
+        self._history: list[list] = [[] for _ in self._blocks]
 
     def cam_moment(self, output_torque: float) -> float:
         """The crank moment (solver sign) of an output torque, N*mm: ``-T / (z + 1)``."""
@@ -99,8 +104,12 @@ class DriveWindup:
         theta = np.empty(len(self.crank_angles))
         share = np.empty_like(theta)
         pieces = []
-        for sl, solver in self._blocks:
+        for b, (sl, solver) in enumerate(self._blocks):
             sol = solver.solve(target)
+            # Positions the bearing Newton misses from its rigid start: from the solutions
+            # at the torques solved before, nearest first (drive_restart).
+            near = sorted(self._history[b], key=lambda h: abs(h[0] - target))
+            sol = restart_missed(solver, target, sol, [h[1] for h in near])
             tau, F, u, Qs, rel, it = sol
             limit = max(solver.rtol, 1e-9)
             if not np.all(rel <= limit):
@@ -111,6 +120,7 @@ class DriveWindup:
             theta[sl] = -tau / self._ratio
             share[sl] = solver.share(F)
             pieces.append((sl, solver, sol))
+            self._history[b] = [(target, sol), *self._history[b]][:_RESTARTS]
         out = (theta, share, pieces)
         self._cache = {T: (math.copysign(1.0, T), out)}
         return out

@@ -55,6 +55,7 @@ __all__ = [
     "DatasheetMC",
     "grid_positions",
     "datasheet_chunk",
+    "windup_metrics",
     "binding_probability",
 ]
 
@@ -176,7 +177,17 @@ def datasheet_chunk(
             f"datasheet Monte Carlo: no roller can carry the output torque in "
             f"{int(np.count_nonzero(np.isinf(rel)))} of {n} samples"
         )
+    return windup_metrics(theta, cfg, pressure), bool(np.all(rel <= max(_RTOL, 1e-9)))
+
+
+def windup_metrics(theta: np.ndarray, cfg: DatasheetMC, pressure: np.ndarray) -> dict:
+    """The table's columns from each sample's contact windup and preload pressure.
+
+    ``theta`` (n, P, M) rad at the torques of :meth:`DatasheetMC.torques` (the
+    contacts alone: the series compliance is added here); ``pressure`` (n,) MPa.
+    """
     sp = cfg.spec
+    torques, _, cols = cfg.torques()
     theta = theta + torques[None, None, :] / series_rigidity_Nmm_per_rad(
         sp.series_rigidity_Nm_per_arcmin
     )
@@ -188,14 +199,13 @@ def datasheet_chunk(
     dT = (t2 - t1) * sp.rated_torque / NMM_PER_NM
     k_pos = dT / ((theta[:, :, 5] - theta[:, :, 4]) * ARCMIN_PER_RAD)
     k_neg = dT / ((theta[:, :, 6] - theta[:, :, 7]) * ARCMIN_PER_RAD)
-    metrics = {
+    return {
         "lost_motion_arcmin": lost,
         "torsional_rigidity_Nm_per_arcmin": np.minimum(k_pos.min(axis=1), k_neg.min(axis=1)),
         "transmission_error_arcsec": np.maximum(te_f, te_r) * ARCSEC_PER_RAD,
         "binding_pressure_MPa": pressure,
         "binds": (pressure > cfg.binding_pressure_MPa).astype(float),
     }
-    return metrics, bool(np.all(rel <= max(_RTOL, 1e-9)))
 
 
 def binding_probability(binds: np.ndarray, confidence: float = 0.95) -> dict:

@@ -575,19 +575,18 @@ def _drive_monte_carlo(
 ) -> MonteCarloResult:
     """:func:`monte_carlo` under the drive model (:mod:`corr_cad.tolerance.montecarlo_drive`);
     each chunk's rows go to ``sink`` in order, as on the paper's row."""
+    from corr_cad.tolerance import mc_drive_datasheet as mdd
     from corr_cad.tolerance import montecarlo_drive as md
 
-    if datasheet is not None:
-        raise SolverError(
-            'the Monte Carlo\'s datasheet metrics are solved for model = "paper" only; '
-            "gate the drive's Monte Carlo on force metrics"
-        )
     tol_b = md.row_b_tolerances(tolerances)
     units_b = draw_samples(tol_b, samples, seed, design.roller_count, stream=md.ROW_B_STREAM)
     base_b = drive.get("errors_b") or base
+    grid = None
+    if datasheet is not None:
+        grid = mdd.drive_grid(design, base, base_b, tolerances, datasheet.positions_per_mesh)
     futures = [
         executor.submit(
-            md.drive_chunk,
+            mdd.drive_task,
             design,
             input_torque,
             angles,
@@ -600,6 +599,8 @@ def _drive_monte_carlo(
             psi_contact_limit,
             drive,
             _errors_for,
+            datasheet,
+            grid,
         )
         for lo, hi in bounds
     ]

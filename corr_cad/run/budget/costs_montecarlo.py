@@ -37,6 +37,12 @@ WORKER_ANON_BYTES = 55 * MB
 NUMBA_WORKER_BYTES = 45 * MB
 #: Windup torques the datasheet pass solves at most per position.
 DATASHEET_TORQUES = 8
+#: The drive's datasheet pass (both rows, six windup torques and the zero-moment
+#: preload a grid position, :mod:`corr_cad.tolerance.mc_drive_datasheet`), seconds a
+#: (sample, grid position, roller), without and with eccentric bearings: 7.4 and
+#: 20.6 ms of CPU a prototype sample of 104 positions measured (load average 6.5 on 2
+#: cores), 2.7 and 7.6 us a cell, rounded up.
+DRIVE_DATASHEET_SECONDS = {False: 3e-6, True: 8e-6}
 #: The summary's temporaries per sample, bytes: a metric's ranks and their
 #: argsort (Spearman), a percentile's sorted copy.
 SUMMARY_TEMP_BYTES = 64
@@ -122,7 +128,8 @@ def datasheet_pass(scene, samples: int, workers: int) -> tuple[float, int]:
     kernel: 12.6 us a position at 26 rollers measured (2.47 ms a sample of 104
     positions with the 1.16 ms force pass, 18.0 ms at 1300; ``bench --study
     datasheet``), taken as 1 us a (position, roller), about twice that; and
-    ~8 s to compile the kernel once per process.
+    ~8 s to compile the kernel once per process. Under ``model = "drive"`` the drive's
+    pass (:data:`DRIVE_DATASHEET_SECONDS`) over the grid of the row that repeats last.
     """
     from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics
 
@@ -135,6 +142,10 @@ def datasheet_pass(scene, samples: int, workers: int) -> tuple[float, int]:
     base = scene.errors
     if scene.measured_profile is not None and base.profile_deviation is None:
         base = _replace(base, profile_deviation=lambda t: 0.0 * t)
+    if scene.solver.drive:  # the row that repeats last sets the span
+        from corr_cad.mechanics.datasheet import span_errors
+
+        base = span_errors(scene.design, base, {"errors_b": scene.errors_b})
     grid = len(
         grid_positions(
             scene.design,
@@ -144,4 +155,7 @@ def datasheet_pass(scene, samples: int, workers: int) -> tuple[float, int]:
         )
     )
     R = scene.design.roller_count
-    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), grid
+    per = 1e-6
+    if scene.solver.drive:
+        per = DRIVE_DATASHEET_SECONDS[scene.bearing is not None]
+    return 8.0 + samples * grid * R * per / max(workers, 1), grid

@@ -184,26 +184,6 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
             'with [solver] contact_law = "palmgren" use model = "drive" (its Monte Carlo '
             "takes the law) or remove it"
         )
-    gated = checks.datasheet_active() or (
-        ["max_binding_probability"] if checks.max_binding_probability is not None else []
-    )
-    if "allocation" in formats and gated:
-        raise SceneError(
-            f"[checks] {next(iter(gated))} with allocation: the drive's Monte Carlo gates the "
-            "force metrics only (contact pressure, gear force, loaded rollers, backlash); "
-            "remove it"
-        )
-    if "montecarlo" in formats and checks.max_binding_probability is not None:
-        raise SceneError(
-            "[checks] max_binding_probability: the drive's Monte Carlo computes the force "
-            'metrics only (no binding); remove it, or use model = "paper"'
-        )
-    if "montecarlo" in formats and gated and checks.max_failure_probability is not None:
-        raise SceneError(
-            f"[checks] {next(iter(gated))} with max_failure_probability: the drive's Monte "
-            "Carlo gates the force metrics only (contact pressure, gear force, loaded rollers, "
-            "backlash); remove it or max_failure_probability"
-        )
 
 
 def check_inspection_row(row, formats, measured_a, drive: dict, model: str) -> None:

@@ -28,8 +28,8 @@ def _datasheet_mc(scene):
     """The Monte Carlo's datasheet pass of a scene, or None when it does not ask for it."""
     from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics
 
-    if not wants_datasheet_metrics(scene) or scene.solver.drive:
-        return None  # the drive's Monte Carlo keeps the force metrics
+    if not wants_datasheet_metrics(scene):
+        return None
     from corr_cad.run.stages.stages_datasheet import datasheet_spec
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
 
@@ -135,6 +135,8 @@ def _montecarlo(ctx: RunContext) -> None:
             "positions_per_mesh": sheet.positions_per_mesh,
             "binding_pressure_MPa": sheet.binding_pressure_MPa,
         }
+    if s.solver.drive:
+        summary.update(_drive_model_meta(s, sheet))
     summary["nominal"] = nominal
     if s.life:
         summary["life_h"] = _life_under_tolerances(ctx)
@@ -186,6 +188,18 @@ def _montecarlo(ctx: RunContext) -> None:
             )
 
 
+def _drive_model_meta(s, sheet) -> dict:
+    """``montecarlo_summary.json``'s statement of the drive model (and of its binding)."""
+    from corr_cad.run.stages.stages_drive import model_description
+
+    out = {"model": model_description(s)}
+    if sheet is not None:
+        from corr_cad.tolerance.mc_drive_datasheet import BINDING_DEFINITION
+
+        out["model"]["binding"] = BINDING_DEFINITION
+    return out
+
+
 def _life_under_tolerances(ctx: RunContext) -> dict:
     """``[life]`` with a Monte Carlo: L10 percentiles over its first samples."""
     from corr_cad.run.stages.stages_datasheet import _life_spec, friction_spec, rated_torque_Nmm
@@ -230,7 +244,10 @@ def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
         solver = DriveSolver(s.design, cycle_angles(positions), **kw)
         res = solver.result(s.load.input_torque)
         interval = solver.free_interval()
-        return drive_metrics(res, interval, float(s.design.roller_count))
+        out = drive_metrics(res, interval, float(s.design.roller_count))
+        if sheet is not None:
+            out.update(_nominal_drive_datasheet(ctx, sheet))
+        return out
     res = solve_forces(
         s.design,
         s.load.input_torque,
@@ -251,6 +268,21 @@ def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
         )
         out.update({k: float(v[0]) for k, v in extra.items()})
     return out
+
+
+def _nominal_drive_datasheet(ctx: RunContext, sheet) -> dict:
+    """The drive's datasheet metrics of the scene's own errors (no tolerance drawn)."""
+    from corr_cad.tolerance.mc_drive_datasheet import drive_datasheet_samples, drive_grid
+
+    s = ctx.scene
+    base, base_b = scene_errors(ctx), drive_kwargs(ctx)["errors_b"]
+    grid = drive_grid(s.design, base, base_b, (), sheet.positions_per_mesh)
+    extra, ok = drive_datasheet_samples(
+        s.design, [(base, base_b)], sheet, grid, psi_contact_limit(ctx), _drive_mc(ctx)
+    )
+    if not ok:
+        raise SolverError("Monte Carlo: the drive's nominal datasheet metrics did not converge")
+    return {k: float(v[0]) for k, v in extra.items()}
 
 
 def _allocation(ctx: RunContext) -> None:

@@ -1,0 +1,236 @@
+"""Datasheet metrics of the drive's Monte Carlo samples (``[solver] model = "drive"``).
+
+The same columns, with the same meanings, as the paper's row
+(:mod:`corr_cad.tolerance.mc_datasheet`), read off the windup ``theta(T, x)``
+of the two-row drive (:class:`~corr_cad.mechanics.drive_windup.DriveWindup`'s
+definition: the output torque ``T`` is the crank moment ``-T / (z + 1)``
+carried by both rows together, ``theta = -tau / (z + 1)``; at ``T = +-0``
+an end of the drive's free rotation). Each sample's rows are those the
+drive's force pass solves (:mod:`corr_cad.tolerance.montecarlo_drive`: row A
+from the seed's draws, row B from its own stream, the frame's slots shared,
+the cams on their bearings when the scene gives them).
+
+Evaluation grid: ``[montecarlo] datasheet_positions_per_mesh`` per mesh
+period, over one mesh period when both rows' parts are alike, one tooth
+pitch when rollers or slots differ in either row or a tolerance makes them
+differ, one output revolution once either ring has a profile deviation: the
+paper's rules (:func:`~corr_cad.tolerance.mc_datasheet.grid_positions`)
+applied to the row that repeats last, as the drive's datasheet does
+(:func:`~corr_cad.mechanics.datasheet.span_errors`).
+
+Binding under the drive (:data:`BINDING_DEFINITION`): at zero crank moment
+the crank settles where the two rows' moments balance (the drive's
+equilibrium, cams on their bearings); what the gaps of both rows, their
+interference and the slot fit leave as preload then loads the rollers. The
+sample's ``binding_pressure_MPa`` is the largest Hertz pressure of any
+roller contact (cam, ring, slot) of either row at any grid position there;
+it binds above ``[montecarlo] binding_pressure_MPa``.
+
+Samples are solved in blocks: their geometries stacked sample-major
+(:func:`~corr_cad.tolerance.montecarlo_drive.stacked_geometry`), one
+:class:`~corr_cad.mechanics.drive_kernel.CompiledDriveSolver` per block for
+the six windup torques and the zero moment (with bearings, each sign's
+larger torques start from the smaller one's solution; positions the Newton
+misses are restarted, :mod:`corr_cad.mechanics.drive_restart`). Every
+position's solve is its own, so a sample's metrics are those of solving it
+alone (``tests/test_mc_drive_datasheet.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from corr_cad.mechanics.datasheet import span_errors
+from corr_cad.mechanics.windup import crank_angles_of
+from corr_cad.tolerance.mc_datasheet import DatasheetMC, grid_positions, windup_metrics
+from corr_cad.tolerance.montecarlo_drive import drive_chunk, row_b_tolerances, stacked_geometry
+
+__all__ = [
+    "BINDING_DEFINITION",
+    "BLOCK_POSITIONS",
+    "drive_grid",
+    "drive_task",
+    "drive_datasheet_samples",
+]
+
+#: ``montecarlo_summary.json``'s statement of binding under the drive.
+BINDING_DEFINITION = (
+    "largest Hertz pressure of any roller contact (cam, ring, slot) of either row at zero "
+    "crank moment: the drive's equilibrium with the preload that both rows' gaps, "
+    "interference and slot fit leave (cams on their bearings when given), over the "
+    "sample's grid; a sample binds above binding_pressure_MPa"
+)
+
+#: Positions (samples x grid positions) solved together: small enough to stay in the CPU
+#: cache (500 measured 1.3x faster than 2,000 without bearings, 1.1x with them).
+BLOCK_POSITIONS = 500
+
+
+def drive_grid(design, base, base_b, tolerance_kinds, positions_per_mesh: int) -> np.ndarray:
+    """The samples' evaluation grid (output angles, rad) under the drive; see the module
+    docstring. ``base_b``: row B's errors (None: ``[errors]`` describes both rows)."""
+    periodic = span_errors(design, base, {"errors_b": base_b})
+    return grid_positions(design, periodic, tolerance_kinds, positions_per_mesh)
+
+
+def drive_datasheet_samples(
+    design, pairs: list, cfg: DatasheetMC, grid: np.ndarray, psi_limit: float, drive: dict
+) -> tuple[dict[str, np.ndarray], bool]:
+    """The datasheet metrics of the samples ``pairs`` (``(errors, errors_b)`` each) at the
+    output angles ``grid``; ``drive``: bearings and contact law. Returns ``(metrics, ok)``,
+    ``ok`` False where some position's equilibrium was not reached."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
+
+    phi = crank_angles_of(np.asarray(grid, dtype=float).reshape(-1), design)
+    P = len(phi)
+    torques, zero, _ = cfg.torques()
+    ratio = float(design.roller_count)
+    theta = np.empty((len(pairs), P, len(torques)))
+    pressure = np.empty(len(pairs))
+    ok = True
+    block = max(1, BLOCK_POSITIONS // P)
+    for lo in range(0, len(pairs), block):
+        part = pairs[lo : lo + block]
+        n = len(part)
+        solver = CompiledDriveSolver(
+            design,
+            np.tile(phi, n),
+            geometry=stacked_geometry(design, phi, part, psi_limit),
+            bearing=drive.get("bearing"),
+            bearing_b=drive.get("bearing_b"),
+            contact_model=drive.get("contact_model", "nonlinear"),
+        )
+        ends = None
+        moments = {}
+        for j, T in enumerate(torques):
+            if zero[j] != 0:  # theta(0-) or theta(0+): an end of the free rotation
+                if ends is None:
+                    rev, fwd = solver.free_interval()
+                    ends = (-fwd / ratio, -rev / ratio)
+                theta[lo : lo + n, :, j] = ends[0 if zero[j] < 0 else 1].reshape(n, P)
+            else:
+                moments[j] = -float(T) / ratio
+        sols, good = _solve_all(solver, moments)
+        for j, sol in sols.items():
+            theta[lo : lo + n, :, j] = (-sol[0] / ratio).reshape(n, P)
+        at, good_zero = _preload_pressure(solver, sols, moments)
+        ok &= good and good_zero
+        pressure[lo : lo + n] = at.reshape(n, P).max(axis=1)
+    return windup_metrics(theta, cfg, pressure), ok
+
+
+def _preload_pressure(solver, sols: dict, moments: dict) -> tuple[np.ndarray, bool]:
+    """The largest contact pressure at zero crank moment at each position, MPa, and whether
+    every position settled. Where the rows' gaps leave the crank free play (the rigid
+    rows' free intervals intersect) nothing presses: 0 without a solve (the zero-moment
+    equilibrium is then force-free, with or without bearings); elsewhere the drive's
+    equilibrium at zero moment, restarted where missed from the torques' solutions."""
+    from corr_cad.mechanics.drive_restart import restart_missed, subset_solver
+
+    geo = solver.geo_joined
+    a = np.where(geo.loadable, geo.advance, 0.0)
+    g = np.where(geo.loadable, geo.gap, -np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -g / a
+    fwd = np.min(np.where(a > 0, t, np.inf), axis=1)
+    rev = np.max(np.where(a < 0, t, -np.inf), axis=1)
+    out = np.zeros(len(fwd))
+    idx = np.flatnonzero(~(fwd > rev))
+    if idx.size == 0:
+        return out, True
+    sub = subset_solver(solver, idx)
+    near = sorted(sols, key=lambda k: abs(moments[k]))
+    starts = [_take(sols[k], idx) for k in near]
+    zero = restart_missed(sub, 0.0, sub.solve(0.0), starts)
+    res = sub._build(0.0, *zero)
+    peak = [np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear).max(axis=1) for r in res.rows]
+    out[idx] = np.maximum(*peak)
+    return out, bool(np.all(zero[4] <= max(solver.rtol, 1e-9)))
+
+
+def _take(sol, idx: np.ndarray) -> tuple:
+    """The positions ``idx`` of a solution ``(tau, F, u, Qs, rel, it)``."""
+    tau, F, u, Qs, rel, it = sol
+    return tau[idx], F[idx], u[:, idx], None if Qs is None else [q[idx] for q in Qs], rel[idx], it
+
+
+def _solve_all(solver, moments: dict) -> tuple[dict, bool]:
+    """Each crank moment's solution ``{key: (tau, F, u, Qs, rel, it)}`` and whether every
+    position reached equilibrium.
+
+    With bearings, each sign's moments are solved from the smallest up: the first from
+    the drive solver's rigid start, each larger one's bearing Newton from the solution
+    before it scaled by the moments' ratio (about 40 % fewer seconds a solve than the rigid
+    start; the same equilibrium to the solver's tolerance), and its positions that miss
+    from there from the rigid start. Positions still unsettled are solved again from
+    their own solution at the other moments, nearest first
+    (:func:`~corr_cad.mechanics.drive_restart.restart_missed`). Every step is per
+    position: a sample in a block equals the sample alone.
+    """
+    from corr_cad.mechanics.drive_restart import replace_positions, restart_missed, subset_solver
+
+    limit = max(solver.rtol, 1e-9)
+    warm = solver.bearings[0] is not None and not getattr(solver.comp, "linear", False)
+    first: dict = {}
+    prev = None
+    for k in sorted(moments, key=lambda k: (np.sign(moments[k]), abs(moments[k]))):
+        m = moments[k]
+        if warm and prev is not None and moments[prev] * m > 0:
+            ratio = m / moments[prev]
+            sol = list(solver._with_bearings(m, first[prev][0] * ratio, first[prev][1] * ratio, 0))
+            idx = np.flatnonzero(~(sol[4] <= limit))
+            if idx.size:
+                replace_positions(sol, subset_solver(solver, idx).solve(m), idx, idx >= 0)
+            first[k] = tuple(sol)
+        else:
+            first[k] = solver.solve(m)
+        prev = k
+    sols = {}
+    for k, m in moments.items():
+        others = sorted((o for o in moments if o != k), key=lambda o: abs(moments[o] - m))
+        sols[k] = restart_missed(solver, m, first[k], [first[o] for o in others])
+    return sols, all(bool(np.all(s[4] <= limit)) for s in sols.values())
+
+
+def drive_task(
+    design,
+    input_torque,
+    angles,
+    base,
+    base_b,
+    tolerances,
+    draws,
+    draws_b,
+    n,
+    psi_limit,
+    drive,
+    errors_for,
+    datasheet: DatasheetMC | None = None,
+    grid: np.ndarray | None = None,
+):
+    """One chunk of the drive's Monte Carlo (runs in a worker): the force metrics
+    (:func:`~corr_cad.tolerance.montecarlo_drive.drive_chunk`, same arguments) and, with
+    ``datasheet``, the same samples' datasheet metrics on ``grid``. Returns ``(metrics, ok)``."""
+    metrics, ok = drive_chunk(
+        design,
+        input_torque,
+        angles,
+        base,
+        base_b,
+        tolerances,
+        draws,
+        draws_b,
+        n,
+        psi_limit,
+        drive,
+        errors_for,
+    )
+    if datasheet is None:
+        return metrics, ok
+    tol_b = row_b_tolerances(tolerances)
+    pairs = [
+        (errors_for(base, tolerances, draws, k), errors_for(base_b, tol_b, draws_b, k))
+        for k in range(n)
+    ]
+    extra, ok_ds = drive_datasheet_samples(design, pairs, datasheet, grid, psi_limit, drive)
+    return {**metrics, **extra}, ok and ok_ds
