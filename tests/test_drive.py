@@ -462,7 +462,7 @@ def _balance(res, design=None):
 def test_zero_moment_with_an_idle_row_rests_its_cam_centred(compiled):
     """At zero moment row A carries nothing where row B's preload is symmetric: cam A is
     held by nothing (its rollers touch without load, its needles have no stiffness at no
-    load), so it rests centred and carries exactly nothing; row B's bearing carries its
+    load), so it rests centred and carries nothing; row B's bearing carries its
     rollers' resultant, and the moment is zero, to 1e-9 of the drive's forces."""
     from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
 
@@ -475,8 +475,11 @@ def test_zero_moment_with_an_idle_row_rests_its_cam_centred(compiled):
     e = GearDesign().eccentricity
     assert np.all(np.abs(moment) <= 1e-9 * e * scale)
     idle = slice(0, 2)  # the two symmetric positions
-    assert np.all(res.F_j[0, idle] == 0.0) and np.all(res.needle_loads[0][idle] == 0.0)
-    assert np.all(res.cam_displacement[0, idle] == 0.0)
+    # Nothing, to 1e-12 of the drive's forces: the Newton settles cam A against cam B's
+    # scale (found 1e-19), or the idle rule sets it to exactly zero.
+    assert np.all(res.F_j[0, idle] <= 1e-12 * scale[idle, None])
+    assert np.all(np.abs(res.needle_loads[0][idle]) <= 1e-12 * scale[idle, None])
+    assert np.all(np.abs(res.cam_displacement[0, idle]) <= 1e-12)
     assert np.all(res.F_j[1, idle].sum(axis=1) > 1e4)  # row B preloaded
     assert res.F_j[0, 2].sum() > 10.0  # elsewhere row A balances row B's preload moment
     rev, fwd = solver.free_interval()  # the CLI's path: the preloaded drive's free ends
@@ -507,7 +510,8 @@ def test_small_moments_about_an_idle_row_are_continuous(compiled):
         change = np.abs(r.F_j - zero.F_j).max(axis=(0, 2))
         assert np.all(change <= 1e3 * abs(m) + 1e-9), (m, change)
     carried = np.stack([r.F_j[0, :2].sum(axis=1) for r in results])  # row A, idle positions
-    assert np.all(carried[4] == 0.0)
+    # Nothing at zero, to 1e-12 of the drive's forces (found 1e-14 N of 3.2e4 N).
+    assert np.all(carried[4] <= 1e-12 * zero.F_j.sum(axis=(0, 2))[:2])
     assert np.all(np.diff(carried[4:], axis=0) >= 0) and np.all(np.diff(carried[:5], axis=0) <= 0)
     assert np.all(carried[[0, 8]] > 0.05)
 
