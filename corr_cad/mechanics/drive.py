@@ -374,7 +374,7 @@ class DriveSolver:
     def _converged(self, r, F, a_m, Qs, target, gross):
         return self._relative(r, F, a_m, Qs, target, gross) <= DRIVE_RTOL
 
-    def free_interval(self) -> tuple[np.ndarray, np.ndarray]:
+    def free_interval(self, solve: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The crank rotations ``(rev, fwd)`` (P,) each, rad, the drive turns freely between.
 
         The intersection of both rows' free intervals (the crank is one). A row
@@ -382,7 +382,7 @@ class DriveSolver:
         (a cam on needles without clearance stays centred at no load). With a
         clearance ``Pd`` the cam may shift anywhere within ``Pd / 2``
         (:func:`free_row`). Where no free rotation is left (a preload) both ends
-        are the equilibrium at zero moment.
+        are the equilibrium at zero moment (``solve=False``: left as found, ``rev >= fwd``).
         """
         R = self.R
         geo = self.geo_joined
@@ -409,7 +409,7 @@ class DriveSolver:
             fwds.append(fwd)
         rev, fwd = np.maximum(*revs), np.minimum(*fwds)
         tight = ~(fwd > rev)
-        if np.any(tight):
+        if solve and np.any(tight):
             zero = self._checked(0.0)[0]
             fwd = np.where(tight, zero, fwd)
             rev = np.where(tight, zero, rev)

@@ -152,7 +152,7 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
 
 #: Formats whose sample solves run the paper's one-row model only (compiled kernels,
 #: the batch solver): refused under the drive model and under Palmgren's law.
-ONE_ROW_FORMATS = ("modification", "inspection")
+ONE_ROW_FORMATS = ("inspection",)
 
 
 def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data=None) -> None:
@@ -176,6 +176,12 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
                 f'contact law only; with [solver] {what} remove it, or use model = "paper" '
                 'and contact_law = "paper"'
             )
+    if "modification" in formats and not solver.drive:
+        raise SceneError(
+            "[export] formats lists 'modification', whose design solves the paper's contact "
+            'law only on the paper\'s row; with [solver] contact_law = "palmgren" use model = '
+            '"drive" (its design takes the law) or remove it'
+        )
     if {"montecarlo", "allocation"} & set(formats) and not solver.drive:
         raise SceneError(
             "[export] formats lists montecarlo or allocation, which solve the paper's contact "
