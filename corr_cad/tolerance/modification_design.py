@@ -49,9 +49,10 @@ stream), and :class:`DriveGapMetrics` gives per sample:
   slots shared, their fit ``slot_clearance`` in the gaps) above
   ``BINDING_EPS_MM``, as selective assembly judges the drive. With a bearing
   clearance each cam may shift within ``Pd / 2``: a position binds where no
-  shift clears a row (:func:`~corr_cad.mechanics.drive_numerics.free_row`) or
-  the two rows' intervals miss each other by more than ``BINDING_EPS_MM`` of
-  the eccentric's travel (``e`` times the crank rotation).
+  crank rotation and no such shift leaves every roller of both rows within
+  ``BINDING_EPS_MM`` of contact (each row's free interval of its gaps less
+  that allowance, :func:`~corr_cad.mechanics.drive_numerics.free_row`, and
+  their intersection).
 
 The force candidates are solved by the drive's Monte Carlo (its contact law
 and bearings; ``peak_pressure`` and ``min_loaded_rollers`` over both rows),
@@ -205,26 +206,26 @@ class DriveGapMetrics:
         both = joined(*geo)
         bearings = solver.bearings
         if bearings[0] is None or not any(b.diametral_clearance for b in bearings):
-            inter = chain_interference(both.gap, both.advance, both.loadable)
+            at = chain_interference(both.gap, both.advance, both.loadable) > BINDING_EPS_MM
         else:
-            inter = self._shift_interference(solver, both)
-        binds = inter.reshape(n, -1).max(axis=1) > BINDING_EPS_MM
+            at = self._shift_binds(solver, both)
+        binds = at.reshape(n, -1).any(axis=1)
         return backlash, binds
 
-    def _shift_interference(self, solver: DriveSolver, both) -> np.ndarray:
-        """How far (mm of the eccentric's travel) both rows' intervals miss each other,
-        each cam shifting within its bearing's clearance (> 0: binds), (n P,)."""
+    def _shift_binds(self, solver: DriveSolver, both) -> np.ndarray:
+        """Where no crank rotation, each cam shifting within its bearing's clearance, leaves
+        every roller of both rows within ``BINDING_EPS_MM`` of contact (bool, (n P,)):
+        each row's free interval of the gaps less that allowance, intersected."""
         R, e = self.design.roller_count, self.design.eccentricity
         a = np.where(both.loadable, both.advance, 0.0)
-        g = np.where(both.loadable, both.gap, -np.inf)
+        g = np.where(both.loadable, both.gap - BINDING_EPS_MM, -np.inf)
         revs, fwds = [], []
         for c, sl in enumerate((slice(0, R), slice(R, 2 * R))):
             half = 0.5 * solver.bearings[c].diametral_clearance
             rev, fwd = free_row(a[:, sl], g[:, sl], solver.n[:, sl], half, e)
             revs.append(rev)
             fwds.append(fwd)
-        miss = (np.maximum(*revs) - np.minimum(*fwds)) * e
-        return np.where(np.isfinite(miss), miss, np.inf)
+        return ~(np.minimum(*fwds) >= np.maximum(*revs))
 
 
 def percentile_with_error(values: np.ndarray, q: float) -> dict:
