@@ -586,8 +586,8 @@ def solve_drive(
         psi_contact_limit=psi_contact_limit,
     )
     res = solver.result(float(input_torque))
-    rev, fwd = solver.free_interval()
-    res.backlash = (fwd - rev) / design.roller_count
+    rev, fwd = solver.free_interval(solve=False)  # its width needs no solve: 0 where tight
+    res.backlash = np.where(fwd > rev, fwd - rev, 0.0) / design.roller_count
     if inverse is not None:
         res = _expand_drive(res, full, inverse, shift, design.slot_pitch_rad)
     return res
