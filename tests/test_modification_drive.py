@@ -164,7 +164,7 @@ def test_a_given_modification_reaches_every_file_under_the_drive(tmp_path):
     paper row's (identical rigid rows), which the manifest's clearance makes nonzero."""
     scene = (
         '[export]\nformats = ["forces", "datasheet", "dxf", "png", "edm"]\n'
-        "[load]\ninput_torque = 1.1e5\n[solver]\nmodel = \"{}\"\npositions = 104\n"
+        '[load]\ninput_torque = 1.1e5\n[solver]\nmodel = "{}"\npositions = 104\n'
         "[datasheet]\npositions_per_mesh = 2\ntransmission_error_positions_per_turn = 4\n"
         "[modification]\nequidistant_mm = 0.01\n"
     )

@@ -56,9 +56,10 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
 
     Left out: what needs an input the scene lacks (a torque for the forces
     and the studies built on them, tolerances, a limit for the allocation, a
-    measured profile for the inspection), ``step`` without Open CASCADE, and
-    the one-row formats (modification, inspection) under the drive model or
-    Palmgren's law.
+    measured profile for the inspection), ``step`` without Open CASCADE, the
+    one-row format (inspection) under the drive model or Palmgren's law, and
+    the studies on samples (montecarlo, allocation, modification) under
+    Palmgren's law on the paper's row.
     """
     import importlib.util
 
@@ -102,7 +103,7 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         "inspection": (measured, one_row),
         "step": (ocp,),
         "modification": (
-            one_row,
+            paper_law,
             rated,
             tol,
             (
