@@ -195,3 +195,35 @@ def test_palmgren_on_the_paper_s_row_refuses_the_design_in_one_line():
         parse_scene(data)
     data["solver"]["model"] = "drive"
     assert parse_scene(data).solver.drive  # the drive's design takes the law
+
+
+def test_rigid_binding_in_interval_form_is_the_crossings_test():
+    """For rigid cams the drive's binding (each row's free interval of its gaps less
+    BINDING_EPS_MM, intersected) is chain_interference's test (the largest crossing of a
+    rising and a falling gap line over both rows) at every position, bound or not."""
+    from corr_cad import GearDesign
+    from corr_cad.geometry.deviations import ManufacturingErrors
+    from corr_cad.mechanics.solver_geometry import cycle_angles
+    from corr_cad.tolerance.modification_design import (
+        BINDING_EPS_MM,
+        DriveGapMetrics,
+        chain_interference,
+    )
+    from corr_cad.tolerance.montecarlo import Distribution
+
+    tol = {
+        "roller_radius": Distribution("normal", 0.003),
+        "cam_radius": Distribution("normal", 0.003),
+    }
+    gaps = DriveGapMetrics(
+        GearDesign(), tol, 12, 3, cycle_angles(9), ManufacturingErrors(), {}, math.pi
+    )
+    geo = gaps.solver.geo_joined
+    seen = []
+    for shift in (-0.1, -0.03, -0.012, -0.004, 0.004):  # from all free to all bound
+        g = geo.gap + shift
+        got = gaps._binds(gaps.solver, type(geo)(**{**geo.__dict__, "gap": g}))
+        want = chain_interference(g, geo.advance, geo.loadable) > BINDING_EPS_MM
+        assert np.array_equal(got, want)
+        seen.append(want.mean())
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and any(0 < v < 1 for v in seen), seen

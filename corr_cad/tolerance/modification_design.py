@@ -44,15 +44,14 @@ stream), and :class:`DriveGapMetrics` gives per sample:
   <corr_cad.mechanics.drive.DriveSolver.free_interval>` (the intersection of
   both rows' free intervals, each widened by its cam bearing's clearance),
   over ``z + 1``, in arcmin; 0 where none is left;
-* **binding**: with the cams fixed or on bearings without clearance,
-  :func:`chain_interference` over the ``2 (z + 1)`` rollers of both rows (the
-  slots shared, their fit ``slot_clearance`` in the gaps) above
-  ``BINDING_EPS_MM``, as selective assembly judges the drive. With a bearing
-  clearance each cam may shift within ``Pd / 2``: a position binds where no
-  crank rotation and no such shift leaves every roller of both rows within
-  ``BINDING_EPS_MM`` of contact (each row's free interval of its gaps less
-  that allowance, :func:`~corr_cad.mechanics.drive_numerics.free_row`, and
-  their intersection).
+* **binding**: a position binds where no crank rotation leaves every roller
+  of both rows (the slots shared, their fit ``slot_clearance`` in the gaps)
+  within ``BINDING_EPS_MM`` of contact: with the cams fixed or on bearings
+  without clearance, :func:`chain_interference`'s test over the ``2 (z + 1)``
+  rollers, as selective assembly judges the drive; with a bearing clearance
+  each cam may also shift within ``Pd / 2`` (each row's free interval of its
+  gaps less that allowance, :func:`~corr_cad.mechanics.drive_numerics.free_row`,
+  and their intersection).
 
 The force candidates are solved by the drive's Monte Carlo (its contact law
 and bearings; ``peak_pressure`` and ``min_loaded_rollers`` over both rows),
@@ -61,6 +60,7 @@ and bearings; ``peak_pressure`` and ``min_loaded_rollers`` over both rows),
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
 from dataclasses import replace
@@ -79,7 +79,7 @@ from corr_cad.geometry.modification import (
 )
 from corr_cad.mechanics.batch import BatchSolver
 from corr_cad.mechanics.drive import DriveSolver
-from corr_cad.mechanics.drive_numerics import free_row, joined
+from corr_cad.mechanics.drive_numerics import free_row
 from corr_cad.mechanics.solver_geometry import cycle_angles
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD
 from corr_cad.tolerance.montecarlo import _errors_for, draw_samples, monte_carlo
@@ -148,7 +148,8 @@ class DriveGapMetrics:
     """Backlash and binding of the drive's tolerance samples under a candidate's clearance.
 
     ``drive``: ``errors_b`` (row B's base errors, None: ``base``'s), ``bearing``,
-    ``bearing_b`` and ``contact_model`` (the Monte Carlo's ``drive`` argument).
+    ``bearing_b`` and ``contact_model`` (the Monte Carlo's ``drive`` argument). The
+    samples' drive is built once; a candidate changes its gaps only.
     """
 
     def __init__(
@@ -171,61 +172,54 @@ class DriveGapMetrics:
             (_errors_for(base, tolerances, units, k), _errors_for(base_b, tol_b, units_b, k))
             for k in range(samples)
         ]
-        self.geo = stacked_geometry(design, angles, pairs, psi_contact_limit)
-        self.design, self.samples, self.angles = design, samples, np.asarray(angles, dtype=float)
-        self.drive = drive
-        P = len(self.angles)
-        #: Each row's nominal roll angles (P, R): where the candidate's clearance is taken.
-        self.psi = (self.geo[0].psi[:P], self.geo[1].psi[:P])
-
-    def _solver(self, geometry) -> DriveSolver:
-        d = self.drive
-        return DriveSolver(
-            self.design,
-            np.tile(self.angles, self.samples),
-            geometry=geometry,
-            bearing=d.get("bearing"),
-            bearing_b=d.get("bearing_b"),
-            contact_model=d.get("contact_model", "nonlinear"),
+        angles = np.asarray(angles, dtype=float)
+        self.solver = DriveSolver(
+            design,
+            np.tile(angles, samples),
+            geometry=stacked_geometry(design, angles, pairs, psi_contact_limit),
+            bearing=drive.get("bearing"),
+            bearing_b=drive.get("bearing_b"),
+            contact_model=drive.get("contact_model", "nonlinear"),
         )
+        self.design, self.samples = design, samples
+        #: The nominal roll angles (P, 2 R), row A's rollers then row B's: where a
+        #: candidate's clearance is taken.
+        self.psi = self.solver.geo_joined.psi[: len(angles)]
 
-    def __call__(self, clearance: tuple[np.ndarray, np.ndarray] | None = None):
-        """Per sample: backlash (arcmin) and binding (bool); ``clearance``: each row's
-        flank clearance (P, R) mm at :attr:`psi` (None: the unmodified rings)."""
+    def __call__(self, clearance: np.ndarray | None = None):
+        """Per sample: backlash (arcmin) and binding (bool); ``clearance``: the flank
+        clearance (P, 2 R) mm at :attr:`psi` (None: the unmodified rings)."""
         n, R = self.samples, self.design.roller_count
-        geo = self.geo
+        solver = copy.copy(self.solver)  # the samples' drive with the candidate's gaps
+        geo = solver.geo_joined
         if clearance is not None:
-            geo = tuple(
-                replace(g, gap=g.gap - g.rho_n * np.tile(c, (n, 1)))
-                for g, c in zip(geo, clearance, strict=True)
-            )
-        solver = self._solver(geo)
+            geo = replace(geo, gap=geo.gap - geo.rho_n * np.tile(clearance, (n, 1)))
+            solver.geo_joined = geo
         rev, fwd = solver.free_interval(solve=False)
-        free = np.maximum(fwd - rev, 0.0) / R
+        free = np.where(fwd > rev, fwd - rev, 0.0) / R
         backlash = free.reshape(n, -1).max(axis=1) * ARCMIN_PER_RAD
-        both = joined(*geo)
-        bearings = solver.bearings
-        if bearings[0] is None or not any(b.diametral_clearance for b in bearings):
-            at = chain_interference(both.gap, both.advance, both.loadable) > BINDING_EPS_MM
-        else:
-            at = self._shift_binds(solver, both)
-        binds = at.reshape(n, -1).any(axis=1)
-        return backlash, binds
+        return backlash, self._binds(solver, geo).reshape(n, -1).any(axis=1)
 
-    def _shift_binds(self, solver: DriveSolver, both) -> np.ndarray:
-        """Where no crank rotation, each cam shifting within its bearing's clearance, leaves
-        every roller of both rows within ``BINDING_EPS_MM`` of contact (bool, (n P,)):
-        each row's free interval of the gaps less that allowance, intersected."""
+    def _binds(self, solver: DriveSolver, geo) -> np.ndarray:
+        """Where no crank rotation, each cam shifting within its bearing's clearance (none
+        without bearings), leaves every roller of both rows within ``BINDING_EPS_MM`` of
+        contact (bool, (n P,)): each row's free interval of its gaps less that allowance,
+        intersected (for rigid cams :func:`chain_interference`'s test in its interval
+        form, ``O(z)`` a position where the crossings cost ``O(z^2)``)."""
         R, e = self.design.roller_count, self.design.eccentricity
-        a = np.where(both.loadable, both.advance, 0.0)
-        g = np.where(both.loadable, both.gap - BINDING_EPS_MM, -np.inf)
+        a = np.where(geo.loadable, geo.advance, 0.0)
+        g = np.where(geo.loadable, geo.gap - BINDING_EPS_MM, -np.inf)
         revs, fwds = [], []
+        binds = np.zeros(len(a), dtype=bool)
         for c, sl in enumerate((slice(0, R), slice(R, 2 * R))):
-            half = 0.5 * solver.bearings[c].diametral_clearance
+            b = solver.bearings[c]
+            half = 0.5 * b.diametral_clearance if b is not None else 0.0
             rev, fwd = free_row(a[:, sl], g[:, sl], solver.n[:, sl], half, e)
+            if half == 0.0:  # a roller that the crank does not move binds on its own
+                binds |= np.any((a[:, sl] == 0.0) & (g[:, sl] > 0.0), axis=1)
             revs.append(rev)
             fwds.append(fwd)
-        return ~(np.minimum(*fwds) >= np.maximum(*revs))
+        return binds | ~(np.minimum(*fwds) >= np.maximum(*revs))
 
 
 def percentile_with_error(values: np.ndarray, q: float) -> dict:
@@ -332,7 +326,7 @@ def design_modification(
         gaps = DriveGapMetrics(
             design, tolerances, samples, seed, angles, base, drive, psi_contact_limit
         )
-        psi = np.concatenate(gaps.psi, axis=1)  # row A's rollers, then row B's
+        psi = gaps.psi
     grid = _grid(family, equidistant_mm, shift_mm)
     rows = []
     for k, row in enumerate(grid):
@@ -346,7 +340,7 @@ def design_modification(
         if drive is None:
             backlash, binds = gap_metrics(geo, samples, design, c)
         else:
-            backlash, binds = gaps(tuple(np.hsplit(c, 2)))
+            backlash, binds = gaps(c)
         bl = {
             f"p{q}": percentile_with_error(backlash, q)
             for q in sorted({50, 95, 99, int(backlash_percentile)})
