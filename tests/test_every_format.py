@@ -223,7 +223,6 @@ def test_all_formats_with_every_section_under_the_drive_model(tmp_path):
     m = _check_run(tmp_path, r, drive=True)
     left = dict(m.get("formats_left_out", {}))
     assert set(left) == {"inspection"}, left
-    assert 'model = "paper"' in left["inspection"]
     expected = {
         "roller.dxf", "preview.png", "forces.csv", "forces_summary.json", "roller.stl",
         "roller.3mf", "roller.glb", "roller.ply", "montecarlo.csv", "allocation.csv",

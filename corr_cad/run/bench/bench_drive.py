@@ -5,8 +5,9 @@ the prototype, 3,600 positions of the drive with bearings in 0.3 s or less;
 the datasheet stage in 1.5 s or less; the Monte Carlo with the datasheet
 metrics at 300 samples/s or more on 2 cores at the default grid. Measured,
 never asserted; ``cpu_s``: the median CPU seconds of this process per timed call
-(``time.process_time``), what the shared machine's load cannot inflate; the Monte Carlo rows measure the force metrics (the drive's
-Monte Carlo keeps no datasheet metrics), in this process and on 2 pool workers.
+(``time.process_time``), what the shared machine's load cannot inflate. The Monte
+Carlo rows measure the force metrics (the drive's Monte Carlo keeps no datasheet
+metrics), in this process and on 2 pool workers.
 """
 
 from __future__ import annotations
