@@ -46,16 +46,16 @@ BEARING = "[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\nneedle_len
 NO_SCATTER = "cam_radius = { normal = 0.0 }"
 
 
+def _cli(cwd, *args):
+    """``corr-cad run ARGS`` in a subprocess, in ``cwd``."""
+    cmd = [sys.executable, "-m", "corr_cad", "run", *args]
+    return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+
+
 def _run(folder, scene, *args):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "s.toml").write_text(scene)
-    r = subprocess.run(
-        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet", *args],
-        cwd=folder,
-        capture_output=True,
-        text=True,
-    )
-    return r, folder / "out"
+    return _cli(folder, "s.toml", "--out", "out", "--quiet", *args), folder / "out"
 
 
 def _scene(model="drive", extra="", tolerances=NO_SCATTER, target=5.0, family="equidistant",
@@ -148,12 +148,7 @@ def test_drive_design_writes_a_modified_toml_that_keeps_the_drive(tmp_path):
     assert set(data["modification"]) <= {"equidistant_mm", "shift_mm"}
     text = (out / "modified.toml").read_text().replace('"step",\n', "")  # no OCP needed
     (out / "modified.toml").write_text(text)
-    r = subprocess.run(
-        [sys.executable, "-m", "corr_cad", "run", "modified.toml", "--out", "../shop"],
-        cwd=out,
-        capture_output=True,
-        text=True,
-    )
+    r = _cli(out, "modified.toml", "--out", "../shop")
     assert r.returncode == 0, r.stderr
     assert "warning" not in r.stderr, r.stderr
     assert (tmp_path / "d" / "shop" / "inner_gear.dxf").is_file()
