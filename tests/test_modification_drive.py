@@ -226,3 +226,47 @@ def test_rigid_binding_in_interval_form_is_the_crossings_test():
         assert np.array_equal(got, want)
         seen.append(want.mean())
     assert seen[0] == 0.0 and seen[-1] == 1.0 and any(0 < v < 1 for v in seen), seen
+
+
+def test_transmission_error_objective_is_the_drive_s_datasheet():
+    """objective = "transmission_error" on the drive: each force-solved candidate's nominal
+    transmission error is that of the drive's datasheet of the modified rings (row B's own
+    rollers modified too), not the paper row's."""
+    from corr_cad import GearDesign
+    from corr_cad.geometry.deviations import ManufacturingErrors
+    from corr_cad.geometry.modification import (
+        Modification,
+        modification_gap,
+        modified_profile,
+        with_modification,
+    )
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+    from corr_cad.tolerance.modification_design import design_modification
+    from corr_cad.tolerance.montecarlo import Distribution
+
+    d = GearDesign()
+    spec = DatasheetSpec(
+        rated_torque=26 * 1.1e5, positions_per_mesh=2, transmission_error_positions_per_turn=4
+    )
+    eb = ManufacturingErrors(roller_radius_error=-0.001)
+    needles = EccentricBearing(40, 6.0, 12.0)
+    drive = {"errors_b": eb, "bearing": needles, "bearing_b": None, "contact_model": "palmgren"}
+    res = design_modification(
+        d, {"cam_radius": Distribution("normal", 0.0)}, family="equidistant",
+        objective="transmission_error", target_backlash_arcmin=5.0, max_binding_probability=0.5,
+        crank_moment=1.1e5, equidistant_mm=(0.01, 0.02, 2), shift_mm=(0.0, 0.0, 1), samples=10,
+        positions=8, force_candidates=2, datasheet_spec=spec, drive=drive,
+    )  # fmt: skip
+    solved = [c for c in res["candidates"] if c.get("force_solved")]
+    assert len(solved) == 2 and res["chosen"] in solved
+    for c in solved:
+        gap = modification_gap(d, modified_profile(d, Modification(c["equidistant_mm"])))
+        kw = {"errors": with_modification(ManufacturingErrors(), gap), "contact_model": "palmgren"}
+        rows = {"errors_b": with_modification(eb, gap), "bearing": needles, "bearing_b": None}
+        sheet = datasheet(d, spec, **kw, drive=rows)
+        want = max(sheet.transmission_error_peak_to_peak().values())
+        assert c["transmission_error_arcsec_nominal"] == pytest.approx(want, rel=1e-12)
+        paper = datasheet(d, spec, errors=kw["errors"])
+        te_paper = max(paper.transmission_error_peak_to_peak().values())
+        assert te_paper != pytest.approx(want, rel=1e-3)
