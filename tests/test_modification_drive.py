@@ -270,3 +270,18 @@ def test_transmission_error_objective_is_the_drive_s_datasheet():
         paper = datasheet(d, spec, errors=kw["errors"])
         te_paper = max(paper.transmission_error_peak_to_peak().values())
         assert te_paper != pytest.approx(want, rel=1e-3)
+
+
+@pytest.mark.parametrize("model", ["paper", "drive"])
+def test_errors_take_effect_in_the_design(model):
+    """The design's samples start from the scene's [errors] (each row's, the frame's slots,
+    cam B's phase), so none of them is called without effect with formats = modification."""
+    data = {
+        "solver": {"model": model},
+        "export": {"formats": ["modification"]},
+        "load": {"input_torque": 1.1e5},
+        "tolerances": {"roller_radius": {"normal": 0.001}},
+        "errors": {"roller_radius_error": -0.001, "cam_phase_error_deg": 0.002},
+        "modification": {"design": {"target_backlash_arcmin": 2.0}},
+    }
+    assert not [w for w in parse_scene(data).warnings if w.startswith("[errors]")]

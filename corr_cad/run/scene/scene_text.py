@@ -139,12 +139,13 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
             or mc
             or exact
             or inspected
+            or "modification" in f  # the design searches from the scene's errors
             or (roller_only and k in ("roller_radius_error", "roller_radius_errors"))
         ):
             warn(
                 f"[errors] {k}",
                 "only forces, datasheet (without measured_profile), checks, montecarlo, "
-                "allocation, interference, inspection with [load]",
+                "allocation, modification, interference, inspection with [load]",
             )
     out.extend(f"{what} has no effect in this scene: {why}" for what, why in _modification(data, f))
     return tuple(out)
