@@ -57,10 +57,6 @@ def _drive(**extra):
         (_drive(solver={"variants": ["eq3_printed"]}), r"\[solver\] variants = \['eq3_printed'\]"),
         ({"solver": {"model": "both"}}, r"\[solver\] model = 'both': must be one of paper, drive"),
         (
-            _drive(export={"formats": ["modification"]}),
-            r"formats lists 'modification', which solves the paper's one row",
-        ),
-        (
             {
                 "solver": {"contact_law": "palmgren"},
                 "export": {"formats": ["montecarlo"]},

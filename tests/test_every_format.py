@@ -228,13 +228,12 @@ def test_all_formats_with_every_section_on_a_measured_ring(tmp_path):
 
 @pytest.mark.slow
 def test_all_formats_with_every_section_under_the_drive_model(tmp_path):
-    """The two-row drive: every format but the one-row ones (modification, inspection),
-    which "all" leaves out with the reason."""
+    """The two-row drive: every format but the one-row one (inspection), which "all"
+    leaves out with the reason; the modification is designed on the drive."""
     r = _cli(tmp_path, DRIVE)
     m = _check_run(tmp_path, r, drive=True)
     left = dict(m.get("formats_left_out", {}))
-    assert set(left) == {"inspection", "modification"}, left
-    assert 'model = "paper"' in left["modification"]
+    assert set(left) == {"inspection"}, left
     assert left["inspection"] == "no [errors] measured_profile"  # no measured ring here
     expected = {
         "roller.dxf", "preview.png", "forces.csv", "forces_summary.json", "roller.stl",
@@ -242,13 +241,14 @@ def test_all_formats_with_every_section_under_the_drive_model(tmp_path):
         "sweeps.json", "datasheet.json", "datasheet.html", "windup.csv", "inner_gear_edm.nc",
         "inner_gear_nominal.csv", "assembly.json", "clearance.csv", "report.html",
         "efficiency.csv", "life.csv", "hysteresis.csv", "pinion.dxf", "crank_gear.dxf",
-        "wheel.stl",
+        "wheel.stl", "modification.json", "modified.toml",
     }  # fmt: skip
     if "step" not in left:
         expected.add("roller.step")
     assert expected <= set(m["files"]), expected - set(m["files"])
     sheet = json.loads((tmp_path / "out" / "datasheet.json").read_text())
     assert sheet["model"] == "drive"
+    assert 'model = "drive"' in (tmp_path / "out" / "modified.toml").read_text()
     assert m["interference"]["positions"] == 2
 
 

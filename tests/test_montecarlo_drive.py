@@ -144,3 +144,22 @@ def test_stacked_geometry_is_each_samples_drive_geometry_bit_for_bit():
             for name in g.__dataclass_fields__:
                 got = getattr(big, name)[17 * k : 17 * (k + 1)]
                 np.testing.assert_array_equal(got, np.broadcast_to(getattr(g, name), got.shape))
+
+
+def test_numpy_inversion_stops_each_roller_as_the_compiled_one():
+    """The drive's numpy inversion of the paper's law iterates each loaded roller on its own
+    until its step is below 1e-15 of its force, from the same start as the compiled one:
+    both give the same forces and stiffnesses to round-off, and zero where unloaded."""
+    from corr_cad.mechanics.drive_kernel import CompiledInverse
+    from corr_cad.mechanics.drive_numerics import _invert_convex
+
+    solver = DriveSolver(DESIGN, cycle_angles(11), bearing=NEEDLES)
+    comp = solver.comp
+    rng = np.random.default_rng(5)
+    h = np.where(solver.geo_joined.loadable, rng.uniform(-2e-3, 4e-3, comp.slope0.shape), -1.0)
+    start = np.maximum(h, 0.0) / comp.slope0
+    F, k = _invert_convex(comp, h, start)
+    Fc, kc = CompiledInverse(comp, h.shape)(h, start)
+    assert np.all((F > 0) == (h > 0)) and np.all(k[h <= 0] == 0.0)
+    np.testing.assert_allclose(F, Fc, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(k, kc, rtol=1e-13, atol=0)

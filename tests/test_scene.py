@@ -122,7 +122,7 @@ def test_all_formats_with_every_input_is_every_format(tmp_path):
     assert left.pop("allocation") == "no limit in [checks]" and "montecarlo" not in left
 
 
-def test_all_under_the_drive_model_leaves_out_the_one_row_formats(tmp_path):
+def test_all_under_the_drive_model_makes_the_modification_and_the_inspection(tmp_path):
     (tmp_path / "m.csv").write_text("x,y\n0,1\n")
     data = {
         "export": {"formats": ["all"]},
@@ -133,7 +133,7 @@ def test_all_under_the_drive_model_leaves_out_the_one_row_formats(tmp_path):
         "modification.design": {"target_backlash_arcmin": 1.0},
     }
     left = dict(parse_scene(data, base_dir=tmp_path).formats_left_out)
-    assert "one row" in left["modification"] and "inspection" not in left
+    assert "modification" not in left and "inspection" not in left  # both on the drive
     data["solver"] = {"contact_law": "palmgren"}
     left = dict(parse_scene(data, base_dir=tmp_path).formats_left_out)
     assert {"modification", "montecarlo", "allocation"} <= set(left) and "inspection" not in left

@@ -387,7 +387,7 @@ class DriveSolver:
     def _converged(self, r, F, a_m, Qs, target, gross):
         return self._relative(r, F, a_m, Qs, target, gross) <= DRIVE_RTOL
 
-    def free_interval(self) -> tuple[np.ndarray, np.ndarray]:
+    def free_interval(self, solve: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The crank rotations ``(rev, fwd)`` (P,) each, rad, the drive turns freely between.
 
         The intersection of both rows' free intervals (the crank is one). A row
@@ -395,7 +395,7 @@ class DriveSolver:
         (a cam on needles without clearance stays centred at no load). With a
         clearance ``Pd`` the cam may shift anywhere within ``Pd / 2``
         (:func:`free_row`). Where no free rotation is left (a preload) both ends
-        are the equilibrium at zero moment.
+        are the equilibrium at zero moment (``solve=False``: left as found, ``rev >= fwd``).
         """
         R = self.R
         geo = self.geo_joined
@@ -422,7 +422,7 @@ class DriveSolver:
             fwds.append(fwd)
         rev, fwd = np.maximum(*revs), np.minimum(*fwds)
         tight = ~(fwd > rev)
-        if np.any(tight):
+        if solve and np.any(tight):
             zero = self._checked(0.0)[0]
             fwd = np.where(tight, zero, fwd)
             rev = np.where(tight, zero, rev)
@@ -599,8 +599,8 @@ def solve_drive(
         psi_contact_limit=psi_contact_limit,
     )
     res = solver.result(float(input_torque))
-    rev, fwd = solver.free_interval()
-    res.backlash = (fwd - rev) / design.roller_count
+    rev, fwd = solver.free_interval(solve=False)  # its width needs no solve: 0 where tight
+    res.backlash = np.where(fwd > rev, fwd - rev, 0.0) / design.roller_count
     if inverse is not None:
         res = expand_drive(res, full, inverse, shift, design.slot_pitch_rad)
     return res

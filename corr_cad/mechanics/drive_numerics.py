@@ -125,21 +125,33 @@ def _invert_convex(comp, h, start):
     """``F`` with ``G(F) = h`` (0 where ``h <= 0``) and ``dF/dh``, for the paper's law.
 
     Newton from ``start``, to the right of the root (``G`` is convex and
-    increasing, so the iterates decrease monotonically onto it), until every
-    step is below ``1e-15`` of its force (a few iterations from a tangent
-    predictor; the one-row solver's own inversion asks for steps below
-    round-off, which a few elements never reach).
+    increasing, so the iterates decrease monotonically onto it), each roller
+    until its step is below ``1e-15`` of its force (a few iterations from a
+    tangent predictor; the one-row solver's own inversion asks for steps below
+    round-off, which a few elements never reach). Only the loaded rollers are
+    evaluated, and each only until it settles (the compiled inversion's rule,
+    :mod:`corr_cad.mechanics.drive_kernel`): an unloaded roller or a settled
+    one costs no evaluation of the law.
     """
     pos = h > 0
-    F = np.where(pos, start, 0.0)
+    F = np.zeros(h.shape)
+    dg = np.ones(h.shape)
+    where = np.flatnonzero(pos)  # flat indices of the rollers still iterating
+    loaded = sub = comp.take(pos)  # their contacts, flat
+    hs = h[pos]
+    Fs = np.asarray(start, dtype=float)[pos]
     for _ in range(60):
-        g, dg = comp.value_and_slope(F)
-        step = np.where(pos, (g - h) / dg, 0.0)
-        F = np.maximum(F - step, 0.0)
-        if np.all(np.abs(step) <= 1e-15 * F + 1e-300):
+        if where.size == 0:
             break
-    _, dg = comp.value_and_slope(F)
-    F = np.where(pos, F, 0.0)
+        g, d = sub.value_and_slope(Fs)
+        step = (g - hs) / d
+        Fs = np.maximum(Fs - step, 0.0)
+        F.flat[where] = Fs
+        going = ~(np.abs(step) <= 1e-15 * Fs + 1e-300)
+        if not going.all():
+            where, hs, Fs = where[going], hs[going], Fs[going]
+            sub = sub.take(going)
+    dg[pos] = loaded.value_and_slope(F[pos])[1]
     with np.errstate(divide="ignore", invalid="ignore"):
         return F, np.where(F > 0, 1.0 / dg, 0.0)
 

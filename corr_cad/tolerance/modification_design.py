@@ -30,12 +30,40 @@ statistics at ranks ``n q -+ sqrt(n q (1 - q))`` (about a 68 % interval).
 The binding evaluation is one function, :func:`chain_interference`: the
 Monte Carlo binding metric (``mechanics/binding.py``, another branch) can
 replace it there.
+
+Under the two-row drive (``drive``: ``[solver] model = "drive"``) both
+rings carry the same modification (ring B is ring A turned by ``pi / z``, the
+same part), so a candidate's clearance ``c(psi)`` is taken off each row's gaps
+at that row's own roll angles (row B's at ``phi + pi``). The samples are the
+drive's Monte Carlo's (:mod:`corr_cad.tolerance.montecarlo_drive`: row A and
+the frame from the seed's draws, row B's own tolerances from its second
+stream), and :class:`DriveGapMetrics` gives per sample:
+
+* **backlash**: the drive's free rotation, the largest over the positions of
+  the width of :meth:`DriveSolver.free_interval
+  <corr_cad.mechanics.drive.DriveSolver.free_interval>` (the intersection of
+  both rows' free intervals, each widened by its cam bearing's clearance),
+  over ``z + 1``, in arcmin; 0 where none is left;
+* **binding**: a position binds where no crank rotation leaves every roller
+  of both rows (the slots shared, their fit ``slot_clearance`` in the gaps)
+  within ``BINDING_EPS_MM`` of contact: with the cams fixed or on bearings
+  without clearance, :func:`chain_interference`'s test over the ``2 (z + 1)``
+  rollers, as selective assembly judges the drive; with a bearing clearance
+  each cam may also shift within ``Pd / 2`` (each row's free interval of its
+  gaps less that allowance, :func:`~corr_cad.mechanics.drive_numerics.free_row`,
+  and their intersection).
+
+The force candidates are solved by the drive's Monte Carlo (its contact law
+and bearings; ``peak_pressure`` and ``min_loaded_rollers`` over both rows),
+``transmission_error`` by the drive's datasheet.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -50,14 +78,18 @@ from corr_cad.geometry.modification import (
     with_modification,
 )
 from corr_cad.mechanics.batch import BatchSolver
+from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.drive_numerics import free_row
 from corr_cad.mechanics.solver_geometry import cycle_angles
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD
 from corr_cad.tolerance.montecarlo import _errors_for, draw_samples, monte_carlo
+from corr_cad.tolerance.montecarlo_drive import ROW_B_STREAM, row_b_tolerances, stacked_geometry
 
 __all__ = [
     "FAMILIES",
     "OBJECTIVES",
     "chain_interference",
+    "DriveGapMetrics",
     "gap_metrics",
     "percentile_with_error",
     "design_modification",
@@ -112,6 +144,84 @@ def gap_metrics(geo, n: int, design: GearDesign, clearance: np.ndarray | None = 
     return backlash, binds
 
 
+class DriveGapMetrics:
+    """Backlash and binding of the drive's tolerance samples under a candidate's clearance.
+
+    ``drive``: ``errors_b`` (row B's base errors, None: ``base``'s), ``bearing``,
+    ``bearing_b`` and ``contact_model`` (the Monte Carlo's ``drive`` argument). The
+    samples' drive is built once; a candidate changes its gaps only.
+    """
+
+    def __init__(
+        self,
+        design: GearDesign,
+        tolerances: dict,
+        samples: int,
+        seed: int,
+        angles: np.ndarray,
+        base: ManufacturingErrors,
+        drive: dict,
+        psi_contact_limit: float,
+    ):
+        R = design.roller_count
+        tol_b = row_b_tolerances(tolerances)
+        units = draw_samples(tolerances, samples, seed, R)
+        units_b = draw_samples(tol_b, samples, seed, R, stream=ROW_B_STREAM)
+        base_b = drive.get("errors_b") or base
+        pairs = [
+            (_errors_for(base, tolerances, units, k), _errors_for(base_b, tol_b, units_b, k))
+            for k in range(samples)
+        ]
+        angles = np.asarray(angles, dtype=float)
+        self.solver = DriveSolver(
+            design,
+            np.tile(angles, samples),
+            geometry=stacked_geometry(design, angles, pairs, psi_contact_limit),
+            bearing=drive.get("bearing"),
+            bearing_b=drive.get("bearing_b"),
+            contact_model=drive.get("contact_model", "nonlinear"),
+        )
+        self.design, self.samples = design, samples
+        #: The nominal roll angles (P, 2 R), row A's rollers then row B's: where a
+        #: candidate's clearance is taken.
+        self.psi = self.solver.geo_joined.psi[: len(angles)]
+
+    def __call__(self, clearance: np.ndarray | None = None):
+        """Per sample: backlash (arcmin) and binding (bool); ``clearance``: the flank
+        clearance (P, 2 R) mm at :attr:`psi` (None: the unmodified rings)."""
+        n, R = self.samples, self.design.roller_count
+        solver = copy.copy(self.solver)  # the samples' drive with the candidate's gaps
+        geo = solver.geo_joined
+        if clearance is not None:
+            geo = replace(geo, gap=geo.gap - geo.rho_n * np.tile(clearance, (n, 1)))
+            solver.geo_joined = geo
+        rev, fwd = solver.free_interval(solve=False)
+        free = np.where(fwd > rev, fwd - rev, 0.0) / R
+        backlash = free.reshape(n, -1).max(axis=1) * ARCMIN_PER_RAD
+        return backlash, self._binds(solver, geo).reshape(n, -1).any(axis=1)
+
+    def _binds(self, solver: DriveSolver, geo) -> np.ndarray:
+        """Where no crank rotation, each cam shifting within its bearing's clearance (none
+        without bearings), leaves every roller of both rows within ``BINDING_EPS_MM`` of
+        contact (bool, (n P,)): each row's free interval of its gaps less that allowance,
+        intersected (for rigid cams :func:`chain_interference`'s test in its interval
+        form, ``O(z)`` a position where the crossings cost ``O(z^2)``)."""
+        R, e = self.design.roller_count, self.design.eccentricity
+        a = np.where(geo.loadable, geo.advance, 0.0)
+        g = np.where(geo.loadable, geo.gap - BINDING_EPS_MM, -np.inf)
+        revs, fwds = [], []
+        binds = np.zeros(len(a), dtype=bool)
+        for c, sl in enumerate((slice(0, R), slice(R, 2 * R))):
+            b = solver.bearings[c]
+            half = 0.5 * b.diametral_clearance if b is not None else 0.0
+            rev, fwd = free_row(a[:, sl], g[:, sl], solver.n[:, sl], half, e)
+            if half == 0.0:  # a roller that the crank does not move binds on its own
+                binds |= np.any((a[:, sl] == 0.0) & (g[:, sl] > 0.0), axis=1)
+            revs.append(rev)
+            fwds.append(fwd)
+        return binds | ~(np.minimum(*fwds) >= np.maximum(*revs))
+
+
 def percentile_with_error(values: np.ndarray, q: float) -> dict:
     """The ``q`` % percentile and its order-statistics interval (about 68 %)."""
     v = np.sort(np.asarray(values, dtype=float))
@@ -153,6 +263,25 @@ def _probability(x: np.ndarray) -> dict:
     return {"value": p, "standard_error": math.sqrt(p * (1.0 - p) / x.size)}
 
 
+def _modified_drive(drive: dict | None, gap) -> dict | None:
+    """The Monte Carlo's ``drive`` argument with the modification in row B's errors too."""
+    if drive is None:
+        return None
+    eb = drive.get("errors_b")
+    return {**drive, "errors_b": None if eb is None else with_modification(eb, gap)}
+
+
+def _datasheet_drive(drive: dict | None, gap) -> dict:
+    """The datasheet's keyword arguments of the drive (none for the paper's row)."""
+    if drive is None:
+        return {}
+    d = _modified_drive(drive, gap)
+    return {
+        "contact_model": d.get("contact_model", "nonlinear"),
+        "drive": {k: d.get(k) for k in ("errors_b", "bearing", "bearing_b")},
+    }
+
+
 def design_modification(
     design: GearDesign,
     tolerances: dict,
@@ -175,20 +304,29 @@ def design_modification(
     executor=None,
     progress: Callable[[int, int], None] | None = None,
     datasheet_spec=None,
+    drive: dict | None = None,
 ) -> dict:
     """Search the family's grid; the ``modification.json`` content (see the module docstring).
 
     ``free``: each control point of :data:`FREE_CONTROL_PSI_DEG` takes the
     values of ``equidistant_mm``'s grid. ``transmission_error`` needs
     ``datasheet_spec`` (the nominal transmission error of each force-solved
-    candidate, no scatter).
+    candidate, no scatter). ``drive``: the two-row drive (the Monte Carlo's ``drive``
+    argument: ``errors_b``, ``bearing``, ``bearing_b``, ``contact_model``; see the module
+    docstring); ``load_share`` is then unused.
     """
     base = base_errors or ManufacturingErrors()
     angles = cycle_angles(positions)
-    units = draw_samples(tolerances, samples, seed, design.roller_count)
-    solver = BatchSolver(design, angles, input_torque=crank_moment, load_share=load_share)
-    geo = solver.geometry([_errors_for(base, tolerances, units, k) for k in range(samples)])
-    psi = solver.nominal.psi
+    if drive is None:
+        units = draw_samples(tolerances, samples, seed, design.roller_count)
+        solver = BatchSolver(design, angles, input_torque=crank_moment, load_share=load_share)
+        geo = solver.geometry([_errors_for(base, tolerances, units, k) for k in range(samples)])
+        psi = solver.nominal.psi
+    else:
+        gaps = DriveGapMetrics(
+            design, tolerances, samples, seed, angles, base, drive, psi_contact_limit
+        )
+        psi = gaps.psi
     grid = _grid(family, equidistant_mm, shift_mm)
     rows = []
     for k, row in enumerate(grid):
@@ -199,7 +337,10 @@ def design_modification(
             rows.append({**row, "valid": False, "why": str(exc)})
             continue
         c = flank_clearance(design, curve, psi.ravel()).reshape(psi.shape)
-        backlash, binds = gap_metrics(geo, samples, design, c)
+        if drive is None:
+            backlash, binds = gap_metrics(geo, samples, design, c)
+        else:
+            backlash, binds = gaps(c)
         bl = {
             f"p{q}": percentile_with_error(backlash, q)
             for q in sorted({50, 95, 99, int(backlash_percentile)})
@@ -240,6 +381,7 @@ def design_modification(
                 base_errors=with_modification(base, gap),
                 executor=executor,
                 psi_contact_limit=psi_contact_limit,
+                drive=_modified_drive(drive, gap),
             )
             r["peak_pressure_MPa"] = {
                 f"p{q}": percentile_with_error(mc.metrics["peak_pressure"], q) for q in (50, 95, 99)
@@ -258,6 +400,7 @@ def design_modification(
                     errors=with_modification(base, gap),
                     load_share=load_share,
                     psi_contact_limit=psi_contact_limit,
+                    **_datasheet_drive(drive, gap),
                 )
                 te = ds.transmission_error_peak_to_peak()
                 r["transmission_error_arcsec_nominal"] = max(te.values())

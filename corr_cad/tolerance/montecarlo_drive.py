@@ -49,6 +49,12 @@ def row_b_tolerances(tolerances: dict) -> dict:
     return {k: v for k, v in tolerances.items() if k in ROW_B_KINDS}
 
 
+def _width(fwd: np.ndarray, rev: np.ndarray) -> np.ndarray:
+    """The free interval's width, 0 where none is left (``free_interval(solve=False)``
+    leaves a preloaded position's ends as found)."""
+    return np.where(fwd > rev, fwd - rev, 0.0)
+
+
 def drive_metrics(res, interval: tuple[np.ndarray, np.ndarray], ratio: float) -> dict:
     """The four force metrics of one drive solution, over both rows (floats)."""
     p = [np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear) for r in res.rows]
@@ -58,7 +64,7 @@ def drive_metrics(res, interval: tuple[np.ndarray, np.ndarray], ratio: float) ->
         "peak_gear_force": float(res.F_n.max()),
         "peak_pressure": float(max(x.max() for x in p)),
         "min_loaded_rollers": float(min(x.min() for x in loaded)),
-        "backlash_arcmin": float(np.max(fwd - rev) / ratio * ARCMIN_PER_RAD),
+        "backlash_arcmin": float(np.max(_width(fwd, rev)) / ratio * ARCMIN_PER_RAD),
     }
 
 
@@ -118,7 +124,7 @@ def _block_metrics(res, interval, ratio: float, n: int, P: int) -> dict:
         "peak_gear_force": F_n.max(axis=(0, 2, 3)),
         "peak_pressure": np.maximum(*(x.reshape(n, -1).max(axis=1) for x in p)),
         "min_loaded_rollers": np.minimum(*(x.min(axis=1) for x in loaded)).astype(float),
-        "backlash_arcmin": (fwd - rev).reshape(n, P).max(axis=1) / ratio * ARCMIN_PER_RAD,
+        "backlash_arcmin": _width(fwd, rev).reshape(n, P).max(axis=1) / ratio * ARCMIN_PER_RAD,
     }
 
 
@@ -165,5 +171,7 @@ def drive_chunk(
         )
         res = solver.result(float(input_torque))
         ok &= bool(res.success)
-        parts.append(_block_metrics(res, solver.free_interval(), ratio, hi - lo, P))
+        # The backlash is the interval's width: 0 where tight, with no zero-moment solve.
+        interval = solver.free_interval(solve=False)
+        parts.append(_block_metrics(res, interval, ratio, hi - lo, P))
     return {k: np.concatenate([q[k] for q in parts]) for k in parts[0]}, ok

@@ -478,7 +478,13 @@ def _modification_design(scene, env):
     # 256 took 38 s), after building and checking its curve (CANDIDATE_SECONDS);
     # the feasible few get a force Monte Carlo each. Every candidate's row is
     # kept for modification.json (~2.3 kB of Python objects, then the text).
+    # Under the drive a cell of each row, and the samples' drive solver holds both rows
+    # joined, their contacts and directions (~160 bytes a cell more: 444 MB peak at
+    # 200 x 64 x 52 cells with 40-needle bearings).
     md, R = scene.modification_design, _rollers(scene)
+    solver_bytes = 0
+    if scene.solver.drive:
+        R, solver_bytes = 2 * R, 160
     steps = md["steps"]
     candidates = {"equidistant": steps, "equidistant+shift": steps**2, "free": steps**4}[
         md["family"]
@@ -488,7 +494,7 @@ def _modification_design(scene, env):
         md["samples"], md["positions"], R, False, env.workers
     )
     return Cost(
-        memory=40 * MB + 200 * cells + 40 * cells + 4e3 * candidates,
+        memory=40 * MB + (200 + 40 + solver_bytes) * cells + 4e3 * candidates,
         seconds=2.0 + candidates * (CANDIDATE_SECONDS[md["family"]] + cells * 1e-6) + force,
         output={
             "modification.json": 2e3 * candidates,

@@ -151,11 +151,6 @@ def _bearing(section: str, given: dict, base: dict | None) -> EccentricBearing:
         raise SceneError(f"[{section}] {exc}") from exc
 
 
-#: Formats whose sample solves run the paper's one-row model only (compiled kernels,
-#: the batch solver): refused under the drive model and under Palmgren's law.
-ONE_ROW_FORMATS = ("modification",)
-
-
 def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, data=None) -> None:
     """What the drive model and Palmgren's law do not reach yet, refused in one line."""
     if "slot_clearance" in tolerances and not solver.drive:
@@ -170,13 +165,12 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
     )
     if what is None:
         return
-    for fmt in ONE_ROW_FORMATS:
-        if fmt in formats:
-            raise SceneError(
-                f"[export] formats lists {fmt!r}, which solves the paper's one row with its "
-                f'contact law only; with [solver] {what} remove it, or use model = "paper" '
-                'and contact_law = "paper"'
-            )
+    if "modification" in formats and not solver.drive:
+        raise SceneError(
+            "[export] formats lists 'modification', whose design solves the paper's contact "
+            'law only on the paper\'s row; with [solver] contact_law = "palmgren" use model = '
+            '"drive" (its design takes the law) or remove it'
+        )
     if {"montecarlo", "allocation"} & set(formats) and not solver.drive:
         raise SceneError(
             "[export] formats lists montecarlo or allocation, which solve the paper's contact "

@@ -57,8 +57,8 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
     Left out: what needs an input the scene lacks (a torque for the forces
     and the studies built on them, tolerances, a limit for the allocation, a
     measured profile for the inspection), ``step`` without Open CASCADE, and
-    the one-row format (modification) under the drive model or
-    Palmgren's law.
+    the studies on samples (montecarlo, allocation, modification) under
+    Palmgren's law on the paper's row.
     """
     import importlib.util
 
@@ -87,10 +87,6 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         "no [load] torque and no [datasheet] rated_torque_Nm",
     )
     sv = values["solver"]
-    one_row = (
-        sv["model"] == "paper" and sv["contact_law"] == "paper",
-        'it solves the paper\'s one row: [solver] model = "paper", contact_law = "paper" only',
-    )
     paper_law = (
         sv["model"] == "drive" or sv["contact_law"] == "paper",
         'its samples solve the paper\'s contact law or the drive: contact_law = "palmgren" '
@@ -105,7 +101,7 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         "inspection": (measured,),
         "step": (ocp,),
         "modification": (
-            one_row,
+            paper_law,
             rated,
             tol,
             (

@@ -61,7 +61,10 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     if "material" in data and not solver and "first_stage" not in data:  # Hertz of the gears
         warn("[material]", "only the force solver uses it and no format needs it")
     sv = data.get("solver", {})
-    if "solver" in data and not solver:
+    # model = "drive" describes the hardware, as the drive's sections do: it lets them and
+    # [design] slot_clearance load whatever the formats (so does its contact law).
+    described = sv.get("model") == "drive" and set(sv) <= {"model", "contact_law"}
+    if "solver" in data and not solver and not described:
         warn(
             "[solver]",
             "no format runs the force solver (forces, montecarlo, allocation, sweeps, inspection)",
@@ -136,12 +139,13 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
             or mc
             or exact
             or inspected
+            or "modification" in f  # the design searches from the scene's errors
             or (roller_only and k in ("roller_radius_error", "roller_radius_errors"))
         ):
             warn(
                 f"[errors] {k}",
                 "only forces, datasheet (without measured_profile), checks, montecarlo, "
-                "allocation, interference, inspection with [load]",
+                "allocation, modification, interference, inspection with [load]",
             )
     out.extend(f"{what} has no effect in this scene: {why}" for what, why in _modification(data, f))
     return tuple(out)

@@ -99,6 +99,38 @@ def _without_no_effect(data: dict, formats: tuple[str, ...]) -> dict:
             return data
 
 
+#: The drive's part of ``modified.toml`` under ``model = "drive"``: the model and its
+#: law (``[solver]``), row B's errors and the cam bearings, as TOML tables.
+_DRIVE_CARRIED = (
+    ("solver", ("solver",)),
+    ("errors.row_b", ("errors", "row_b")),
+    ("bearings.eccentric", ("bearings", "eccentric")),
+    ("bearings.eccentric_b", ("bearings", "eccentric_b")),
+)
+
+
+def _carry_drive(scene, data: dict) -> None:
+    """Under ``model = "drive"``: ``[solver] model`` and ``contact_law`` and the drive's
+    sections (their keys that differ from the defaults) into ``data``. The ring is the
+    same part under either model, but ``[design] slot_clearance`` and the drive's
+    sections load only with the model, and a study added to the scene needs them."""
+    from corr_cad.run.scene.scene_schema import SCHEMA
+
+    if not scene.solver.drive:
+        return
+    for section, path in _DRIVE_CARRIED:
+        vals = scene.source.get(section, {})
+        keys = SCHEMA[section]
+        if section == "solver":
+            vals = {k: v for k, v in vals.items() if k in ("model", "contact_law")}
+        kept = {k: v for k, v in vals.items() if k in keys and v != keys[k].default}
+        if section == "solver" or kept:  # an override without keys of its own is none
+            where = data
+            for part in path[:-1]:
+                where = where.setdefault(part, {})
+            where[path[-1]] = kept
+
+
 def modified_toml(
     scene,
     equidistant_mm: float,
@@ -111,7 +143,8 @@ def modified_toml(
     Formats :data:`SHOP_FORMATS`; of the design scene only the keys of
     ``design``, ``export``, ``errors``, ``edm``, ``inspection`` and
     ``budget`` whose values differ from the defaults, less every key the
-    loader would call without effect with those formats; then the chosen
+    loader would call without effect with those formats; under ``model = "drive"``
+    the model and the drive's sections (:func:`_carry_drive`); then the chosen
     ``[modification]`` (zero amounts left out). Written by ``tomli_w``, so
     every string is escaped (a scene or file name cannot add a line); the
     only path, ``measured_profile``, is relative to ``folder`` (where the
@@ -142,6 +175,7 @@ def modified_toml(
         if kept:
             data[section] = kept
     data = _without_no_effect(data, tuple(formats))
+    _carry_drive(scene, data)
     mod = {
         k: v for k, v in (("equidistant_mm", equidistant_mm), ("shift_mm", shift_mm)) if v != 0.0
     }
@@ -213,6 +247,19 @@ def _final_folder(out):
     return out.parent if _is_stage(out) else out
 
 
+def _design_drive(s) -> dict | None:
+    """The design's ``drive`` argument under ``model = "drive"`` (None: the paper's row):
+    row B's own errors as given (the design adds each candidate), the bearings, the law."""
+    if not s.solver.drive:
+        return None
+    return {
+        "errors_b": s.errors_b,
+        "bearing": s.bearing,
+        "bearing_b": s.bearing_b,
+        "contact_model": s.solver.contact_model,
+    }
+
+
 def modification_design(ctx: RunContext) -> None:
     """Format ``modification``: search ``[modification.design]``; modification.json,
     modification_tradeoff.png and modified.toml; exit 1 when the targets are unmet."""
@@ -253,6 +300,7 @@ def modification_design(ctx: RunContext) -> None:
         executor=ctx.executor,
         progress=tick,
         datasheet_spec=datasheet_spec(s) if md["objective"] == "transmission_error" else None,
+        drive=_design_drive(s),
     )
     bar.close()
     write_json(ctx.out / "modification.json", res)

@@ -243,7 +243,7 @@ def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
         kw.pop("variants")
         solver = DriveSolver(s.design, cycle_angles(positions), **kw)
         res = solver.result(s.load.input_torque)
-        interval = solver.free_interval()
+        interval = solver.free_interval(solve=False)  # its width: the backlash
         out = drive_metrics(res, interval, float(s.design.roller_count))
         if sheet is not None:
             out.update(_nominal_drive_datasheet(ctx, sheet))
