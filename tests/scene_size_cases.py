@@ -25,7 +25,8 @@ _Z1000 = "[design]\ntooth_count = 1000\neccentricity = 0.05\nroller_radius = 0.3
 
 #: name -> scene text (the templates are read from templates/).
 EXTRA = {
-    "step wavy": '[export]\nformats = ["step", "png"]\nassembly_angles_deg = [0.0, 7.0]\n' + _MOD,
+    "step wavy": '[export]\nformats = ["step", "png"]\nassembly_angles_deg = [0.0, 7.0]\n'
+    "chord_tolerance = 0.002\n" + _MOD,
     "meshes wavy": '[export]\nformats = ["stl", "3mf", "glb", "ply"]\n'
     "assembly_angles_deg = [0.0, 5.0]\n" + _MOD,
     "spline dxf wavy edm": '[export]\nformats = ["dxf", "edm", "cmm"]\n'
@@ -34,7 +35,8 @@ EXTRA = {
     "tolerance = 0.0001\n",
     "interference both": '[export]\nformats = ["interference", "stl"]\n'
     'interference_method = "both"\ninterference_positions = 12\nchord_tolerance = 0.0005\n',
-    "z1000 every mesh": _Z1000 + '[export]\nformats = ["dxf", "step", "stl", "interference"]\n',
+    "z1000 every mesh": _Z1000 + '[export]\nformats = ["dxf", "step", "stl", "interference"]\n'
+    "tolerance = 0.0005\n",
 }
 
 #: name -> scene text that load_scene or check_scene refuses (the golden file holds the line).

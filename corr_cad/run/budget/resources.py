@@ -33,11 +33,13 @@ from corr_cad.run.budget.costs import ESTIMATORS, LIBRARY_BYTES, WORKER_BYTES, C
 from corr_cad.run.scene.limits import (  # noqa: F401  (re-exported: the limits are part of this interface)
     MAX_MESH_TRIANGLES,
     MAX_PROFILE_VERTICES,
+    SceneSize,
     check_structure,
     mesh_triangles,
     polyline_segments,
     profile_vertices,
     round_up,
+    scene_size,
 )
 from corr_cad.run.scene.scene_schema import SCHEMA
 
@@ -182,15 +184,9 @@ def _duration(s: float) -> str:
     return duration(s)
 
 
-def _env(scene, workers: int, executor: str, vertices: float, stages: list[str]) -> Env:
-    tri, parts = (0.0, 0.0)
-    if {"solids", "step_files", "interference"} & set(stages):
-        tri, parts = mesh_triangles(scene.design, scene.chord_tolerance, scene.modification)
-    spline = (
-        profile_vertices(scene.design, "spline", scene.chord_tolerance, scene.modification)
-        if "step_files" in stages
-        else 0
-    )
+def _env(scene, workers: int, executor: str, sizes: SceneSize) -> Env:
+    # The meshes and the STEP ring: sizes holds their counts exactly where the
+    # plan has solids, step_files or the mesh interference (0 elsewhere).
     size, is_dxf = 0, False
     if scene.measured_profile is not None:
         try:
@@ -203,10 +199,10 @@ def _env(scene, workers: int, executor: str, vertices: float, stages: list[str])
         workers=1 if executor == "serial" else workers,
         local_workers=local,
         remote=executor == "dask",
-        triangles=tri,
-        part_triangles=parts,
-        vertices=vertices,
-        spline_points=spline,
+        triangles=sizes.mesh_triangles,
+        part_triangles=sizes.part_triangles,
+        vertices=sizes.profile_vertices,
+        spline_points=sizes.spline_points,
         measured_bytes=size,
         measured_dxf=is_dxf,
     )
@@ -240,10 +236,8 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
 
     workers = workers or default_workers()
     stages = _stages(scene)
-    verts = profile_vertices(
-        scene.design, scene.representation, scene.tolerance, scene.modification
-    )
-    env = _env(scene, workers, executor, verts, stages)
+    sizes = scene_size(scene)  # computed once per scene, with the structural check
+    env = _env(scene, workers, executor, sizes)
     costs = {name: ESTIMATORS.get(name, _unknown)(scene, env) for name in stages}
     aside = set()
     if executor == "process" and workers >= 2:
@@ -278,7 +272,7 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
         seconds=seconds,
         output=output,
         output_bytes=float(sum(output.values())),
-        profile_vertices=verts if "dxf" in scene.formats else 0.0,
+        profile_vertices=sizes.profile_vertices if "dxf" in scene.formats else 0.0,
         mesh_triangles=tri,
         workers=env.workers,
     )
