@@ -290,12 +290,24 @@ def _flag(args: argparse.Namespace, flag: str):
     return getattr(args, flag.lstrip("-").replace("-", "_"))
 
 
-def _worker_init(parent_pid: int) -> None:
+#: What a pool worker of a Monte Carlo or an allocation imports at its first
+#: task (numba and the compiled kernels' modules): imported when the worker
+#: starts instead, while the main process is still busy with the stages before.
+WARM_MODULES = (
+    "corr_cad.tolerance.montecarlo",
+    "corr_cad.tolerance.mc_datasheet",
+    "corr_cad.mechanics.mc_kernel",
+    "corr_cad.mechanics.mc_windup_kernel",
+)
+
+
+def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
     """Process-pool worker start: die with the main process, leave Ctrl-C to it.
 
     On Linux the kernel sends SIGKILL when the parent dies (PR_SET_PDEATHSIG);
     a daemon thread polling ``os.getppid()`` covers other platforms and the
-    instant before the ``prctl`` call.
+    instant before the ``prctl`` call. Then the modules ``warm`` are imported
+    (:data:`WARM_MODULES`), which the tasks would otherwise import.
     """
     import signal
     import threading
@@ -331,6 +343,10 @@ def _worker_init(parent_pid: int) -> None:
             time.sleep(0.2)
 
     threading.Thread(target=watch, name="corr-cad-parent-watch", daemon=True).start()
+    import importlib
+
+    for name in warm:
+        importlib.import_module(name)
 
 
 def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
@@ -398,7 +414,8 @@ def _executor(
 
     from corr_cad.run.stages.concurrent import kill_pool
 
-    pool = _start_pool(ProcessPoolExecutor, args.workers)
+    warm = WARM_MODULES if {"montecarlo", "allocation"} & set(scene.formats) else ()
+    pool = _start_pool(ProcessPoolExecutor, args.workers, warm)
     try:
         yield pool
     except BaseException:
@@ -407,7 +424,7 @@ def _executor(
     pool.shutdown(wait=True)
 
 
-def _start_pool(pool_type, workers: int | None):
+def _start_pool(pool_type, workers: int | None, warm: tuple[str, ...] = ()):
     """A process pool whose workers are forked now, with SIGINT and SIGTERM held.
 
     A signal that arrives while the pool forks would run its handler inside
@@ -420,7 +437,7 @@ def _start_pool(pool_type, workers: int | None):
     import signal
 
     held = {signal.SIGINT, signal.SIGTERM}
-    pool = pool_type(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
+    pool = pool_type(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(), warm))
     if threading.current_thread() is not threading.main_thread():
         return pool
     old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
