@@ -61,6 +61,21 @@ class Env:
     #: Bytes of the measured-profile file (0: none).
     measured_bytes: int = 0
     measured_dxf: bool = False
+    #: A measured CSV's lines and kept points (``measured_io.csv_points_kept``; 0: size-based).
+    measured_lines: int = 0
+    measured_kept: int = 0
+
+
+def _measured_points(scene, env) -> tuple[float, float]:
+    """Rows read and points kept of the measured profile (a DXF's or mesh's: from its size)."""
+    from corr_cad.export.measured_io import MAX_MEASURED_POINTS
+
+    if env.measured_lines:
+        return float(env.measured_lines), float(env.measured_kept)
+    mesh = str(scene.measured_profile).lower().endswith((".stl", ".ply"))
+    # A mesh's section is decimated to 20,000 points; "154.5008,0.0003" is the shortest row.
+    rows = 20_000.0 if mesh else env.measured_bytes / (30.0 if env.measured_dxf else 16.0)
+    return rows, min(rows, MAX_MEASURED_POINTS)
 
 
 @dataclass(frozen=True)
@@ -162,30 +177,26 @@ def _preview_png(scene, env):
 
 @stage_cost("measured_profile")
 def _measured(scene, env):
-    from corr_cad.export.measured_io import MAX_MEASURED_POINTS
-
     size = env.measured_bytes
     mesh = str(scene.measured_profile).lower().endswith((".stl", ".ply"))
+    rows, kept = _measured_points(scene, env)
     if mesh:
         # trimesh holds the file, its vertices and faces: 609 MB above the
         # interpreter for a 50 MB binary STL of 1e6 triangles (ru_maxrss), ~13 bytes a
         # byte; 11.6 s to read and slice it.
-        rows = 20_000.0  # the section, decimated to at most this
         read, parse = 14.0 * size, 12.0 * size / 50e6
     elif env.measured_dxf:
         # ezdxf holds every entity: ~40 bytes of memory per byte of DXF (measured
         # on LWPOLYLINE contours), then the flattened points.
-        rows = size / 30.0
         read, parse = 40.0 * size, 5e-7 * size
     else:
-        rows = size / 16.0  # "154.5008,0.0003": the shortest useful row
         read, parse = 24 * MB, 7e-7 * rows  # one 4 MB block at a time
-    kept = min(rows, MAX_MEASURED_POINTS)
-    # Registration and deviations: ~1.3 kB a kept point; the deviation table it keeps.
+    # Registration: +157 MB at 200,000 kept points (10^6 rows, stride 5), ~800 B a
+    # point; the placed points, deviations and deviation table stay: 39 MB.
     out = {"measured_profile.dxf": 90 * kept + 0.5 * MB} if "dxf" in scene.formats else {}
     return Cost(
-        memory=max(read, 1300 * kept) + 600 * kept,
-        keeps=1200 * kept,
+        memory=max(read, 1000 * kept) + 200 * kept,
+        keeps=250 * kept,
         seconds=1.0 + parse + 50e-6 * kept,
         output=out,
         libraries=(("trimesh",) if mesh else ()) + (("ezdxf",) if env.measured_dxf or out else ()),
@@ -578,9 +589,7 @@ def _cmm_points(scene, env):
 
 @stage_cost("inspection")
 def _inspection(scene, env):
-    from corr_cad.export.measured_io import MAX_MEASURED_POINTS
-
-    kept = min(env.measured_bytes / 16.0, MAX_MEASURED_POINTS)
+    _, kept = _measured_points(scene, env)
     key, cells = _force_cells(scene)
     memory, seconds, knobs = 0.0, 0.0, ()
     if not ("datasheet" in scene.formats or scene.checks.datasheet_active()):
@@ -592,7 +601,8 @@ def _inspection(scene, env):
         seconds = 1.1e-6 * R * 5 * R * turn
         knobs = ("[datasheet] transmission_error_positions_per_turn",)
     return Cost(
-        memory=30 * MB + 600 * kept + 2 * 240 * cells + memory,
+        # 54 MB above the stages before at 200,000 kept points, matplotlib's import included.
+        memory=30 * MB + 300 * kept + 2 * 240 * cells + memory,
         seconds=6.0 + 2e-5 * kept + 2e-6 * cells + seconds,
         output={"inspection.*": 0.3 * MB},
         libraries=("matplotlib",),

@@ -23,6 +23,7 @@ checked at load time.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass, replace
@@ -187,13 +188,17 @@ def _duration(s: float) -> str:
 def _env(scene, workers: int, executor: str, sizes: SceneSize) -> Env:
     # The meshes and the STEP ring: sizes holds their counts exactly where the
     # plan has solids, step_files or the mesh interference (0 elsewhere).
-    size, is_dxf = 0, False
+    size, is_dxf, lines, kept = 0, False, 0, 0
     if scene.measured_profile is not None:
         try:
-            size = os.stat(scene.measured_profile).st_size
+            st = os.stat(scene.measured_profile)
+            size = st.st_size
         except OSError:
             size = 0  # the stage reports it
         is_dxf = str(scene.measured_profile).lower().endswith(".dxf")
+        mesh = str(scene.measured_profile).lower().endswith((".stl", ".ply"))
+        if size and not (is_dxf or mesh):
+            lines, kept = _csv_points(str(scene.measured_profile), size, st.st_mtime_ns)
     local = workers if executor == "process" else 0
     return Env(
         workers=1 if executor == "serial" else workers,
@@ -205,7 +210,18 @@ def _env(scene, workers: int, executor: str, sizes: SceneSize) -> Env:
         spline_points=sizes.spline_points,
         measured_bytes=size,
         measured_dxf=is_dxf,
+        measured_lines=lines,
+        measured_kept=kept,
     )
+
+
+@functools.lru_cache(maxsize=8)
+def _csv_points(path: str, size: int, mtime_ns: int) -> tuple[int, int]:
+    """A measured CSV's lines and kept points, counted once per file version (the
+    refusal's search estimates a scene many times)."""
+    from corr_cad.export.measured_io import csv_points_kept
+
+    return csv_points_kept(path)
 
 
 def _unknown(scene, env) -> Cost:
