@@ -77,3 +77,27 @@ def test_warm_process_workers_write_the_serial_runs_bytes(tmp_path):
     with ProcessPoolExecutor(2, initializer=_worker_init, initargs=init) as pool:
         _run(scene, tmp_path / "pool", pool)
     assert _files(tmp_path / "pool") == _files(tmp_path / "serial")
+
+
+def test_workers_import_the_kernels_ahead_only_where_the_samples_use_them():
+    import tomllib
+
+    from corr_cad.run.cli import _warm_modules
+
+    def scene(text: str):
+        return parse_scene(tomllib.loads(text), name="s")
+
+    assert _warm_modules(_scene()) == WARM_MODULES  # the datasheet metrics: always compiled
+    mc = "[load]\ninput_torque = 1.1e5\n[tolerances]\nroller_radius = { normal = 0.001 }\n"
+    few = scene('[export]\nformats = ["montecarlo"]\n' + mc + "[montecarlo]\nsamples = 100\n")
+    many = scene(
+        '[export]\nformats = ["montecarlo"]\n' + mc + "[montecarlo]\nsamples = 30000\n"
+        "positions = 36\n"  # 1.08e6 samples x positions: the compiled kernel
+    )
+    alloc = scene(
+        '[export]\nformats = ["allocation"]\n' + mc + "[checks]\nmax_gear_force = 5000.0\n"
+    )
+    assert _warm_modules(few) == ()  # the numpy path: numba would only take memory
+    assert _warm_modules(many) == WARM_MODULES
+    assert _warm_modules(alloc) == ()
+    assert _warm_modules(scene('[export]\nformats = ["forces"]\n' + mc)) == ()

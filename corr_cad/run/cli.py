@@ -290,15 +290,33 @@ def _flag(args: argparse.Namespace, flag: str):
     return getattr(args, flag.lstrip("-").replace("-", "_"))
 
 
-#: What a pool worker of a Monte Carlo or an allocation imports at its first
-#: task (numba and the compiled kernels' modules): imported when the worker
-#: starts instead, while the main process is still busy with the stages before.
-WARM_MODULES = (
-    "corr_cad.tolerance.montecarlo",
-    "corr_cad.tolerance.mc_datasheet",
-    "corr_cad.mechanics.mc_kernel",
-    "corr_cad.mechanics.mc_windup_kernel",
-)
+#: numba and the compiled kernels' modules, which a pool worker of a Monte
+#: Carlo on the compiled kernel imports at its first task: imported when the
+#: worker starts instead, while the main process runs the stages before.
+WARM_MODULES = ("corr_cad.mechanics.mc_kernel", "corr_cad.mechanics.mc_windup_kernel")
+
+
+def _warm_modules(scene) -> tuple[str, ...]:
+    """What the pool's workers import ahead for this scene (:data:`WARM_MODULES`, or none).
+
+    The Monte Carlo's own modules are imported here, in the main process, which
+    needs them too: the workers it forks next have them without importing. The
+    kernels only where the samples use them (the datasheet metrics, or
+    ``KERNEL_MIN_WORK`` samples x positions); elsewhere numba would only take
+    the workers' memory.
+    """
+    if not {"montecarlo", "allocation"} & set(scene.formats):
+        return ()
+    import corr_cad.tolerance.mc_datasheet  # noqa: F401
+    from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics
+    from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
+
+    mc = scene.montecarlo
+    work = mc["samples"] * mc["positions"] >= KERNEL_MIN_WORK
+    if "montecarlo" in scene.formats and not scene.solver.drive:
+        if work or wants_datasheet_metrics(scene):
+            return WARM_MODULES
+    return ()
 
 
 def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
@@ -414,8 +432,7 @@ def _executor(
 
     from corr_cad.run.stages.concurrent import kill_pool
 
-    warm = WARM_MODULES if {"montecarlo", "allocation"} & set(scene.formats) else ()
-    pool = _start_pool(ProcessPoolExecutor, args.workers, warm)
+    pool = _start_pool(ProcessPoolExecutor, args.workers, _warm_modules(scene))
     try:
         yield pool
     except BaseException:
