@@ -290,12 +290,42 @@ def _flag(args: argparse.Namespace, flag: str):
     return getattr(args, flag.lstrip("-").replace("-", "_"))
 
 
-def _worker_init(parent_pid: int) -> None:
+#: numba and the compiled kernels' modules, which a pool worker of a Monte
+#: Carlo on the compiled kernel imports at its first task: imported when the
+#: worker starts instead, while the main process runs the stages before.
+WARM_MODULES = ("corr_cad.mechanics.mc_kernel", "corr_cad.mechanics.mc_windup_kernel")
+
+
+def _warm_modules(scene) -> tuple[str, ...]:
+    """What the pool's workers import ahead for this scene (:data:`WARM_MODULES`, or none).
+
+    The Monte Carlo's own modules are imported here, in the main process, which
+    needs them too: the workers it forks next have them without importing. The
+    kernels only where the samples use them (the datasheet metrics, or
+    ``KERNEL_MIN_WORK`` samples x positions); elsewhere numba would only take
+    the workers' memory.
+    """
+    if not {"montecarlo", "allocation"} & set(scene.formats):
+        return ()
+    import corr_cad.tolerance.mc_datasheet  # noqa: F401
+    from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics
+    from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
+
+    mc = scene.montecarlo
+    work = mc["samples"] * mc["positions"] >= KERNEL_MIN_WORK
+    if "montecarlo" in scene.formats and not scene.solver.drive:
+        if work or wants_datasheet_metrics(scene):
+            return WARM_MODULES
+    return ()
+
+
+def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
     """Process-pool worker start: die with the main process, leave Ctrl-C to it.
 
     On Linux the kernel sends SIGKILL when the parent dies (PR_SET_PDEATHSIG);
     a daemon thread polling ``os.getppid()`` covers other platforms and the
-    instant before the ``prctl`` call.
+    instant before the ``prctl`` call. Then the modules ``warm`` are imported
+    (:data:`WARM_MODULES`), which the tasks would otherwise import.
     """
     import signal
     import threading
@@ -331,6 +361,10 @@ def _worker_init(parent_pid: int) -> None:
             time.sleep(0.2)
 
     threading.Thread(target=watch, name="corr-cad-parent-watch", daemon=True).start()
+    import importlib
+
+    for name in warm:
+        importlib.import_module(name)
 
 
 def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
@@ -398,7 +432,7 @@ def _executor(
 
     from corr_cad.run.stages.concurrent import kill_pool
 
-    pool = _start_pool(ProcessPoolExecutor, args.workers)
+    pool = _start_pool(ProcessPoolExecutor, args.workers, _warm_modules(scene))
     try:
         yield pool
     except BaseException:
@@ -407,7 +441,7 @@ def _executor(
     pool.shutdown(wait=True)
 
 
-def _start_pool(pool_type, workers: int | None):
+def _start_pool(pool_type, workers: int | None, warm: tuple[str, ...] = ()):
     """A process pool whose workers are forked now, with SIGINT and SIGTERM held.
 
     A signal that arrives while the pool forks would run its handler inside
@@ -420,7 +454,7 @@ def _start_pool(pool_type, workers: int | None):
     import signal
 
     held = {signal.SIGINT, signal.SIGTERM}
-    pool = pool_type(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),))
+    pool = pool_type(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(), warm))
     if threading.current_thread() is not threading.main_thread():
         return pool
     old = signal.pthread_sigmask(signal.SIG_BLOCK, held)

@@ -6,7 +6,8 @@ datasheet metrics, 36 positions a sample) runs through the real CLI
 From the Monte Carlo stage's own time (``manifest.json``) come the marginal
 rate (samples/s between the two runs), the fixed cost (the stage's time at
 the smaller count less its samples at that rate: pool tasks, numba loading
-the cached kernels in every worker, the nominal solve, the plot) and the
+the cached kernels in every worker, the nominal solve, the plot), the
+stage's time with one sample (the same fixed cost, measured directly) and the
 parallel efficiency (the rate over ``N`` times the one-worker rate). The
 peak memory of the larger run is the machine's (``tree`` of
 :func:`~corr_cad.run.bench.bench_resources.measure`), beside the estimate. The
@@ -89,6 +90,7 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
     mb = 1024.0**2
     machine = machine_line()
     for n in counts:
+        t_one, _, _ = _one(1, n)  # the fixed cost itself: the stage with one sample
         t_small, _, _ = _one(small, n)
         t_large, got, est = _one(large, n)
         rate = (large - small) / max(t_large - t_small, 1e-9)
@@ -103,6 +105,7 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
                 rate,
                 rate * base[0] / (n * base[1]),
                 fixed,
+                t_one,
                 got["tree"] / mb,
                 est / mb,
                 est / got["tree"],
@@ -116,6 +119,7 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
         "samples_per_s",
         "parallel_efficiency",
         "fixed_cost_s",
+        "one_sample_s",
         "peak_MB",
         "est_memory_MB",
         "memory_ratio",

@@ -23,7 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from corr_cad.run.budget.costs_measured import measured_stage
+from corr_cad.run.budget.costs_measured import measured_points, measured_stage
 from corr_cad.run.budget.costs_montecarlo import datasheet_pass
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
@@ -62,9 +62,14 @@ class Env:
     #: Bytes of the measured-profile file (0: none).
     measured_bytes: int = 0
     measured_dxf: bool = False
+    #: A measured CSV's lines and kept points (``measured_io.csv_points_kept``; 0: size-based).
+    measured_lines: int = 0
+    measured_kept: int = 0
     #: The same of ``[errors.row_b] measured_profile`` (ring B's).
     measured_b_bytes: int = 0
     measured_b_dxf: bool = False
+    measured_b_lines: int = 0
+    measured_b_kept: int = 0
 
 
 @dataclass(frozen=True)
@@ -560,11 +565,15 @@ def _cmm_points(scene, env):
 
 @stage_cost("inspection")
 def _inspection(scene, env):
-    from corr_cad.export.measured_io import MAX_MEASURED_POINTS
-
     drive = scene.solver.drive
     row_b = (scene.inspection.get("row") or "a") == "b"
-    kept = min((env.measured_b_bytes if row_b else env.measured_bytes) / 16.0, MAX_MEASURED_POINTS)
+    if row_b:
+        path = scene.measured_profile_b
+        file = (env.measured_b_bytes, env.measured_b_dxf, env.measured_b_lines, env.measured_b_kept)
+    else:
+        path = scene.measured_profile
+        file = (env.measured_bytes, env.measured_dxf, env.measured_lines, env.measured_kept)
+    _, kept = measured_points(path, *file)
     key, cells = _force_cells(scene)
     memory, seconds, knobs = 0.0, 0.0, ()
     if drive:  # both rows, at the drive's cost per cell (bearings included)
@@ -579,7 +588,8 @@ def _inspection(scene, env):
         seconds = 1.1e-6 * R * 5 * R * turn * (DRIVE_CELLS if drive else 1.0)
         knobs = ("[datasheet] transmission_error_positions_per_turn",)
     return Cost(
-        memory=30 * MB + 600 * kept + 2 * 240 * cells + memory,
+        # 54 MB above the stages before at 200,000 kept points, matplotlib's import included.
+        memory=30 * MB + 300 * kept + 2 * 240 * cells + memory,
         seconds=6.0 + 2e-5 * kept + 2e-6 * cells + seconds,
         output={"inspection.*": 0.3 * MB},
         libraries=("matplotlib",),

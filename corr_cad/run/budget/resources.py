@@ -23,6 +23,7 @@ checked at load time.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass, replace
@@ -33,11 +34,13 @@ from corr_cad.run.budget.costs import ESTIMATORS, LIBRARY_BYTES, WORKER_BYTES, C
 from corr_cad.run.scene.limits import (  # noqa: F401  (re-exported: the limits are part of this interface)
     MAX_MESH_TRIANGLES,
     MAX_PROFILE_VERTICES,
+    SceneSize,
     check_structure,
     mesh_triangles,
     polyline_segments,
     profile_vertices,
     round_up,
+    scene_size,
 )
 from corr_cad.run.scene.scene_schema import SCHEMA
 
@@ -182,43 +185,55 @@ def _duration(s: float) -> str:
     return duration(s)
 
 
-def _env(scene, workers: int, executor: str, vertices: float, stages: list[str]) -> Env:
-    tri, parts = (0.0, 0.0)
-    if {"solids", "step_files", "interference"} & set(stages):
-        tri, parts = mesh_triangles(scene.design, scene.chord_tolerance, scene.modification)
-    spline = (
-        profile_vertices(scene.design, "spline", scene.chord_tolerance, scene.modification)
-        if "step_files" in stages
-        else 0
-    )
-    size, is_dxf = _file_size(scene.measured_profile)
-    size_b, is_dxf_b = _file_size(getattr(scene, "measured_profile_b", None))
+def _env(scene, workers: int, executor: str, sizes: SceneSize) -> Env:
+    # The meshes and the STEP ring: sizes holds their counts exactly where the
+    # plan has solids, step_files or the mesh interference (0 elsewhere).
+    size, is_dxf, lines, kept = _measured_file(scene.measured_profile)
+    size_b, is_dxf_b, lines_b, kept_b = _measured_file(getattr(scene, "measured_profile_b", None))
     local = workers if executor == "process" else 0
     return Env(
         workers=1 if executor == "serial" else workers,
         local_workers=local,
         remote=executor == "dask",
-        triangles=tri,
-        part_triangles=parts,
-        vertices=vertices,
-        spline_points=spline,
+        triangles=sizes.mesh_triangles,
+        part_triangles=sizes.part_triangles,
+        vertices=sizes.profile_vertices,
+        spline_points=sizes.spline_points,
         measured_bytes=size,
         measured_dxf=is_dxf,
+        measured_lines=lines,
+        measured_kept=kept,
         measured_b_bytes=size_b,
         measured_b_dxf=is_dxf_b,
+        measured_b_lines=lines_b,
+        measured_b_kept=kept_b,
     )
 
 
-def _file_size(path) -> tuple[int, bool]:
-    """A measured profile's size in bytes (0: none, or unreadable: the stage reports it) and
-    whether it is a DXF."""
+def _measured_file(path) -> tuple[int, bool, int, int]:
+    """A measured profile's size in bytes (0: none, or unreadable: the stage reports it),
+    whether it is a DXF, and a CSV's lines and kept points (0, 0 otherwise)."""
     if path is None:
-        return 0, False
+        return 0, False, 0, 0
     try:
-        size = os.stat(path).st_size
+        st = os.stat(path)
     except OSError:
-        size = 0
-    return size, str(path).lower().endswith(".dxf")
+        return 0, False, 0, 0
+    name = str(path).lower()
+    is_dxf = name.endswith(".dxf")
+    lines = kept = 0
+    if st.st_size and not (is_dxf or name.endswith((".stl", ".ply"))):
+        lines, kept = _csv_points(str(path), st.st_size, st.st_mtime_ns)
+    return st.st_size, is_dxf, lines, kept
+
+
+@functools.lru_cache(maxsize=8)
+def _csv_points(path: str, size: int, mtime_ns: int) -> tuple[int, int]:
+    """A measured CSV's lines and kept points, counted once per file version (the
+    refusal's search estimates a scene many times)."""
+    from corr_cad.export.measured_io import csv_points_kept
+
+    return csv_points_kept(path)
 
 
 def _unknown(scene, env) -> Cost:
@@ -249,10 +264,8 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
 
     workers = workers or default_workers()
     stages = _stages(scene)
-    verts = profile_vertices(
-        scene.design, scene.representation, scene.tolerance, scene.modification
-    )
-    env = _env(scene, workers, executor, verts, stages)
+    sizes = scene_size(scene)  # computed once per scene, with the structural check
+    env = _env(scene, workers, executor, sizes)
     costs = {name: ESTIMATORS.get(name, _unknown)(scene, env) for name in stages}
     aside = set()
     if executor == "process" and workers >= 2:
@@ -287,7 +300,7 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
         seconds=seconds,
         output=output,
         output_bytes=float(sum(output.values())),
-        profile_vertices=verts if "dxf" in scene.formats else 0.0,
+        profile_vertices=sizes.profile_vertices if "dxf" in scene.formats else 0.0,
         mesh_triangles=tri,
         workers=env.workers,
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,6 +24,8 @@ __all__ = [
     "modified_ratio",
     "mesh_triangles",
     "check_structure",
+    "SceneSize",
+    "scene_size",
     "tolerance_floors",
     "round_up",
 ]
@@ -105,10 +108,15 @@ def _power(x: float, ratio: float, exponent: float) -> float:
 _REPR = {"polyline": (0.5, 1.9), "arcs": (1.0 / 3.0, 0.6), "spline": (0.25, 0.3)}
 
 
-def _closed_form_vertices(design, representation: str, tol: float) -> float:
+def _vertex_law(design, representation: str, modification=None):
+    """``tol -> vertices`` of the ring's profile in ``representation``: the closed form
+    from the curvature, times :func:`modified_ratio`; the expensive parts (the
+    curvature integral, the modified ring's approximation) computed once here."""
     exponent, ratio = _REPR[representation]
     work, locus = _curvature_integrals(design)
-    return _power(ratio * (max(work, locus) + 1.0), 1e-3 / tol, exponent)
+    base = ratio * (max(work, locus) + 1.0)
+    wave = modified_ratio(design, modification, representation)
+    return lambda tol: _power(base, 1e-3 / tol, exponent) * wave
 
 
 #: The tolerance at which a modified ring is approximated to scale the estimate, mm.
@@ -146,8 +154,32 @@ def profile_vertices(design, representation: str, tol: float, modification=None)
     The closed form from the curvature, times :func:`modified_ratio` for a
     ring with a ``[modification] normal_table``.
     """
-    count = _closed_form_vertices(design, representation, tol)
-    return count * modified_ratio(design, modification, representation)
+    return _vertex_law(design, representation, modification)(tol)
+
+
+def _mesh_law(design, modification=None):
+    """``chord -> (assembly, part) triangles``, the ring's curvature and waves computed once."""
+    work, _ = _curvature_integrals(design)
+    R = design.roller_count
+    wave = modified_ratio(design, modification, "polyline")
+
+    def triangles(chord: float) -> tuple[float, float]:
+        ring = (
+            wave * _power(work, 1e-3 / chord, 0.5) + 1.0 + _circle(design.ring_outer_radius, chord)
+        )
+        cam = _circle(design.cam_radius, chord) + _circle(design.cam_bore_radius, chord)
+        roller = _circle(design.roller_radius, chord)
+        frame = (
+            _circle(design.frame_inner_radius, chord)
+            + _circle(design.frame_outer_radius, chord)
+            + R * roller
+        )
+        # An extruded polygon of V vertices: 2 caps of V - 2 triangles, 2V on the side.
+        asm = MESH_CALIBRATION * 4.0 * (ring + 2 * cam + 2 * R * roller + 2 * frame)
+        parts = MESH_CALIBRATION * 4.0 * (ring + cam + roller + frame)
+        return asm, parts
+
+    return triangles
 
 
 def mesh_triangles(design, chord: float, modification=None) -> tuple[float, float]:
@@ -156,21 +188,7 @@ def mesh_triangles(design, chord: float, modification=None) -> tuple[float, floa
     The ring's outline follows a modification's waves as its polyline does
     (:func:`modified_ratio`).
     """
-    work, _ = _curvature_integrals(design)
-    R = design.roller_count
-    wave = modified_ratio(design, modification, "polyline")
-    ring = wave * _power(work, 1e-3 / chord, 0.5) + 1.0 + _circle(design.ring_outer_radius, chord)
-    cam = _circle(design.cam_radius, chord) + _circle(design.cam_bore_radius, chord)
-    roller = _circle(design.roller_radius, chord)
-    frame = (
-        _circle(design.frame_inner_radius, chord)
-        + _circle(design.frame_outer_radius, chord)
-        + R * roller
-    )
-    # An extruded polygon of V vertices: 2 caps of V - 2 triangles, 2V on the side.
-    asm = MESH_CALIBRATION * 4.0 * (ring + 2 * cam + 2 * R * roller + 2 * frame)
-    parts = MESH_CALIBRATION * 4.0 * (ring + cam + roller + frame)
-    return asm, parts
+    return _mesh_law(design, modification)(chord)
 
 
 #: Formats for which the solids are meshed (and the triangle limit applies);
@@ -185,17 +203,79 @@ def _meshes(scene) -> bool:
     return bool(_MESHED & f) or mesh_interference
 
 
+@dataclass(frozen=True)
+class SceneSize:
+    """What a scene's run will build, computed once on the way in (:func:`scene_size`).
+
+    The structural limits (:func:`check_structure`) and the resource
+    estimate (:func:`corr_cad.run.budget.resources.estimate`) both read it.
+    """
+
+    #: Vertices or control points of the ring's profile in ``[export]
+    #: representation`` at ``tolerance`` (whether or not a DXF is written: the
+    #: wire-EDM and CMM estimates read it too).
+    profile_vertices: float
+    #: Control points of the ring's spline at ``chord_tolerance`` (the STEP ring); 0 without STEP.
+    spline_points: float
+    #: Triangles of the assembly mesh and of the part meshes; 0 where nothing is meshed.
+    mesh_triangles: float
+    part_triangles: float
+    #: :func:`tolerance_floors`: ``(key, value, floor, why)`` of each tolerance the scene uses.
+    floors: tuple
+
+
+def _size_key(scene) -> tuple:
+    """What a :class:`SceneSize` depends on (a scene is frozen: this guards a copy made by hand)."""
+    return (
+        scene.design,
+        tuple(scene.formats),
+        scene.representation,
+        scene.tolerance,
+        scene.chord_tolerance,
+        scene.interference_method,
+        id(scene.modification),
+        scene.measured_profile is None,
+    )
+
+
+def scene_size(scene) -> SceneSize:
+    """The scene's :class:`SceneSize`, computed at the first call and kept on the scene."""
+    key = _size_key(scene)
+    kept = getattr(scene, "_corr_cad_size", None)
+    if kept is not None and kept[0] == key:
+        return kept[1]
+    d, mod, f = scene.design, scene.modification, set(scene.formats)
+    floors = tuple(tolerance_floors(scene))
+    tri = parts = 0.0
+    if _meshes(scene):
+        tri, parts = mesh_triangles(d, scene.chord_tolerance, mod)
+    size = SceneSize(
+        profile_vertices=profile_vertices(d, scene.representation, scene.tolerance, mod),
+        spline_points=profile_vertices(d, "spline", scene.chord_tolerance, mod)
+        if "step" in f
+        else 0.0,
+        mesh_triangles=tri,
+        part_triangles=parts,
+        floors=floors,
+    )
+    try:  # a frozen dataclass: not a field, so dataclasses.replace() starts afresh
+        object.__setattr__(scene, "_corr_cad_size", (key, size))
+    except (AttributeError, TypeError):  # pragma: no cover - an object with __slots__
+        pass
+    return size
+
+
 def check_structure(scene) -> tuple[float, float]:
     """Refuse a tolerance finer than the design can honour (:func:`tolerance_floors`),
     which covers a DXF profile beyond ``MAX_PROFILE_VERTICES`` and a mesh beyond
-    ``MAX_MESH_TRIANGLES``; the two counts (0 where not made)."""
-    _check_tolerances(scene)
-    f = set(scene.formats)
-    mod = scene.modification
-    verts = profile_vertices(scene.design, scene.representation, scene.tolerance, mod)
-    verts = verts if "dxf" in f else 0.0
-    tri = mesh_triangles(scene.design, scene.chord_tolerance, mod)[0] if _meshes(scene) else 0.0
-    return verts, tri
+    ``MAX_MESH_TRIANGLES``; the two counts (0 where not made).
+
+    Reads :func:`scene_size`: the check is made once per scene, however often it is called.
+    """
+    size = scene_size(scene)
+    _check_tolerances(size.floors)
+    verts = size.profile_vertices if "dxf" in scene.formats else 0.0
+    return verts, size.mesh_triangles
 
 
 #: The finest tolerance accepted, as a fraction of the largest coordinate it
@@ -247,30 +327,22 @@ def tolerance_floors(scene) -> list[tuple[str, float, float, list[str]]]:
         uses.append(("arcs", 0.7, "the wire-EDM path (arcs to 0.7 of it)"))
     budgets = []
     for rep, share, what in uses:
-        need = functools.partial(_share_vertices, d, rep, share, scene.modification)
+        need = functools.partial(_share, _vertex_law(d, rep, mod), share)
         budgets.append((need, MAX_PROFILE_VERTICES, what, "vertices"))
     if uses:
         out.append(_floor(scene.tolerance, "tolerance", profile, "profile", budgets))
     if _meshes(scene):
         size = max(d.ring_outer_radius, d.frame_outer_radius, profile)
+        law = _mesh_law(d, mod)
         budget = [
-            (
-                functools.partial(_assembly_triangles, d, scene.modification),
-                MAX_MESH_TRIANGLES,
-                "the assembly mesh",
-                "triangles",
-            )
+            (lambda chord: law(chord)[0], MAX_MESH_TRIANGLES, "the assembly mesh", "triangles")
         ]
         out.append(_floor(scene.chord_tolerance, "chord_tolerance", size, "part", budget))
     return out
 
 
-def _share_vertices(design, rep: str, share: float, modification, tol: float) -> float:
-    return profile_vertices(design, rep, share * tol, modification)
-
-
-def _assembly_triangles(design, modification, chord: float) -> float:
-    return mesh_triangles(design, chord, modification)[0]
+def _share(law, share: float, tol: float) -> float:
+    return law(share * tol)
 
 
 def _floor(value: float, key: str, size: float, what_size: str, budgets) -> tuple:
@@ -287,8 +359,8 @@ def _floor(value: float, key: str, size: float, what_size: str, budgets) -> tupl
     return key, value, floor, why
 
 
-def _check_tolerances(scene) -> None:
-    for key, value, floor, why in tolerance_floors(scene):
+def _check_tolerances(floors) -> None:
+    for key, value, floor, why in floors:
         if not why:
             continue
         ok = round_up(floor)
