@@ -35,6 +35,10 @@ _CHECK_UNITS = {
     "max_backlash_arcmin": "arcmin",
     "min_torsional_rigidity_Nm_per_arcmin": "N*m/arcmin",
     "max_transmission_error_arcsec": "arcsec",
+    "min_efficiency": "",
+    "min_life_h": "h",
+    "max_first_stage_bending_MPa": "MPa",
+    "max_first_stage_contact_MPa": "MPa",
 }
 #: Every column of ``montecarlo_summary.json``'s percentiles: the force
 #: metrics, and the datasheet metrics when the Monte Carlo carries them
