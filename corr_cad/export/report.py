@@ -56,6 +56,7 @@ METRIC_LABELS = {
 }
 _PLOT_CAPTIONS = {
     "preview.png": "The stage at crank angle 0 (shaded: material) and a tooth close-up",
+    "first_stage.png": "The first gear stage at crank angle 0 and wheel 1's two meshes",
     "forces.png": "Forces over the cycle: envelope over all rollers, roller 1, contact pressure",
     "load_distribution.png": "Forces on every roller where the gear force peaks",
     "interference.png": "Interference check against the tessellation allowance",
