@@ -361,3 +361,56 @@ def test_missing_extra_gives_install_hint(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_ocp)
     with pytest.raises(ExportError, match=r"pip install -e '\.\[step\]'"):
         step.require_ocp()
+
+
+@pytest.mark.parametrize("part", ["pinion", "crank_gear"])
+def test_gear_tips_and_roots_are_exact_whole_arcs(part):
+    """Each tooth's tip and root are one circle edge about the centre (not two
+    B-spline halves); the tip edge spans the tooth's tip thickness, from the
+    textbook: ``s_a = 2 r_a (s / 2r + inv(alpha) - inv(alpha_a))`` (for the
+    internal gear, the pitch less its space, shaped like that tooth)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.BRepCheck import BRepCheck_Analyzer
+    from OCP.GeomAbs import GeomAbs_BSplineCurve, GeomAbs_Circle
+    from OCP.OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    from corr_cad.geometry.first_stage import FirstStage, first_stage_geometry
+    from corr_cad.geometry.gear_outline import spline_gear
+
+    m, alpha, j, x = 1.5, math.radians(20.0), 0.03, 0.5
+    geom = first_stage_geometry(
+        FirstStage(18, 36, 90, m, 15.0, shift_pinion=x, shift_crank_gear=x, backlash_allowance=j)
+    )
+    g = getattr(geom, part)
+    z, r, r_a = g.teeth, m * g.teeth / 2, g.tip
+    alpha_a = math.acos(r * math.cos(alpha) / r_a)
+    # the pinion's tooth, thinned by the allowance; the internal gear's space,
+    # shaped like an external tooth, widened by it
+    s = m * (math.pi / 2 + 2 * x * math.tan(alpha)) + (j if g.internal else -j)
+    tooth_or_space = s / r + 2 * ((math.tan(alpha) - alpha) - (math.tan(alpha_a) - alpha_a))
+    # the internal gear's tooth at its tip is the pitch less its space there
+    tip_span = 2 * math.pi / z - tooth_or_space if g.internal else tooth_or_space
+    outline = spline_gear(g, TOL)
+    pieces = (
+        [(g.root_radius + 5.0, [outline], 5.0, 0.0)] if g.internal else [(outline, [2.0], 5.0, 0.0)]
+    )
+    solid = step.stacked_shape(pieces)
+    assert BRepCheck_Analyzer(solid).IsValid()
+    edges = IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher()
+    step._static(TopExp, "MapShapes")(solid, TopAbs_EDGE, edges)
+    circles, splines = {}, 0
+    for i in range(1, edges.Extent() + 1):
+        c = BRepAdaptor_Curve(step._static(TopoDS, "Edge")(edges.FindKey(i)))
+        if c.GetType() == GeomAbs_Circle:
+            span = abs(c.LastParameter() - c.FirstParameter())
+            circles.setdefault(round(c.Circle().Radius(), 6), []).append(span)
+        elif c.GetType() == GeomAbs_BSplineCurve:
+            splines += 1
+    # top and bottom outlines: z tip arcs, z root arcs and 4 z B-splines each
+    assert len(circles[round(r_a, 6)]) == 2 * z
+    assert len(circles[round(g.root_radius, 6)]) == 2 * z
+    assert splines == 2 * 4 * z
+    assert np.array(circles[round(r_a, 6)]) == pytest.approx(tip_span, abs=1e-9)

@@ -172,14 +172,17 @@ class GearSplines:
     """Tooth 0's outline as one clamped cubic B-spline per smooth segment, measured.
 
     ``splines`` are scipy ``BSpline`` objects on ``u`` in ``[0, 1]``, in the order of
-    :func:`~corr_cad.geometry.involute.tooth_segments`; the other teeth are
-    rotations by whole pitches. ``max_deviation`` is measured both ways (mm).
+    :func:`~corr_cad.geometry.involute.tooth_segments`, ``kinds`` their segment
+    kinds (``root`` and ``tip`` are arcs about the gear's centre); the other
+    teeth are rotations by whole pitches. ``max_deviation`` is measured both
+    ways (mm).
     """
 
     splines: list
     teeth: int
     max_deviation: float
     tolerance: float
+    kinds: tuple[str, ...] = ()
 
     @property
     def within_tolerance(self) -> bool:
@@ -226,4 +229,4 @@ def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
         BSpline((1.0 - spl.t)[::-1], spl.c[::-1] * np.array([-1.0, 1.0]), spl.k)
         for spl in reversed(splines)
     ]
-    return GearSplines(minus + splines, g.teeth, worst, tol)
+    return GearSplines(minus + splines, g.teeth, worst, tol, tuple(s.kind for s in segs))
