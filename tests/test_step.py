@@ -11,6 +11,8 @@ formula (``A + r P + pi r^2`` and ``P + 2 pi r``, valid without undercut).
 import builtins
 import json
 import math
+import os
+import shutil
 import subprocess
 import sys
 
@@ -414,3 +416,65 @@ def test_gear_tips_and_roots_are_exact_whole_arcs(part):
     assert len(circles[round(g.root_radius, 6)]) == 2 * z
     assert splines == 2 * 4 * z
     assert np.array(circles[round(r_a, 6)]) == pytest.approx(tip_span, abs=1e-9)
+
+
+_FREECAD_SCRIPT = """
+import json, os, sys
+import Part
+shape = Part.read(sys.argv[-2])
+solids = [[s.Volume, list(s.CenterOfMass), s.isValid()] for s in shape.Solids]
+json.dump(solids, open(sys.argv[-1], "w"))
+sys.stdout.flush()
+os._exit(0)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not shutil.which("freecadcmd"), reason="needs FreeCAD (freecadcmd)")
+def test_freecad_reads_the_whole_drive_assembly_as_placed(tmp_path):
+    """FreeCAD's reader finds every instance of the compound assembly (one
+    product per part, placed by instances) as a valid solid with Open
+    CASCADE's volume and centre of mass, as read here instance by instance."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        "[first_stage]\npinion_teeth = 18\nwheel_teeth = 36\ncrank_gear_teeth = 90\n"
+        "module = 1.5\nshift_pinion = 0.5\nshift_crank_gear = 0.5\nface_width = 15.0\n"
+        '[export]\nformats = ["step"]\nassembly_angles_deg = [25.0]\n'
+    )
+    out = tmp_path / "o"
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    asm = out / "assembly_025deg.step"
+    (tmp_path / "fc.py").write_text(_FREECAD_SCRIPT)
+    # FreeCAD's own Python, without this interpreter's environment
+    env = {
+        "PATH": os.environ.get("PATH", "/usr/bin:/bin"),
+        "HOME": str(tmp_path),
+        "LANG": "C.UTF-8",
+    }
+    subprocess.run(
+        ["freecadcmd", str(tmp_path / "fc.py"), str(asm), str(tmp_path / "fc.json")],
+        env=env,
+        capture_output=True,
+        timeout=600,
+    )
+    theirs = json.loads((tmp_path / "fc.json").read_text())
+    _, parts = step.read_step(asm)
+    assert len(theirs) == len(parts) == 70 and all(valid for _, _, valid in theirs)
+    left = list(range(len(theirs)))
+    for p in parts:
+        g = GProp_GProps()
+        step._static(BRepGProp, "VolumeProperties")(p.shape, g)
+        c = g.CentreOfMass()
+        com = np.array([c.X(), c.Y(), c.Z()])
+        k = min(left, key=lambda i: np.linalg.norm(np.array(theirs[i][1]) - com))
+        left.remove(k)
+        assert theirs[k][0] == pytest.approx(g.Mass(), rel=1e-9), p.name
+        assert np.array(theirs[k][1]) == pytest.approx(com, abs=1e-6), p.name
