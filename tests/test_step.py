@@ -379,6 +379,7 @@ def test_gear_tips_and_roots_are_exact_whole_arcs(part):
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
 
+    from corr_cad.export import step_gears
     from corr_cad.geometry.first_stage import FirstStage, first_stage_geometry
     from corr_cad.geometry.gear_outline import spline_gear
 
@@ -399,7 +400,7 @@ def test_gear_tips_and_roots_are_exact_whole_arcs(part):
     pieces = (
         [(g.root_radius + 5.0, [outline], 5.0, 0.0)] if g.internal else [(outline, [2.0], 5.0, 0.0)]
     )
-    solid = step.stacked_shape(pieces)
+    solid = step_gears.stacked_shape(pieces)
     assert BRepCheck_Analyzer(solid).IsValid()
     edges = IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher()
     step._static(TopExp, "MapShapes")(solid, TopAbs_EDGE, edges)

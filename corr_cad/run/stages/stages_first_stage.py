@@ -113,7 +113,7 @@ def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:
     Each file's facts go into ``report``, its quick box as read back
     (:func:`~corr_cad.export.step.bounding_box`) into ``quick_boxes``.
     """
-    from corr_cad.export import step
+    from corr_cad.export import step, step_gears
     from corr_cad.geometry.gear_outline import spline_gear
 
     tol = ctx.scene.chord_tolerance
@@ -128,7 +128,7 @@ def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:
     }
     shapes = {}
     for part, pieces in profiles.items():
-        shape = step.stacked_shape(pieces)
+        shape = step_gears.stacked_shape(pieces)
         fname = f"{part}.step"
         path = step.write_step(shape, ctx.out / fname, part)
         product, parts = step.read_step(path, heal=False)
