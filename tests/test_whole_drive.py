@@ -253,6 +253,8 @@ def test_report_shows_the_whole_drive(sheet_run):
         "18 / 36 / 90",
     ):
         assert row in html, row
+    # the page names the whole drive, not the second stage alone
+    assert "the whole drive: a first\ngear stage and the second stage" in html
 
 
 def test_datasheet_html_shows_the_whole_drive(sheet_run):
