@@ -30,10 +30,6 @@ def _polygon_wire(points: np.ndarray):
     return mk.Wire()
 
 
-#: Segment kinds of a gear outline that are arcs about the gear's centre.
-_ARC_KINDS = ("root", "tip")
-
-
 def _gear_spline_wire(gs):
     """A gear outline (:class:`~corr_cad.geometry.gear_outline.GearSplines`), tooth by tooth.
 
@@ -48,25 +44,27 @@ def _gear_spline_wire(gs):
     from OCP.OCP.collections import Array1_double, Array1_gp_Pnt, Array1_int
 
     pitch = 2.0 * math.pi / gs.teeth
-    kinds = gs.kinds or ("",) * len(gs.splines)
-    curves = []  # (kind, poles, spline) in outline order
+    curves = []  # (kind, poles or None for an arc) in outline order
     for k in range(gs.teeth):
         c, s = math.cos(k * pitch), math.sin(k * pitch)
-        for kind, spl in zip(kinds, gs.splines, strict=True):
+        for kind, spl in zip(gs.kinds, gs.splines, strict=True):
+            if spl is None:
+                curves.append((kind, None, None))
+                continue
             p = np.asarray(spl.c, dtype=float)
             # polar angles grow by k pitches: (x, y) -> (x c + y s, -x s + y c)
             poles = np.stack([p[:, 0] * c + p[:, 1] * s, -p[:, 0] * s + p[:, 1] * c], 1)
             curves.append((kind, poles, spl))
-    # start on a curve that is not the second half of an arc, then join the halves
-    first = next(
-        i for i, cv in enumerate(curves) if cv[0] != curves[i - 1][0] or cv[0] not in _ARC_KINDS
-    )
+    # start on a B-spline; an arc (its two halves joined) runs from the end of
+    # the spline before it to the start of the spline after it
+    first = next(i for i, cv in enumerate(curves) if cv[1] is not None)
     curves = curves[first:] + curves[:first]
     pieces = []  # (kind, start point, poles of a B-spline or None for an arc, spline)
     for kind, poles, spl in curves:
-        if kind in _ARC_KINDS and pieces and pieces[-1][0] == kind:
-            continue  # the arc's second half: the arc runs on to the next start
-        pieces.append((kind, poles[0], None if kind in _ARC_KINDS else poles, spl))
+        if poles is not None:
+            pieces.append((kind, poles[0], poles, spl))
+        elif pieces[-1][2] is not None:  # an arc's first half starts where a spline ends
+            pieces.append((kind, pieces[-1][2][-1], None, None))
     starts = [BRepBuilderAPI_MakeVertex(_pnt(*p0)).Vertex() for _, p0, _, _ in pieces]
     edges = []
     for i, (kind, p0, poles, spl) in enumerate(pieces):
