@@ -479,3 +479,30 @@ def test_freecad_reads_the_whole_drive_assembly_as_placed(tmp_path):
         left.remove(k)
         assert theirs[k][0] == pytest.approx(g.Mass(), rel=1e-9), p.name
         assert np.array(theirs[k][1]) == pytest.approx(com, abs=1e-6), p.name
+
+
+def test_assembly_product_unlike_its_part_file_fails_the_read_back(tmp_path, monkeypatch, capsys):
+    """The read-back compares each assembly product with its own part file (their
+    quick boxes, equal for equal geometry): a product 1 um off its part file stops
+    the run."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Trsf, gp_Vec
+
+    from corr_cad.run import cli
+
+    real = step.write_assembly_step
+
+    def swapped(shapes, *args, **kw):  # the roller's geometry 1 um off its part file's
+        t = gp_Trsf()
+        t.SetTranslation(gp_Vec(0.0, 0.0, 0.001))
+        moved = BRepBuilderAPI_Transform(shapes["roller"], t, True).Shape()
+        return real({**shapes, "roller": moved}, *args, **kw)
+
+    monkeypatch.setattr(step, "write_assembly_step", swapped)
+    scene = tmp_path / "s.toml"
+    scene.write_text('[export]\nformats = ["step"]\n')
+    code = cli.main(
+        ["run", str(scene), "--out", str(tmp_path / "o"), "--executor", "serial", "--quiet"]
+    )
+    assert code != 0
+    assert "product roller is not roller.step" in capsys.readouterr().err
