@@ -7,6 +7,8 @@ with corr_cad.geometry.involute; the outlines are read back from the DXF files.
 from __future__ import annotations
 
 import math
+import os
+import shutil
 import subprocess
 import sys
 
@@ -195,3 +197,81 @@ def test_round_parts_are_drawn_at_their_stated_sizes(dxf_dir):
         got = {c.dxf.layer: c.dxf.radius for c in doc.modelspace().query("CIRCLE")}
         assert got == pytest.approx(layers), part
     assert lay.shaft_radius == GearDesign().cam_bore_radius  # the cams sit on the shaft
+
+
+def test_gear_files_hold_every_contour_of_the_part(dxf_dir):
+    """The bore of the pinion and the wheel, the crank gear's rim: the file alone cuts the part."""
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.geometry.first_stage_parts import first_stage_layout
+
+    lay = first_stage_layout(GearDesign(), GEOM)
+    want = {
+        "pinion": {"BORE": lay.pinion_bore},
+        "wheel": {"BORE": lay.wheel_bore},
+        "crank_gear": {"RIM_OUTER": lay.rim_outer},
+    }
+    for part, cut in want.items():
+        g = getattr(GEOM, part)
+        doc = ezdxf.readfile(dxf_dir / f"{part}.dxf")
+        got = {c.dxf.layer: c.dxf.radius for c in doc.modelspace().query("CIRCLE")}
+        assert got == pytest.approx(
+            {
+                **cut,
+                "PITCH_CIRCLE": M * g.teeth / 2,
+                "BASE_CIRCLE": M * g.teeth / 2 * math.cos(ALPHA),
+            }
+        ), part
+        # the reference circles look unlike the cut contours (ACI 8, 9: grey)
+        colour = {layer.dxf.name: layer.dxf.color for layer in doc.layers}
+        assert {colour["PITCH_CIRCLE"], colour["BASE_CIRCLE"]} == {8, 9}
+        assert colour["PROFILE"] not in (8, 9) and colour[next(iter(cut))] not in (8, 9)
+
+
+_LIBRECAD = shutil.which("librecad") and shutil.which("pdftoppm")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _LIBRECAD, reason="needs LibreCAD (apt-get install librecad) and pdftoppm")
+def test_librecad_prints_the_gears_at_true_size(dxf_dir, tmp_path):
+    """LibreCAD's own reader (libdxfrw) prints each file at 1:1: the ink spans the outline's box.
+
+    The PDF is rasterised at 254 dpi (10 pixels a millimetre); the drawn
+    extent is the box of the outermost contour, read here from the DXF.
+    """
+    from PIL import Image
+
+    parts = ["pinion", "wheel", "crank_gear", "crankshaft", "wheel_bearing", "crank_bearing"]
+    for part in parts:
+        (tmp_path / f"{part}.dxf").write_bytes((dxf_dir / f"{part}.dxf").read_bytes())
+    env = {**os.environ, "QT_QPA_PLATFORM": "offscreen", "XDG_RUNTIME_DIR": str(tmp_path)}
+    r = subprocess.run(
+        ["librecad", "dxf2pdf", "-s", "1", "-c", "-m", *(f"{p}.dxf" for p in parts)],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert r.returncode == 0, r.stderr
+    for part in parts:
+        subprocess.run(
+            ["pdftoppm", "-png", "-r", "254", "-singlefile", f"{part}.pdf", part],
+            cwd=tmp_path,
+            check=True,
+        )
+        ink = np.array(Image.open(tmp_path / f"{part}.png").convert("L")) < 128
+        rows, cols = np.nonzero(ink)
+        drawn = np.array([np.ptp(cols), np.ptp(rows)]) / 10.0  # mm
+        doc = ezdxf.readfile(tmp_path / f"{part}.dxf")
+        msp = doc.modelspace()
+        polylines = msp.query("LWPOLYLINE")
+        outer = max(
+            c.dxf.radius
+            for c in msp.query("CIRCLE")
+            if c.dxf.layer not in ("PITCH_CIRCLE", "BASE_CIRCLE")
+        )
+        want = np.array([2 * outer, 2 * outer])
+        if polylines:
+            p = np.array([v[:2] for v in polylines[0].get_points()])
+            want = np.maximum(want, np.ptp(p, axis=0))
+        assert drawn == pytest.approx(want, abs=0.3), part

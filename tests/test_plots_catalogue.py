@@ -156,6 +156,13 @@ def test_hysteresis_png_marks_the_catalogue_figures_where_they_are(figures, shee
         "(at zero torque)"
     )
     assert abs(hi - lo - fig_["backlash_arcmin"]["max"]) < 1e-9 * ARCMIN_PER_RAD
+    # the curves cross both labels near zero torque: each stands on a white box above them
+    top = max(ln.get_zorder() for ln in zoom.get_lines())
+    for start in ("backlash", "lost motion"):
+        t = next(t for t in zoom.texts if t.get_text().startswith(start))
+        box = t.get_bbox_patch()
+        assert box is not None and box.get_facecolor()[:3] == (1.0, 1.0, 1.0), start
+        assert box.get_facecolor()[3] >= 0.8 and t.get_zorder() > top, start
     # every position drawn above the marked position's underlay, in its own colour
     under = [ln for ln in full.get_lines() if ln.get_alpha() == 0.35]
     each = [ln for ln in full.get_lines() if ln.get_linewidth() == 0.9]

@@ -273,3 +273,24 @@ def test_every_monte_carlo_metric_has_a_label_and_unit():
     assert METRIC_LABELS["lost_motion_arcmin"][1] == "arcmin"
     assert METRIC_LABELS["torsional_rigidity_Nm_per_arcmin"][1] == "N*m/arcmin"
     assert METRIC_LABELS["transmission_error_arcsec"][1] == "arcsec"
+
+
+def test_every_nominal_check_has_the_unit_its_scene_key_states():
+    """The report's Checks table gives each limit the unit of its ``[checks]`` key
+    (the first stage's two stresses once had none)."""
+    import dataclasses
+    import re
+
+    from corr_cad.export.report import _CHECK_UNITS
+    from corr_cad.run.scene.scene_schema import SCHEMA
+    from corr_cad.tolerance.checks import Checks
+
+    gates = {"max_failure_probability", "max_binding_probability"}  # the Monte Carlo's own rows
+    for f in dataclasses.fields(Checks):
+        if f.name in gates:
+            continue
+        stated = re.search(
+            r", (N\*m/arcmin|MPa|N|arcmin|arcsec|h)(?=$| \()", SCHEMA["checks"][f.name].help
+        )
+        assert _CHECK_UNITS[f.name] == (stated.group(1) if stated else ""), f.name
+    assert _CHECK_UNITS["max_first_stage_bending_MPa"] == "MPa"

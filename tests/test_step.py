@@ -11,6 +11,8 @@ formula (``A + r P + pi r^2`` and ``P + 2 pi r``, valid without undercut).
 import builtins
 import json
 import math
+import os
+import shutil
 import subprocess
 import sys
 
@@ -361,3 +363,146 @@ def test_missing_extra_gives_install_hint(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_ocp)
     with pytest.raises(ExportError, match=r"pip install -e '\.\[step\]'"):
         step.require_ocp()
+
+
+@pytest.mark.parametrize("part", ["pinion", "crank_gear"])
+def test_gear_tips_and_roots_are_exact_whole_arcs(part):
+    """Each tooth's tip and root are one circle edge about the centre (not two
+    B-spline halves); the tip edge spans the tooth's tip thickness, from the
+    textbook: ``s_a = 2 r_a (s / 2r + inv(alpha) - inv(alpha_a))`` (for the
+    internal gear, the pitch less its space, shaped like that tooth)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.BRepCheck import BRepCheck_Analyzer
+    from OCP.GeomAbs import GeomAbs_BSplineCurve, GeomAbs_Circle
+    from OCP.OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    from corr_cad.export import step_gears
+    from corr_cad.geometry.first_stage import FirstStage, first_stage_geometry
+    from corr_cad.geometry.gear_outline import spline_gear
+
+    m, alpha, j, x = 1.5, math.radians(20.0), 0.03, 0.5
+    geom = first_stage_geometry(
+        FirstStage(18, 36, 90, m, 15.0, shift_pinion=x, shift_crank_gear=x, backlash_allowance=j)
+    )
+    g = getattr(geom, part)
+    z, r, r_a = g.teeth, m * g.teeth / 2, g.tip
+    alpha_a = math.acos(r * math.cos(alpha) / r_a)
+    # the pinion's tooth, thinned by the allowance; the internal gear's space,
+    # shaped like an external tooth, widened by it
+    s = m * (math.pi / 2 + 2 * x * math.tan(alpha)) + (j if g.internal else -j)
+    tooth_or_space = s / r + 2 * ((math.tan(alpha) - alpha) - (math.tan(alpha_a) - alpha_a))
+    # the internal gear's tooth at its tip is the pitch less its space there
+    tip_span = 2 * math.pi / z - tooth_or_space if g.internal else tooth_or_space
+    outline = spline_gear(g, TOL)
+    pieces = (
+        [(g.root_radius + 5.0, [outline], 5.0, 0.0)] if g.internal else [(outline, [2.0], 5.0, 0.0)]
+    )
+    solid = step_gears.stacked_shape(pieces)
+    assert BRepCheck_Analyzer(solid).IsValid()
+    edges = IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher()
+    step._static(TopExp, "MapShapes")(solid, TopAbs_EDGE, edges)
+    circles, splines = {}, 0
+    for i in range(1, edges.Extent() + 1):
+        c = BRepAdaptor_Curve(step._static(TopoDS, "Edge")(edges.FindKey(i)))
+        if c.GetType() == GeomAbs_Circle:
+            span = abs(c.LastParameter() - c.FirstParameter())
+            circles.setdefault(round(c.Circle().Radius(), 6), []).append(span)
+        elif c.GetType() == GeomAbs_BSplineCurve:
+            splines += 1
+    # top and bottom outlines: z tip arcs, z root arcs and 4 z B-splines each
+    assert len(circles[round(r_a, 6)]) == 2 * z
+    assert len(circles[round(g.root_radius, 6)]) == 2 * z
+    assert splines == 2 * 4 * z
+    assert np.array(circles[round(r_a, 6)]) == pytest.approx(tip_span, abs=1e-9)
+
+
+_FREECAD_SCRIPT = """
+import json, os, sys
+import Part
+shape = Part.read(sys.argv[-2])
+solids = [[s.Volume, list(s.CenterOfMass), s.isValid()] for s in shape.Solids]
+json.dump(solids, open(sys.argv[-1], "w"))
+sys.stdout.flush()
+os._exit(0)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not shutil.which("freecadcmd"), reason="needs FreeCAD (freecadcmd)")
+def test_freecad_reads_the_whole_drive_assembly_as_placed(tmp_path):
+    """FreeCAD's reader finds every instance of the compound assembly (one
+    product per part, placed by instances) as a valid solid with Open
+    CASCADE's volume and centre of mass, as read here instance by instance."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        "[first_stage]\npinion_teeth = 18\nwheel_teeth = 36\ncrank_gear_teeth = 90\n"
+        "module = 1.5\nshift_pinion = 0.5\nshift_crank_gear = 0.5\nface_width = 15.0\n"
+        '[export]\nformats = ["step"]\nassembly_angles_deg = [25.0]\n'
+    )
+    out = tmp_path / "o"
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    asm = out / "assembly_025deg.step"
+    (tmp_path / "fc.py").write_text(_FREECAD_SCRIPT)
+    # FreeCAD's own Python, without this interpreter's environment
+    env = {
+        "PATH": os.environ.get("PATH", "/usr/bin:/bin"),
+        "HOME": str(tmp_path),
+        "LANG": "C.UTF-8",
+    }
+    subprocess.run(
+        ["freecadcmd", str(tmp_path / "fc.py"), str(asm), str(tmp_path / "fc.json")],
+        env=env,
+        capture_output=True,
+        timeout=600,
+    )
+    theirs = json.loads((tmp_path / "fc.json").read_text())
+    _, parts = step.read_step(asm)
+    assert len(theirs) == len(parts) == 70 and all(valid for _, _, valid in theirs)
+    left = list(range(len(theirs)))
+    for p in parts:
+        g = GProp_GProps()
+        step._static(BRepGProp, "VolumeProperties")(p.shape, g)
+        c = g.CentreOfMass()
+        com = np.array([c.X(), c.Y(), c.Z()])
+        k = min(left, key=lambda i: np.linalg.norm(np.array(theirs[i][1]) - com))
+        left.remove(k)
+        assert theirs[k][0] == pytest.approx(g.Mass(), rel=1e-9), p.name
+        assert np.array(theirs[k][1]) == pytest.approx(com, abs=1e-6), p.name
+
+
+def test_assembly_product_unlike_its_part_file_fails_the_read_back(tmp_path, monkeypatch, capsys):
+    """The read-back compares each assembly product with its own part file (their
+    quick boxes, equal for equal geometry): a product 1 um off its part file stops
+    the run."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    from OCP.gp import gp_Trsf, gp_Vec
+
+    from corr_cad.run import cli
+
+    real = step.write_assembly_step
+
+    def swapped(shapes, *args, **kw):  # the roller's geometry 1 um off its part file's
+        t = gp_Trsf()
+        t.SetTranslation(gp_Vec(0.0, 0.0, 0.001))
+        moved = BRepBuilderAPI_Transform(shapes["roller"], t, True).Shape()
+        return real({**shapes, "roller": moved}, *args, **kw)
+
+    monkeypatch.setattr(step, "write_assembly_step", swapped)
+    scene = tmp_path / "s.toml"
+    scene.write_text('[export]\nformats = ["step"]\n')
+    code = cli.main(
+        ["run", str(scene), "--out", str(tmp_path / "o"), "--executor", "serial", "--quiet"]
+    )
+    assert code != 0
+    assert "product roller is not roller.step" in capsys.readouterr().err

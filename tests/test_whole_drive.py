@@ -253,3 +253,20 @@ def test_report_shows_the_whole_drive(sheet_run):
         "18 / 36 / 90",
     ):
         assert row in html, row
+    # the page names the whole drive, not the second stage alone
+    assert "the whole drive: a first\ngear stage and the second stage" in html
+
+
+def test_datasheet_html_shows_the_whole_drive(sheet_run):
+    """The customer's page gives the total ratio, the first stage's backlash at the
+    output, the mass and the inertia at the input: datasheet.json's exact values."""
+    import re
+
+    d = json.loads((sheet_run / "datasheet.json").read_text())
+    html = (sheet_run / "datasheet.html").read_text()
+    cells = dict(re.findall(r'data-key="([^"]+)" data-value="([^"]+)"', html))
+    assert float(cells["total_ratio"]) == d["total_ratio"] == -130.0
+    assert float(cells["first_stage.lost_motion_arcmin"]) == d["first_stage"]["lost_motion_arcmin"]
+    assert float(cells["mass_kg"]) == d["mass_kg"]
+    assert float(cells["input_inertia_kg_m2"]) == d["input_inertia_kg_m2"]
+    assert "total ratio -130" in html

@@ -143,6 +143,30 @@ def datasheet_rows(sheet: dict) -> list[dict]:
                 f"{n(r['allowable_MPa'])} MPa, the weaker direction",
             )
         )
+    if "total_ratio" in sheet:  # the whole drive: a first gear stage ahead
+        rows += [
+            (
+                "Total ratio",
+                "total_ratio",
+                "",
+                "input pinion to output frame, i1 (z + 1); negative: the output turns "
+                "against the input",
+            ),
+            (
+                "Backlash, first stage",
+                "first_stage.lost_motion_arcmin",
+                "arcmin",
+                "the gear stage's backlash (pinion held) at the output: at the crank over "
+                "z + 1; adds to the backlash and lost motion above",
+            ),
+            ("Mass", "mass_kg", "kg", "every part (steel), as drawn"),
+            (
+                "Inertia at the input",
+                "input_inertia_kg_m2",
+                "kg m^2",
+                "every moving part reflected to the pinion by its speed ratio squared",
+            ),
+        ]
     out = []
     for name, key, unit, convention in rows:
         v = float(_get(sheet, key))
@@ -180,6 +204,11 @@ def _model(sheet: dict, design, title: str, modification: str, version: str) -> 
             f"{catalogue_number(design.roller_radius)} mm, eccentricity "
             f"{catalogue_number(design.eccentricity)} mm, roller length "
             f"{catalogue_number(design.roller_length)} mm",
+        ),
+        *(
+            [("First stage", f"a gear stage ahead of it: total ratio {catalogue_number(ratio)}")]
+            if (ratio := sheet.get("total_ratio")) is not None
+            else []
         ),
         ("Ring", ring_text),
         ("Errors applied", ", ".join(errs) if errs else "none (nominal parts)"),

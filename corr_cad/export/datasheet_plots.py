@@ -42,6 +42,16 @@ def _curve(ds: Datasheet, j: int) -> tuple[np.ndarray, np.ndarray]:
     return ds.windup[:, j] * ARCMIN_PER_RAD, ds.torques / NMM_PER_NM
 
 
+#: Behind a label that the windup curves cross near zero torque: the curves
+#: stop short of its letters.
+_LABEL_BOX = {
+    "boxstyle": "square,pad=0.15",
+    "facecolor": "white",
+    "edgecolor": "none",
+    "alpha": 0.85,
+}
+
+
 def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
     """The lost-motion band; near zero torque the lost motion (on position ``j``, the
     largest) and the backlash (on the position of the largest); on the full curve the
@@ -75,6 +85,8 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
             ha="center",
             va="bottom",
             fontsize=8,
+            bbox=_LABEL_BOX,
+            zorder=6,
         )
         jb = int(np.argmax(ds.backlash()))
         bl_lo, bl_hi = ds.at(-0.0)[jb] * ARCMIN_PER_RAD, ds.at(0.0)[jb] * ARCMIN_PER_RAD
@@ -87,6 +99,8 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
             ha="center",
             va="bottom",
             fontsize=8,
+            bbox=_LABEL_BOX,
+            zorder=6,
         )
         return
     t1, t2 = sp.rigidity_range

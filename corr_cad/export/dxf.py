@@ -55,6 +55,12 @@ LAYERS = {
     "FRAME_OUTER": 7,
     "FRAME_INNER": 7,
     "FRAME_SLOTS": 3,
+    # the first stage's gears: cut contours red (the outline), white (the
+    # rim) and blue (the bore); the reference circles grey
+    "PROFILE": 1,
+    "BORE": 5,
+    "PITCH_CIRCLE": 8,
+    "BASE_CIRCLE": 9,
 }
 
 

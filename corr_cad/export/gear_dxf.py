@@ -3,8 +3,11 @@
 Each holds the gear's outline as one closed LWPOLYLINE on layer ``PROFILE``
 (within the measured deviation written in its header), its pitch and base
 circles on the reference layers ``PITCH_CIRCLE`` and ``BASE_CIRCLE`` (not to
-be cut), and, for the internal crank gear, the rim's outer circle on
-``RIM_OUTER``. Same units, header and reproducible bytes as the ring's files.
+be cut; grey, where the cut layers are red, white and blue), the bore of
+the pinion and of the wheel on ``BORE``, and, for the internal crank gear,
+the rim's outer circle on ``RIM_OUTER``: every contour of the solid, so the
+file alone cuts the part. Same units, header and reproducible bytes as the
+ring's files.
 
 ``crankshaft.dxf``, ``wheel_bearing.dxf`` and ``crank_bearing.dxf`` draw the
 round parts as circles: each extruded piece's outer circle on ``OUTER_<n>``
@@ -20,19 +23,13 @@ from pathlib import Path
 from corr_cad.export.dxf import _layer, _new_doc, _save
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.first_stage import FirstStageGeometry
+from corr_cad.geometry.first_stage_parts import first_stage_layout
 from corr_cad.geometry.gear_outline import GearOutline
 
-__all__ = ["GEAR_PARTS", "rim_outer_radius", "write_gear", "write_gears", "write_round_part"]
+__all__ = ["GEAR_PARTS", "write_gear", "write_gears", "write_round_part"]
 
 #: The first stage's parts with a tooth outline, in the order they are written.
 GEAR_PARTS = ("pinion", "wheel", "crank_gear")
-#: Rim of the internal crank gear beyond its root circle, in modules.
-RIM_MODULES = 3.0
-
-
-def rim_outer_radius(fs: FirstStageGeometry) -> float:
-    """Outer radius of the crank gear's rim: its root circle plus 3 modules, mm."""
-    return fs.crank_gear.root_radius + RIM_MODULES * fs.stage.module
 
 
 def write_gear(
@@ -40,6 +37,7 @@ def write_gear(
 ) -> Path:
     """One gear's DXF (``part`` in :data:`GEAR_PARTS`)."""
     g = getattr(fs, part)
+    lay = first_stage_layout(design, fs)
     extra = {
         "representation": "polyline",
         "tolerance_mm": outline.tolerance,
@@ -58,12 +56,13 @@ def write_gear(
     msp.add_lwpolyline(
         outline.vertices.tolist(), close=True, dxfattribs={"layer": _layer(doc, "PROFILE")}
     )
-    msp.add_circle((0.0, 0.0), g.pitch_radius, dxfattribs={"layer": _layer(doc, "PITCH_CIRCLE")})
-    msp.add_circle((0.0, 0.0), g.base_radius, dxfattribs={"layer": _layer(doc, "BASE_CIRCLE")})
+    circles = {"PITCH_CIRCLE": g.pitch_radius, "BASE_CIRCLE": g.base_radius}
     if g.internal:
-        msp.add_circle(
-            (0.0, 0.0), rim_outer_radius(fs), dxfattribs={"layer": _layer(doc, "RIM_OUTER")}
-        )
+        circles["RIM_OUTER"] = lay.rim_outer
+    else:
+        circles["BORE"] = lay.pinion_bore if part == "pinion" else lay.wheel_bore
+    for layer, radius in circles.items():
+        msp.add_circle((0.0, 0.0), radius, dxfattribs={"layer": _layer(doc, layer)})
     return _save(doc, path)
 
 

@@ -35,6 +35,10 @@ _CHECK_UNITS = {
     "max_backlash_arcmin": "arcmin",
     "min_torsional_rigidity_Nm_per_arcmin": "N*m/arcmin",
     "max_transmission_error_arcsec": "arcsec",
+    "min_efficiency": "",
+    "min_life_h": "h",
+    "max_first_stage_bending_MPa": "MPa",
+    "max_first_stage_contact_MPa": "MPa",
 }
 #: Every column of ``montecarlo_summary.json``'s percentiles: the force
 #: metrics, and the datasheet metrics when the Monte Carlo carries them
@@ -52,6 +56,7 @@ METRIC_LABELS = {
 }
 _PLOT_CAPTIONS = {
     "preview.png": "The stage at crank angle 0 (shaded: material) and a tooth close-up",
+    "first_stage.png": "The first gear stage at crank angle 0 and wheel 1's two meshes",
     "forces.png": "Forces over the cycle: envelope over all rollers, roller 1, contact pressure",
     "load_distribution.png": "Forces on every roller where the gear force peaks",
     "interference.png": "Interference check against the tessellation allowance",

@@ -167,19 +167,27 @@ def approximate_gear(g: GearTeeth, tolerance: float) -> GearOutline:
     )
 
 
+#: Segment kinds of a gear outline that are arcs about the gear's centre.
+ARC_KINDS = ("root", "tip")
+
+
 @dataclass(frozen=True)
 class GearSplines:
     """Tooth 0's outline as one clamped cubic B-spline per smooth segment, measured.
 
     ``splines`` are scipy ``BSpline`` objects on ``u`` in ``[0, 1]``, in the order of
-    :func:`~corr_cad.geometry.involute.tooth_segments`; the other teeth are
-    rotations by whole pitches. ``max_deviation`` is measured both ways (mm).
+    :func:`~corr_cad.geometry.involute.tooth_segments`, ``kinds`` their segment
+    kinds; a root or a tip is an arc about the gear's centre, exact between its
+    neighbours' ends, and has ``None`` in place of a spline. The other teeth are
+    rotations by whole pitches. ``max_deviation`` is the splines', measured
+    both ways (mm).
     """
 
     splines: list
     teeth: int
     max_deviation: float
     tolerance: float
+    kinds: tuple[str, ...]
 
     @property
     def within_tolerance(self) -> bool:
@@ -209,6 +217,9 @@ def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
     splines, worst = [], 0.0
     segs = tooth_segments(g)
     for seg in segs[len(segs) // 2 :]:
+        if seg.kind in ARC_KINDS:
+            splines.append(None)
+            continue
         piece = _Piece(seg)
         dense = DenseSampling.build(seg.points, seg.derivative, 0.0, 1.0, 2048)
         nodes = _spline_nodes(piece, 0.5 * tol, 4096)
@@ -223,7 +234,9 @@ def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
         worst = max(worst, float(f.max()), float(b.max()))
     # the - side: the mirror image, run backwards
     minus = [
-        BSpline((1.0 - spl.t)[::-1], spl.c[::-1] * np.array([-1.0, 1.0]), spl.k)
+        None
+        if spl is None
+        else BSpline((1.0 - spl.t)[::-1], spl.c[::-1] * np.array([-1.0, 1.0]), spl.k)
         for spl in reversed(splines)
     ]
-    return GearSplines(minus + splines, g.teeth, worst, tol)
+    return GearSplines(minus + splines, g.teeth, worst, tol, tuple(s.kind for s in segs))

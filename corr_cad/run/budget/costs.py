@@ -166,6 +166,9 @@ def _dxf_files(scene, env):
 
 @stage_cost("preview_png")
 def _preview_png(scene, env):
+    if scene.first_stage is not None:  # and first_stage.png
+        out = {"preview.png": 0.4 * MB, "first_stage.png": 0.3 * MB}
+        return Cost(memory=40 * MB, output=out, **_plots(2))
     return Cost(memory=40 * MB, output={"preview.png": 0.4 * MB}, **_plots())
 
 

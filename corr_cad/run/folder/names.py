@@ -49,7 +49,7 @@ _PARTS = _any(PART_FILE_STEMS)
 #: full) of every file that format can write.
 OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf", rf"{_any(FIRST_STAGE_FILE_STEMS)}\.dxf"),
-    "png": (r"preview\.png", r"modification\.png"),
+    "png": (r"preview\.png", r"modification\.png", r"first_stage\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{
         fmt: (

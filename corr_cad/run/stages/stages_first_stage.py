@@ -107,9 +107,13 @@ def placements(ctx: RunContext, angle_deg: float) -> list:
     return first_stage_placements(ctx.scene.design, ctx.scene.first_stage, math.radians(angle_deg))
 
 
-def step_parts(ctx: RunContext, report: dict) -> dict:
-    """Write ``<part>.step`` of each first-stage part, read it back; returns the shapes."""
-    from corr_cad.export import step
+def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:
+    """Write ``<part>.step`` of each first-stage part, read it back; returns the shapes.
+
+    Each file's facts go into ``report``, its quick box as read back
+    (:func:`~corr_cad.export.step.bounding_box`) into ``quick_boxes``.
+    """
+    from corr_cad.export import step, step_gears
     from corr_cad.geometry.gear_outline import spline_gear
 
     tol = ctx.scene.chord_tolerance
@@ -124,7 +128,7 @@ def step_parts(ctx: RunContext, report: dict) -> dict:
     }
     shapes = {}
     for part, pieces in profiles.items():
-        shape = step.stacked_shape(pieces)
+        shape = step_gears.stacked_shape(pieces)
         fname = f"{part}.step"
         path = step.write_step(shape, ctx.out / fname, part)
         product, parts = step.read_step(path, heal=False)
@@ -151,6 +155,7 @@ def step_parts(ctx: RunContext, report: dict) -> dict:
         if part in splines:
             facts["profile_spline_deviation_mm"] = splines[part].max_deviation
         report[fname] = facts
+        quick_boxes[part] = step.bounding_box(parts[0].shape, optimal=False)
         ctx.files.append(fname)
         shapes[part] = shape
     return shapes

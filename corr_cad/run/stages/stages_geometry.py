@@ -97,6 +97,7 @@ def _step_files(ctx: RunContext) -> None:
     outlines = ctx.results.outlines or part_outlines(s.design, ctx.results.working, tol)
     report = {}
     volumes = {}
+    quick_boxes = {}  # each part file's quick box, as read back
     for name, shape in shapes.items():
         fname = f"{PART_NAMES[name]}.step"
         path = step.write_step(shape, ctx.out / fname, PART_NAMES[name])
@@ -127,12 +128,13 @@ def _step_files(ctx: RunContext) -> None:
             raise ExportError(f"{fname}: read-back check failed ({facts})")
         report[fname] = facts
         volumes[name] = volume
+        quick_boxes[PART_NAMES[name]] = step.bounding_box(parts[0].shape, optimal=False)
         ctx.files.append(fname)
     names = PART_NAMES
     if s.first_stage is not None:
         from corr_cad.run.stages import stages_first_stage
 
-        shapes = {**shapes, **stages_first_stage.step_parts(ctx, report)}
+        shapes = {**shapes, **stages_first_stage.step_parts(ctx, report, quick_boxes)}
         names = {**PART_NAMES, **{k: k for k in shapes if k not in PART_NAMES}}
     for angle in s.assembly_angles_deg:
         tag = angle_tag(angle)
@@ -149,15 +151,15 @@ def _step_files(ctx: RunContext) -> None:
         if product != f"assembly_{tag}" or got != want:
             raise ExportError(f"{fname}: read-back names differ from the placements written")
         # Each product's box once, from its shape in this file; it must be the
-        # box of its own part file. Then the corners of that box moved by each
-        # instance's location as read, against the placement applied here.
+        # box of its own part file (the quick box: equal geometry, equal box).
+        # Then the corners of that box moved by each instance's location as
+        # read, against the placement applied here.
         boxes: dict[str, np.ndarray] = {}
         offset = 0.0
         for p, want in zip(parts, placements, strict=True):
             if p.product not in boxes:
-                box = step.bounding_box(step.unplaced(p.shape))
-                own = np.array(report[f"{p.product}.step"]["bbox_mm"])
-                if not np.abs(box - own).max() <= 1e-9:
+                box = step.bounding_box(step.unplaced(p.shape), optimal=False)
+                if not np.abs(box - quick_boxes[p.product]).max() <= 1e-9:
                     raise ExportError(f"{fname}: product {p.product} is not {p.product}.step")
                 boxes[p.product] = box
             corners = _box_corners(boxes[p.product])

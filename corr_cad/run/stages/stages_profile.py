@@ -149,6 +149,16 @@ def _preview_png(ctx: RunContext) -> None:
         modification=label,
     )
     ctx.files.append(p.name)
+    if ctx.scene.first_stage is not None:
+        from corr_cad.export.first_stage_plots import first_stage_png
+        from corr_cad.run.stages.stages_first_stage import gear_outlines
+
+        outlines = gear_outlines(ctx, ctx.scene.tolerance)
+        verts = {k: o.vertices for k, o in outlines.items()}
+        p = first_stage_png(
+            ctx.scene.design, ctx.scene.first_stage, verts, ctx.out / "first_stage.png"
+        )
+        ctx.files.append(p.name)
     if ctx.scene.modification is not None:
         from corr_cad.run.stages.stages_modification import modification_png
 
