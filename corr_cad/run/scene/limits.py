@@ -83,11 +83,12 @@ def _circle(radius: float, tol: float) -> float:
 
     ``pi / acos(1 - tol/R)``, written as ``pi / (2 asin(sqrt(tol / 2R)))``:
     the same number, but finite for every tolerance (``1 - 1e-300`` is 1.0,
-    and ``acos(1)`` is 0).
+    and ``acos(1)`` is 0); ``inf`` where ``tol / 2R`` underflows to 0 (5e-324).
     """
     if tol >= radius:
         return 8.0
-    return max(8.0, math.pi / (2.0 * math.asin(math.sqrt(tol / (2.0 * radius)))))
+    half = math.asin(math.sqrt(tol / (2.0 * radius)))  # 0 where tol / 2R underflows
+    return max(8.0, math.pi / (2.0 * half)) if half > 0.0 else math.inf
 
 
 def _power(x: float, ratio: float, exponent: float) -> float:
