@@ -413,6 +413,28 @@ def test_positions_cut_short_are_solved_again_from_another_moment():
     np.testing.assert_allclose(got[1], full[1], rtol=0, atol=1e-9 * full[1].max())
 
 
+@pytest.mark.parametrize("clearance", [0.0, 0.004])
+def test_the_linear_start_gives_the_rigid_start_s_metrics(monkeypatch, clearance):
+    """The datasheet pass starts each sign's first bearing Newton from the exact
+    linear-contact solution: the samples' metrics are the rigid start's to 1e-9, with and
+    without a bearing clearance (where both cams may start adrift in their clearances)."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.tolerance import mc_drive_datasheet as mdd
+
+    cfg = DatasheetMC(_spec(), positions_per_mesh=2)
+    grid = drive_grid(DESIGN, ME(), None, ("roller_radius",), 2)
+    bearing = replace(NEEDLES, diametral_clearance=clearance)
+    drive = {"bearing": bearing, "contact_model": "nonlinear"}
+    pairs = _pairs(3, -0.001, 0.0)
+    linear, ok = drive_datasheet_samples(DESIGN, pairs, cfg, grid, math.pi, drive)
+    assert ok
+    monkeypatch.setattr(mdd, "_linear_start_solver", lambda: CompiledDriveSolver)
+    rigid, ok = drive_datasheet_samples(DESIGN, pairs, cfg, grid, math.pi, drive)
+    assert ok
+    for name, v in rigid.items():
+        np.testing.assert_allclose(linear[name], v, rtol=1e-9, atol=1e-12, err_msg=name)
+
+
 def _play_drive():
     """The compiled drive of four roller-radius samples with play, needles with a 3 um
     clearance, and moments of +-3 % and +-50 % of T_R."""
