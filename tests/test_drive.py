@@ -516,6 +516,55 @@ def test_small_moments_about_an_idle_row_are_continuous(compiled):
     assert np.all(carried[[0, 8]] > 0.05)
 
 
+SWEEP_MOMENTS = np.array([1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0])  # N*mm
+
+
+def _loose_sweep(compiled):
+    """:func:`_row_b_ring_harmonic` with a 4 um clearance on both cams, every 10 degrees
+    and at the three positions (100, 166 and 339 degrees) where the crank moments of
+    :data:`SWEEP_MOMENTS` once left both cams adrift in their clearances."""
+    from corr_cad.geometry.deviations import harmonic_deviation
+    from corr_cad.mechanics.drive import DriveSolver
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+
+    eb = ME(profile_deviation=harmonic_deviation([(3, 0.002, 0.0)]))
+    angles = np.radians(np.concatenate([np.arange(0.0, 360.0, 10.0), [100.0, 166.0, 339.0]]))
+    cls = CompiledDriveSolver if compiled else DriveSolver
+    solver = cls(GearDesign(), angles, errors_b=eb, bearing=EccentricBearing(40, 6.0, 12.0, 0.004))
+    return [solver.result(m) for m in SWEEP_MOMENTS]
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_small_moments_on_loose_bearings_reach_equilibrium(compiled):
+    """A preloaded row B, both cams in a 4 um clearance, crank moments of 1e-3 to 100
+    N*mm: every position converges; each bearing carries its rollers' resultant and the
+    rollers' moment is the crank moment, to 1e-9 of the drive's forces; the moment reaches
+    the frame through the needles alone, ``e (Q_A,x + Q_B,x) = M`` (the arm of roller k
+    is ``e n_k,x``); and the crank turns further the larger the moment."""
+    e = GearDesign().eccentricity
+    results = _loose_sweep(compiled)
+    assert all(r.success for r in results), [r.message for r in results]
+    for m, r in zip(SWEEP_MOMENTS, results, strict=True):
+        unbalanced, moment = _balance(r)
+        scale = r.F_j.sum(axis=(0, 2))
+        assert np.all(np.linalg.norm(unbalanced, axis=2) <= 1e-9 * scale)
+        assert np.all(np.abs(moment - m) <= 1e-9 * e * scale)
+        Z = r.needle_loads[0].shape[1]
+        sin = np.sin(2 * np.pi * np.arange(Z) / Z)
+        through_needles = e * (r.needle_loads[0] @ sin + r.needle_loads[1] @ sin)
+        assert np.all(np.abs(through_needles - m) <= 1e-9 * e * scale)
+    tau = np.stack([r.cam_rotation for r in results])
+    assert np.all(np.diff(tau, axis=0) > 0)
+
+
+def test_small_moments_on_loose_bearings_compiled_agrees():
+    """The compiled bearing Newton and the numpy one agree to 1e-9 on the loose sweep."""
+    for a, b in zip(_loose_sweep(False), _loose_sweep(True), strict=True):
+        np.testing.assert_allclose(b.cam_rotation, a.cam_rotation, rtol=1e-9, atol=0)
+        np.testing.assert_allclose(b.F_j, a.F_j, rtol=0, atol=1e-9 * a.F_j.max())
+        np.testing.assert_allclose(b.cam_displacement, a.cam_displacement, rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("compiled", [False, True])
 def test_an_idle_cam_on_a_loose_bearing_rests_within_its_free_play(compiled):
     """With a 4 um clearance, cam A idles at zero moment at every position of

@@ -365,25 +365,17 @@ def test_a_cam_that_unloads_on_its_needles_settles(compiled):
     assert res.bearing_load[0, 0] < 1e-6 < res.bearing_load[1, 0]  # cam A unloaded
 
 
-def test_positions_the_newton_misses_from_the_rigid_start_are_solved_from_another_moment():
+def test_positions_once_missed_from_the_rigid_start_settle_there():
     """Needles with a clearance, a drive with play, +-3 % of T_R: from the rigid start the
-    Newton finds no descent at some positions; solved again from their own solution at
-    another moment they reach equilibrium (moment M0, each cam's needles carrying its
-    rollers' resultant), and the other positions are the rigid start's equilibrium."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    residual's line search finds no descent at some positions (both cams adrift in their
+    clearances); the energy's line search settles them there. Every moment reaches
+    equilibrium (moment M0, each cam's needles carrying its rollers' resultant), and
+    :func:`_solve_all` (larger moments warm-started) gives the rigid start's equilibrium."""
     from corr_cad.tolerance.mc_drive_datasheet import _solve_all
-    from corr_cad.tolerance.montecarlo_drive import stacked_geometry
 
-    bearing = replace(NEEDLES, diametral_clearance=0.003)
-    grid = drive_grid(DESIGN, ME(), None, ("roller_radius",), 1)
-    phi = DESIGN.tooth_count * grid
-    pairs = _pairs(4, -0.004, 0.004)
-    geo = stacked_geometry(DESIGN, phi, pairs, math.pi)
-    solver = CompiledDriveSolver(DESIGN, np.tile(phi, 4), geometry=geo, bearing=bearing)
-    moments = {0: 0.03 * T_R / 26, 1: -0.03 * T_R / 26, 2: 0.5 * T_R / 26, 3: -0.5 * T_R / 26}
+    solver, moments, bearing = _play_drive()
     first = {k: solver.solve(m) for k, m in moments.items()}
-    missed = {k: np.flatnonzero(~(s[4] <= 1e-9)) for k, s in first.items()}
-    assert missed[0].size and missed[1].size  # the case this fallback is for
+    assert all(np.all(s[4] <= 1e-9) for s in first.values())
     sols, ok = _solve_all(solver, moments)
     assert ok
     arm = np.where(solver.geo_joined.loadable, solver.geo_joined.arm, 0.0)
@@ -397,17 +389,73 @@ def test_positions_the_newton_misses_from_the_rigid_start_are_solved_from_anothe
             q = res.needle_loads[c]
             resultant = np.hypot(q @ np.cos(ang), q @ np.sin(ang))
             np.testing.assert_allclose(resultant, res.bearing_load[c], rtol=1e-9, atol=1e-6)
-        # Where the rigid start settles, the same equilibrium (the larger moments start from
-        # the smaller one's solution: the solver's tolerance apart).
-        kept = np.setdiff1d(np.arange(len(phi) * 4), missed[k])
-        np.testing.assert_allclose(sols[k][0][kept], first[k][0][kept], rtol=1e-9)
+        # The larger moments start from the smaller one's solution: the solver's tolerance apart.
+        np.testing.assert_allclose(sols[k][0], first[k][0], rtol=1e-9)
+
+
+def test_positions_cut_short_are_solved_again_from_another_moment():
+    """A Newton cut to one iteration from the rigid start leaves positions unsettled;
+    :func:`restart_missed` solves them again from their own solution at another moment,
+    which reaches the full solve's equilibrium (unique: the contacts' energy is convex)."""
+    from corr_cad.mechanics.drive_restart import restart_missed
+    from corr_cad.mechanics.solver_numerics import _solve_positions
+
+    solver, moments, _ = _play_drive()
+    m = moments[0]
+    tau, F, *_ = _solve_positions(solver.geo_joined, solver.comp, m, solver.rtol)
+    cut = solver._with_bearings(m, tau, F, 0, max_iter=1)
+    missed = np.flatnonzero(~(cut[4] <= 1e-9))
+    assert missed.size  # the case restarts are for
+    got = restart_missed(solver, m, cut, [solver.solve(moments[2])])
+    full = solver.solve(m)
+    assert np.all(got[4] <= 1e-9)
+    np.testing.assert_allclose(got[0], full[0], rtol=1e-9)
+    np.testing.assert_allclose(got[1], full[1], rtol=0, atol=1e-9 * full[1].max())
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.004])
+def test_the_linear_start_gives_the_rigid_start_s_metrics(monkeypatch, clearance):
+    """The datasheet pass starts each sign's first bearing Newton from the exact
+    linear-contact solution: the samples' metrics are the rigid start's to 1e-9, with and
+    without a bearing clearance (where both cams may start adrift in their clearances)."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.tolerance import mc_drive_datasheet as mdd
+
+    cfg = DatasheetMC(_spec(), positions_per_mesh=2)
+    grid = drive_grid(DESIGN, ME(), None, ("roller_radius",), 2)
+    bearing = replace(NEEDLES, diametral_clearance=clearance)
+    drive = {"bearing": bearing, "contact_model": "nonlinear"}
+    pairs = _pairs(3, -0.001, 0.0)
+    linear, ok = drive_datasheet_samples(DESIGN, pairs, cfg, grid, math.pi, drive)
+    assert ok
+    monkeypatch.setattr(mdd, "_linear_start_solver", lambda: CompiledDriveSolver)
+    rigid, ok = drive_datasheet_samples(DESIGN, pairs, cfg, grid, math.pi, drive)
+    assert ok
+    for name, v in rigid.items():
+        np.testing.assert_allclose(linear[name], v, rtol=1e-9, atol=1e-12, err_msg=name)
+
+
+def _play_drive():
+    """The compiled drive of four roller-radius samples with play, needles with a 3 um
+    clearance, and moments of +-3 % and +-50 % of T_R."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.tolerance.montecarlo_drive import stacked_geometry
+
+    bearing = replace(NEEDLES, diametral_clearance=0.003)
+    grid = drive_grid(DESIGN, ME(), None, ("roller_radius",), 1)
+    phi = DESIGN.tooth_count * grid
+    pairs = _pairs(4, -0.004, 0.004)
+    geo = stacked_geometry(DESIGN, phi, pairs, math.pi)
+    solver = CompiledDriveSolver(DESIGN, np.tile(phi, 4), geometry=geo, bearing=bearing)
+    moments = {0: 0.03 * T_R / 26, 1: -0.03 * T_R / 26, 2: 0.5 * T_R / 26, 3: -0.5 * T_R / 26}
+    return solver, moments, bearing
 
 
 @pytest.mark.slow
 def test_the_drive_datasheet_on_needles_settles_every_torque_level():
-    """Row A 2 um and row B 1 um small rollers on needles: from the rigid start the Newton
-    finds no descent at -35 % of T_R (the start's cam shift unloads every roller); the
-    windup restarts those positions from the level solved before, and every level settles.
+    """Row A 2 um and row B 1 um small rollers on needles: at -35 % of T_R the start's cam
+    shift unloads every roller, and the residual's line search finds no descent from the
+    rigid start; the energy's line search settles it there, and every level settles.
     The curve rises with the torque and its rigidity sits below the series rigidity."""
     from corr_cad.mechanics.drive_windup import DriveWindup
     from corr_cad.mechanics.windup import crank_angles_of
@@ -415,7 +463,7 @@ def test_the_drive_datasheet_on_needles_settles_every_torque_level():
     ea, eb = ME(roller_radius_error=-0.002), ME(roller_radius_error=-0.001)
     x = (2 * math.pi / (25 * 26)) * np.arange(4) / 4
     first = DriveSolver(DESIGN, crank_angles_of(x, DESIGN), errors=ea, errors_b=eb, bearing=NEEDLES)
-    assert not np.all(first.solve(-0.35 * T_R / 26)[4] <= 1e-9)  # the case restarts are for
+    assert np.all(first.solve(-0.35 * T_R / 26)[4] <= 1e-9)
     spec = replace(_spec(series=1000.0, levels=41), positions_per_mesh=4)
     ds = datasheet(DESIGN, spec, errors=ea, drive={"errors_b": eb, "bearing": NEEDLES})
     assert np.all(np.diff(ds.windup, axis=0) > 0)

@@ -40,7 +40,10 @@ Newton on ``(tau, u_A, u_B)`` per position, started from the rigid solution
 with each cam displaced along its load by the Stribeck estimate, with a
 backtracking line search on the scaled residual; the Jacobian is exact
 (the potential energy of the contacts is convex, so it is symmetric and
-positive semi-definite).
+positive semi-definite). Where that line search finds no decrease (both cams
+adrift in their clearances: the slide of the crank against both cams is
+free, the Jacobian singular along it), an exact line search on the energy
+(:func:`~corr_cad.mechanics.drive_numerics.energy_search`).
 """
 
 from __future__ import annotations
@@ -57,9 +60,12 @@ from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.mechanics.drive_numerics import (
     _forces_of,
     _invert_convex,
+    energy_step,
     expand_drive,
     free_row,
     joined,
+    merge_state,
+    moved_state,
     rest_idle_cams,
     roller_directions,
 )
@@ -316,6 +322,16 @@ class DriveSolver:
                 step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
             step = np.where(np.isfinite(step), step, 0.0)
             step[done] = 0.0
+            # The fallback's direction: the whole step scaled by one factor (a descent
+            # direction of the energy, which separate caps need not be).
+            whole = np.maximum.reduce(
+                [np.abs(step[:, 0]) / _MAX_TAU_STEP, np.ones(P)]
+                + [
+                    np.linalg.norm(step[:, i], axis=1) / _MAX_U_STEP
+                    for i in (slice(1, 3), slice(3, 5))
+                ]
+            )
+            d = step / whole[:, None]
             # No step beyond 0.01 rad of crank or 0.01 mm of a cam: far outside the
             # small-displacement model, where a near-singular Jacobian (needles in their
             # clearance) would throw it. Each capped on its own: a crank in its free play
@@ -328,30 +344,22 @@ class DriveSolver:
             alpha = np.ones(P)
             ok = done.copy()
             for _ in range(50):
-                t_tau = tau + alpha * step[:, 0]
-                t_u = u + (alpha[:, None] * step[:, 1:]).reshape(P, 2, 2).transpose(1, 0, 2)
+                t_tau, t_u = moved_state(tau, u, alpha, step)
                 with np.errstate(all="ignore"):
                     trial = state(t_tau, t_u, F, h, kf)
                     ok = merit(trial[5]) <= (1.0 - 1e-4 * alpha) * m0
                 if np.all(ok | done):
                     break
                 alpha = np.where(ok | done, alpha, 0.5 * alpha)
-            # A position whose step found no decrease keeps its state (it counts as not
-            # converged if it stays so).
-            keep = ~ok | done
-            th, tF, tkf, tQ, tkq, tr_, tg = trial
-            tau = np.where(keep, tau, t_tau)
-            u = np.where(keep[None, :, None], u, t_u)
-            h, F, kf, r = (
-                np.where(keep[:, None], old, new)
-                for old, new in ((h, th), (F, tF), (kf, tkf), (r, tr_))
+            # A position whose step found no decrease of the merit takes the fallback: an
+            # exact line search on the energy along d (drive_numerics.energy_search).
+            stuck = ~ok & ~done
+            tau, u, h, F, kf, Qs, kqs, r, gross = merge_state(
+                ok & ~done, (tau, u, h, F, kf, Qs, kqs, r, gross), (t_tau, t_u) + trial
             )
-            Qs = [np.where(keep[:, None], a, b) for a, b in zip(Qs, tQ, strict=True)]
-            kqs = [np.where(keep[:, None], a, b) for a, b in zip(kqs, tkq, strict=True)]
-            gross = (
-                np.where(keep[:, None], gross[0], tg[0]),
-                [np.where(keep[:, None], a, b) for a, b in zip(gross[1], tg[1], strict=True)],
-            )
+            if np.any(stuck):
+                x = (tau, u, h, F, kf, Qs, kqs, r, gross)
+                tau, u, h, F, kf, Qs, kqs, r, gross = energy_step(stuck, d, x, state)
         done = self._converged(r, F, a_m, Qs, target, gross) | idle
         rel = np.where(idle, 0.0, self._relative(r, F, a_m, Qs, target, gross))
         if not np.all(done):

@@ -280,6 +280,50 @@ def _solve5(J, b, x):
 
 
 @_jit
+def _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out):
+    """The energy's slope ``r(x + a d) . d`` along ``d`` at step ``a``; the state there in
+    ``out = (u, w, r, Q, kq, gq)``."""
+    ut, wt, rt, Qt, kqt, gqt = out
+    for c in range(2):
+        ut[c, 0] = u[c, 0] + a * d[1 + 2 * c]
+        ut[c, 1] = u[c, 1] + a * d[2 + 2 * c]
+    _state(p, t + a * d[0], ut, geo, law, T, K, slope0, target, w, wt, rt)
+    _needles(ut, dirs, bear, Qt, kqt, gqt, rt)
+    s = 0.0
+    for k in range(5):
+        s += rt[k] * d[k]
+    return s
+
+
+@_jit
+def _energy_search(p, t, u, d, r, geo, law, T, K, slope0, target, w, bear, dirs, out):
+    """drive_numerics.energy_search at one position: the step ``a`` along ``d`` (its state
+    in ``out``), 0 where ``d`` is no descent direction or no step lowers the energy."""
+    s0 = 0.0
+    for k in range(5):
+        s0 += r[k] * d[k]
+    if not s0 < 0.0:
+        return 0.0
+    a = 1.0
+    if not _slope_at(p, t, u, d, 1.0, geo, law, T, K, slope0, target, w, bear, dirs, out) <= 0.0:
+        lo, hi = 0.0, 1.0
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            s = _slope_at(p, t, u, d, mid, geo, law, T, K, slope0, target, w, bear, dirs, out)
+            if s < 0.0:
+                lo = mid
+                if s >= 0.1 * s0:
+                    break
+            else:
+                hi = mid
+        a = lo
+        if not a > 0.0:
+            return 0.0
+        _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out)
+    return a
+
+
+@_jit
 def bearing_newton(
     geo,
     law,
@@ -311,7 +355,15 @@ def bearing_newton(
     Qt, kqt, gqt = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
     r, rt = np.empty(5), np.empty(5)
     u, ut = np.empty((2, 2)), np.empty((2, 2))
-    J, b, step = np.empty((5, 5)), np.empty(5), np.empty(5)
+    J, b, step, dd = np.empty((5, 5)), np.empty(5), np.empty(5), np.empty(5)
+    ls = (
+        np.empty((2, 2)),
+        np.empty((4, N)),
+        np.empty(5),
+        np.empty((2, Z)),
+        np.empty((2, Z)),
+        np.empty((2, Z)),
+    )
     nan_prev = np.full((4, N), np.nan)
     tmp = (
         np.empty((2, 2)),
@@ -389,6 +441,15 @@ def bearing_newton(
             for k in range(5):
                 if not math.isfinite(step[k]):
                     step[k] = 0.0
+            # The fallback's direction: the whole step scaled by one factor.
+            whole = max(
+                abs(step[0]) / _MAX_STEP,
+                1.0,
+                math.hypot(step[1], step[2]) / _MAX_STEP,
+                math.hypot(step[3], step[4]) / _MAX_STEP,
+            )
+            for k in range(5):
+                dd[k] = step[k] / whole
             # Each capped on its own (drive.DriveSolver._with_bearings).
             step[0] /= max(abs(step[0]) / _MAX_STEP, 1.0)
             for a in (1, 3):
@@ -411,8 +472,15 @@ def bearing_newton(
                 if ok:
                     break
                 alpha *= 0.5
-            if not ok:  # no decrease along the step: the position keeps its state
-                break
+            if not ok:  # no decrease of the merit: an exact line search on the energy
+                ae = _energy_search(
+                    p, t, u, dd, r, geo, law, T, K, slope0, target, w, bear, dirs, ls
+                )
+                if not ae > 0.0:  # no descent: the position keeps its state
+                    break
+                tt = t + ae * dd[0]
+                wt[:, :], rt[:] = ls[1], ls[2]
+                ut[:, :], Qt[:, :], kqt[:, :], gqt[:, :] = ls[0], ls[3], ls[4], ls[5]
             t = tt
             u[:, :] = ut
             w[:, :] = wt

@@ -13,7 +13,17 @@ import numpy as np
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 
-__all__ = ["expand_drive", "free_row", "joined", "rest_idle_cams", "roller_directions"]
+__all__ = [
+    "energy_search",
+    "energy_step",
+    "expand_drive",
+    "free_row",
+    "joined",
+    "merge_state",
+    "moved_state",
+    "rest_idle_cams",
+    "roller_directions",
+]
 
 #: ``|n_x|`` below which a roller's normal counts as along the eccentric (:func:`free_row`).
 _FLAT = 1e-9
@@ -274,3 +284,83 @@ def expand_drive(res, angles, idx, shift, pitch: float):
         backlash=res.backlash[idx],
         rows=rows,
     )
+
+
+def energy_search(stuck, slope0, along, iterations: int = 60):
+    """The step length ``alpha`` (P,) in ``[0, 1]`` along a descent direction of the drive's
+    potential energy at the positions ``stuck`` (0 elsewhere): the fallback of the bearing
+    Newton where its merit line search finds no decrease.
+
+    The residual of the bearing Newton is the gradient of the contacts' potential energy
+    less the crank moment's work (``r = grad Pi``; its Jacobian is the energy's Hessian,
+    positive semi-definite), so along a direction ``d`` the slope ``phi'(alpha) = r(x +
+    alpha d) . d`` rises monotonically with ``alpha``. ``slope0`` (P,): ``phi'(0) < 0``;
+    ``along(alpha)``: ``phi'(alpha)`` (P,). The whole step is taken where the energy still
+    falls at its end; otherwise bisection on the monotone slope, to the last point where it
+    is still negative (the energy falls all the way there) once it is within a tenth of
+    ``|phi'(0)|`` of zero: an exact line search, which no singular or near-singular Jacobian
+    (a cam free in its clearance) can stall.
+    """
+    P = stuck.shape[0]
+    lo, hi = np.zeros(P), np.ones(P)
+    whole = stuck & (along(np.where(stuck, 1.0, 0.0)) <= 0.0)
+    search = stuck & ~whole
+    for _ in range(iterations):
+        if not np.any(search):
+            break
+        mid = 0.5 * (lo + hi)
+        s = along(np.where(search, mid, 0.0))
+        down = s < 0.0
+        lo = np.where(search & down, mid, lo)
+        hi = np.where(search & ~down, mid, hi)
+        search &= ~(down & (s >= 0.1 * slope0))
+    return np.where(whole, 1.0, np.where(stuck, lo, 0.0))
+
+
+def moved_state(tau, u, alpha, step):
+    """``(tau, u)`` moved by ``alpha`` (P,) times the bearing Newton's ``step`` (P, 5)."""
+    P = tau.shape[0]
+    t_u = u + (alpha[:, None] * step[:, 1:]).reshape(P, 2, 2).transpose(1, 0, 2)
+    return tau + alpha * step[:, 0], t_u
+
+
+def merge_state(take, old, new):
+    """The bearing Newton's state ``(tau, u, h, F, kf, Qs, kqs, r, (gf, gq))``: ``new``
+    where ``take`` (P,), ``old`` elsewhere."""
+    t1, t2 = take[:, None], take[None, :, None]
+    tau, u, h, F, kf, Qs, kqs, r, (gf, gq) = old
+    nt, nu, nh, nF, nkf, nQ, nkq, nr, (ngf, ngq) = new
+
+    def pick(a, b):
+        return [np.where(t1, y, x) for x, y in zip(a, b, strict=True)]
+
+    return (
+        np.where(take, nt, tau),
+        np.where(t2, nu, u),
+        *pick((h, F, kf), (nh, nF, nkf)),
+        pick(Qs, nQ),
+        pick(kqs, nkq),
+        np.where(t1, nr, r),
+        (np.where(t1, ngf, gf), pick(gq, ngq)),
+    )
+
+
+def energy_step(stuck, d, x, state):
+    """The bearing Newton's state ``x`` (:func:`merge_state`'s) moved along ``d`` (P, 5)
+    by :func:`energy_search` at the positions ``stuck`` (kept where ``d`` is no descent
+    direction or no step lowers the energy); ``state(tau, u, F_prev, h_prev, k_prev)``:
+    the Newton's state function."""
+    tau, u, h, F, kf, _, _, r, _ = x
+    slope0 = np.sum(r * d, axis=1)
+    stuck = stuck & (slope0 < 0)
+
+    def along(a):
+        with np.errstate(all="ignore"):
+            rt = state(*moved_state(tau, u, a, d), F, h, kf)[5]
+        return np.sum(rt * d, axis=1)
+
+    a = energy_search(stuck, slope0, along)
+    t_tau, t_u = moved_state(tau, u, a, d)
+    with np.errstate(all="ignore"):
+        trial = state(t_tau, t_u, F, h, kf)
+    return merge_state(stuck & (a > 0), x, (t_tau, t_u) + trial)

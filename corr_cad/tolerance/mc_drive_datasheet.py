@@ -30,13 +30,17 @@ Samples are solved in blocks: their geometries stacked sample-major
 (:func:`~corr_cad.tolerance.montecarlo_drive.stacked_geometry`), one
 :class:`~corr_cad.mechanics.drive_kernel.CompiledDriveSolver` per block for
 the six windup torques and the zero moment (with bearings, each sign's
-larger torques start from the smaller one's solution; positions the Newton
+smallest torque's bearing Newton starts from the exact linear-contact solution under
+the paper's law, the rigid one otherwise or where it misses from there; the larger
+torques from the smaller one's solution; positions the Newton
 misses are restarted, :mod:`corr_cad.mechanics.drive_restart`). Every
 position's solve is its own, so a sample's metrics are those of solving it
 alone (``tests/test_mc_drive_datasheet.py``).
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 
@@ -79,8 +83,7 @@ def drive_datasheet_samples(
     """The datasheet metrics of the samples ``pairs`` (``(errors, errors_b)`` each) at the
     output angles ``grid``; ``drive``: bearings and contact law. Returns ``(metrics, ok)``,
     ``ok`` False where some position's equilibrium was not reached."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
-
+    solver_class = _linear_start_solver()  # numba: only when run
     phi = crank_angles_of(np.asarray(grid, dtype=float).reshape(-1), design)
     P = len(phi)
     torques, zero, _ = cfg.torques()
@@ -92,7 +95,7 @@ def drive_datasheet_samples(
     for lo in range(0, len(pairs), block):
         part = pairs[lo : lo + block]
         n = len(part)
-        solver = CompiledDriveSolver(
+        solver = solver_class(
             design,
             np.tile(phi, n),
             geometry=stacked_geometry(design, phi, part, psi_limit),
@@ -117,6 +120,42 @@ def drive_datasheet_samples(
         ok &= good and good_zero
         pressure[lo : lo + n] = at.reshape(n, P).max(axis=1)
     return windup_metrics(theta, cfg, pressure), ok
+
+
+@functools.cache
+def _linear_start_solver():
+    """The compiled drive solver whose bearing Newton starts from the exact linear-contact
+    solution (``solver_numerics._linear_tau``) instead of the rigid one, with the rigid
+    start where a position misses from there (the paper's law on bearings; otherwise the
+    rigid start)."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
+    from corr_cad.mechanics.drive_restart import replace_positions, subset_solver
+    from corr_cad.mechanics.solver_numerics import _linear_tau
+
+    class LinearStartDriveSolver(CompiledDriveSolver):
+        def solve(self, target):
+            comp = self.comp
+            if (
+                self.bearings[0] is None
+                or getattr(comp, "explicit", False)
+                or getattr(comp, "linear", False)
+            ):
+                return super().solve(target)
+            geo = self.geo_joined
+            a_c = np.where(geo.loadable, geo.advance, 0.0)
+            h0 = np.where(geo.loadable, geo.gap, -1e300)
+            a_m = np.where(geo.loadable, geo.arm, 0.0)
+            tau = _linear_tau(a_c, a_m, h0, comp.slope0, target)
+            h = tau[:, None] * a_c + h0
+            F = np.where(h > 0, h / comp.slope0, 0.0)
+            sol = list(self._with_bearings(target, tau, F, 0))
+            idx = np.flatnonzero(~(sol[4] <= max(self.rtol, 1e-9)))
+            if idx.size:
+                rigid = CompiledDriveSolver.solve(subset_solver(self, idx), target)
+                replace_positions(sol, rigid, idx, idx >= 0)
+            return tuple(sol)
+
+    return LinearStartDriveSolver
 
 
 def _preload_pressure(solver, sols: dict, moments: dict) -> tuple[np.ndarray, bool]:
