@@ -106,7 +106,7 @@ def _montecarlo(ctx: RunContext) -> None:
     def tick(done: int, total: int) -> None:
         bar.update(done - bar.done)
 
-    nominal_of = _nominal_ahead(ctx, mc_cfg["positions"], sheet)
+    executor, nominal_of = _nominal_ahead(ctx, mc_cfg["positions"], sheet)
     with _plots_ahead(_local_pool(ctx)), atomic_writer(ctx.out / "montecarlo.csv") as f:
         res = monte_carlo(
             s.design,
@@ -117,7 +117,7 @@ def _montecarlo(ctx: RunContext) -> None:
             mc_cfg["positions"],
             load_share=s.solver.load_share,
             base_errors=scene_errors(ctx),
-            executor=ctx.executor,
+            executor=executor,
             progress=tick,
             psi_contact_limit=psi_contact_limit(ctx),
             datasheet=sheet,
@@ -311,16 +311,62 @@ def _local_pool(ctx: RunContext) -> bool:
 
 
 def _nominal_ahead(ctx: RunContext, positions: int, sheet=None):
-    """The nominal metrics, handed to the local process pool before the samples when
-    there is one: its worker loads the compiled kernels the samples need anyway,
-    and the stage itself never imports numba (half a second of the stage's fixed
-    cost). The same code on the same machine: the same numbers. A call that
-    returns them (raising what the task raised); in the stage otherwise (serial,
-    Dask, the drive model)."""
+    """The Monte Carlo's executor and a call that returns the nominal metrics
+    (raising what their computation raised).
+
+    On a local process pool the nominal metrics ride in the pool's first task,
+    before the first chunk of samples (:class:`_NominalFirst`): one worker loads
+    the compiled kernels for both, and the stage itself never imports numba
+    (half a second of the stage's fixed cost); with one chunk of samples the
+    other workers have nothing to load. The same code on the same machine: the
+    same numbers. In the stage otherwise (serial, Dask, the drive model)."""
     if not _local_pool(ctx):
-        return lambda: _nominal_metrics(ctx, positions, sheet)
-    task = ctx.executor.submit(_nominal_task, *_nominal_inputs(ctx, positions, sheet))
-    return task.result
+        return ctx.executor, lambda: _nominal_metrics(ctx, positions, sheet)
+    pool = _NominalFirst(ctx.executor, _nominal_inputs(ctx, positions, sheet))
+    return pool, pool.nominal
+
+
+def _with_nominal(nominal_args: tuple, fn, args: tuple) -> tuple:
+    """A pool task: :func:`_nominal_task`, then ``fn(*args)`` (the first chunk)."""
+    return _nominal_task(*nominal_args), fn(*args)
+
+
+class _NominalFirst:
+    """The local pool as the Monte Carlo sees it: its first task carries the
+    nominal metrics' computation (:func:`_with_nominal`), the others go as they
+    come. :meth:`nominal` returns the metrics once that task is done."""
+
+    def __init__(self, pool, nominal_args: tuple) -> None:
+        from corr_cad.tolerance.mc_chunks import executor_workers
+
+        self.pool = pool
+        self._max_workers = executor_workers(pool)  # the chunk sizing's worker count
+        self.nominal_args = nominal_args
+        self.first = None
+
+    def submit(self, fn, *args):
+        if self.first is not None:
+            return self.pool.submit(fn, *args)
+        self.first = self.pool.submit(_with_nominal, self.nominal_args, fn, args)
+        return _Second(self.first)
+
+    def nominal(self) -> dict:
+        if self.first is None:  # no sample submitted (not reached: samples >= 1)
+            return _nominal_task(*self.nominal_args)
+        return self.first.result()[0]
+
+
+class _Second:
+    """The first chunk's share of :func:`_with_nominal`'s future."""
+
+    def __init__(self, task) -> None:
+        self.task = task
+
+    def result(self):
+        return self.task.result()[1]
+
+    def done(self) -> bool:
+        return self.task.done()
 
 
 @contextlib.contextmanager
