@@ -187,3 +187,25 @@ def test_on_a_process_pool_the_plot_imports_beside_the_samples_with_the_same_byt
     assert seen == {"pyplot": "corr-cad-import-plots", "scipy.stats": False, "numba": False}
     _run(_scene(), tmp_path / "serial")
     assert _files(tmp_path / "pool") == _files(tmp_path / "serial")
+
+
+_INIT = textwrap.dedent(
+    """
+    import os, sys
+    import corr_cad.mechanics.mc_kernel as k
+    from corr_cad.run.cli import WARM_MODULES, _worker_init
+
+    calls = []
+    k.load_target = lambda: calls.append(1)
+    _worker_init(os.getppid(), sys.argv[1:] and WARM_MODULES or ())
+    print(len(calls))
+    """
+)
+
+
+@pytest.mark.parametrize("warm, built", [(True, 1), (False, 0)])
+def test_a_warm_worker_builds_numbas_target_as_it_starts(warm, built):
+    args = [sys.executable, "-c", _INIT] + (["warm"] if warm else [])
+    done = subprocess.run(args, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split()[-1] == str(built)
