@@ -325,7 +325,9 @@ def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
     On Linux the kernel sends SIGKILL when the parent dies (PR_SET_PDEATHSIG);
     a daemon thread polling ``os.getppid()`` covers other platforms and the
     instant before the ``prctl`` call. Then the modules ``warm`` are imported
-    (:data:`WARM_MODULES`), which the tasks would otherwise import.
+    (:data:`WARM_MODULES`), which the tasks would otherwise import, and with
+    the kernels numba's CPU target is built
+    (:func:`~corr_cad.mechanics.mc_kernel.load_target`).
     """
     import signal
     import threading
@@ -365,6 +367,10 @@ def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
 
     for name in warm:
         importlib.import_module(name)
+    if "corr_cad.mechanics.mc_kernel" in warm:
+        from corr_cad.mechanics.mc_kernel import load_target
+
+        load_target()
 
 
 def _concurrent_stages(args: argparse.Namespace, scene) -> bool:

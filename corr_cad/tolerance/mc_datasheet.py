@@ -222,7 +222,7 @@ def binding_probability(binds: np.ndarray, confidence: float = 0.95) -> dict:
     >>> r["probability"], round(r["standard_error"], 4), [round(v, 4) for v in r["wilson_interval"]]
     (0.25, 0.2165, [0.0456, 0.6994])
     """
-    from scipy.stats import norm
+    from scipy.special import ndtri  # scipy.stats.norm.ppf's bits, without its 0.2 s import
 
     b = np.asarray(binds, dtype=float)
     n = int(b.size)
@@ -230,7 +230,7 @@ def binding_probability(binds: np.ndarray, confidence: float = 0.95) -> dict:
         raise SolverError("binding probability of zero samples")
     k = float(b.sum())
     p = k / n
-    z = float(norm.ppf(0.5 + 0.5 * confidence))
+    z = float(ndtri(0.5 + 0.5 * confidence))
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
     return {

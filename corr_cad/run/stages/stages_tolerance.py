@@ -5,6 +5,8 @@ Registered in :data:`corr_cad.run.stages.stages.STAGES`.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from corr_cad.errors import SceneError, SolverError
@@ -90,7 +92,6 @@ def _sweep_model(ctx: RunContext) -> dict | None:
 
 
 def _montecarlo(ctx: RunContext) -> None:
-    from corr_cad.export import plots_tolerance
     from corr_cad.export.files import atomic_writer, write_json
     from corr_cad.run.progress import Progress
     from corr_cad.tolerance.checks import evaluate_failure_probability
@@ -105,8 +106,8 @@ def _montecarlo(ctx: RunContext) -> None:
     def tick(done: int, total: int) -> None:
         bar.update(done - bar.done)
 
-    nominal_of = _nominal_ahead(ctx, mc_cfg["positions"], sheet)
-    with atomic_writer(ctx.out / "montecarlo.csv") as f:
+    executor, nominal_of = _nominal_ahead(ctx, mc_cfg["positions"], sheet)
+    with _plots_ahead(_local_pool(ctx)), atomic_writer(ctx.out / "montecarlo.csv") as f:
         res = monte_carlo(
             s.design,
             s.load.input_torque,
@@ -116,7 +117,7 @@ def _montecarlo(ctx: RunContext) -> None:
             mc_cfg["positions"],
             load_share=s.solver.load_share,
             base_errors=scene_errors(ctx),
-            executor=ctx.executor,
+            executor=executor,
             progress=tick,
             psi_contact_limit=psi_contact_limit(ctx),
             datasheet=sheet,
@@ -142,6 +143,8 @@ def _montecarlo(ctx: RunContext) -> None:
     if s.life:
         summary["life_h"] = _life_under_tolerances(ctx)
     write_json(ctx.out / "montecarlo_summary.json", summary)
+
+    from corr_cad.export import plots_tolerance
 
     plots_tolerance.montecarlo_png(  # every metric the sensitivity ranks (binds: a probability)
         {k: v for k, v in res.metrics.items() if k in plots_tolerance.ORDER},
@@ -298,19 +301,102 @@ def _nominal_drive_datasheet(ctx: RunContext, sheet) -> dict:
     return {k: float(v[0]) for k, v in extra.items()}
 
 
-def _nominal_ahead(ctx: RunContext, positions: int, sheet=None):
-    """The nominal metrics, handed to the local process pool before the samples when
-    there is one: its worker loads the compiled kernels the samples need anyway,
-    and the stage itself never imports numba (half a second of the stage's fixed
-    cost). The same code on the same machine: the same numbers. A call that
-    returns them (raising what the task raised); in the stage otherwise (serial,
-    Dask, the drive model)."""
+def _local_pool(ctx: RunContext) -> bool:
+    """Does the paper's row's Monte Carlo run on a local process pool?
+
+    (Not serial, not on Dask, not under the drive model.)"""
     from concurrent.futures import Executor
 
-    if ctx.scene.solver.drive or not isinstance(ctx.executor, Executor):
-        return lambda: _nominal_metrics(ctx, positions, sheet)
-    task = ctx.executor.submit(_nominal_task, *_nominal_inputs(ctx, positions, sheet))
-    return task.result
+    return not ctx.scene.solver.drive and isinstance(ctx.executor, Executor)
+
+
+def _nominal_ahead(ctx: RunContext, positions: int, sheet=None):
+    """The Monte Carlo's executor and a call that returns the nominal metrics
+    (raising what their computation raised).
+
+    On a local process pool the nominal metrics ride in the pool's first task,
+    before the first chunk of samples (:class:`_NominalFirst`): one worker loads
+    the compiled kernels for both, and the stage itself never imports numba
+    (half a second of the stage's fixed cost); with one chunk of samples the
+    other workers have nothing to load. The same code on the same machine: the
+    same numbers. In the stage otherwise (serial, Dask, the drive model)."""
+    if not _local_pool(ctx):
+        return ctx.executor, lambda: _nominal_metrics(ctx, positions, sheet)
+    pool = _NominalFirst(ctx.executor, _nominal_inputs(ctx, positions, sheet))
+    return pool, pool.nominal
+
+
+def _with_nominal(nominal_args: tuple, fn, args: tuple) -> tuple:
+    """A pool task: :func:`_nominal_task`, then ``fn(*args)`` (the first chunk)."""
+    return _nominal_task(*nominal_args), fn(*args)
+
+
+class _NominalFirst:
+    """The local pool as the Monte Carlo sees it: its first task carries the
+    nominal metrics' computation (:func:`_with_nominal`), the others go as they
+    come. :meth:`nominal` returns the metrics once that task is done."""
+
+    def __init__(self, pool, nominal_args: tuple) -> None:
+        from corr_cad.tolerance.mc_chunks import executor_workers
+
+        self.pool = pool
+        self._max_workers = executor_workers(pool)  # the chunk sizing's worker count
+        self.nominal_args = nominal_args
+        self.first = None
+
+    def submit(self, fn, *args):
+        if self.first is not None:
+            return self.pool.submit(fn, *args)
+        self.first = self.pool.submit(_with_nominal, self.nominal_args, fn, args)
+        return _Second(self.first)
+
+    def nominal(self) -> dict:
+        if self.first is None:  # no sample submitted (not reached: samples >= 1)
+            return _nominal_task(*self.nominal_args)
+        return self.first.result()[0]
+
+
+class _Second:
+    """The first chunk's share of :func:`_with_nominal`'s future."""
+
+    def __init__(self, task) -> None:
+        self.task = task
+
+    def result(self):
+        return self.task.result()[1]
+
+    def done(self) -> bool:
+        return self.task.done()
+
+
+@contextlib.contextmanager
+def _plots_ahead(pooled: bool):
+    """While the local pool's workers run the nominal task and the samples, a
+    thread of the main process imports matplotlib and the plot module that draws
+    ``montecarlo.png`` (0.3 s of the stage's fixed cost, overlapped with the
+    samples). The main process meanwhile mostly waits on the pool and never
+    loads numba (:func:`_nominal_ahead`), whose loading would hold the GIL.
+    Without a local pool (``pooled`` false) the stage imports it at the plot.
+    Left when the thread is done; a failed import is raised again by the
+    stage's own import at the plot."""
+    import threading
+
+    if not pooled:  # the stage computes the nominal metrics itself
+        yield
+        return
+
+    def load() -> None:
+        try:
+            import corr_cad.export.plots_tolerance  # noqa: F401
+        except BaseException:  # noqa: BLE001 - the stage's own import raises it again
+            pass
+
+    t = threading.Thread(target=load, name="corr-cad-import-plots", daemon=True)
+    t.start()
+    try:
+        yield
+    finally:
+        t.join()
 
 
 def _allocation(ctx: RunContext) -> None:
