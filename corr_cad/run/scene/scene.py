@@ -156,7 +156,7 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         return value
     if spec.kind == "float":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(f"{where} = {show(value)}: must be a number")
+            raise SceneError(f"{where} = {show(value)}: must be a number{_hint(spec)}")
         try:
             v = float(value)
         except OverflowError:  # a TOML integer beyond the float range
@@ -164,14 +164,16 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         if not math.isfinite(v):
             bounded = spec.low is not None or spec.high is not None
             rng = f" in {key_range(spec)}" if bounded else ""
-            raise SceneError(f"{where} = {show(value)}: must be a finite number{rng}")
+            raise SceneError(f"{where} = {show(value)}: must be a finite number{rng}{_hint(spec)}")
         _bounds(where, v, spec)
         return v
     if spec.kind == "str":
         if not isinstance(value, str):
-            raise SceneError(f"{where} = {show(value)}: must be a string")
+            raise SceneError(f"{where} = {show(value)}: must be a string{_hint(spec)}")
         if spec.choices and value not in spec.choices:
-            raise SceneError(f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}")
+            raise SceneError(
+                f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}{_hint(spec)}"
+            )
         if len(value) > MAX_STR:
             raise SceneError(f"{where}: {len(value)} characters; at most {MAX_STR}")
         if "\0" in value:  # os.stat would raise ValueError on the path
@@ -218,6 +220,16 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
     raise AssertionError(spec.kind)
 
 
+def _hint(spec: Key) -> str:
+    """``, e.g. VALUE`` with a value the key accepts, for a refusal (empty when none is known)."""
+    if spec.kind == "str":
+        works = spec.default if isinstance(spec.default, str) and spec.default else None
+        works = works or (spec.choices[0] if spec.choices else None)
+        return f', e.g. "{works}"' if works else ""
+    works = spec.works()
+    return f", e.g. {works}" if works is not None else ""
+
+
 def _bounds(where: str, v: float, spec: Key) -> None:
     if out_of_range(v, spec.low, spec.high, low_open=spec.low_open, high_open=spec.high_open):
         shown = v if isinstance(v, int) and abs(v) < 10**15 else f"{v:g}"
@@ -229,7 +241,10 @@ def _bounds(where: str, v: float, spec: Key) -> None:
 def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
     """A range that depends on the design, worded like the static ones."""
     if out_of_range(v, low, high, **kw):
-        raise SceneError(f"{where} = {v:g}: allowed range is {range_text(low, high, **kw)}")
+        tries = (0.0, (low + high) / 2)
+        works = next((w for w in tries if not out_of_range(w, low, high, **kw)), None)
+        hint = f", e.g. {works:g}" if works is not None and math.isfinite(works) else ""
+        raise SceneError(f"{where} = {v:g}: allowed range is {range_text(low, high, **kw)}{hint}")
 
 
 def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -> Scene:

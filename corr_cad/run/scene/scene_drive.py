@@ -95,7 +95,7 @@ def section_given(section: str, data: dict) -> bool:
 def _check(where: str, v: float, low: float, high: float) -> None:
     if not (low < v < high):
         raise SceneError(
-            f"{where} = {v:g}: allowed range is {range_text(low, high, high_open=True)}"
+            f"{where} = {v:g}: allowed range is {range_text(low, high, high_open=True)}, e.g. 0"
         )
 
 
