@@ -392,7 +392,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             design.roller_count,
             low_open=False,
         )
-    _check_datasheet(values["datasheet"], checks, formats, load)
+    _check_datasheet(values["datasheet"], checks, formats, load, values["load"])
     sheet = "datasheet" in formats or bool(checks.datasheet_active()) or "datasheet" in data
     tolerances = {k: v for k, v in values["tolerances"].items() if v is not None}
     tol_high = {
@@ -541,7 +541,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     return scene
 
 
-def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
+def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load, ld: dict) -> None:
     """``[datasheet]`` against the rest of the scene, when the datasheet or its checks run."""
     if not ("datasheet" in formats or checks.datasheet_active()):
         return
@@ -562,11 +562,25 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
             "set rated_torque_Nm (N*m, e.g. 2860) or [load] input_torque (N*mm)"
         )
     if ds["rated_torque_Nm"] is None and load is not None and abs(load.input_torque) < 1.0:
-        raise SceneError(  # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM)
-            f"[load] input_torque = {load.input_torque:g}: the datasheet's rated torque "
-            "(z + 1) * input_torque would be below 0.001 N*m; set [datasheet] rated_torque_Nm "
-            "(N*m, e.g. 2860) or input_torque >= 1 N*mm"
+        # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM); the
+        # refusal names the key the scene gave, which need not be input_torque.
+        given = next((k for k in _TORQUE_KEYS if ld.get(k) is not None), "input_torque")
+        if given == "input_torque":
+            raise SceneError(
+                f"[load] input_torque = {load.input_torque:g}: the datasheet's rated torque "
+                "(z + 1) * input_torque would be below 0.001 N*m; set [datasheet] "
+                "rated_torque_Nm (N*m, e.g. 2860) or input_torque >= 1 N*mm"
+            )
+        raise SceneError(
+            f"[load] {given} = {ld[given]:g}: the crank moment it gives, "
+            f"{load.input_torque:g} N*mm, makes the datasheet's rated torque (z + 1) * M0 "
+            "below 0.001 N*m; set [datasheet] rated_torque_Nm (N*m, e.g. 2860) or "
+            f"{given} so that M0 >= 1 N*mm, e.g. {given} = {_TORQUE_KEYS[given]}"
         )
+
+
+#: The [load] keys that set the crank moment, each with a value that works.
+_TORQUE_KEYS = {"input_torque_Nm": "22", "pinion_torque": "22000", "input_torque": "1.1e5"}
 
 
 def _unique_angle_tags(angles: list[float]) -> None:

@@ -1,0 +1,175 @@
+"""Red-team findings on the drive, row B, friction and first-stage keys, each
+through the real CLI in a folder that holds a user's file."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.helpers import without_progress
+
+Z, E, RJ, R = 9, 1.5, 45.0, 4.0
+
+DRIVE = f"""
+[design]
+tooth_count = {Z}
+cam_radius = {RJ}
+roller_radius = {R}
+eccentricity = {E}
+slot_clearance = 0.004
+[export]
+formats = ["datasheet"]
+[load]
+input_torque = 2.0e4
+[solver]
+positions = 40
+model = "drive"
+contact_law = "palmgren"
+[datasheet]
+positions_per_mesh = 2
+transmission_error_positions_per_turn = 36
+[bearings.eccentric]
+needles = 30
+needle_diameter = 4.0
+needle_length = 10.0
+diametral_clearance = 0.002
+[errors]
+roller_radius_error = -0.002
+[errors.row_b]
+roller_radius_error = -0.001
+"""
+
+
+def _run(tmp_path: Path, scene: str, files: dict[str, str] | None = None):
+    (tmp_path / "notes.txt").write_text("user file\n")
+    for name, text in (files or {}).items():
+        (tmp_path / name).write_text(text)
+    (tmp_path / "s.toml").write_text(scene)
+    return subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=dict(os.environ),
+        timeout=600,
+    )
+
+
+def _refused(tmp_path: Path, r) -> str:
+    """The one stderr line of a refusal (exit 2, nothing written, the user's file kept)."""
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr
+    lines = [x for x in without_progress(r.stderr).splitlines() if x.strip()]
+    errors = [x for x in lines if "error" in x]
+    assert len(errors) == 1, r.stderr
+    assert not (tmp_path / "out").exists()
+    assert (tmp_path / "notes.txt").read_text() == "user file\n"
+    return errors[0]
+
+
+def _working_points(m: int = 40) -> np.ndarray:
+    """The working profile from its closed form: roller centre
+    ``s = e cos psi + sqrt(L^2 - e^2 sin^2 psi)`` (``psi = z t``), offset by ``r``."""
+    t = (np.arange(Z * m) + 0.5) / (Z * m) * 2 * math.pi
+    ll = RJ + R
+    psi = Z * t
+    w = np.sqrt(ll * ll - (E * np.sin(psi)) ** 2)
+    s = E * np.cos(psi) + w
+    ds = -Z * E * np.sin(psi) * s / w
+    ur = np.stack([np.sin(t), np.cos(t)], -1)
+    ut = np.stack([np.cos(t), -np.sin(t)], -1)
+    n = s[:, None] * ur - ds[:, None] * ut
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return s[:, None] * ur + R * n
+
+
+def test_the_design_fit_of_a_cmm_file_written_to_nine_decimals_has_finite_sigmas():
+    # The solver's last Jacobian came back with a zero centre column on this
+    # near-exact file, and (J^T J)^-1 raised LinAlgError: an internal error
+    # (exit 3) that lost the whole run.
+    from corr_cad.geometry.profile import ProfileCurve
+    from corr_cad.tolerance.inspection import fit_design_family
+
+    fit = fit_design_family(ProfileCurve(Z, E, RJ + R, R), np.round(_working_points(), 9))
+    sigmas = [fit["eccentricity_sigma_mm"], fit["link_length_sigma_mm"], *fit["centre_sigma_mm"]]
+    assert all(math.isfinite(s) and 0 <= s < 1e-8 for s in sigmas)
+    assert abs(fit["eccentricity_error_mm"]) < 1e-8
+
+
+def test_a_fit_that_cannot_determine_its_parameters_is_one_profile_error():
+    from corr_cad.errors import ProfileError
+    from corr_cad.tolerance.inspection import _inverse_normal_matrix
+
+    def flat(x):
+        return np.zeros(7)
+
+    with pytest.raises(ProfileError, match="do not determine"):
+        _inverse_normal_matrix(np.zeros((7, 5)), flat, np.zeros(5), {"t": None})
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("row", ["a", "b"])
+def test_inspecting_a_nine_decimal_cmm_file_in_either_row_of_the_drive(tmp_path, row):
+    pts = _working_points()
+    text = "x,y\n" + "".join(f"{x:.9f},{y:.9f}\n" for x, y in pts)
+    table = "[errors]\n" if row == "a" else "[errors.row_b]\n"
+    scene = DRIVE.replace('formats = ["datasheet"]', 'formats = ["inspection"]').replace(
+        table, table + 'measured_profile = "m.csv"\n'
+    )
+    scene += f'[inspection]\nrow = "{row}"\nprofile_tolerance = 0.05\n'
+    r = _run(tmp_path, scene, {"m.csv": text})
+    assert r.returncode == 0, r.stderr[-2000:]
+    report = json.loads((tmp_path / "out" / "inspection.json").read_text())
+    assert report["row"] == row
+    assert (tmp_path / "notes.txt").read_text() == "user file\n"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expect"),
+    [
+        # each refusal names the key, its value, the range and a value that works
+        ("slot_clearance = 0.004", "slot_clearance = nan", "in [-1, 1], e.g. 0"),
+        ("slot_clearance = 0.004", 'slot_clearance = "0.004"', "must be a number, e.g. 0"),
+        ("needle_diameter = 4.0", "needle_diameter = inf", "in (0, 100], e.g. "),
+        ('contact_law = "palmgren"', 'contact_law = "hertz"', 'paper, palmgren, e.g. "paper"'),
+        ('contact_law = "palmgren"', "contact_law = 1", 'must be a string, e.g. "paper"'),
+        (
+            "[errors.row_b]\nroller_radius_error = -0.001",
+            "[errors.row_b]\nroller_radius_error = 1e9",
+            "allowed range is (-2, 2), e.g. 0",
+        ),
+        (
+            "[errors]\nroller_radius_error = -0.002",
+            "[errors]\nroller_radius_error = 3.0",
+            "allowed range is (-2, 2), e.g. 0",
+        ),
+        ("[errors.row_b]\n", "[errors.row_b]\ncam_radius_error = nan\n", "e.g. 0"),
+    ],
+)
+def test_a_refusal_of_a_drive_key_names_a_value_that_works(tmp_path, old, new, expect):
+    assert old in DRIVE
+    line = _refused(tmp_path, _run(tmp_path, DRIVE.replace(old, new, 1)))
+    assert expect in line, line
+
+
+def test_inspection_row_c_names_a_row_that_works(tmp_path):
+    line = _refused(tmp_path, _run(tmp_path, DRIVE + '[inspection]\nrow = "c"\n'))
+    assert "[inspection] row = 'c'" in line and 'e.g. "a"' in line
+
+
+@pytest.mark.parametrize("value", ["2.0", "-0.1", "nan"])
+def test_max_binding_probability_states_the_range_the_loader_enforces(tmp_path, value):
+    # It said "allowed range is (-inf, 1]" for 2 and nan, and "[0, 1]" for -0.1.
+    scene = DRIVE.replace('formats = ["datasheet"]', 'formats = ["montecarlo"]')
+    scene += "[tolerances]\nroller_radius = { uniform = 0.001 }\n"
+    scene += f"[checks]\nmax_binding_probability = {value}\n"
+    line = _refused(tmp_path, _run(tmp_path, scene))
+    assert "max_binding_probability" in line and "[0, 1]" in line and "e.g. 0.01" in line
+    assert "-inf" not in line
