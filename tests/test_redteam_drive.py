@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -173,3 +174,33 @@ def test_max_binding_probability_states_the_range_the_loader_enforces(tmp_path, 
     line = _refused(tmp_path, _run(tmp_path, scene))
     assert "max_binding_probability" in line and "[0, 1]" in line and "e.g. 0.01" in line
     assert "-inf" not in line
+
+
+COMPOUND = (Path(__file__).resolve().parents[1] / "templates" / "compound.toml").read_text()
+
+
+@pytest.mark.parametrize("allowance", ["0.6", "3.0"])
+def test_a_tip_thinned_by_the_backlash_allowance_names_the_allowance(tmp_path, allowance):
+    # It blamed shift_pinion = 0.5 ("reduce the shift or the addendum"), which
+    # the template needs; the allowance is what thins the pinion's tip.
+    scene = COMPOUND.replace("backlash_allowance = 0.03", f"backlash_allowance = {allowance}")
+    line = _refused(tmp_path, _run(tmp_path, scene))
+    assert f"[first_stage] backlash_allowance = {float(allowance):g}:" in line, line
+    assert "shift_pinion" not in line
+    works = line.rsplit("backlash_allowance = ", 1)[1]
+    (tmp_path / "ok").mkdir()
+    fixed = scene.replace(f"allowance = {allowance}", f"allowance = {works}")
+    ok = _run(tmp_path / "ok", re.sub(r"formats = \[.*\]", 'formats = ["dxf"]', fixed))
+    assert "backlash_allowance" not in ok.stderr  # the value it names passes that check
+
+
+@pytest.mark.parametrize(
+    ("given", "key"),
+    [("input_torque_Nm = 0.0", "input_torque_Nm"), ("input_torque_Nm = 1e-310", "input_torque_Nm")],
+)
+def test_a_torque_too_small_for_the_datasheet_names_the_key_given(tmp_path, given, key):
+    # It named "[load] input_torque = 0" for a scene that set input_torque_Nm.
+    scene = COMPOUND.replace('formats = ["dxf",', 'formats = ["datasheet", "dxf",')
+    line = _refused(tmp_path, _run(tmp_path, scene.replace("input_torque_Nm = 22.0", given)))
+    assert line.split(": error: ")[1].startswith(f"[load] {key} = ")
+    assert f"e.g. {key} = 22" in line
