@@ -204,3 +204,25 @@ def test_a_torque_too_small_for_the_datasheet_names_the_key_given(tmp_path, give
     line = _refused(tmp_path, _run(tmp_path, scene.replace("input_torque_Nm = 22.0", given)))
     assert line.split(": error: ")[1].startswith(f"[load] {key} = ")
     assert f"e.g. {key} = 22" in line
+
+
+def test_the_time_estimate_counts_the_bearing_clearance_of_the_drive_monte_carlo():
+    # A 1e6-sample drive Monte Carlo with 2 um bearing clearance was estimated at
+    # 14 minutes and ran at 40-100 samples/s (3-7 hours): the clearance slows the
+    # drive's datasheet pass about five times and the estimate did not know it.
+    import tomllib
+
+    from corr_cad.run.budget.costs_montecarlo import DRIVE_CLEARANCE_FACTOR, datasheet_pass
+    from corr_cad.run.scene.scene import parse_scene
+
+    text = DRIVE.replace('formats = ["datasheet"]', 'formats = ["montecarlo"]')
+    text += "[tolerances]\nroller_radius = { uniform = 0.001 }\n[montecarlo]\nsamples = 1000\n"
+    loose = parse_scene(tomllib.loads(text))
+    tight = parse_scene(tomllib.loads(text.replace("diametral_clearance = 0.002", "")))
+    (s_loose, grid), (s_tight, grid_t) = (
+        datasheet_pass(loose, 10**6, 2),
+        datasheet_pass(tight, 10**6, 2),
+    )
+    assert grid == grid_t > 0
+    assert (s_loose - 8.0) == pytest.approx(DRIVE_CLEARANCE_FACTOR * (s_tight - 8.0))
+    assert DRIVE_CLEARANCE_FACTOR >= 272 / 74  # the slowest measured ratio
