@@ -226,3 +226,16 @@ def test_the_time_estimate_counts_the_bearing_clearance_of_the_drive_monte_carlo
     assert grid == grid_t > 0
     assert (s_loose - 8.0) == pytest.approx(DRIVE_CLEARANCE_FACTOR * (s_tight - 8.0))
     assert DRIVE_CLEARANCE_FACTOR >= 272 / 74  # the slowest measured ratio
+
+
+def test_the_positions_warning_under_the_datasheet_does_not_name_the_datasheet_as_its_user():
+    # formats = ["datasheet"] with [solver] positions warned "only forces, datasheet,
+    # inspection and [checks] use it": the datasheet was listed, the key still had no effect.
+    import tomllib
+
+    from corr_cad.run.scene.scene import parse_scene
+
+    scene = parse_scene(tomllib.loads(DRIVE))
+    (line,) = [w for w in scene.warnings if "[solver] positions" in w]
+    assert '"datasheet"' not in line.split("use it")[0], line
+    assert "positions_per_mesh" in line
