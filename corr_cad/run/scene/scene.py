@@ -26,7 +26,11 @@ from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene import scene_drive as drv
 from corr_cad.run.scene.scene_drive import SolverSpec
-from corr_cad.run.scene.scene_first_stage import first_stage_load, parse_first_stage
+from corr_cad.run.scene.scene_first_stage import (
+    first_stage_load,
+    parse_first_stage,
+    small_torque_refusal,
+)
 from corr_cad.run.scene.scene_hints import design_refusal, did_you_mean, every_format, long_number
 from corr_cad.run.scene.scene_key import nesting_depth
 from corr_cad.run.scene.scene_modification import acts, parse_modification, split_design_table
@@ -156,7 +160,7 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         return value
     if spec.kind == "float":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(f"{where} = {show(value)}: must be a number{_hint(spec)}")
+            raise SceneError(f"{where} = {show(value)}: must be a number{spec.hint()}")
         try:
             v = float(value)
         except OverflowError:  # a TOML integer beyond the float range
@@ -164,15 +168,15 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         if not math.isfinite(v):
             bounded = spec.low is not None or spec.high is not None
             rng = f" in {key_range(spec)}" if bounded else ""
-            raise SceneError(f"{where} = {show(value)}: must be a finite number{rng}{_hint(spec)}")
+            raise SceneError(f"{where} = {show(value)}: must be a finite number{rng}{spec.hint()}")
         _bounds(where, v, spec)
         return v
     if spec.kind == "str":
         if not isinstance(value, str):
-            raise SceneError(f"{where} = {show(value)}: must be a string{_hint(spec)}")
+            raise SceneError(f"{where} = {show(value)}: must be a string{spec.hint()}")
         if spec.choices and value not in spec.choices:
             raise SceneError(
-                f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}{_hint(spec)}"
+                f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}{spec.hint()}"
             )
         if len(value) > MAX_STR:
             raise SceneError(f"{where}: {len(value)} characters; at most {MAX_STR}")
@@ -218,16 +222,6 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
             raise SceneError(f"{where} = {show(value)}: lists an entry twice")
         return out
     raise AssertionError(spec.kind)
-
-
-def _hint(spec: Key) -> str:
-    """``, e.g. VALUE`` with a value the key accepts, for a refusal (empty when none is known)."""
-    if spec.kind == "str":
-        works = spec.default if isinstance(spec.default, str) and spec.default else None
-        works = works or (spec.choices[0] if spec.choices else None)
-        return f', e.g. "{works}"' if works else ""
-    works = spec.works()
-    return f", e.g. {works}" if works is not None else ""
 
 
 def _bounds(where: str, v: float, spec: Key) -> None:
@@ -562,25 +556,8 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load, ld: dict) -
             "set rated_torque_Nm (N*m, e.g. 2860) or [load] input_torque (N*mm)"
         )
     if ds["rated_torque_Nm"] is None and load is not None and abs(load.input_torque) < 1.0:
-        # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM); the
-        # refusal names the key the scene gave, which need not be input_torque.
-        given = next((k for k in _TORQUE_KEYS if ld.get(k) is not None), "input_torque")
-        if given == "input_torque":
-            raise SceneError(
-                f"[load] input_torque = {load.input_torque:g}: the datasheet's rated torque "
-                "(z + 1) * input_torque would be below 0.001 N*m; set [datasheet] "
-                "rated_torque_Nm (N*m, e.g. 2860) or input_torque >= 1 N*mm"
-            )
-        raise SceneError(
-            f"[load] {given} = {ld[given]:g}: the crank moment it gives, "
-            f"{load.input_torque:g} N*mm, makes the datasheet's rated torque (z + 1) * M0 "
-            "below 0.001 N*m; set [datasheet] rated_torque_Nm (N*m, e.g. 2860) or "
-            f"{given} so that M0 >= 1 N*mm, e.g. {given} = {_TORQUE_KEYS[given]}"
-        )
-
-
-#: The [load] keys that set the crank moment, each with a value that works.
-_TORQUE_KEYS = {"input_torque_Nm": "22", "pinion_torque": "22000", "input_torque": "1.1e5"}
+        # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM)
+        raise SceneError(small_torque_refusal(ld, load.input_torque))
 
 
 def _unique_angle_tags(angles: list[float]) -> None:
