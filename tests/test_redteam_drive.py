@@ -239,3 +239,13 @@ def test_the_positions_warning_under_the_datasheet_does_not_name_the_datasheet_a
     (line,) = [w for w in scene.warnings if "[solver] positions" in w]
     assert '"datasheet"' not in line.split("use it")[0], line
     assert "positions_per_mesh" in line
+
+
+def test_inspection_with_ring_b_s_file_alone_says_to_set_row_b(tmp_path):
+    # It said only "[errors] measured_profile is not set", with ring B's file in the scene.
+    pts = _working_points()
+    text = "x,y\n" + "".join(f"{x:.9f},{y:.9f}\n" for x, y in pts)
+    scene = DRIVE.replace('formats = ["datasheet"]', 'formats = ["inspection"]')
+    scene = scene.replace("[errors.row_b]\n", '[errors.row_b]\nmeasured_profile = "m.csv"\n')
+    line = _refused(tmp_path, _run(tmp_path, scene, {"m.csv": text}))
+    assert "[errors] measured_profile is not set" in line and '[inspection] row = "b"' in line

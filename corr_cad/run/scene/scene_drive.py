@@ -196,8 +196,10 @@ def check_inspection_row(row, formats, measured_a, drive: dict, model: str) -> N
             "[errors.row_b] measured_profile is not set"
         )
     if row != "b" and measured_a is None:
+        other = drive["measured_profile_b"] is not None  # ring B's file alone is given
         raise SceneError(
             "[export] formats lists 'inspection' but [errors] measured_profile is not set"
+            + ('; to inspect ring B\'s file set [inspection] row = "b"' if other else "")
         )
 
 
