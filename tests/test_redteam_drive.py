@@ -249,3 +249,46 @@ def test_inspection_with_ring_b_s_file_alone_says_to_set_row_b(tmp_path):
     scene = scene.replace("[errors.row_b]\n", '[errors.row_b]\nmeasured_profile = "m.csv"\n')
     line = _refused(tmp_path, _run(tmp_path, scene, {"m.csv": text}))
     assert "[errors] measured_profile is not set" in line and '[inspection] row = "b"' in line
+
+
+FRICTION = f"""
+[design]
+tooth_count = {Z}
+cam_radius = {RJ}
+roller_radius = {R}
+eccentricity = {E}
+[export]
+formats = ["datasheet"]
+[load]
+input_torque = 2.0e4
+[datasheet]
+positions_per_mesh = 2
+transmission_error_positions_per_turn = 36
+[friction]
+mu_cam = 0.05
+efficiency_torques = [0.5, 1.0]
+efficiency_speeds_rpm = [1000.0]
+[life]
+rated_life_h = 6000.0
+"""
+
+
+@pytest.mark.parametrize("key", ["efficiency_torques", "efficiency_speeds_rpm"])
+def test_an_empty_efficiency_map_axis_is_refused_in_one_line(tmp_path, key):
+    # An empty list ended in an internal error (exit 3, "zero-size array to reduction").
+    scene = re.sub(rf"{key} = \[.*\]", f"{key} = []", FRICTION)
+    line = _refused(tmp_path, _run(tmp_path, scene))
+    assert f"[friction] {key} = []" in line and f"e.g. {key} = [" in line
+
+
+@pytest.mark.parametrize(
+    ("extra", "names"),
+    [
+        ("dynamic_load_rating_N = 1e-300", "dynamic_load_rating_N = 1e-300"),  # was exit 3
+        ("rated_speed_rpm = 1e-300", "rated_speed_rpm = 1e-300"),  # no key was named
+    ],
+)
+def test_a_life_no_torque_can_give_is_refused_naming_the_life_keys(tmp_path, extra, names):
+    scene = FRICTION.replace("rated_life_h = 6000.0", f"rated_life_h = 6000.0\n{extra}")
+    line = _refused(tmp_path, _run(tmp_path, scene))
+    assert "[life] rated_life_h = 6000" in line and names in line and "e.g." in line
