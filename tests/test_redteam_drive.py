@@ -16,7 +16,9 @@ import pytest
 
 from tests.helpers import without_progress
 
-Z, E, RJ, R = 9, 1.5, 45.0, 4.0
+# The design of tests/test_every_format.py and its exact working profile (closed form).
+from tests.test_every_format import RJ, E, R, Z
+from tests.test_every_format import _measured_points as _working_points
 
 DRIVE = f"""
 [design]
@@ -73,22 +75,6 @@ def _refused(tmp_path: Path, r) -> str:
     assert not (tmp_path / "out").exists()
     assert (tmp_path / "notes.txt").read_text() == "user file\n"
     return errors[0]
-
-
-def _working_points(m: int = 40) -> np.ndarray:
-    """The working profile from its closed form: roller centre
-    ``s = e cos psi + sqrt(L^2 - e^2 sin^2 psi)`` (``psi = z t``), offset by ``r``."""
-    t = (np.arange(Z * m) + 0.5) / (Z * m) * 2 * math.pi
-    ll = RJ + R
-    psi = Z * t
-    w = np.sqrt(ll * ll - (E * np.sin(psi)) ** 2)
-    s = E * np.cos(psi) + w
-    ds = -Z * E * np.sin(psi) * s / w
-    ur = np.stack([np.sin(t), np.cos(t)], -1)
-    ut = np.stack([np.cos(t), -np.sin(t)], -1)
-    n = s[:, None] * ur - ds[:, None] * ut
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return s[:, None] * ur + R * n
 
 
 def test_the_design_fit_of_a_cmm_file_written_to_nine_decimals_has_finite_sigmas():
