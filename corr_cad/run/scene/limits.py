@@ -87,7 +87,10 @@ def _circle(radius: float, tol: float) -> float:
     """
     if tol >= radius:
         return 8.0
-    return max(8.0, math.pi / (2.0 * math.asin(math.sqrt(tol / (2.0 * radius)))))
+    half_angle = math.asin(math.sqrt(tol / (2.0 * radius)))
+    if half_angle == 0.0:  # tol / 2R underflows (a subnormal tolerance): no finite count
+        return math.inf
+    return max(8.0, math.pi / (2.0 * half_angle))
 
 
 def _power(x: float, ratio: float, exponent: float) -> float:
