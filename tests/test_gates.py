@@ -250,7 +250,7 @@ def test_non_finite_through_the_cli(tmp_path):
     r, out = run("[errors]\neccentricity_error = nan\n", tmp_path)
     assert r.returncode == 2 and not out.exists()
     assert r.stderr.strip() == (
-        "corr-cad: error: [errors] eccentricity_error = nan: must be a finite number"
+        "corr-cad: error: [errors] eccentricity_error = nan: must be a finite number, e.g. 0"
     )
 
 

@@ -28,7 +28,7 @@ names the key to change and a value that works.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from corr_cad.errors import DesignError
 from corr_cad.geometry.involute import GearTeeth, inv, inv_inverse
@@ -241,13 +241,32 @@ def _working(a0: float, alpha: float, a: float) -> float:
 
 def _tip_thickness(s: FirstStage, g: GearTeeth, part: str) -> None:
     t = g.thickness_at(g.tip)
-    if t < MIN_TIP_THICKNESS * s.module:
+    limit = MIN_TIP_THICKNESS * s.module
+    if t < limit and g.thinning > 0 and _tip(g, 0.0) >= limit:
+        # The backlash allowance, not the shift, thins the tip too far: name it,
+        # with the largest allowance that keeps the tip (bisection, 1 um).
+        lo, hi = 0.0, g.thinning
+        while hi - lo > 1e-4:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if _tip(g, mid) >= limit else (lo, mid)
+        raise DesignError(
+            f"backlash_allowance = {g.thinning:g}: the {part}'s tooth tip is {_fmt(t)} mm "
+            f"thick; allowed is >= {MIN_TIP_THICKNESS:g} module = {_fmt(limit)} mm, "
+            f"i.e. backlash_allowance <= {math.floor(lo * 1000) / 1000:g} mm, "
+            f"a value that works: backlash_allowance = {math.floor(lo * 1000) / 1000:g}"
+        )
+    if t < limit:
         key = {"pinion": "shift_pinion", "wheel": "shift_wheel"}.get(part, "shift_crank_gear")
         raise DesignError(
             f"{key} = {g.shift:g}: the {part}'s tooth tip is {_fmt(t)} mm thick; allowed is "
             f">= {MIN_TIP_THICKNESS:g} module = {_fmt(MIN_TIP_THICKNESS * s.module)} mm "
             f"(reduce the shift or the addendum)"
         )
+
+
+def _tip(g: GearTeeth, thinning: float) -> float:
+    """The tip thickness of ``g`` with another thinning, mm."""
+    return replace(g, thinning=thinning).thickness_at(g.tip)
 
 
 def _trochoid_margin(w: GearTeeth, c: GearTeeth, a: float, alpha_w: float) -> float:

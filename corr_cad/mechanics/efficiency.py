@@ -199,6 +199,10 @@ def drive_life(
     return lives
 
 
+class LifeNotBracketed(SolverError):
+    """No torque within 2^60 of the start gives the target life."""
+
+
 def torque_for_life(life_at: Callable[[float], float], target_h: float, start: float) -> float:
     """The torque (same units as ``start``) at which ``life_at`` equals ``target_h``.
 
@@ -210,7 +214,9 @@ def torque_for_life(life_at: Callable[[float], float], target_h: float, start: f
 
     def f(u: float) -> float:
         L = life_at(math.exp(u))
-        return math.log(L) - math.log(target_h) if math.isfinite(L) else 50.0
+        if not math.isfinite(L):
+            return 50.0
+        return math.log(L) - math.log(target_h) if L > 0.0 else -50.0  # 0: underflow
 
     lo = hi = math.log(start)
     f_lo = f_hi = f(lo)
@@ -225,7 +231,10 @@ def torque_for_life(life_at: Callable[[float], float], target_h: float, start: f
         lo -= math.log(2.0)
         f_lo = f(lo)
     if f_lo < 0.0 or f_hi > 0.0:
-        raise SolverError("rated torque from life: the target life is not bracketed")
+        raise LifeNotBracketed(
+            f"rated torque from life: no output torque from {math.exp(lo):.3g} to "
+            f"{math.exp(hi):.3g} N*mm gives an L10 of {target_h:g} h"
+        )
     if f_lo == 0.0:
         return math.exp(lo)
     return math.exp(brentq(f, lo, hi, xtol=1e-12, rtol=1e-10))

@@ -10,7 +10,8 @@ end, so logs stay short; work done within 2 s prints none. ``corr-cad run
 The lines keep coming when the counter does not move: a thread prints the
 line again every ``interval`` (the time left from the elapsed time). The
 time left is measured only once enough of the work is done
-(:data:`TRUST_SHARE` of it, at least :data:`TRUST_DONE` units): before that
+(:data:`TRUST_SHARE` of it, at least :data:`TRUST_DONE` units), or after
+:data:`TRUST_S` seconds or the estimate's own time: before that
 it is the resource estimate's (``estimated 2m50s left``) or ``? left``; a
 rate from the first point or two once read "280h22m left". :func:`heartbeat`
 does the same for a stage with no counter of its own (a solve, an export);
@@ -77,6 +78,9 @@ QUIET_S = 2.0
 TRUST_SHARE = 0.02
 #: ... and at least this many units (all of them if fewer).
 TRUST_DONE = 2
+#: ... or, with TRUST_DONE units done, from this many seconds on (or once the
+#: estimate has run out), s.
+TRUST_S = 30.0
 
 
 #: A thread checks ten times an interval and prints from 0.9 of it: no gap passes it.
@@ -150,10 +154,13 @@ class Progress:
         """``2m50s left`` (measured), ``estimated 2m50s left`` or ``? left``."""
         elapsed = max(time.monotonic() - self.t0, 1e-9)
         need = min(self.total, max(TRUST_DONE, math.ceil(TRUST_SHARE * self.total)))
-        if self.done >= need and self.done > 0:
+        # A long run's rate is trusted after TRUST_S too, and once the estimate has
+        # run out: a million samples at 40/s read "estimated 12m left" for 8 minutes.
+        waited = elapsed >= TRUST_S or (self.expected is not None and elapsed >= self.expected)
+        if self.done > 0 and (self.done >= need or (waited and self.done >= TRUST_DONE)):
             return f"{duration((self.total - self.done) * elapsed / self.done)} left"
-        if self.expected is not None:
-            return f"estimated {duration(max(self.expected - elapsed, 0.0))} left"
+        if self.expected is not None and elapsed < self.expected:
+            return f"estimated {duration(self.expected - elapsed)} left"
         return "? left"
 
     def line(self) -> str:

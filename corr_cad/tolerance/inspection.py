@@ -294,6 +294,37 @@ def evaluate_limits(res: InspectionResult, limits: dict) -> dict:
     return out
 
 
+#: Central-difference steps of the fit's parameters (e, L in mm; phase in rad; centre in mm).
+_JACOBIAN_STEPS = (1e-6, 1e-6, 1e-8, 1e-6, 1e-6)
+
+
+def _inverse_normal_matrix(J: np.ndarray, resid, x: np.ndarray, seed: dict) -> np.ndarray:
+    """``(J^T J)^-1`` for the fit's uncertainty.
+
+    The solver's last forward-difference Jacobian can come back with a zero
+    column at a near-exact fit (a CMM file written to 1e-9 mm); it is then
+    recomputed at the solution by central differences with fixed steps.
+    """
+    for attempt in range(2):
+        if attempt:
+            cols = []
+            for j, h in enumerate(_JACOBIAN_STEPS):
+                step = np.zeros_like(x)
+                step[j] = h
+                seed["t"] = None
+                up = resid(x + step)
+                seed["t"] = None
+                cols.append((up - resid(x - step)) / (2.0 * h))
+            J = np.stack(cols, axis=1)
+        JtJ = J.T @ J
+        if np.all(np.isfinite(JtJ)) and np.linalg.matrix_rank(JtJ) == JtJ.shape[0]:
+            return np.linalg.inv(JtJ)
+    raise ProfileError(
+        "the measured points do not determine the eccentricity, link length, phase and "
+        "centre of the fit; measure every tooth flank, e.g. 20 points per tooth"
+    )
+
+
 def fit_design_family(working: ProfileCurve, points: np.ndarray, max_points: int = 4000) -> dict:
     """Best-fit eccentricity, link length ``L``, phase and centre for measured points.
 
@@ -340,8 +371,7 @@ def fit_design_family(working: ProfileCurve, points: np.ndarray, max_points: int
     res = resid(fit.x)
     n, p = len(res), 5
     s2 = float(np.sum(res**2) / (n - p))
-    J = fit.jac
-    cov = s2 * np.linalg.inv(J.T @ J)
+    cov = s2 * _inverse_normal_matrix(fit.jac, resid, fit.x, seed)
     sig = np.sqrt(np.diag(cov))
     e, L, ph, cx, cy = (float(v) for v in fit.x)
     return {

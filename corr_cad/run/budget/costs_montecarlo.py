@@ -43,6 +43,10 @@ DATASHEET_TORQUES = 8
 #: 20.6 ms of CPU a prototype sample of 104 positions measured (load average 6.5 on 2
 #: cores), 2.7 and 7.6 us a cell, rounded up.
 DRIVE_DATASHEET_SECONDS = {False: 3e-6, True: 8e-6}
+#: A bearing with a diametral clearance slows the drive's pass: a z = 9 drive with
+#: 30-needle bearings ran its datasheet Monte Carlo at 272 samples/s without and 53-74
+#: with 2 um clearance (2 workers, load average 3-4, the same minute), taken as 5 times.
+DRIVE_CLEARANCE_FACTOR = 5.0
 #: The summary's temporaries per sample, bytes: a metric's ranks and their
 #: argsort (Spearman), a percentile's sorted copy.
 SUMMARY_TEMP_BYTES = 64
@@ -158,4 +162,7 @@ def datasheet_pass(scene, samples: int, workers: int) -> tuple[float, int]:
     per = 1e-6
     if scene.solver.drive:
         per = DRIVE_DATASHEET_SECONDS[scene.bearing is not None]
+        bearings = (scene.bearing, scene.bearing_b)
+        if any(b is not None and b.diametral_clearance > 0 for b in bearings):
+            per *= DRIVE_CLEARANCE_FACTOR
     return 8.0 + samples * grid * R * per / max(workers, 1), grid

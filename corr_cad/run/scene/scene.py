@@ -26,7 +26,11 @@ from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene import scene_drive as drv
 from corr_cad.run.scene.scene_drive import SolverSpec
-from corr_cad.run.scene.scene_first_stage import first_stage_load, parse_first_stage
+from corr_cad.run.scene.scene_first_stage import (
+    first_stage_load,
+    parse_first_stage,
+    small_torque_refusal,
+)
 from corr_cad.run.scene.scene_hints import design_refusal, did_you_mean, every_format, long_number
 from corr_cad.run.scene.scene_key import nesting_depth
 from corr_cad.run.scene.scene_modification import acts, parse_modification, split_design_table
@@ -156,7 +160,7 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         return value
     if spec.kind == "float":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(f"{where} = {show(value)}: must be a number")
+            raise SceneError(f"{where} = {show(value)}: must be a number{spec.hint()}")
         try:
             v = float(value)
         except OverflowError:  # a TOML integer beyond the float range
@@ -164,14 +168,16 @@ def _coerce(section: str, key: str, spec: Key, value: Any) -> Any:
         if not math.isfinite(v):
             bounded = spec.low is not None or spec.high is not None
             rng = f" in {key_range(spec)}" if bounded else ""
-            raise SceneError(f"{where} = {show(value)}: must be a finite number{rng}")
+            raise SceneError(f"{where} = {show(value)}: must be a finite number{rng}{spec.hint()}")
         _bounds(where, v, spec)
         return v
     if spec.kind == "str":
         if not isinstance(value, str):
-            raise SceneError(f"{where} = {show(value)}: must be a string")
+            raise SceneError(f"{where} = {show(value)}: must be a string{spec.hint()}")
         if spec.choices and value not in spec.choices:
-            raise SceneError(f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}")
+            raise SceneError(
+                f"{where} = {show(value)}: must be one of {', '.join(spec.choices)}{spec.hint()}"
+            )
         if len(value) > MAX_STR:
             raise SceneError(f"{where}: {len(value)} characters; at most {MAX_STR}")
         if "\0" in value:  # os.stat would raise ValueError on the path
@@ -229,7 +235,10 @@ def _bounds(where: str, v: float, spec: Key) -> None:
 def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
     """A range that depends on the design, worded like the static ones."""
     if out_of_range(v, low, high, **kw):
-        raise SceneError(f"{where} = {v:g}: allowed range is {range_text(low, high, **kw)}")
+        tries = (0.0, (low + high) / 2)
+        works = next((w for w in tries if not out_of_range(w, low, high, **kw)), None)
+        hint = f", e.g. {works:g}" if works is not None and math.isfinite(works) else ""
+        raise SceneError(f"{where} = {v:g}: allowed range is {range_text(low, high, **kw)}{hint}")
 
 
 def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -> Scene:
@@ -377,7 +386,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             design.roller_count,
             low_open=False,
         )
-    _check_datasheet(values["datasheet"], checks, formats, load)
+    _check_datasheet(values["datasheet"], checks, formats, load, values["load"])
     sheet = "datasheet" in formats or bool(checks.datasheet_active()) or "datasheet" in data
     tolerances = {k: v for k, v in values["tolerances"].items() if v is not None}
     tol_high = {
@@ -526,7 +535,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     return scene
 
 
-def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
+def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load, ld: dict) -> None:
     """``[datasheet]`` against the rest of the scene, when the datasheet or its checks run."""
     if not ("datasheet" in formats or checks.datasheet_active()):
         return
@@ -547,11 +556,8 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load) -> None:
             "set rated_torque_Nm (N*m, e.g. 2860) or [load] input_torque (N*mm)"
         )
     if ds["rated_torque_Nm"] is None and load is not None and abs(load.input_torque) < 1.0:
-        raise SceneError(  # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM)
-            f"[load] input_torque = {load.input_torque:g}: the datasheet's rated torque "
-            "(z + 1) * input_torque would be below 0.001 N*m; set [datasheet] rated_torque_Nm "
-            "(N*m, e.g. 2860) or input_torque >= 1 N*mm"
-        )
+        # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM)
+        raise SceneError(small_torque_refusal(ld, load.input_torque))
 
 
 def _unique_angle_tags(angles: list[float]) -> None:

@@ -95,7 +95,7 @@ def section_given(section: str, data: dict) -> bool:
 def _check(where: str, v: float, low: float, high: float) -> None:
     if not (low < v < high):
         raise SceneError(
-            f"{where} = {v:g}: allowed range is {range_text(low, high, high_open=True)}"
+            f"{where} = {v:g}: allowed range is {range_text(low, high, high_open=True)}, e.g. 0"
         )
 
 
@@ -196,8 +196,10 @@ def check_inspection_row(row, formats, measured_a, drive: dict, model: str) -> N
             "[errors.row_b] measured_profile is not set"
         )
     if row != "b" and measured_a is None:
+        other = drive["measured_profile_b"] is not None  # ring B's file alone is given
         raise SceneError(
             "[export] formats lists 'inspection' but [errors] measured_profile is not set"
+            + ('; to inspect ring B\'s file set [inspection] row = "b"' if other else "")
         )
 
 

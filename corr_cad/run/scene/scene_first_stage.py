@@ -60,3 +60,25 @@ def first_stage_load(values: dict, load, fs: FirstStageGeometry | None, make):
             "[load] give input_torque_Nm (at the pinion) or input_torque / pinion_torque, not both"
         )
     return make(t_nm * 1e3 * fs.stage.crank_gear_teeth / fs.stage.pinion_teeth)
+
+
+#: The [load] keys that set the crank moment, each with a value that works.
+_TORQUE_KEYS = {"input_torque_Nm": "22", "pinion_torque": "22000", "input_torque": "1.1e5"}
+
+
+def small_torque_refusal(ld: dict, m0: float) -> str:
+    """The refusal of a crank moment ``m0`` (N*mm) below 1 N*mm under the datasheet,
+    naming the ``[load]`` key the scene gave (``ld``: the section's values)."""
+    given = next((k for k in _TORQUE_KEYS if ld.get(k) is not None), "input_torque")
+    if given == "input_torque":
+        return (
+            f"[load] input_torque = {m0:g}: the datasheet's rated torque "
+            "(z + 1) * input_torque would be below 0.001 N*m; set [datasheet] "
+            "rated_torque_Nm (N*m, e.g. 2860) or input_torque >= 1 N*mm"
+        )
+    return (
+        f"[load] {given} = {ld[given]:g}: the crank moment it gives, {m0:g} N*mm, makes the "
+        "datasheet's rated torque (z + 1) * M0 below 0.001 N*m; set [datasheet] "
+        f"rated_torque_Nm (N*m, e.g. 2860) or {given} so that M0 >= 1 N*mm, "
+        f"e.g. {given} = {_TORQUE_KEYS[given]}"
+    )

@@ -43,6 +43,15 @@ class Key:
                 return str(int(v)) if self.kind == "int" else f"{v:g}"
         return None
 
+    def hint(self) -> str:
+        """``, e.g. VALUE`` with a value the key accepts, for a refusal (empty when none)."""
+        if self.kind == "str":
+            works = self.default if isinstance(self.default, str) and self.default else None
+            works = works or (self.choices[0] if self.choices else None)
+            return f', e.g. "{works}"' if works else ""
+        works = self.works()
+        return f", e.g. {works}" if works is not None else ""
+
 
 #: Most entries of a list key whose length the design does not fix.
 MAX_LIST = 1000

@@ -428,6 +428,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
             None,
             "gate the Monte Carlo on binding: largest allowed probability that a sample binds "
             "at zero torque (preload pressure above [montecarlo] binding_pressure_MPa), in [0, 1]",
+            low=0,
+            low_open=False,
             high=1,
             example=0.01,
         ),

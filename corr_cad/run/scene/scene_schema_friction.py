@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from corr_cad.errors import SceneError
 from corr_cad.mechanics.friction import MOUNTINGS
-from corr_cad.run.scene.scene_key import Key
+from corr_cad.run.scene.scene_key import Key, key_range
 
 #: Efficiency map defaults: output torques as shares of T_R, input speeds.
 EFFICIENCY_TORQUES = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]
@@ -161,6 +161,12 @@ def friction_sections(values: dict, data: dict, checks) -> dict:
     both given with different values is refused in one line.
     """
     _same_needles(values, data)
+    for key, works in (("efficiency_torques", "[0.5, 1.0]"), ("efficiency_speeds_rpm", "[1500]")):
+        if values["friction"][key] == []:
+            raise SceneError(
+                f"[friction] {key} = []: give at least one value in "
+                f"{key_range(SECTIONS['friction'][key])}, e.g. {key} = {works}"
+            )
     given = (
         "friction" in data
         or "life" in data

@@ -75,9 +75,13 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         for k in ("positions", "crank_angles_deg", "variants"):
             used = (k == "variants" and sheet) or (k != "variants" and inspected)
             if k in sv and not used:
-                warn(
-                    f"[solver] {k}", 'only "forces", "datasheet", "inspection" and [checks] use it'
+                who = (
+                    'only "forces", "datasheet" and [checks] use it'
+                    if k == "variants"
+                    else 'only "forces", "inspection" and [checks] use it (the datasheet '
+                    "takes [datasheet] positions_per_mesh)"
                 )
+                warn(f"[solver] {k}", who)
     if "datasheet" in data and not sheet and not mc:  # a Monte Carlo takes its figures from it
         warn(
             "[datasheet]",

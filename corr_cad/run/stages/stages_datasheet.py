@@ -210,7 +210,8 @@ def _life_spec(scene, bearing):
 
 
 def _friction_figures(ctx: RunContext):
-    from corr_cad.mechanics.efficiency import friction_figures, rows_from_drive
+    from corr_cad.errors import SceneError
+    from corr_cad.mechanics.efficiency import LifeNotBracketed, friction_figures, rows_from_drive
     from corr_cad.mechanics.hysteresis import hysteresis_figures
     from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
 
@@ -262,16 +263,26 @@ def _friction_figures(ctx: RunContext):
             "rows_at": lambda T: rows_from_drive(s.design, dw.forces(T)),
             "life_b": _life_spec(s, b) if s.life else None,
         }
-    ff = friction_figures(
-        s.design,
-        w,
-        ds.spec.rated_torque,
-        friction,
-        s.friction["efficiency_torques"],
-        s.friction["efficiency_speeds_rpm"],
-        life,
-        **drive,
-    )
+    try:
+        ff = friction_figures(
+            s.design,
+            w,
+            ds.spec.rated_torque,
+            friction,
+            s.friction["efficiency_torques"],
+            s.friction["efficiency_speeds_rpm"],
+            life,
+            **drive,
+        )
+    except LifeNotBracketed as exc:  # the target life the scene set, named with its keys
+        lf, c = s.life, s.life["dynamic_load_rating_N"]
+        rating = "" if c is None else f" with dynamic_load_rating_N = {c:g}"
+        raise SceneError(
+            f"[life] rated_life_h = {lf['rated_life_h']:g} at rated_speed_rpm = "
+            f"{lf['rated_speed_rpm']:g}{rating}: {exc}; e.g. rated_life_h = 6000, "
+            "rated_speed_rpm = 15"
+            + ("" if c is None else ", dynamic_load_rating_N = 65000 (or leave it out)")
+        ) from None
     bench = w
     if s.solver.drive:
         bench = dw
