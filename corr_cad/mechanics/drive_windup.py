@@ -27,6 +27,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.drive_numerics import free_row
 from corr_cad.mechanics.drive_restart import restart_missed
 from corr_cad.mechanics.solver_numerics import _RTOL
 from corr_cad.mechanics.windup import crank_angles_of, series_rigidity_Nmm_per_rad
@@ -69,6 +70,17 @@ class DriveWindup:
         self.crank_angles = crank_angles_of(x, design)
         self.series_rigidity_Nm_per_arcmin = series_rigidity_Nm_per_arcmin
         self.bearings = (bearing, bearing_b if bearing_b is not None else bearing)
+        self._options = dict(
+            errors=errors,
+            errors_b=errors_b,
+            bearing=bearing,
+            bearing_b=bearing_b,
+            contact_model=contact_model,
+            variants=variants,
+            psi_contact_limit=psi_contact_limit,
+            series_rigidity_Nm_per_arcmin=series_rigidity_Nm_per_arcmin,
+            rtol=rtol,
+        )
         self._ratio = float(design.roller_count)
         step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
         self._blocks = []
@@ -140,6 +152,34 @@ class DriveWindup:
         """``theta(0+) - theta(0-)``, rad (P,)."""
         lo, hi = self.free_ends()
         return hi - lo
+
+    def slack(self) -> np.ndarray:
+        """Positions where no contact carries a force at zero torque, bool (P,).
+
+        Every row's rollers clear of its cam somewhere in its bearing
+        clearance (no row preloaded, :func:`free_row`) and the crank free
+        between the rows (``theta(0+) > theta(0-)``): no force solve.
+        """
+        out = np.empty(len(self.crank_angles), dtype=bool)
+        for sl, solver in self._blocks:
+            geo, R = solver.geo_joined, solver.R
+            a = np.where(geo.loadable, geo.advance, 0.0)
+            g = np.where(geo.loadable, geo.gap, -np.inf)
+            rev, fwd = solver.free_interval(solve=False)
+            free = fwd > rev
+            for c, part in enumerate((slice(0, R), slice(R, 2 * R))):
+                b = solver.bearings[c]
+                half = 0.5 * b.diametral_clearance if b is not None else 0.0
+                e = self.design.eccentricity
+                r, f = free_row(a[:, part], g[:, part], solver.n[:, part], half, e)
+                free &= f > r
+            out[sl] = free
+        return out
+
+    def at(self, mask: np.ndarray) -> DriveWindup:
+        """The same drive at the positions ``mask`` (bool (P,)) selects."""
+        x = self.output_angles[np.asarray(mask, dtype=bool)]
+        return DriveWindup(self.design, x, **self._options)
 
     def contact_theta(self, output_torque: float) -> np.ndarray:
         """Windup of the contacts (and bearings) alone, rad (P,); ``+-0.0``: the free ends."""

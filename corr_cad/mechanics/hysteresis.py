@@ -83,6 +83,37 @@ def _at_zero(at_1: np.ndarray, at_2: np.ndarray) -> np.ndarray:
     return np.where(d0 > 1e-3 * np.abs(at_1), d0, 0.0)
 
 
+def _preloaded(windup):
+    """The positions where a contact carries a force at zero torque, bool (P,), and the
+    bench at those alone (None where there are none).
+
+    Elsewhere the drive has free play (:meth:`slack`): no force at zero torque, so
+    no dissipation and no running loss there, and no solve at the tiny torques
+    (where every contact law starts from zero stiffness and the cams float).
+    """
+    keep = ~windup.slack()
+    if not np.any(keep):
+        return keep, None
+    return keep, (windup if np.all(keep) else windup.at(keep))
+
+
+def _width_at_zero(design, windup, zero: float, step: float, friction: Friction) -> dict:
+    """``D0 / K0`` on either side of zero torque (keys +1.0 and -1.0), rad (P,) each.
+
+    ``D0`` extrapolated from two small torques (Richardson): the part
+    proportional to the torque drops out, the preload's stays; zero with free play.
+    """
+    keep, bench = _preloaded(windup)
+    out = {}
+    for s in (1.0, -1.0):
+        out[s] = np.zeros(len(keep))
+        if bench is not None:
+            D1, K = bench_dissipation(design, bench, s * zero, step, friction)
+            D2, _ = bench_dissipation(design, bench, 2.0 * s * zero, step, friction)
+            out[s][keep] = _at_zero(D1, D2) / K
+    return out
+
+
 def _rows(res) -> tuple:
     """The per-row force results: a drive result's rows, or the one row itself."""
     return tuple(getattr(res, "rows", None) or (res,))
@@ -156,39 +187,35 @@ def hysteresis_figures(
     step = _STEP * rated_torque
     zero = _ZERO * rated_torque
     out = {}
-    width0 = np.zeros(len(windup.output_angles))
     # At zero torque the forces are the preload, alike in both cams (rows = 2); under
     # load the modelled cam carries load_share of the torque. A drive model's windup
     # (no load_share) solves both rows: its dissipation is the drive's as it is.
     share = getattr(windup, "load_share", None)
     if share is None:
         rows, share = 1, 1.0
-    for s in (1.0, -1.0):
-        # D at zero torque extrapolated from two small torques (Richardson): the part
-        # proportional to the torque drops out, the preload's stays.
-        D1, K = bench_dissipation(design, windup, s * zero, step, friction)
-        D2, _ = bench_dissipation(design, windup, 2.0 * s * zero, step, friction)
-        width0 = width0 + rows * _at_zero(D1, D2) / K
-    out["loss"] = width0
-    w = np.zeros_like(width0)
+    at_zero = _width_at_zero(design, windup, zero, step, friction)
+    out["loss"] = rows * (at_zero[1.0] + at_zero[-1.0])
+    w = np.zeros(len(windup.output_angles))
     for s in (1.0, -1.0):
         D, K = bench_dissipation(design, windup, s * rated_torque, step, friction)
         w = w + 2.0 * D / share / K
     out["width_at_rated"] = 0.5 * w
 
     # Running at no load: the preload forces, crank driving (forward) and output driving,
-    # extrapolated to zero torque like D0.
-    def no_load(t: float) -> tuple[np.ndarray, np.ndarray]:
-        def loss(T: float) -> np.ndarray:
-            loads = [row_loads_from_forces(design, r) for r in _rows(windup.forces(T))]
-            return sum(fr.total_loss for fr in drive_friction(design, loads, friction))
+    # extrapolated to zero torque like D0; zero with free play.
+    keep, bench = _preloaded(windup)
 
-        return loss(-t), loss(t)
+    def loss(T: float) -> np.ndarray:
+        loads = [row_loads_from_forces(design, r) for r in _rows(bench.forces(T))]
+        return sum(fr.total_loss for fr in drive_friction(design, loads, friction))
 
-    f1, b1 = no_load(zero)
-    f2, b2 = no_load(2.0 * zero)
-    out["starting_torque"] = rows * _at_zero(f1, f2) / float(design.roller_count)
-    out["backdriving_torque"] = rows * _at_zero(b1, b2)
+    out["starting_torque"] = np.zeros(len(keep))
+    out["backdriving_torque"] = np.zeros(len(keep))
+    if bench is not None:
+        f0 = _at_zero(loss(-zero), loss(-2.0 * zero))
+        b0 = _at_zero(loss(zero), loss(2.0 * zero))
+        out["starting_torque"][keep] = rows * f0 / float(design.roller_count)
+        out["backdriving_torque"][keep] = rows * b0
     return out
 
 
@@ -209,11 +236,7 @@ def hysteresis_loop(
     share = getattr(windup, "load_share", None)
     if share is None:
         rows, share = 1, 1.0
-    at_zero = {}
-    for s in (1.0, -1.0):
-        D1, K = bench_dissipation(design, windup, s * zero, step, friction)
-        D2, _ = bench_dissipation(design, windup, 2.0 * s * zero, step, friction)
-        at_zero[s] = rows * _at_zero(D1, D2) / K
+    at_zero = {s: rows * w for s, w in _width_at_zero(design, windup, zero, step, friction).items()}
     T = np.asarray(torques, dtype=float)
     P = len(windup.output_angles)
     rising, falling = np.zeros((len(T), P)), np.zeros((len(T), P))

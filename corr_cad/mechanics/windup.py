@@ -318,6 +318,24 @@ class Windup:
         lo, hi = self.free_ends()
         return hi - lo
 
+    def slack(self) -> np.ndarray:
+        """Positions where no contact carries a force at zero torque, bool (P,): free play."""
+        return self.backlash() > 0.0
+
+    def at(self, mask: np.ndarray) -> Windup:
+        """The same row at the positions ``mask`` (bool (P,)) selects."""
+        return Windup(
+            self.design,
+            self.output_angles[np.asarray(mask, dtype=bool)],
+            errors=self.errors,
+            load_share=self.load_share,
+            contact_model=self.contact_model,
+            variants=self.variants,
+            psi_contact_limit=self.psi_contact_limit,
+            series_rigidity_Nm_per_arcmin=self.series_rigidity_Nm_per_arcmin,
+            rtol=self.rtol,
+        )
+
     def _solve(self, output_torque: float, sign: int):
         """Contact windup (P,) rad and the force results of each block."""
         target = self.cam_moment(output_torque)
