@@ -22,7 +22,9 @@ two branches stand ``D0 / K0`` either side of the frictionless curve
 at zero torque beyond the backlash, is ``D0(0+) / K0(0+) + D0(0-) / K0(0-)``.
 Coulomb friction is proportional to the contact forces: without a preload
 (no force at zero torque) ``D0 = 0`` and the loss is zero; the loop then
-opens only under load (``hysteresis_width_at_rated``).
+opens only under load (``hysteresis_width_at_rated``). Positions with free
+play at zero torque (the windup's ``slack``) take ``D0 = 0`` as it stands,
+with no solve at the small torques; the rest are solved alone.
 
 Under the drive model (``[solver] model = "drive"``) the bench is the
 drive's own: both rows' rollers, each row at its own crank angles, against
