@@ -206,6 +206,7 @@ def _listener(reply: bytes | None):
     return srv, held, spans
 
 
+@pytest.mark.slow
 def test_a_listener_that_never_answers_is_given_up_within_the_time_out(tmp_path, mc_scene):
     """It held the run 40 s where the docs promise 5 s.
 
@@ -253,6 +254,7 @@ def test_a_scheduler_with_no_workers(tmp_path, cluster, mc_scene):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_no_workers_time_out_from_the_scene(tmp_path, cluster):
     (tmp_path / "mc.toml").write_text(
         MC.format(samples=100) + "[dask]\nno_workers_timeout_s = 2.0\n"

@@ -64,6 +64,7 @@ def test_gears_sit_on_their_axes_and_mesh_with_half_the_backlash_each_side(crank
                 assert ring.contains(wheel)
 
 
+@pytest.mark.slow
 def test_png_format_draws_the_first_stage_only_with_it(tmp_path):
     scene = tmp_path / "s.toml"
     base = '[export]\nformats = ["png"]\n'

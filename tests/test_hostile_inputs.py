@@ -192,6 +192,7 @@ def test_an_integer_of_5000_digits_is_one_line(folder):
     assert "e.g. tooth_count = 39" in line
 
 
+@pytest.mark.slow
 def test_a_whole_number_written_as_a_float_is_that_integer(folder):
     """``tooth_count = 25.0`` is the whole number 25: the same files as ``tooth_count = 25``."""
     scene = DESIGN.replace("tooth_count = 8", "tooth_count = 25").replace("40.0", "135.0")
@@ -235,6 +236,7 @@ def test_a_flag_out_of_range_gives_a_value_that_works(folder, flag, value, works
     assert f"e.g. {works}" in line, line
 
 
+@pytest.mark.slow
 def test_a_budget_too_small_for_every_key_names_the_budget_that_holds_the_run(folder):
     line = refused(folder, cli(folder, DESIGN, "--max-memory", "0.01"))
     need = float(re.search(r"would need about (\S+) MB", line).group(1))
@@ -465,6 +467,7 @@ def _lock_case(folder: Path, kind: str) -> Path:
     return lock
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["hard link", "empty", "other"])
 def test_a_lock_path_holding_a_file_corr_cad_did_not_write_is_refused_and_left(folder, kind):
     lock = _lock_case(folder, kind)

@@ -412,6 +412,7 @@ def test_huge_positions_refused_up_front_with_a_value_that_works(folder):
                  "solver": {"positions": ok}})  # fmt: skip
 
 
+@pytest.mark.slow
 def test_large_positions_run_within_the_estimate(folder):
     """A legitimate large run stays under its own memory estimate (child peak RSS)."""
     from corr_cad.run.budget.resources import estimate
@@ -467,6 +468,7 @@ def _measured_scene(folder: Path, name: str) -> None:
     )
 
 
+@pytest.mark.slow
 def test_measured_csv_with_bom_and_spaced_capital_header(folder):
     pts = _working_points(2600)
     body = "\n".join(f"{x:.9f}, {y:.9f}" for x, y in pts)

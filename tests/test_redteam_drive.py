@@ -165,6 +165,7 @@ def test_max_binding_probability_states_the_range_the_loader_enforces(tmp_path, 
 COMPOUND = (Path(__file__).resolve().parents[1] / "templates" / "compound.toml").read_text()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("allowance", ["0.6", "3.0"])
 def test_a_tip_thinned_by_the_backlash_allowance_names_the_allowance(tmp_path, allowance):
     # It blamed shift_pinion = 0.5 ("reduce the shift or the addendum"), which

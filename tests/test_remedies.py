@@ -150,6 +150,7 @@ def test_of_two_passing_changes_the_nearer_is_proposed():
     assert rem.value == pytest.approx(3.6, abs=0.01)
 
 
+@pytest.mark.slow
 def test_allocation_explains_its_zero(tmp_path):
     r = _run(tmp_path, "a", ALLOCATE.format(limit=1100.0))
     assert r.returncode == 1
@@ -166,6 +167,7 @@ def test_allocation_says_nothing_of_zero_when_it_is_not(tmp_path):
     assert rows[0]["tolerance"] > 0 and "why_zero" not in rows[0]
 
 
+@pytest.mark.slow
 def test_the_report_names_the_same_changes(tmp_path):
     text = _scene().replace('formats = ["forces"]', 'formats = ["forces", "report"]')
     r = _run(tmp_path, "rep", text, "--quiet")

@@ -69,6 +69,7 @@ def test_nc_header_names_the_profile_and_two_rings_never_read_alike(rings):
     assert heads["a"] != heads["b"] != heads["conjugate"]
 
 
+@pytest.mark.slow
 def test_edm_dxf_cmm_csv_and_manifest_name_the_profile(rings):
     for k, out in rings.items():
         doc = ezdxf.readfile(out / "inner_gear_edm.dxf")
@@ -109,6 +110,7 @@ def test_descriptions_of_different_rings_differ():
     assert "equidistant +0.00001 mm" in describe_profile(d, Modification(equidistant_mm=1e-5))
 
 
+@pytest.mark.slow
 def test_edm_stage_places_its_lead_in_without_a_force_solve(rings, tmp_path):
     assert "forces" not in plan(("edm",)) and "forces" not in plan(("edm", "cmm"))
     man = json.loads((rings["a"] / "manifest.json").read_text())

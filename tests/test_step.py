@@ -481,6 +481,7 @@ def test_freecad_reads_the_whole_drive_assembly_as_placed(tmp_path):
         assert np.array(theirs[k][1]) == pytest.approx(com, abs=1e-6), p.name
 
 
+@pytest.mark.slow
 def test_assembly_product_unlike_its_part_file_fails_the_read_back(tmp_path, monkeypatch, capsys):
     """The read-back compares each assembly product with its own part file (their
     quick boxes, equal for equal geometry): a product 1 um off its part file stops
