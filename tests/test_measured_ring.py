@@ -259,3 +259,16 @@ def test_other_errors_have_no_effect_on_a_measured_rings_datasheet():
     assert not any(
         "roller_radius_error" in w for w in no_effect_warnings(data, ("datasheet",), False)
     )
+
+
+def test_datasheet_section_has_an_effect_on_the_inspection():
+    """The inspection's predicted play reads [datasheet] (rated torque, bands, TE
+    positions): no "[datasheet] has no effect" beside it; without it, the warning."""
+    from corr_cad.run.scene.scene_text import no_effect_warnings
+
+    data = {
+        "errors": {"measured_profile": "m.csv"},
+        "datasheet": {"transmission_error_positions_per_turn": 36},
+    }
+    assert not any("[datasheet]" in w for w in no_effect_warnings(data, ("inspection",), False))
+    assert any("[datasheet]" in w for w in no_effect_warnings(data, ("dxf",), False))

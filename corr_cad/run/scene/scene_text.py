@@ -82,10 +82,11 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
                     "takes [datasheet] positions_per_mesh)"
                 )
                 warn(f"[solver] {k}", who)
-    if "datasheet" in data and not sheet and not mc:  # a Monte Carlo takes its figures from it
+    # A Monte Carlo takes its figures from it, the inspection its predicted play.
+    if "datasheet" in data and not sheet and not mc and "inspection" not in f:
         warn(
             "[datasheet]",
-            'formats lists none of "datasheet", "montecarlo", "allocation" '
+            'formats lists none of "datasheet", "montecarlo", "allocation", "inspection" '
             "and no [checks] limit needs it",
         )
     if "friction" in data and not sheet:
