@@ -98,14 +98,7 @@ def drive_force_files(ctx: RunContext) -> None:
     header = [
         "crank_angle_deg",
         "row",
-        "roller",
-        "psi_deg",
-        "F_j",
-        "F_s",
-        "F_n",
-        "p_cam",
-        "p_slot",
-        "p_gear",
+        *ROLLER_COLUMNS,
         "row_share",
         "bearing_load",
         "needle_load_max",
@@ -168,6 +161,10 @@ def drive_force_files(ctx: RunContext) -> None:
         **rows["A"],
         **{k: v for k, v in summary.items() if k != "solver"},
     }
+
+
+#: forces.csv's per-roller columns (:func:`roller_columns`), after the crank angle (and row).
+ROLLER_COLUMNS = ("roller", "psi_deg", "F_j", "F_s", "F_n", "p_cam", "p_slot", "p_gear")
 
 
 def roller_columns(res) -> list[np.ndarray]:

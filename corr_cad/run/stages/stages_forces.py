@@ -58,22 +58,12 @@ def _force_files(ctx: RunContext) -> None:
         return
     res = ctx.results.forces
     s = ctx.scene
-    from corr_cad.run.stages.stages_drive import roller_columns
+    from corr_cad.run.stages.stages_drive import ROLLER_COLUMNS, roller_columns
 
     P, R = res.F_j.shape
     ang = np.degrees(res.crank_angles)
     cols = [np.repeat(ang, R), *roller_columns(res)]
-    header = [
-        "crank_angle_deg",
-        "roller",
-        "psi_deg",
-        "F_j",
-        "F_s",
-        "F_n",
-        "p_cam",
-        "p_slot",
-        "p_gear",
-    ]
+    header = ["crank_angle_deg", *ROLLER_COLUMNS]
     write_columns(ctx.out / "forces.csv", header, cols, ("%.6f", "%d", "%.6f") + ("%.9g",) * 6)
     summary = res.summary()
     summary["roller"] = 1  # the means and peaks above are roller 1's; "peak" is the drive's
