@@ -18,10 +18,12 @@ def test_two_setup_commands_on_the_first_screen():
         "pip install -c constraints.txt" in cmds[0]
         and "corr-cad run templates/prototype.toml" in cmds[0]
     )
-    assert cmds[1].strip() == "python -m pytest -n auto"
+    assert cmds[1].strip() == 'python -m pytest -n auto -m "not slow"'
     assert text.index("<!-- setup-commands -->") < 1200  # first screen
     ci = (ROOT / ".ci" / "run").read_text()
     assert "setup-commands" in ci
+    # CI runs the slow set after the README's quick suite: every test runs there.
+    assert 'python -m pytest -n auto -m slow' in ci
 
 
 def _names(requirements: list[str]) -> set[str]:
