@@ -223,9 +223,12 @@ def forces_png(
     path: Path,
     design: GearDesign | None = None,
     input_torque: float | None = None,
+    row: str = "",
 ) -> Path:
     """Forces over the crank cycle: the envelope over all rollers and roller 1,
-    and the peak contact pressure of each contact (cam, gear, slot)."""
+    and the peak contact pressure of each contact (cam, gear, slot).
+
+    ``row``: which row of the drive is drawn, said in the title ("" for the paper's row)."""
     ang = np.degrees(np.asarray(res.crank_angles))
     order = np.argsort(ang)
     ang = ang[order]
@@ -264,9 +267,8 @@ def forces_png(
         ax2.set_xlim(float(ang.min()), float(ang.max()))
     ax1.set_ylim(bottom=0)
     ax2.set_ylim(bottom=0)
-    _title(
-        fig, "Mesh forces over the cycle (solid: envelope over all rollers)", design, input_torque
-    )
+    title = "Mesh forces over the cycle (solid: envelope over all rollers)"
+    _title(fig, f"{title}\n{row}" if row else title, design, input_torque)
     fig.subplots_adjust(left=0.09, right=0.97, top=0.9, bottom=0.08, hspace=0.55)
     return _save(fig, path)
 

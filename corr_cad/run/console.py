@@ -146,7 +146,9 @@ def warnings(manifest: dict) -> list[str]:
             f"validity: contacts outside the Hertz model (half-width >= a radius): {parts} "
             "(position, roller) pairs; their pressures and approaches are extrapolated"
         )
-    p = peak.get("pressure")
+    rows = (manifest.get("forces") or {}).get("rows") or {}
+    tops = [(r.get("peak") or {}).get("pressure") for r in rows.values()] or [peak.get("pressure")]
+    p = max((t for t in tops if t), key=lambda t: t["value"], default=None)
     if p and p["value"] > PRESSURE_BOUND_MPA:
         out.append(
             f"material: peak contact pressure {p['value']:.0f} MPa exceeds "
@@ -370,6 +372,21 @@ def assembly_line(a: dict) -> str:
     )
 
 
+def peak_lines(pk: dict, head: str) -> list[str]:
+    """The two peak lines of one row (``head``: ``drive`` or ``drive (row B, the heavier)``)."""
+    if not pk:
+        return []
+    p = pk["pressure"]
+    return [
+        f"{head}: peak F_n {pk['F_n']['value']:.1f} N on {_where(pk['F_n'])}; "
+        f"peak F_j {pk['F_j']['value']:.1f} N on {_where(pk['F_j'])}; "
+        f"peak |F_s| {abs(pk['F_s']['value']):.1f} N on {_where(pk['F_s'])}",
+        f"{head}: peak contact pressure {p['value']:.0f} MPa at the {p['contact']} "
+        f"contact, {_where(p)}; loaded rollers {pk['loaded_rollers']['min']}-"
+        f"{pk['loaded_rollers']['max']}",
+    ]
+
+
 def summary_lines(manifest: dict, out) -> list[str]:
     """The console summary of a finished run, from its manifest."""
     lines = []
@@ -383,23 +400,20 @@ def summary_lines(manifest: dict, out) -> list[str]:
         )
     f = manifest.get("forces")
     if f:
-        pk = f.get("peak") or {}
-        if pk:
-            lines.append(
-                f"drive: peak F_n {pk['F_n']['value']:.1f} N on {_where(pk['F_n'])}; "
-                f"peak F_j {pk['F_j']['value']:.1f} N on {_where(pk['F_j'])}; "
-                f"peak |F_s| {abs(pk['F_s']['value']):.1f} N on {_where(pk['F_s'])}"
-            )
-            p = pk["pressure"]
-            lines.append(
-                f"drive: peak contact pressure {p['value']:.0f} MPa at the {p['contact']} "
-                f"contact, {_where(p)}; loaded rollers {pk['loaded_rollers']['min']}-"
-                f"{pk['loaded_rollers']['max']}"
-            )
+        rows = f.get("rows") or {}
+        heavier = f.get("heavier_row")
+        if heavier in rows:  # the drive: the heavier row first, then the other, each named
+            order = [heavier, *(r for r in rows if r != heavier)]
+            for name in order:
+                tag = f"row {name}, the heavier" if name == heavier else f"row {name}"
+                lines.extend(peak_lines(rows[name].get("peak") or {}, f"drive ({tag})"))
+        else:
+            lines.extend(peak_lines(f.get("peak") or {}, "drive"))
         if f.get("model") == "drive":
             lines.extend(drive_lines(f))
+        of = f"row {heavier} " if heavier in rows else ""
         lines.append(
-            f"roller 1: F_j mean {f['F_j_mean']:.1f} N, peak {f['F_j_peak']:.1f} N; "
+            f"{of}roller 1: F_j mean {f['F_j_mean']:.1f} N, peak {f['F_j_peak']:.1f} N; "
             f"F_n mean {f['F_n_mean']:.1f} N, peak {f['F_n_peak']:.1f} N; "
             f"F_s peak-to-peak {f['F_s_peak_to_peak']:.1f} N"
         )
