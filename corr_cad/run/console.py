@@ -17,6 +17,7 @@ import os
 
 import numpy as np
 
+from corr_cad.export.datasheet_html import life_short, nominal_geometry
 from corr_cad.figure_text import figure, unit_of
 from corr_cad.mechanics import contact
 
@@ -165,6 +166,8 @@ def warnings(manifest: dict) -> list[str]:
             f"{PRESSURE_BOUND_MPA:.0f} MPa: those samples are beyond the material and the "
             "elastic Hertz model; read them as 'fails', not as a pressure"
         )
+    if short := life_short(manifest.get("datasheet") or {}):
+        out.append(short)
     for edge in (manifest.get("modification_design") or {}).get("at_range_edge", []):
         out.append(
             f"modification design: the chosen {edge} (the search looked no further; "
@@ -228,12 +231,21 @@ def datasheet_lines(d: dict | None) -> list[str]:
         if ring.get("profile") == "measured"
         else ""
     )
+    whole = d.get("whole_drive")
+    stage = " (second stage, crank locked)" if whole else ""
     out = [
         f"datasheet{of} at T_R = {figure(d['rated_torque_Nm'], 5)} N*m, {p['count']} positions "
         f"over {p['span']} (min / mean / max):",
-        f"  backlash            {mmm(d['backlash_arcmin'])} arcmin",
-        f"  lost motion         {mmm(lm)} arcmin (at +-{100 * lm['band']:g} % T_R)",
+        f"  backlash            {mmm(d['backlash_arcmin'])} arcmin{stage}",
+        f"  lost motion         {mmm(lm)} arcmin (at +-{100 * lm['band']:g} % T_R){stage}",
     ]
+    if whole:
+        out.append(
+            f"  whole drive         backlash {figure(whole['backlash_arcmin'])} arcmin, lost "
+            f"motion {figure(whole['lost_motion_arcmin'])} arcmin (pinion held: the first "
+            f"stage's backlash {figure(d['first_stage']['lost_motion_arcmin'])} arcmin at the "
+            "output included)"
+        )
     if rig["with_series"] is not None:
         out.append(
             f"  torsional rigidity  {mmm(rig['with_series'])} N*m/arcmin (series "
@@ -264,6 +276,7 @@ def datasheet_lines(d: dict | None) -> list[str]:
     out.append(
         f"  transmission error  forward {figure(te['forward_peak_to_peak'])}, reverse "
         f"{figure(te['reverse_peak_to_peak'])} arcsec peak-to-peak over one output revolution"
+        + (" (nominal geometry: a perfect drive's)" if nominal_geometry(d) else "")
     )
     if "efficiency_forward" in d:
         out.extend(friction_lines(d))
@@ -291,7 +304,7 @@ def friction_lines(d: dict) -> list[str]:
         + (" (SELF-LOCKING at some torques)" if bk["self_locking"] else ""),
         f"  hysteresis loss     {figure(d['hysteresis_loss_arcmin'], 4)} arcmin (width at T_R "
         f"{figure(d['hysteresis_width_at_rated_arcmin']['max'], 4)} arcmin)",
-        f"  starting torque     {figure(d['starting_torque_Nm']['max'], 4)} N*m at the input",
+        f"  starting torque     {figure(d['starting_torque_Nm']['max'], 4)} N*m at the crank",
     ]
     if d.get("friction", {}).get("forces", "").startswith("drive"):
         out.insert(0, "  friction and life   from the drive: both rows, each cam's bearing")
@@ -311,6 +324,7 @@ def friction_lines(d: dict) -> list[str]:
         out.append(
             f"  rated torque from life {figure(rt['value'], 5)} N*m "
             f"(L10 {rt['rated_life_h']:g} h at {rt['rated_speed_rpm']:g} rpm)"
+            + (" < T_R: the life at T_R is SHORT of the rated life" if life_short(d) else "")
         )
     return out
 
