@@ -21,7 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = """[load]
 input_torque = 1.1e5
 [export]
-formats = ['forces', 'report']
+formats = ['forces', 'report', 'interference']
+interference_method = 'exact'
+interference_positions = 360
 [solver]
 model = "drive"
 positions = 52
@@ -115,3 +117,27 @@ def test_the_heavier_row_is_chosen_by_the_peak_gear_force():
     assert heavier_row(res(2.0, 1.0, 0.5)) == 0
     assert heavier_row(res(1.0, 1.0 + 1e-13, 0.5 - 1e-17)) == 0  # a tie: row A
     assert heavier_row(res(1.0, 1.0, 0.4)) == 1  # same peak, row B carries more
+
+
+def test_the_drives_clearance_has_both_rows_and_the_bearings_free_play(asym):
+    """Row A's rollers 1 um small open 1 um at every contact of row A; row B is exact;
+    the bearings' free play (Pd / 2) and the drive's free rotation are stated."""
+    import csv
+
+    out, stdout = asym
+    c = json.loads((out / "manifest.json").read_text())["clearance"]
+    assert c["positions"] == 360 and set(c["rows"]) == {"A", "B"}
+    a, b = c["rows"]["A"], c["rows"]["B"]
+    for contact in ("cam", "ring", "slot"):
+        assert a[contact]["min_mm"] == pytest.approx(0.001, abs=1e-9)
+        assert abs(b[contact]["min_mm"]) <= 1e-9
+    assert c["min_clearance_mm"] == min(a["min_clearance_mm"], b["min_clearance_mm"])
+    assert c["bearing_free_play_mm"] == {"A": 0.0, "B": 0.0}  # 40 needles, Pd = 0
+    forces = json.loads((out / "forces_summary.json").read_text())
+    assert c["drive_backlash_arcmin"]["source"].startswith("forces")
+    with open(out / "clearance.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert {r["row"] for r in rows} == {"A", "B"} and len(rows) == 2 * 360 * 26
+    assert "clearance over 360 crank positions of both rows" in stdout
+    assert "each cam moves 0 um on its needles" in stdout
+    assert forces["heavier_row"] == "B"

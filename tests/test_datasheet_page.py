@@ -32,7 +32,9 @@ backlash_allowance = 0.03
 [load]
 input_torque_Nm = 22.0
 [export]
-formats = ['datasheet']
+formats = ['datasheet', 'interference']
+interference_method = 'exact'
+interference_positions = 360
 [solver]
 model = "drive"
 positions = 52
@@ -209,3 +211,19 @@ def test_the_page_gives_the_as_built_figures_beside_the_nominal(tmp_path, first)
     } <= keys
     check_sentence_numbers(page, sheet, DESIGN + (0.55,), FORMULAS)
     assert 'id="as-built"' in html
+
+
+@pytest.mark.slow
+def test_the_drives_clearance_agrees_with_the_datasheets_backlash(drive):
+    """clearance.png's and manifest.json's statement of the drive's free rotation is the
+    datasheet's backlash, and each cam's free play is half its bearing's clearance."""
+    out, sheet, _, r = drive
+    c = json.loads((out / "manifest.json").read_text())["clearance"]
+    assert c["bearing_free_play_mm"] == {"A": 0.001, "B": 0.001}
+    assert c["drive_backlash_arcmin"]["value"] == sheet["backlash_arcmin"]["max"]
+    assert set(c["rows"]) == {"A", "B"}
+    from corr_cad.figure_text import figure
+
+    line = next(ln for ln in r.stdout.splitlines() if "eccentric bearings (not in" in ln)
+    assert "each cam moves 1 um" in line
+    assert f"{figure(sheet['backlash_arcmin']['max'])} arcmin at the output" in line

@@ -461,10 +461,13 @@ def summary_lines(manifest: dict, out) -> list[str]:
             else f"{1e3 * low:.4g} um ({'interference' if low < 0 else 'clearance'})"
         )
         working = "<= 1e-9 mm" if work <= 1e-9 else f"{1e3 * work:.3g} um"
+        both = " of both rows" if c.get("rows") else ""
         lines.append(
-            f"clearance over {c['positions']} crank positions: smallest {smallest}; "
+            f"clearance over {c['positions']} crank positions{both}: smallest {smallest}; "
             f"working contacts within {working} of exact contact"
         )
+        if c.get("free_play_note"):
+            lines.append(f"  {c['free_play_note']}")
     fc = (c or {}).get("first_stage")
     if fc:
         lines.append(
