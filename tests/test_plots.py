@@ -315,7 +315,14 @@ def test_clearance_png_one_panel_per_contact_with_band_and_backlash_side(figures
         assert lo < um.min() and hi > um.max() and hi - lo < 4 * (um.max() - um.min()) + 1
     # the design line, as on every plot
     assert "z = 25, Rj = 135 mm, r = 8 mm, e = 3.5 mm, l = 12 mm" in fig._suptitle.get_text()
-    assert neighbour.get_ylabel() == "clearance [um]"  # one unit for every panel
+    # the contacts in um; the neighbours' gap (17.6 mm: never a contact) in mm
+    assert neighbour.get_ylabel() == "gap [mm]" and "never a contact" in neighbour.get_title()
+    # each extreme named with its roller and angle from the summary
+    plots.clearance_png(clr, tmp_path / "c2.png", d, summary=clr.summary())
+    cam2 = figures[-1].axes[0]
+    k = np.unravel_index(np.argmin(clr.cam), clr.cam.shape)
+    (smallest,) = [ln for ln in cam2.get_lines() if ln.get_label().startswith("smallest")]
+    assert f"(roller {k[1] + 1}, " in smallest.get_label()
 
 
 def test_clearance_png_exact_contact_is_said_not_drawn_as_three_lines(figures, tmp_path):

@@ -352,9 +352,12 @@ def test_clearance_png_one_unit_and_no_dead_space(figures, tmp_path):
     plots.clearance_png(clr, tmp_path / "c.png", d)
     (fig,) = figures
     fig.canvas.draw()
-    assert {ax.get_ylabel() for ax in fig.axes} == {"clearance [um]"}
-    for ax, arr in zip(fig.axes, (clr.cam, clr.ring, clr.slot, clr.neighbour), strict=True):
-        um = arr * 1e3
+    assert {ax.get_ylabel() for ax in fig.axes[:3]} == {"clearance [um]"}
+    assert fig.axes[3].get_ylabel() == "gap [mm]"  # 17.6 mm between rollers, not 17,636 um
+    for ax, arr, unit in zip(
+        fig.axes, (clr.cam, clr.ring, clr.slot, clr.neighbour), (1e3, 1e3, 1e3, 1.0), strict=True
+    ):
+        um = arr * unit
         lo, hi = ax.get_ylim()
         # the band far from zero fills its axis: no empty strip down to zero
         assert 0.0 < lo < um.min() and hi > um.max()
@@ -366,7 +369,7 @@ def test_clearance_png_one_unit_and_no_dead_space(figures, tmp_path):
     assert max(ax.get_position().x1 for ax in fig.axes) > 0.9  # no column left for legends
     neighbour = fig.axes[3]
     smallest = next(ln for ln in neighbour.get_lines() if ln.get_label().startswith("smallest"))
-    assert smallest.get_label() == f"smallest {figure_of(float(clr.neighbour.min() * 1e3))} um"
+    assert smallest.get_label() == f"smallest {figure_of(float(clr.neighbour.min()))} mm"
 
 
 def _class(c, bmin, bmax, binds, inter, meets):

@@ -27,8 +27,17 @@ import math
 from pathlib import Path
 
 from corr_cad.export.files import writing
+from corr_cad.figure_text import figure
 
-__all__ = ["catalogue_number", "datasheet_rows", "render_datasheet_html", "write_datasheet_html"]
+__all__ = [
+    "catalogue_number",
+    "datasheet_rows",
+    "json_numbers",
+    "life_short",
+    "nominal_geometry",
+    "render_datasheet_html",
+    "write_datasheet_html",
+]
 
 
 def catalogue_number(value: float, digits: int = 4) -> str:
@@ -53,8 +62,37 @@ def catalogue_number(value: float, digits: int = 4) -> str:
 
 def _get(data: dict, key: str):
     for part in key.split("."):
-        data = data[part]
+        data = data[int(part)] if isinstance(data, list) else data[part]
     return data
+
+
+def json_numbers(data, prefix: str = "") -> list[tuple[str, float]]:
+    """Every number of a JSON-ready dictionary as ``(key path, value)``, in the file's order:
+    dotted keys, list items by index (``stiffness_Nm_per_arcmin.breakpoints_Nm.0``);
+    booleans, ``None`` and texts are not numbers.
+
+    >>> json_numbers({"a": 1, "b": {"c": [2.5, None], "d": True, "e": "3 mm"}})
+    [('a', 1.0), ('b.c.0', 2.5)]
+    """
+    out = []
+    items = data.items() if isinstance(data, dict) else enumerate(data)
+    for k, v in items:
+        key = f"{prefix}{k}"
+        if isinstance(v, bool) or v is None or isinstance(v, str):
+            continue
+        if isinstance(v, (dict, list, tuple)):
+            out += json_numbers(v, key + ".")
+        elif isinstance(v, (int, float)) and math.isfinite(float(v)):
+            out.append((key, float(v)))
+    return out
+
+
+def all_figures(sheet: dict) -> list[dict]:
+    """The page's last table: every number of ``datasheet.json``, by its key path."""
+    return [
+        {"key": key, "value": v, "exact": repr(v), "text": catalogue_number(v)}
+        for key, v in json_numbers(sheet)
+    ]
 
 
 def datasheet_rows(sheet: dict) -> list[dict]:
@@ -65,25 +103,51 @@ def datasheet_rows(sheet: dict) -> list[dict]:
     k = sheet["stiffness_Nm_per_arcmin"]["breakpoints_Nm"]
     series = rig.get("series_rigidity_Nm_per_arcmin")
     n = catalogue_number
+    whole = sheet.get("whole_drive")
+    stage = ", second stage" if whole else ""
+    locked = "crank locked" if whole else "input locked"
+    nominal = nominal_note(sheet)
     rows = [
         ("Rated output torque T_R", "rated_torque_Nm", "N*m", sheet["rated_torque_source"]),
-        (
-            "Backlash",
-            "backlash_arcmin.max",
-            "arcmin",
-            "theta(0+) - theta(0-): free output rotation at zero torque, input locked; "
-            "largest over the positions",
+        *(
+            [
+                (
+                    "Backlash, whole drive",
+                    "whole_drive.backlash_arcmin",
+                    "arcmin",
+                    "free output rotation at zero torque, pinion held: the second stage's "
+                    "backlash below plus the first stage's backlash at the output "
+                    f"({n(sheet['first_stage']['lost_motion_arcmin'])} arcmin); gear teeth "
+                    "rigid",
+                ),
+                (
+                    "Lost motion, whole drive",
+                    "whole_drive.lost_motion_arcmin",
+                    "arcmin",
+                    "the second stage's lost motion below plus the first stage's backlash at "
+                    "the output; pinion held",
+                ),
+            ]
+            if whole
+            else []
         ),
         (
-            "Lost motion",
+            f"Backlash{stage}",
+            "backlash_arcmin.max",
+            "arcmin",
+            f"theta(0+) - theta(0-): free output rotation at zero torque, {locked}; "
+            "largest over the positions" + nominal,
+        ),
+        (
+            f"Lost motion{stage}",
             "lost_motion_arcmin.max",
             "arcmin",
             f"theta(+b T_R) - theta(-b T_R), b = {n(100 * lm['band'])} % "
-            f"(+-{n(lm['torque_Nm'])} N*m); largest over the positions",
+            f"(+-{n(lm['torque_Nm'])} N*m), {locked}; largest over the positions" + nominal,
         ),
         (
             "Torsional rigidity",
-            "torsional_rigidity_Nm_per_arcmin.catalogue",
+            "torsional_rigidity_Nm_per_arcmin.headline",
             "N*m/arcmin",
             f"(T_2 - T_1) / (theta(T_2) - theta(T_1)), T_1 = {n(rig['from_torque_Nm'])} N*m, "
             f"T_2 = {n(rig['to_torque_Nm'])} N*m, both directions; smallest over the positions; "
@@ -120,9 +184,10 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             "transmission_error_arcsec.catalogue",
             "arcsec",
             f"peak-to-peak over one output revolution at a driving torque of "
-            f"{n(te['driving_torque_Nm'])} N*m, the larger of the two directions",
+            f"{n(te['driving_torque_Nm'])} N*m, the larger of the two directions" + nominal,
         )
     )
+    rows += friction_rows(sheet)
     if "peak_contact_pressure_at_rated_MPa" in sheet:
         rows.append(
             (
@@ -157,7 +222,7 @@ def datasheet_rows(sheet: dict) -> list[dict]:
                 "first_stage.lost_motion_arcmin",
                 "arcmin",
                 "the gear stage's backlash (pinion held) at the output: at the crank over "
-                "z + 1; adds to the backlash and lost motion above",
+                "z + 1; included in the whole drive's backlash and lost motion",
             ),
             ("Mass", "mass_kg", "kg", "every part (steel), as drawn"),
             (
@@ -169,7 +234,10 @@ def datasheet_rows(sheet: dict) -> list[dict]:
         ]
     out = []
     for name, key, unit, convention in rows:
-        v = float(_get(sheet, key))
+        v = _get(sheet, key)
+        if v is None:  # a life without end (no load on the part): said, not a number
+            continue
+        v = float(v)
         out.append(
             {
                 "name": name,
@@ -182,6 +250,155 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             }
         )
     return out
+
+
+#: The as-built figures of ``datasheet.json`` ``as_built`` (the Monte Carlo's percentiles):
+#: name, metric, unit, percentiles shown (the catalogue side last).
+AS_BUILT = (
+    ("Lost motion", "lost_motion_arcmin", "arcmin", ("p50", "p95")),
+    ("Transmission error", "transmission_error_arcsec", "arcsec", ("p50", "p95")),
+    ("Torsional rigidity", "torsional_rigidity_Nm_per_arcmin", "N*m/arcmin", ("p50", "p5")),
+)
+
+
+def as_built_rows(sheet: dict) -> list[dict]:
+    """With ``[tolerances]`` and the Monte Carlo: each figure's nominal value beside the
+    percentiles of the drives as built (``datasheet.json`` ``as_built``)."""
+    ab = sheet.get("as_built")
+    if not ab:
+        return []
+    nominal = {
+        "lost_motion_arcmin": "lost_motion_arcmin.max",
+        "transmission_error_arcsec": "transmission_error_arcsec.catalogue",
+        "torsional_rigidity_Nm_per_arcmin": "torsional_rigidity_Nm_per_arcmin.headline",
+    }
+
+    def cell(key: str) -> dict:
+        v = float(_get(sheet, key))
+        return {"key": key, "exact": repr(v), "text": catalogue_number(v)}
+
+    out = []
+    for name, metric, unit, qs in AS_BUILT:
+        got = ab.get(metric) or {}
+        cells = [cell(nominal[metric])] + [
+            cell(f"as_built.{metric}.{q}") if got.get(q) is not None else None for q in qs
+        ]
+        out.append({"name": name, "unit": unit, "cells": cells})
+    return out
+
+
+def nominal_geometry(d: dict) -> bool:
+    """Are the datasheet's figures those of the exact nominal geometry (no error, no
+    measured or modified ring)? Then they are a perfect drive's, not an as-built one's."""
+    ring = d.get("ring") or {}
+    return ring.get("profile") == "nominal" and not ring.get("errors_applied")
+
+
+def life_short(d: dict) -> str:
+    """One sentence when the system L10 at the rated torque is short of ``rated_life_h``
+    (``datasheet.json`` ``life_h``, ``rated_torque_from_life_Nm``); ``""`` otherwise."""
+    life, rt = d.get("life_h") or {}, d.get("rated_torque_from_life_Nm") or {}
+    system, rated = life.get("system"), rt.get("rated_life_h")
+    if system is None or rated is None or system >= rated:
+        return ""
+    return (
+        f"life: the system L10 at the rated torque {figure(life['at_torque_Nm'], 5)} N*m is "
+        f"{figure(system, 4)} h, short of the rated {figure(rated)} h at "
+        f"{figure(rt['rated_speed_rpm'])} rpm; the rated torque from life is "
+        f"{figure(rt['value'], 4)} N*m"
+    )
+
+
+def nominal_note(sheet: dict) -> str:
+    """``"; nominal geometry: ..."`` for figures of the exact nominal geometry, else ``""``."""
+    if not nominal_geometry(sheet):
+        return ""
+    return "; of the exact nominal geometry: a perfect drive's, not an as-built one's"
+
+
+def friction_rows(sheet: dict) -> list[tuple]:
+    """Efficiency, starting and backdriving torque, hysteresis and life (with ``[friction]``
+    or ``[life]``): ``(name, key, unit, convention)`` rows of the catalogue table."""
+    if "efficiency_forward" not in sheet:
+        return []
+    n = catalogue_number
+    fw, bk = sheet["efficiency_forward"], sheet["efficiency_backdriving"]
+    at_input = (
+        "at the crank, the second stage's input (the first stage's own friction is not in "
+        "it; at the pinion: divide by the first stage's ratio)"
+        if sheet.get("total_ratio") is not None
+        else "at the crank (the input)"
+    )
+    rows = [
+        (
+            "Efficiency, forward",
+            "efficiency_forward.min",
+            "",
+            f"1 - losses / input power over one cycle, the input driving; smallest over the "
+            f"map of speeds and torques (mean {n(fw['mean'])}, largest {n(fw['max'])})",
+        ),
+        (
+            "Efficiency, backdriving",
+            "efficiency_backdriving.min",
+            "",
+            f"1 - losses / output power, the output driving; smallest over the map (mean "
+            f"{n(bk['mean'])}, largest {n(bk['max'])})"
+            + ("; SELF-LOCKING at some torques" if bk.get("self_locking") else ""),
+        ),
+        (
+            "Starting torque",
+            "starting_torque_Nm.max",
+            "N*m",
+            f"input torque to turn the drive at no output load, {at_input}; largest over "
+            "the positions (preload and friction; no seal model)",
+        ),
+        (
+            "Backdriving torque",
+            "backdriving_torque_Nm.max",
+            "N*m",
+            "output torque to turn the drive from the output at no input load; largest "
+            "over the positions",
+        ),
+        (
+            "Hysteresis loss",
+            "hysteresis_loss_arcmin",
+            "arcmin",
+            "the loop's width at zero torque beyond the backlash (friction); largest over "
+            "the positions",
+        ),
+        (
+            "Hysteresis width at T_R",
+            "hysteresis_width_at_rated_arcmin.max",
+            "arcmin",
+            "loading minus unloading branch at +-T_R; largest over the positions",
+        ),
+    ]
+    life, rt = sheet.get("life_h"), sheet.get("rated_torque_from_life_Nm")
+    if life and rt:
+        parts = {k: v for k, v in life.items() if k.split("_")[0] in ("bearing", "cam", "ring")}
+        shortest = min(
+            ((k, v) for k, v in parts.items() if v is not None), key=lambda kv: kv[1], default=None
+        )
+        rows += [
+            (
+                "Life L10 at T_R",
+                "life_h.system",
+                "h",
+                f"90 % reliability, at {n(life['at_torque_Nm'])} N*m and "
+                f"{n(life['at_output_speed_rpm'])} rpm at the output; every bearing and "
+                "raceway combined"
+                + (f"; the shortest: {shortest[0]}, {n(shortest[1])} h" if shortest else ""),
+            ),
+            (
+                "Rated torque from life",
+                "rated_torque_from_life_Nm.value",
+                "N*m",
+                f"the output torque at which the L10 is {n(rt['rated_life_h'])} h at "
+                f"{n(rt['rated_speed_rpm'])} rpm at the output; bearing rating C_r "
+                f"{n(rt['bearing_rating_N'])} N ({rt['bearing_rating_source']})",
+            ),
+        ]
+    return rows
 
 
 def _model(sheet: dict, design, title: str, modification: str, version: str) -> list[tuple]:
@@ -252,13 +469,30 @@ def render_datasheet_html(
     ):
         data = base64.b64encode((Path(out) / name).read_bytes()).decode("ascii")
         figures.append({"name": name, "data": data, "caption": caption})
+    notes = []
+    if short := life_short(sheet):
+        notes.append("Short life: " + short.removeprefix("life: ") + ".")
+    if nominal_note(sheet):
+        notes.append(
+            "The figures are those of the exact nominal geometry (no manufacturing error, no "
+            "measured or modified ring): a perfect drive's. A drive as built has the play, "
+            "rigidity and transmission error its tolerances give"
+            + (
+                "; the as-built figures below are the Monte Carlo's."
+                if sheet.get("as_built")
+                else " (give [tolerances] and the montecarlo format for them)."
+            )
+        )
     return render_template(
         "datasheet.html.j2",
         {
             "title": title,
+            "notes": notes,
             "rows": datasheet_rows(sheet),
+            "as_built": as_built_rows(sheet),
             "figures": figures,
             "model": _model(sheet, design, title, modification, version),
+            "all_figures": all_figures(sheet),
         },
     )
 
@@ -288,8 +522,14 @@ def model_text(sheet: dict) -> str:
             else "cams fixed on the crank"
         )
         rows = f"both rows solved together, {cams}"
-        share = sheet.get("row_a_share")
+        share = sheet.get("row_a_share_by_direction")
         if isinstance(share, dict):
+            n = catalogue_number
+            rows += "; row A carries " + " and ".join(
+                f"{n(share[d]['min'])} to {n(share[d]['max'])} of the crank moment at {s}T_R"
+                for d, s in (("positive", "+"), ("negative", "-"))
+            )
+        elif isinstance(share := sheet.get("row_a_share"), dict):
             rows += (
                 f"; row A carries {catalogue_number(share['min'])} to "
                 f"{catalogue_number(share['max'])} of the crank moment"

@@ -52,7 +52,7 @@ _LABEL_BOX = {
 }
 
 
-def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
+def _marks(ax, ds: Datasheet, j: int, zoom: bool, stage: str = "") -> None:
     """The lost-motion band; near zero torque the lost motion (on position ``j``, the
     largest) and the backlash (on the position of the largest); on the full curve the
     rigidity secant on the position and branch of the catalogue (least) rigidity.
@@ -80,7 +80,7 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
         ax.text(
             0.5 * (lm_lo + lm_hi),
             2.3 * b * T_R,
-            f"lost motion {figure(lm)} arcmin (between $\\pm${100 * b:g} % $T_R$)",
+            f"{stage}lost motion {figure(lm)} arcmin (between $\\pm${100 * b:g} % $T_R$)",
             color="C1",
             ha="center",
             va="bottom",
@@ -94,7 +94,7 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool) -> None:
         ax.text(  # on the red bar it names, between it and the band line above
             0.5 * (bl_lo + bl_hi),
             0.2 * b * T_R,
-            f"backlash {figure(fig_['backlash_arcmin']['max'])} arcmin (at zero torque)",
+            f"{stage}backlash {figure(fig_['backlash_arcmin']['max'])} arcmin (at zero torque)",
             color="C3",
             ha="center",
             va="bottom",
@@ -143,8 +143,13 @@ def hysteresis_png(
     note: str = "",
     friction_width_arcmin: float | None = None,
     loop: dict | None = None,
+    whole_drive: dict | None = None,
 ) -> Path:
     """The torque-windup curve at every position, the worst one marked (largest lost motion).
+
+    ``whole_drive`` (with ``[first_stage]``: ``datasheet.json`` ``whole_drive``): the curves
+    are the second stage's (crank locked); the title gives the whole drive's backlash and
+    lost motion, the first stage's backlash at the output included.
 
     Each position in its own colour (by output angle), drawn over the marked one
     (black, dashed), so that none hides another. The curves are the frictionless
@@ -176,7 +181,7 @@ def hysteresis_png(
                     zorder=5)  # fmt: skip
         ax.axhline(0.0, color="0.3", lw=0.5)
         ax.axvline(0.0, color="0.3", lw=0.5)
-        _marks(ax, ds, j, zoom)
+        _marks(ax, ds, j, zoom, "second stage: " if whole_drive else "")
         ax.set_xlabel("output windup (torsion angle) [arcmin]")
         ax.set_ylabel("output torque [N*m]")
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
@@ -231,6 +236,12 @@ def hysteresis_png(
         )
     if note:
         title += f"; {note}"
+    if whole_drive:
+        title += (
+            "\ncurves and marks: the second stage, crank locked; the whole drive, pinion "
+            f"held: backlash {figure(whole_drive['backlash_arcmin'])} arcmin, lost motion "
+            f"{figure(whole_drive['lost_motion_arcmin'])} arcmin (first stage included)"
+        )
     _title(fig, title, design, None)
     fig.tight_layout()
     return _save(fig, path)

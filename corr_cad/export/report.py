@@ -254,6 +254,7 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
             "loaded": f"{f.get('loaded_rollers_min')} - {f.get('loaded_rollers_max')}",
             "output_torque": _fmt(float(np.mean(res.output_torque))),
             "outside_validity": int(np.count_nonzero(~res.valid & (res.F_j > 0))),
+            "row": f.get("heavier_row"),
         }
     sheet = manifest.get("datasheet")
     if sheet:

@@ -279,6 +279,15 @@ class Datasheet:
             "series_rigidity_Nm_per_arcmin": series,
             "from_torque_Nm": sp.rigidity_range[0] * T_R,
             "to_torque_Nm": sp.rigidity_range[1] * T_R,
+            "headline": float(self.rigidity().min()),
+            "headline_basis": (
+                "the contacts in series with series_rigidity_Nm_per_arcmin"
+                if series is not None
+                else "the contacts only (no series rigidity given): bearings, shafts and "
+                "housing are not in it"
+            ),
+            # the same value under its old name (deprecated: it is a catalogue figure only
+            # with a series rigidity)
             "catalogue": float(self.rigidity().min()),
             "definition": "(T_2 - T_1) / (theta(T_2) - theta(T_1)) on both branches",
         }
@@ -327,7 +336,14 @@ class Datasheet:
             out["row_a_share"] = {
                 **_stats(self.row_a_share[at_rated]),
                 "definition": "share of the crank moment carried by row A at +-T_R, over the "
-                "positions (row B carries the rest)",
+                "positions and both directions together (row B carries the rest; "
+                "row_a_share_by_direction gives each direction)",
+            }
+            out["row_a_share_by_direction"] = {
+                "positive": _stats(self.row_a_share[at_rated[0]]),
+                "negative": _stats(self.row_a_share[at_rated[1]]),
+                "definition": "share of the crank moment carried by row A at +T_R (positive) "
+                "and at -T_R (negative), over the positions (row B carries the rest)",
             }
         if self.peak_pressure_at_rated is not None:
             out["peak_contact_pressure_at_rated_MPa"] = float(self.peak_pressure_at_rated.max())

@@ -17,6 +17,7 @@ import os
 
 import numpy as np
 
+from corr_cad.export.datasheet_html import life_short, nominal_geometry
 from corr_cad.figure_text import figure, unit_of
 from corr_cad.mechanics import contact
 
@@ -146,7 +147,9 @@ def warnings(manifest: dict) -> list[str]:
             f"validity: contacts outside the Hertz model (half-width >= a radius): {parts} "
             "(position, roller) pairs; their pressures and approaches are extrapolated"
         )
-    p = peak.get("pressure")
+    rows = (manifest.get("forces") or {}).get("rows") or {}
+    tops = [(r.get("peak") or {}).get("pressure") for r in rows.values()] or [peak.get("pressure")]
+    p = max((t for t in tops if t), key=lambda t: t["value"], default=None)
     if p and p["value"] > PRESSURE_BOUND_MPA:
         out.append(
             f"material: peak contact pressure {p['value']:.0f} MPa exceeds "
@@ -163,6 +166,8 @@ def warnings(manifest: dict) -> list[str]:
             f"{PRESSURE_BOUND_MPA:.0f} MPa: those samples are beyond the material and the "
             "elastic Hertz model; read them as 'fails', not as a pressure"
         )
+    if short := life_short(manifest.get("datasheet") or {}):
+        out.append(short)
     for edge in (manifest.get("modification_design") or {}).get("at_range_edge", []):
         out.append(
             f"modification design: the chosen {edge} (the search looked no further; "
@@ -226,12 +231,21 @@ def datasheet_lines(d: dict | None) -> list[str]:
         if ring.get("profile") == "measured"
         else ""
     )
+    whole = d.get("whole_drive")
+    stage = " (second stage, crank locked)" if whole else ""
     out = [
         f"datasheet{of} at T_R = {figure(d['rated_torque_Nm'], 5)} N*m, {p['count']} positions "
         f"over {p['span']} (min / mean / max):",
-        f"  backlash            {mmm(d['backlash_arcmin'])} arcmin",
-        f"  lost motion         {mmm(lm)} arcmin (at +-{100 * lm['band']:g} % T_R)",
+        f"  backlash            {mmm(d['backlash_arcmin'])} arcmin{stage}",
+        f"  lost motion         {mmm(lm)} arcmin (at +-{100 * lm['band']:g} % T_R){stage}",
     ]
+    if whole:
+        out.append(
+            f"  whole drive         backlash {figure(whole['backlash_arcmin'])} arcmin, lost "
+            f"motion {figure(whole['lost_motion_arcmin'])} arcmin (pinion held: the first "
+            f"stage's backlash {figure(d['first_stage']['lost_motion_arcmin'])} arcmin at the "
+            "output included)"
+        )
     if rig["with_series"] is not None:
         out.append(
             f"  torsional rigidity  {mmm(rig['with_series'])} N*m/arcmin (series "
@@ -262,6 +276,7 @@ def datasheet_lines(d: dict | None) -> list[str]:
     out.append(
         f"  transmission error  forward {figure(te['forward_peak_to_peak'])}, reverse "
         f"{figure(te['reverse_peak_to_peak'])} arcsec peak-to-peak over one output revolution"
+        + (" (nominal geometry: a perfect drive's)" if nominal_geometry(d) else "")
     )
     if "efficiency_forward" in d:
         out.extend(friction_lines(d))
@@ -289,7 +304,7 @@ def friction_lines(d: dict) -> list[str]:
         + (" (SELF-LOCKING at some torques)" if bk["self_locking"] else ""),
         f"  hysteresis loss     {figure(d['hysteresis_loss_arcmin'], 4)} arcmin (width at T_R "
         f"{figure(d['hysteresis_width_at_rated_arcmin']['max'], 4)} arcmin)",
-        f"  starting torque     {figure(d['starting_torque_Nm']['max'], 4)} N*m at the input",
+        f"  starting torque     {figure(d['starting_torque_Nm']['max'], 4)} N*m at the crank",
     ]
     if d.get("friction", {}).get("forces", "").startswith("drive"):
         out.insert(0, "  friction and life   from the drive: both rows, each cam's bearing")
@@ -309,6 +324,7 @@ def friction_lines(d: dict) -> list[str]:
         out.append(
             f"  rated torque from life {figure(rt['value'], 5)} N*m "
             f"(L10 {rt['rated_life_h']:g} h at {rt['rated_speed_rpm']:g} rpm)"
+            + (" < T_R: the life at T_R is SHORT of the rated life" if life_short(d) else "")
         )
     return out
 
@@ -370,6 +386,21 @@ def assembly_line(a: dict) -> str:
     )
 
 
+def peak_lines(pk: dict, head: str) -> list[str]:
+    """The two peak lines of one row (``head``: ``drive`` or ``drive (row B, the heavier)``)."""
+    if not pk:
+        return []
+    p = pk["pressure"]
+    return [
+        f"{head}: peak F_n {pk['F_n']['value']:.1f} N on {_where(pk['F_n'])}; "
+        f"peak F_j {pk['F_j']['value']:.1f} N on {_where(pk['F_j'])}; "
+        f"peak |F_s| {abs(pk['F_s']['value']):.1f} N on {_where(pk['F_s'])}",
+        f"{head}: peak contact pressure {p['value']:.0f} MPa at the {p['contact']} "
+        f"contact, {_where(p)}; loaded rollers {pk['loaded_rollers']['min']}-"
+        f"{pk['loaded_rollers']['max']}",
+    ]
+
+
 def summary_lines(manifest: dict, out) -> list[str]:
     """The console summary of a finished run, from its manifest."""
     lines = []
@@ -383,23 +414,20 @@ def summary_lines(manifest: dict, out) -> list[str]:
         )
     f = manifest.get("forces")
     if f:
-        pk = f.get("peak") or {}
-        if pk:
-            lines.append(
-                f"drive: peak F_n {pk['F_n']['value']:.1f} N on {_where(pk['F_n'])}; "
-                f"peak F_j {pk['F_j']['value']:.1f} N on {_where(pk['F_j'])}; "
-                f"peak |F_s| {abs(pk['F_s']['value']):.1f} N on {_where(pk['F_s'])}"
-            )
-            p = pk["pressure"]
-            lines.append(
-                f"drive: peak contact pressure {p['value']:.0f} MPa at the {p['contact']} "
-                f"contact, {_where(p)}; loaded rollers {pk['loaded_rollers']['min']}-"
-                f"{pk['loaded_rollers']['max']}"
-            )
+        rows = f.get("rows") or {}
+        heavier = f.get("heavier_row")
+        if heavier in rows:  # the drive: the heavier row first, then the other, each named
+            order = [heavier, *(r for r in rows if r != heavier)]
+            for name in order:
+                tag = f"row {name}, the heavier" if name == heavier else f"row {name}"
+                lines.extend(peak_lines(rows[name].get("peak") or {}, f"drive ({tag})"))
+        else:
+            lines.extend(peak_lines(f.get("peak") or {}, "drive"))
         if f.get("model") == "drive":
             lines.extend(drive_lines(f))
+        of = f"row {heavier} " if heavier in rows else ""
         lines.append(
-            f"roller 1: F_j mean {f['F_j_mean']:.1f} N, peak {f['F_j_peak']:.1f} N; "
+            f"{of}roller 1: F_j mean {f['F_j_mean']:.1f} N, peak {f['F_j_peak']:.1f} N; "
             f"F_n mean {f['F_n_mean']:.1f} N, peak {f['F_n_peak']:.1f} N; "
             f"F_s peak-to-peak {f['F_s_peak_to_peak']:.1f} N"
         )
@@ -433,10 +461,13 @@ def summary_lines(manifest: dict, out) -> list[str]:
             else f"{1e3 * low:.4g} um ({'interference' if low < 0 else 'clearance'})"
         )
         working = "<= 1e-9 mm" if work <= 1e-9 else f"{1e3 * work:.3g} um"
+        both = " of both rows" if c.get("rows") else ""
         lines.append(
-            f"clearance over {c['positions']} crank positions: smallest {smallest}; "
+            f"clearance over {c['positions']} crank positions{both}: smallest {smallest}; "
             f"working contacts within {working} of exact contact"
         )
+        if c.get("free_play_note"):
+            lines.append(f"  {c['free_play_note']}")
     fc = (c or {}).get("first_stage")
     if fc:
         lines.append(

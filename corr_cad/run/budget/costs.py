@@ -367,6 +367,8 @@ def _clearance(scene, env):
     from corr_cad.run.stages.stages_geometry import CLEARANCE_CHUNK_CELLS
 
     n, R = scene.positions_for("exact"), _rollers(scene)
+    if scene.solver.drive:  # both rows: twice the cells, rows and envelopes
+        n *= 2
     # One 100 000-cell chunk (~400 bytes a cell) and the per-position envelope.
     return Cost(
         memory=30 * MB + 420 * min(CLEARANCE_CHUNK_CELLS, n * R) + 250 * n,

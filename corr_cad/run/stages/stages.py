@@ -44,7 +44,12 @@ def _drive(ctx: RunContext) -> None:
 def _report(ctx: RunContext) -> None:
     from corr_cad.export.report import write_report
 
-    path = write_report(ctx.scene, ctx.manifest, ctx.results.forces, list(ctx.files), ctx.out)
+    forces = ctx.results.forces
+    if ctx.results.drive is not None:  # the drive: the heavier row, as the console shows it
+        from corr_cad.run.stages.stages_drive import heavier_row
+
+        forces = ctx.results.drive.rows[heavier_row(ctx.results.drive)]
+    path = write_report(ctx.scene, ctx.manifest, forces, list(ctx.files), ctx.out)
     ctx.files.append(path.name)
 
 

@@ -84,14 +84,19 @@ def datasheet_errors(ctx: RunContext) -> ManufacturingErrors:
 
 
 def _set_errors(errors: ManufacturingErrors) -> list[str]:
-    """Names of the error fields that differ from the nominal."""
+    """Names of the error fields that differ from the nominal: a zero is no error (the
+    drive's ``slot_clearance`` is 0.0 where the scene sets none, the nominal ``None``)."""
     nominal = ManufacturingErrors()
+
+    def zero(v) -> bool:
+        return (isinstance(v, tuple) and not any(v)) or (isinstance(v, (int, float)) and v == 0)
+
     return [
         f.name
         for f in fields(errors)
         if getattr(errors, f.name) is not None
         and getattr(errors, f.name) != getattr(nominal, f.name)
-        and not (isinstance(getattr(errors, f.name), tuple) and not any(getattr(errors, f.name)))
+        and not zero(getattr(errors, f.name))
     ]
 
 
@@ -363,6 +368,73 @@ def _whole_drive(ctx: RunContext) -> dict:
     }
 
 
+def whole_drive_play(sheet: dict) -> dict:
+    """The whole drive's backlash and lost motion at the output: the second stage's (the
+    largest over the positions) plus the first stage's backlash reflected to the output
+    (``sheet["first_stage"]["lost_motion_arcmin"]``); ``{}`` without a first stage.
+
+    The two plays are in series: with the pinion held the crank turns through the first
+    stage's free play, and with the crank held the output turns through the second stage's
+    (its lost motion at +-b T_R); the gear teeth are taken rigid (their mesh compliance is
+    not in the model)."""
+    fs = sheet.get("first_stage")
+    if not fs:
+        return {}
+    first = fs["lost_motion_arcmin"]
+    return {
+        "whole_drive": {
+            "backlash_arcmin": sheet["backlash_arcmin"]["max"] + first,
+            "lost_motion_arcmin": sheet["lost_motion_arcmin"]["max"] + first,
+            "definition": "at the output, the pinion held: the second stage's backlash and "
+            "lost motion (largest over the positions) plus the first stage's backlash "
+            "reflected to the output (first_stage.lost_motion_arcmin); gear teeth rigid",
+        }
+    }
+
+
+#: The Monte Carlo's metrics the page gives as built (``datasheet.json`` ``as_built``).
+AS_BUILT_METRICS = (
+    "lost_motion_arcmin",
+    "transmission_error_arcsec",
+    "torsional_rigidity_Nm_per_arcmin",
+)
+
+
+def as_built(mc: dict | None) -> dict:
+    """``{"as_built": ...}``: the Monte Carlo's percentiles of the datasheet metrics
+    (``montecarlo_summary.json`` ``percentiles``), or ``{}`` when it has none."""
+    pct = (mc or {}).get("percentiles") or {}
+    got = {m: pct[m] for m in AS_BUILT_METRICS if m in pct}
+    if not got:
+        return {}
+    return {
+        "as_built": {
+            "samples": mc["samples"],
+            **got,
+            "definition": "percentiles over the Monte Carlo's samples of [tolerances] "
+            "(montecarlo_summary.json): each sample's catalogue figure, at the Monte Carlo's "
+            "positions ([montecarlo] datasheet_positions_per_mesh)",
+        }
+    }
+
+
+def add_as_built(ctx: RunContext) -> None:
+    """After the Monte Carlo: the as-built figures into ``datasheet.json`` and its page
+    (when the datasheet ran first; otherwise the datasheet stage takes them itself)."""
+    import json
+
+    from corr_cad.export.files import write_json
+
+    extra = as_built(ctx.manifest.get("montecarlo"))
+    path = ctx.out / "datasheet.json"
+    if not extra or "datasheet.json" not in ctx.files or not path.exists():
+        return
+    sheet = {**json.loads(path.read_text(encoding="utf-8")), **extra}
+    write_json(path, sheet)
+    ctx.manifest["datasheet"].update(extra)
+    _datasheet_html(ctx, sheet)
+
+
 def _meta(ctx: RunContext) -> dict:
     s = ctx.scene
     given = s.datasheet.get("rated_torque_Nm") is not None
@@ -412,6 +484,9 @@ def _datasheet_files(ctx: RunContext) -> None:
     ds = ctx.results.datasheet
     s = ctx.scene
     meta = _meta(ctx)
+    whole = whole_drive_play({**meta, **ds.figures()})
+    meta.update(whole)
+    meta.update(as_built(ctx.manifest.get("montecarlo")))  # the Monte Carlo ran first
     names = write_datasheet_files(ds, ctx.out, meta)
     ring = ring_description(ctx)
     note = (
@@ -424,17 +499,23 @@ def _datasheet_files(ctx: RunContext) -> None:
     if ff is not None and ff.hysteresis is not None:
         width = float(np.max(ff.hysteresis["width_at_rated"]) * ARCMIN_PER_RAD)
     loop = ff.hysteresis["loop"] if width is not None else None
-    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note, width, loop)
+    hysteresis_png(
+        ds, ctx.out / "hysteresis.png", s.design, note, width, loop, whole.get("whole_drive")
+    )
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
+    if whole:  # the console's block gives the whole drive's play beside the second stage's
+        ctx.manifest["datasheet"].update(first_stage=meta["first_stage"], **whole)
+    if "as_built" in meta:
+        ctx.manifest["datasheet"]["as_built"] = meta["as_built"]
     ff = ctx.results.friction
     figs = ff.figures() if ff is not None else {}
     if ff is not None:
         from corr_cad.export.files import write_json
         from corr_cad.export.friction_io import efficiency_png, write_friction_files
 
-        write_json(ctx.out / "datasheet.json", {**_meta(ctx), **ds.figures(), **figs})
+        write_json(ctx.out / "datasheet.json", {**meta, **ds.figures(), **figs})
         ctx.files.extend(write_friction_files(ff, ctx.out))
         if loop is not None:
             from corr_cad.export.friction_io import write_hysteresis_csv

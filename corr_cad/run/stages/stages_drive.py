@@ -71,6 +71,18 @@ def drive_check_values(res: DriveResult, check_values) -> dict[str, float]:
     }
 
 
+def heavier_row(res: DriveResult) -> int:
+    """Index of the row with the larger peak gear force ``F_n`` (the drive's governing load);
+    on a tie (to 1e-9 relative) the row carrying the larger mean share of the crank moment,
+    then row A."""
+    peaks = [float(r.F_n.max()) for r in res.rows]
+    shares = [float(np.mean(res.row_a_share)), float(np.mean(1.0 - res.row_a_share))]
+    for a, b in (peaks, shares):
+        if abs(b - a) > 1e-9 * max(abs(a), abs(b)):
+            return int(b > a)
+    return 0
+
+
 def drive_force_files(ctx: RunContext) -> None:
     """``forces.csv`` (a row per position, row and roller), ``forces_summary.json`` per row."""
     from corr_cad.export import plots
@@ -117,9 +129,11 @@ def drive_force_files(ctx: RunContext) -> None:
             summary["needle_load_max_N"] = _stats(res.needle_load_max[i])
             summary["bearing"] = res.bearings[i].as_dict()
         rows[ROWS[i]] = summary
+    h = heavier_row(res)
     summary = {
         **model_description(s),
         "row_a_share": _stats(res.row_a_share),
+        "heavier_row": ROWS[h],
         "rows": rows,
         "solver": {
             "success": res.success,
@@ -135,6 +149,8 @@ def drive_force_files(ctx: RunContext) -> None:
                 "row B": "cam at crank angle + 180 deg + cam_phase_error_deg, its rollers in "
                 "the same slots; psi_deg is row B's own",
                 "row_share": "share of the crank moment M0 carried by the row",
+                "heavier_row": "the row with the larger peak gear force F_n (the console, "
+                "manifest.json forces, forces.png and load_distribution.png show it)",
                 "bearing_load": "radial load of the row's cam bearing, N (|sum F_j n_k|)",
                 "needle_load_max": "largest needle load of the row's cam bearing, N "
                 "(nan: no bearing, the cam is fixed)",
@@ -142,23 +158,31 @@ def drive_force_files(ctx: RunContext) -> None:
         },
     }
     write_json(ctx.out / "forces_summary.json", summary)
-    row = res.rows[0]
-    plots.forces_png(row, ctx.out / "forces.png", s.design, s.load.input_torque)
+    row = res.rows[h]
+    other = f"row {ROWS[1 - h]}: peak $F_n$ {float(res.rows[1 - h].F_n.max()):.0f} N"
+    plots.forces_png(
+        row,
+        ctx.out / "forces.png",
+        s.design,
+        s.load.input_torque,
+        f"row {ROWS[h]}, the heavier ({other})",
+    )
     at = int(np.unravel_index(np.argmax(row.F_n), row.F_n.shape)[0])
     plots.load_distribution_png(
         s.design,
-        float(ang[at]),
+        float(np.degrees(row.crank_angles[at])),  # the row's own cam angle (B: half a turn on)
         row.F_j[at],
         row.F_n[at],
         row.F_s[at],
         ctx.out / "load_distribution.png",
         s.load.input_torque,
-        " (row A, peak $F_n$)",
+        f" (row {ROWS[h]}, the heavier: peak $F_n$)",
     )
     ctx.files.extend(["forces.csv", "forces_summary.json", "forces.png", "load_distribution.png"])
-    # Row A's roller-1 figures where the one-row model has them (console, report), and the drive's.
+    # The heavier row's figures where the one-row model has them (console, report), and the
+    # drive's (both rows under "rows").
     ctx.manifest["forces"] = {
-        **rows["A"],
+        **rows[ROWS[h]],
         **{k: v for k, v in summary.items() if k != "solver"},
     }
 

@@ -289,25 +289,49 @@ def _clearance(ctx: RunContext) -> None:
     angles = 2.0 * np.pi * np.arange(n) / n
     # The designed clearance is the exact distance to the modified profile,
     # so the errors here are the scene's own (no modification gap added).
-    errors, profile = raw_errors(ctx), modified_curve(ctx)
+    profile = modified_curve(ctx)
+    rows = clearance_rows(ctx)
     chunk = max(1, CLEARANCE_CHUNK_CELLS // s.design.roller_count)
-    fmts = ("%.6f", "%d") + ("%.9g",) * 4
-    summaries, envelopes = [], []
-    bar = Progress(n, "      clearance", "positions", expected=expected_seconds(ctx, "clearance"))
+    R = s.design.roller_count
+    drive = len(rows) > 1
+    columns = (COLUMNS[0], "row", *COLUMNS[1:]) if drive else COLUMNS
+    fmts = ("%.6f", "%s", "%d") + ("%.9g",) * 4 if drive else ("%.6f", "%d") + ("%.9g",) * 4
+    summaries: dict[str, list] = {row: [] for row in rows}
+    envelopes: dict[str, list] = {row: [] for row in rows}
+    bar = Progress(
+        n * len(rows), "      clearance", "positions", expected=expected_seconds(ctx, "clearance")
+    )
     with atomic_writer(ctx.out / "clearance.csv") as f:
-        f.write(",".join(COLUMNS) + "\n")
-        for a in range(0, n, chunk):
-            clr = clearance(s.design, angles[a : a + chunk], errors, psi_end, profile)
-            cols = clr.columns()
-            f.write(format_columns([cols[c] for c in COLUMNS], fmts))
-            summaries.append(clr.summary())
-            envelopes.append(clr.envelope())
-            bar.update(len(clr.crank_angles))
+        f.write(",".join(columns) + "\n")
+        for row, (errors, turn) in rows.items():
+            for a in range(0, n, chunk):
+                clr = clearance(s.design, angles[a : a + chunk] + turn, errors, psi_end, profile)
+                clr.crank_angles = angles[a : a + chunk]  # the drive's crank angle (row A's)
+                cols = clr.columns()
+                if drive:
+                    cols["row"] = np.full(len(clr.crank_angles) * R, row)
+                f.write(format_columns([cols[c] for c in columns], fmts))
+                summaries[row].append(clr.summary())
+                envelopes[row].append(clr.envelope())
+                bar.update(len(clr.crank_angles))
     bar.close()
-    env = Clearance.concatenate(envelopes)
-    plots.clearance_png(env, ctx.out / "clearance.png", s.design)
+    env = {row: Clearance.concatenate(e) for row, e in envelopes.items()}
+    every = [p for parts in summaries.values() for p in parts]
+    summary = {"method": "exact", **merge_summaries(every), "positions": n}
+    note = ""
+    if drive:
+        summary["rows"] = {row: merge_summaries(parts) for row, parts in summaries.items()}
+        summary.update(_free_play(ctx))
+        note = summary.get("free_play_note", "")
+    plots.clearance_png(
+        env["A"] if drive else env[""],
+        ctx.out / "clearance.png",
+        s.design,
+        env if drive else None,
+        summary,
+        note,
+    )
     ctx.files.extend(["clearance.csv", "clearance.png"])
-    summary = {"method": "exact", **merge_summaries(summaries)}
     if s.first_stage is not None:
         from corr_cad.geometry.first_stage_parts import mesh_clearance
         from corr_cad.run.stages.stages_first_stage import gear_outlines
@@ -315,7 +339,65 @@ def _clearance(ctx: RunContext) -> None:
         verts = {k: o.vertices for k, o in gear_outlines(ctx, s.tolerance).items()}
         summary["first_stage"] = mesh_clearance(s.design, s.first_stage, verts)
     ctx.manifest["clearance"] = summary
-    ctx.results.clearance = env
+    ctx.results.clearance = env["A"] if drive else env[""]
+
+
+def clearance_rows(ctx: RunContext) -> dict:
+    """``{row: (errors, crank turn)}`` of the exact clearance: the paper's one row (``""``),
+    or the drive's rows A and B (row B's geometry is the one-row geometry half a turn on,
+    with ``[errors.row_b]`` and the cam phase error; ``mechanics.drive.row_errors``)."""
+    s = ctx.scene
+    if not s.solver.drive:
+        return {"": (raw_errors(ctx), 0.0)}
+    from dataclasses import replace
+
+    from corr_cad.mechanics.drive import row_errors
+
+    eb = getattr(s, "errors_b", None)
+    if eb is not None and ctx.results.registration_b is not None:
+        eb = replace(eb, profile_deviation=ctx.results.registration_b.deviation)
+    a, b = row_errors(raw_errors(ctx), eb)
+    return {"A": (a, 0.0), "B": (b, math.pi)}
+
+
+def _free_play(ctx: RunContext) -> dict:
+    """The drive's eccentric bearings' free play (half each diametral clearance: how far a
+    cam moves on its needles) and the drive's free rotation at the output where this run
+    solved it (the datasheet's backlash, or the force solve's), which includes that play."""
+    from corr_cad.figure_text import figure
+    from corr_cad.mechanics.windup import ARCMIN_PER_RAD
+
+    s = ctx.scene
+    out: dict = {}
+    bearings = {"A": s.bearing, "B": s.bearing_b if s.bearing_b is not None else s.bearing}
+    play = {
+        row: 0.5 * b.diametral_clearance if b is not None else None for row, b in bearings.items()
+    }
+    out["bearing_free_play_mm"] = play
+    ds, drive = ctx.results.datasheet, ctx.results.drive
+    if ds is not None:
+        bl = float(ds.backlash().max() * ARCMIN_PER_RAD)
+        out["drive_backlash_arcmin"] = {"value": bl, "source": "datasheet (backlash_arcmin.max)"}
+    elif drive is not None:
+        bl = float(drive.backlash.max() * ARCMIN_PER_RAD)
+        out["drive_backlash_arcmin"] = {"value": bl, "source": "forces (the drive's free turn)"}
+    if all(v is None for v in play.values()):
+        text = "cams fixed on the crank (no bearing play)"
+    else:
+        got = {row: v for row, v in play.items() if v is not None}
+        moves = (
+            f"each cam moves {figure(1e3 * got['A'])} um"
+            if len(set(got.values())) == 1 and len(got) == 2
+            else ", ".join(f"cam {row} moves {figure(1e3 * v)} um" for row, v in got.items())
+        )
+        text = f"eccentric bearings (not in the panels): {moves} on its needles (Pd / 2)"
+    if "drive_backlash_arcmin" in out:
+        text += (
+            f"; the drive's free rotation, bearings included: "
+            f"{figure(out['drive_backlash_arcmin']['value'])} arcmin at the output"
+        )
+    out["free_play_note"] = text
+    return out
 
 
 def _agreement(ctx: RunContext, angles_deg, rows, allowance, tol: float) -> dict:

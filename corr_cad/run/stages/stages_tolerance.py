@@ -158,6 +158,8 @@ def _montecarlo(ctx: RunContext) -> None:
         s.montecarlo["binding_pressure_MPa"] if "binds" in res.metrics else None,
     )
     ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
+    from corr_cad.run.stages.stages_datasheet import add_as_built
+
     ctx.manifest["montecarlo"] = {
         k: summary[k]
         for k in (
@@ -171,6 +173,7 @@ def _montecarlo(ctx: RunContext) -> None:
         )
         if k in summary
     }
+    add_as_built(ctx)  # the datasheet's page gives the figures as built beside the nominal
     gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
     allowed = s.checks.max_binding_probability
     if allowed is not None:
