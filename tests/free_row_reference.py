@@ -1,6 +1,8 @@
 """The free interval's numpy search, as the drive solver used it before its compiled
 solution (:mod:`corr_cad.mechanics.free_play`): golden-section searches over the
-polygon's horizontal slices and bisections for its ends. A reference for
+polygon's horizontal slices and bisections for its ends; and a preloaded row's cam
+centre by a Newton that kept every position iterating until the last settled
+(``DriveSolver._row_centre`` before it stopped each at its own convergence). A reference for
 ``tests/test_free_play.py`` only; the package does not import it."""
 
 from __future__ import annotations
@@ -8,6 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from corr_cad.mechanics.drive import DRIVE_RTOL
+from corr_cad.mechanics.drive_numerics import _forces_of
 
 _FLAT = 1e-9
 
@@ -105,3 +110,43 @@ def free_row(a, g, n, half_clearance: float, e: float, want_centre: bool = False
         mid = np.where(np.isfinite(xl + xr), 0.5 * (xl + xr), np.where(np.isfinite(xl), xl, xr))
         return rev, fwd, np.stack([np.where(np.isfinite(mid), mid, 0.0), y_mid], axis=1)
     return rev, fwd
+
+
+def row_centre(self, c: int, idx: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Where row ``c``'s rollers hold its cam centre (``v``, (len(idx), 2)) at positions
+    ``idx`` with no bearing load: ``sum_k F_k(g_k + n_k . v) n_k = 0``, by Newton
+    with backtracking from ``v``."""
+    R, geo = self.R, self.geo_joined
+    sl = slice(c * R, (c + 1) * R)
+    comp = self.comp.take(idx)
+    g = np.where(geo.loadable, geo.gap, -1e300)[idx]
+    n = self.n[idx]
+    other = np.ones(2 * R, dtype=bool)
+    other[sl] = False
+
+    def residual(v):
+        h = g + np.einsum("pkx,px->pk", n, v)
+        h[:, other] = -1e300
+        F, k = _forces_of(comp, h)
+        r = np.einsum("pk,pkx->px", F, n)
+        return r, F, k
+
+    r, F, k = residual(v)
+    for _ in range(100):
+        scale = np.sum(F, axis=1) + 1e-300
+        if np.all(np.linalg.norm(r, axis=1) <= DRIVE_RTOL * scale):
+            break
+        J = np.einsum("pk,pkx,pky->pxy", k, n, n)
+        J += (1e-12 * np.trace(J, axis1=1, axis2=2) + 1e-9)[:, None, None] * np.eye(2)
+        step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
+        alpha = np.ones(len(idx))
+        m0 = np.linalg.norm(r, axis=1)
+        for _ in range(40):
+            rt, Ft, kt = residual(v + alpha[:, None] * step)
+            ok = np.linalg.norm(rt, axis=1) <= (1.0 - 1e-4 * alpha) * m0
+            if np.all(ok):
+                break
+            alpha = np.where(ok, alpha, 0.5 * alpha)
+        v = v + alpha[:, None] * step
+        r, F, k = rt, Ft, kt
+    return v
