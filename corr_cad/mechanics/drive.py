@@ -438,40 +438,45 @@ class DriveSolver:
 
     def _row_centre(self, c: int, idx: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Where row ``c``'s rollers hold its cam centre (``v``, (len(idx), 2)) at positions
-        ``idx`` with no bearing load: ``sum_k F_k(g_k + n_k . v) n_k = 0``, by Newton
-        with backtracking from ``v``."""
+        ``idx`` with no bearing load: ``sum_k F_k(g_k + n_k . v) n_k = 0``, by Newton with
+        backtracking from ``v``, each position until it settles (``DRIVE_RTOL``)."""
         R, geo = self.R, self.geo_joined
-        sl = slice(c * R, (c + 1) * R)
-        comp = self.comp.take(idx)
-        g = np.where(geo.loadable, geo.gap, -1e300)[idx]
-        n = self.n[idx]
-        other = np.ones(2 * R, dtype=bool)
-        other[sl] = False
+        other, v = np.arange(2 * R) // R != c, np.array(v, dtype=float)
 
-        def residual(v):
-            h = g + np.einsum("pkx,px->pk", n, v)
+        def residual(at, u):
+            h = gap[at] + np.einsum("pkx,px->pk", n[at], u)
             h[:, other] = -1e300
-            F, k = _forces_of(comp, h)
-            r = np.einsum("pk,pkx->px", F, n)
-            return r, F, k
+            F, k = _forces_of(comp.take(at), h)
+            return np.einsum("pk,pkx->px", F, n[at]), F, k
 
-        r, F, k = residual(v)
+        comp = self.comp.take(idx)
+        gap = np.where(geo.loadable, geo.gap, -1e300)[idx]
+        n = self.n[idx]
+        going = np.arange(len(idx))  # the positions not yet settled
+        r, F, k = residual(going, v)
         for _ in range(100):
-            scale = np.sum(F, axis=1) + 1e-300
-            if np.all(np.linalg.norm(r, axis=1) <= DRIVE_RTOL * scale):
+            unsettled = np.linalg.norm(r, axis=1) > DRIVE_RTOL * (np.sum(F, axis=1) + 1e-300)
+            if not np.any(unsettled):
                 break
-            J = np.einsum("pk,pkx,pky->pxy", k, n, n)
+            going, r, k = going[unsettled], r[unsettled], k[unsettled]
+            nn = n[going]
+            J = np.einsum("pk,pkx,pky->pxy", k, nn, nn)
             J += (1e-12 * np.trace(J, axis1=1, axis2=2) + 1e-9)[:, None, None] * np.eye(2)
             step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
-            alpha = np.ones(len(idx))
+            alpha = np.ones(len(going))
             m0 = np.linalg.norm(r, axis=1)
+            rt, Ft, kt = r.copy(), np.empty((len(going), 2 * R)), np.empty((len(going), 2 * R))
+            look = np.arange(len(going))  # those still halving their step
             for _ in range(40):
-                rt, Ft, kt = residual(v + alpha[:, None] * step)
-                ok = np.linalg.norm(rt, axis=1) <= (1.0 - 1e-4 * alpha) * m0
+                at = going[look]
+                rl, Fl, kl = residual(at, v[at] + alpha[look, None] * step[look])
+                rt[look], Ft[look], kt[look] = rl, Fl, kl
+                ok = np.linalg.norm(rl, axis=1) <= (1.0 - 1e-4 * alpha[look]) * m0[look]
                 if np.all(ok):
                     break
-                alpha = np.where(ok, alpha, 0.5 * alpha)
-            v = v + alpha[:, None] * step
+                look = look[~ok]
+                alpha[look] *= 0.5
+            v[going] += alpha[:, None] * step
             r, F, k = rt, Ft, kt
         return v
 

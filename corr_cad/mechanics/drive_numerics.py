@@ -5,7 +5,6 @@ geometry joined.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -25,9 +24,6 @@ __all__ = [
     "roller_directions",
 ]
 
-#: ``|n_x|`` below which a roller's normal counts as along the eccentric (:func:`free_row`).
-_FLAT = 1e-9
-
 
 def free_row(a, g, n, half_clearance: float, e: float, want_centre: bool = False):
     """One row's free crank interval ``(rev, fwd)`` (P,) at no load, rad.
@@ -39,89 +35,23 @@ def free_row(a, g, n, half_clearance: float, e: float, want_centre: bool = False
 
         e fwd = max over the polygon of v_x + sqrt((Pd/2)^2 - v_y^2)
 
-    (and ``e rev`` the min of ``v_x - sqrt(...)``): concave in ``v_y``, found by
-    golden-section searches over the polygon's horizontal slices. An empty
+    (and ``e rev`` the min of ``v_x - sqrt(...)``), solved exactly over the
+    polygon's horizontal slices (:mod:`corr_cad.mechanics.free_play`, compiled).
+    Without a clearance each roller closes at ``tau = -g_k / a_k``. An empty
     interval (``rev > fwd``): the row is preloaded (no ``v`` leaves every roller
-    clear). ``want_centre``: also the least-pressed ``v`` found, (P, 2), a start
-    for the preloaded cam's own equilibrium.
+    clear). ``want_centre``: also the least-pressed ``v`` of a preloaded row, (P,
+    2), a start for its cam's own equilibrium.
     """
+    if half_clearance > 0.0:
+        from corr_cad.mechanics.free_play import free_rows
+
+        return free_rows(g, n, half_clearance, e, want_centre)
     up, down = a > 0, a < 0
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -g / a
         fwd = np.min(np.where(up, t, np.inf), axis=1)
         rev = np.max(np.where(down, t, -np.inf), axis=1)
-    if half_clearance == 0.0:
-        return (rev, fwd, np.zeros((a.shape[0], 2))) if want_centre else (rev, fwd)
-    c = half_clearance
-    nx, ny = n[..., 0], n[..., 1]
-    # A roller whose normal is (nearly) along the eccentric, psi = 0 or pi, bounds v_y only:
-    # its slice bound -g / n_x would be a round-off quotient.
-    right, left = nx > _FLAT, nx < -_FLAT
-    flat = ~(right | left) & np.isfinite(g)
-
-    def slice_at(y):
-        """``(x_left, x_right, press)`` (P,) of the polygon's slice at ``v_y = y``."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = (-g - ny * y[:, None]) / nx
-        xr = np.min(np.where(right, bound, np.inf), axis=1)
-        xl = np.max(np.where(left, bound, -np.inf), axis=1)
-        # How far a roller with no arm (psi = 0 or pi) is pressed: <= 0 to stay clear.
-        press = np.max(np.where(flat, ny * y[:, None] + g, -np.inf), axis=1)
-        return xl, xr, press
-
-    def golden(fun, lo, hi, iterations=90):
-        """Argmax of a concave ``fun`` on ``[lo, hi]`` (P,)."""
-        ratio = 0.5 * (math.sqrt(5.0) - 1.0)
-        x1, x2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-        f1, f2 = fun(x1), fun(x2)
-        for _ in range(iterations):
-            left_better = f1 >= f2
-            hi = np.where(left_better, x2, hi)
-            lo = np.where(left_better, lo, x1)
-            x2n = np.where(left_better, x1, lo + ratio * (hi - lo))
-            x1n = np.where(left_better, hi - ratio * (hi - lo), x2)
-            x1, x2 = x1n, x2n
-            f1, f2 = fun(x1), fun(x2)
-        return 0.5 * (lo + hi)
-
-    def width(y):
-        """Concave in ``y``; >= 0 where the slice is not empty."""
-        xl, xr, press = slice_at(y)
-        return np.minimum(np.minimum(xr - xl, 1e300), -press)
-
-    P = a.shape[0]
-    lo0, hi0 = np.full(P, -c), np.full(P, c)
-    # Round-off allowance of the polygon: a nominal row pins v to one point.
-    tol = 1e-12 * (c + np.max(np.where(np.isfinite(g), np.abs(g), 0.0), axis=1))
-    y_mid = golden(width, lo0, hi0)
-    feasible = width(y_mid) >= -tol
-
-    def edge(inside, outside, iterations=80):
-        for _ in range(iterations):
-            mid = 0.5 * (inside + outside)
-            ok = width(mid) >= -tol
-            inside = np.where(ok, mid, inside)
-            outside = np.where(ok, outside, mid)
-        return inside
-
-    y1, y2 = edge(y_mid, lo0), edge(y_mid, hi0)
-
-    def reach(sense):
-        def fun(y):
-            xl, xr, _ = slice_at(y)
-            arc = np.sqrt(np.maximum(c * c - y * y, 0.0))
-            return (xr + arc) if sense > 0 else -(xl - arc)
-
-        return sense * fun(golden(fun, y1, y2))
-
-    e_fwd, e_rev = reach(1.0), reach(-1.0)
-    fwd = np.where(feasible, e_fwd / e, -np.inf)
-    rev = np.where(feasible, e_rev / e, np.inf)
-    if want_centre:
-        xl, xr, _ = slice_at(y_mid)
-        mid = np.where(np.isfinite(xl + xr), 0.5 * (xl + xr), np.where(np.isfinite(xl), xl, xr))
-        return rev, fwd, np.stack([np.where(np.isfinite(mid), mid, 0.0), y_mid], axis=1)
-    return rev, fwd
+    return (rev, fwd, np.zeros((a.shape[0], 2))) if want_centre else (rev, fwd)
 
 
 def _forces_of(comp, h):
