@@ -134,7 +134,9 @@ def exact_solids(d):
     a_prof, p_prof = exact_profile_area_and_length(d)
     ring_face = np.pi * Ro**2 - a_prof
     cam_face = np.pi * (Rj**2 - rb**2)
-    h_roll = d["roller_length"] + 2 * t
+    # Through the outer plate and half the middle one, 0.1 mm (half the end gap
+    # of min(0.2, t / 2)) short of its mid-plane.
+    h_roll = w + 1.5 * t - 0.5 * min(0.2, 0.5 * t)
     slot_len = 2 * (d["eccentricity"] + SLOT_END)
     n_slots = d["tooth_count"] + 1
     frame_face = np.pi * (Fo**2 - Fi**2) - n_slots * (2 * r * slot_len + np.pi * r * r)
@@ -274,7 +276,9 @@ def test_assembly_step_has_named_parts_where_the_mesh_assembly_has_them(run):
     e, L = d["eccentricity"], d["cam_radius"] + d["roller_radius"]
     theta0 = c / z
     w, t = d["face_width"], d["frame_thickness"]
-    for row, dphi, z0 in (("a", 0.0, -t), ("b", math.pi, w)):
+    # Row B's rollers start 0.1 mm past the middle plate's mid-plane (half
+    # the end gap min(0.2, t / 2) between the two rows' rollers).
+    for row, dphi, z0 in (("a", 0.0, -t), ("b", math.pi, w + t / 2 + min(0.1, t / 4))):
         for i in range(z + 1):
             theta = theta0 + 2 * math.pi * i / (z + 1)
             psi = c + theta0 + dphi - theta

@@ -26,7 +26,7 @@ from corr_cad.errors import ExportError
 from corr_cad.export.files import writing
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.kinematics import centre_distance, unit_radial
-from corr_cad.geometry.parts import PartOutline
+from corr_cad.geometry.parts import PartOutline, roller_z_range
 
 __all__ = [
     "MESH_FORMATS",
@@ -194,7 +194,8 @@ def assembly(
     for k, z0 in enumerate((-t, w, 2 * w + t), 1):
         parts[f"frame_{k}"] = _placed(solids["frame"], theta0, z0=z0)
     rollers = {}
-    for row, dphi, zbase in (("a", 0.0, -t), ("b", math.pi, w)):
+    for row, dphi in (("a", 0.0), ("b", math.pi)):
+        zbase = roller_z_range(design, row)[0]
         placed = []
         for i in range(design.roller_count):
             theta = theta0 + i * design.slot_pitch_rad
@@ -229,6 +230,65 @@ def interference_at(asm: Assembly, search_length: float) -> list[dict]:
                 rec[f"{name}_gap"] = float(roller.min_gap(other, search_length))
             rows.append(rec)
     return rows
+
+
+#: Largest intersection volume of two solids that do not touch by design, mm^3:
+#: manifold3d's own arithmetic (a shared face or a tangent plane intersects
+#: in a sliver of about 1e-9 mm^3 or nothing).
+OVERLAP_VOLUME_TOL = 1e-6
+
+
+def _is_contact(a: str, b: str) -> bool:
+    """A roller and a part it touches by design (its ring, its cam, a frame plate)."""
+    for x, y in ((a, b), (b, a)):
+        if x.startswith("roller_"):
+            row = x.split("_")[1]
+            return y in (f"ring_{row}", f"cam_{row}") or y.startswith("frame_")
+    return False
+
+
+#: Pairs fitted on one circle by design (a cam's bore on the crankshaft): both
+#: circles are polygons inscribed within the chord tolerance, so turned
+#: against each other they overlap in slivers at most that deep.
+_FITS = (("cam_", "crankshaft"),)
+
+
+def _is_fit(a: str, b: str) -> bool:
+    return any(
+        (a.startswith(x) and b.startswith(y)) or (b.startswith(x) and a.startswith(y))
+        for x, y in _FITS
+    )
+
+
+def solid_overlaps(
+    solids: dict[str, m3d.Manifold], fit_allowance_mm3: float = 0.0
+) -> tuple[int, list[dict]]:
+    """Every pair of solids that does not touch by design, intersected.
+
+    Pairs whose bounding boxes are apart cannot intersect and are counted as
+    checked without a boolean. Returns ``(pairs checked, overlaps)``, each
+    overlap ``{"a", "b", "volume_mm3"}`` above :data:`OVERLAP_VOLUME_TOL`
+    (above ``fit_allowance_mm3`` for a bore on its shaft, the tessellation's
+    sliver). The contacts a roller makes by design are left to
+    :func:`interference_at`.
+    """
+    names = sorted(solids)
+    boxes = {n: np.asarray(solids[n].bounding_box(), dtype=float) for n in names}
+    checked, found = 0, []
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            if _is_contact(a, b):
+                continue
+            checked += 1
+            ba, bb = boxes[a], boxes[b]
+            if np.any(ba[3:] <= bb[:3]) or np.any(bb[3:] <= ba[:3]):
+                continue
+            vol = float(
+                m3d.Manifold.batch_boolean([solids[a], solids[b]], m3d.OpType.Intersect).volume()
+            )
+            if vol > max(OVERLAP_VOLUME_TOL, fit_allowance_mm3 if _is_fit(a, b) else 0.0):
+                found.append({"a": a, "b": b, "volume_mm3": vol})
+    return checked, found
 
 
 _UUID_ATTR = re.compile(rb'UUID="([0-9a-fA-F-]{36})"')

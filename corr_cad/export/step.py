@@ -33,7 +33,7 @@ import numpy as np
 from corr_cad.errors import ExportError
 from corr_cad.export.files import writing
 from corr_cad.geometry.design import GearDesign
-from corr_cad.geometry.parts import frame_slot_outline
+from corr_cad.geometry.parts import frame_slot_outline, roller_solid_length
 from corr_cad.geometry.placement import Placement
 from corr_cad.geometry.sampling import ProfileApproximation, spline_bezier_spans
 
@@ -196,7 +196,7 @@ def part_shapes(design: GearDesign, working_spline: ProfileApproximation) -> dic
     roller = _extrude(
         _wire([_circle_edge(design.roller_radius)]),
         [],
-        design.roller_length + 2.0 * design.frame_thickness,
+        roller_solid_length(design),
     )
     holes = [_wire([_circle_edge(design.frame_inner_radius)])] + [
         _slot_wire(design, i * design.slot_pitch_rad) for i in range(design.roller_count)

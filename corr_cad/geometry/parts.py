@@ -11,8 +11,12 @@ Axial layout of the assembly (z along the shaft, mm):
   rollers A): ``[0, w]``; frame plate 1: ``[w, w + t]``; row B:
   ``[w + t, 2 w + t]``; frame plate 2: ``[2 w + t, 2 w + 2 t]`` with
   ``w`` the face width and ``t`` the frame plate thickness.
-* Rollers run through the plates on both sides of their row: solid length
-  ``roller_length + 2 t``; the contact length stays ``roller_length``.
+* Each roller runs through its outer plate and ends within its half of the
+  middle plate, ``ROLLER_END_GAP / 2`` short of the plate's mid-plane
+  (:func:`roller_z_range`): row A ``[-t, w + t/2 - g/2]``, row B
+  ``[w + t/2 + g/2, 2 w + 2 t]`` with ``g = min(ROLLER_END_GAP, t / 2)``, so
+  that the two rows' rollers in one slot never overlap. The contact length
+  stays ``roller_length``.
 * Cam B is 180 deg out of phase; ring B is ring A turned by half a tooth
   pitch (``pi / z``) so that row B meshes with the same slots.
 """
@@ -37,7 +41,32 @@ __all__ = [
     "part_outlines",
     "circle_segments",
     "roller_outline",
+    "roller_solid_length",
+    "roller_z_range",
+    "ROLLER_END_GAP",
 ]
+
+#: Axial gap between the end faces of the two rows' rollers in one slot, mm,
+#: at the middle frame plate's mid-plane (at most half the plate thickness).
+ROLLER_END_GAP = 0.2
+
+
+def _end_gap(design: GearDesign) -> float:
+    return min(ROLLER_END_GAP, 0.5 * design.frame_thickness)
+
+
+def roller_solid_length(design: GearDesign) -> float:
+    """Axial length of a roller's solid, mm: ``w + 1.5 t - g / 2`` (see the module doc)."""
+    return design.face_width + 1.5 * design.frame_thickness - 0.5 * _end_gap(design)
+
+
+def roller_z_range(design: GearDesign, row: str) -> tuple[float, float]:
+    """``(z_low, z_high)`` of a roller of row ``"a"`` or ``"b"`` in the assembly, mm."""
+    w, t = design.face_width, design.frame_thickness
+    length = roller_solid_length(design)
+    if row == "a":
+        return (-t, -t + length)
+    return (2.0 * w + 2.0 * t - length, 2.0 * w + 2.0 * t)
 
 
 @dataclass(frozen=True)
@@ -204,7 +233,7 @@ def roller_outline(design: GearDesign, radius_error: float, chord_tol: float) ->
         "roller",
         circle_polygon(r, chord_tol),
         [],
-        design.roller_length + 2.0 * design.frame_thickness,
+        roller_solid_length(design),
         math.pi * r * r,
         2 * math.pi * r,
     )

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.kinematics import centre_distance, unit_radial
+from corr_cad.geometry.parts import roller_z_range
 
 __all__ = ["Placement", "assembly_placements"]
 
@@ -49,7 +50,8 @@ def assembly_placements(design: GearDesign, crank_angle_rad: float) -> list[Plac
     The frame turns by ``crank / z``, the crankshaft by ``crank + crank / z``;
     cam B is half a turn out of phase and ring B turned by half a tooth
     pitch; each roller sits at its crank-slider radius in its slot. Three
-    frame plates: ``[-t, 0]``, ``[w, w + t]``, ``[2 w + t, 2 w + 2 t]``.
+    frame plates: ``[-t, 0]``, ``[w, w + t]``, ``[2 w + t, 2 w + 2 t]``; the rollers
+    at :func:`corr_cad.geometry.parts.roller_z_range`.
     """
     z = design.tooth_count
     w, t = design.face_width, design.frame_thickness
@@ -65,7 +67,8 @@ def assembly_placements(design: GearDesign, crank_angle_rad: float) -> list[Plac
     ]
     for k, z0 in enumerate((-t, w, 2 * w + t), 1):
         out.append(Placement(f"frame_{k}", "frame", theta0, (0.0, 0.0, z0)))
-    for row, dphi, zbase in (("a", 0.0, -t), ("b", math.pi, w)):
+    for row, dphi in (("a", 0.0), ("b", math.pi)):
+        zbase = roller_z_range(design, row)[0]
         for i in range(design.roller_count):
             theta = theta0 + i * design.slot_pitch_rad
             s = float(centre_distance(phi + dphi - theta, e, design.link_length))

@@ -219,6 +219,9 @@ def _interference(ctx: RunContext) -> None:
     n = s.positions_for("mesh")
     angles = np.arange(n) * 360.0 / n
     rows = []
+    pairs_checked, overlaps = 0, []
+    # A cam's bore on its shaft: a sliver at most chord_tolerance deep (mesh._FITS).
+    fit = tol * 2 * math.pi * d.cam_bore_radius * d.face_width
     from corr_cad.run.progress import Progress
 
     bar = Progress(
@@ -230,6 +233,9 @@ def _interference(ctx: RunContext) -> None:
         )
         for rec in mesh.interference_at(asm, search_length=max(0.1, 50 * tol)):
             rows.append({"crank_angle_deg": float(ang), **rec})
+        checked, found = mesh.solid_overlaps(asm.all_solids(), fit_allowance_mm3=fit)
+        pairs_checked += checked
+        overlaps += [{"crank_angle_deg": float(ang), **o} for o in found]
         bar.update(1)
     bar.close()
     parts = ("ring", "cam", "frame")
@@ -253,8 +259,16 @@ def _interference(ctx: RunContext) -> None:
     ]
     summary = {
         "positions": n,
-        "ok": not bad,
+        "ok": not bad and not overlaps,
         "allowance": allowance,
+        # Every other pair of solids (the two rows' rollers in one slot, rings,
+        # cams, plates): intersection volume above mesh.OVERLAP_VOLUME_TOL.
+        "other_pairs": {
+            "pairs_checked": pairs_checked,
+            "volume_tol_mm3": mesh.OVERLAP_VOLUME_TOL,
+            "overlaps": len(overlaps),
+            "first_overlaps": overlaps[:20],
+        },
         "max_volume_mm3": {p: max(r[f"{p}_volume"] for r in rows) for p in parts},
         "max_gap_mm": {p: max(r[f"{p}_gap"] for r in rows) for p in parts},
         "violations": len(bad),
@@ -464,6 +478,7 @@ def interference_allowance(design, chord_tol: float) -> dict:
     conformal point of the gear flank).
     """
     from corr_cad.geometry import kinematics as kin
+    from corr_cad.geometry.parts import roller_solid_length
 
     r = design.roller_radius
     dpen = 2.0 * chord_tol
@@ -480,5 +495,9 @@ def interference_allowance(design, chord_tol: float) -> dict:
     return {
         "ring": {"volume_mm3": lens(r_ring, design.face_width), "gap_mm": gap},
         "cam": {"volume_mm3": lens(r_cam, design.face_width), "gap_mm": gap},
-        "frame": {"volume_mm3": lens(r, 2 * design.frame_thickness), "gap_mm": gap},
+        # Through the outer plate and half the middle one (parts.roller_solid_length).
+        "frame": {
+            "volume_mm3": lens(r, roller_solid_length(design) - design.face_width),
+            "gap_mm": gap,
+        },
     }
