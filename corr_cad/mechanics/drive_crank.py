@@ -78,6 +78,8 @@ class CrankSupport:
     #: How each part was given: ``"scene"`` or ``"derived from the design"``.
     shaft_source: str = "scene"
     bearing_source: str = "scene"
+    #: The scene keys whose values were derived from the design.
+    derived: tuple[str, ...] = ()
 
     @property
     def supports(self) -> tuple[SupportBearing | None, SupportBearing | None]:
@@ -119,6 +121,7 @@ class CrankSupport:
     def as_dict(self) -> dict:
         b1, b2 = self.supports
         return {
+            "derived_from_design": list(self.derived),
             "crankshaft": {**self.shaft.as_dict(), "source": self.shaft_source},
             "support_bearings": [
                 {**(b.as_dict() if b else {"type": "rigid"}), "source": self.bearing_source}
@@ -212,6 +215,15 @@ def _restart(solver, target, sol, starts):
     return tuple(out)
 
 
+def _warm(solver, target, prev):
+    """The bearing Newton started from the previous iterate's solution (None where it does
+    not settle everywhere: the caller then solves from the rigid start)."""
+    if solver.bearings[0] is None:
+        return None
+    sol = solver._with_bearings(target, prev[0], prev[1], 0)
+    return sol if np.all(sol[4] <= max(solver.rtol, 1e-9)) else None
+
+
 def solve_with_crank(solver, target: float, inner) -> tuple:
     """The drive's ``solve`` with the crankshaft: ``(tau_g, F, u, Qs, rel, iterations)``.
 
@@ -233,9 +245,11 @@ def solve_with_crank(solver, target: float, inner) -> tuple:
     try:
         for _ in range(_MAX_ITER):
             st.set_geometry(solver, st.offsets(x))
-            sol = inner(target)
-            near = [h[1] for h in sorted(history, key=lambda h: abs(h[0] - target))]
-            sol = _restart(solver, target, sol, [prev, *near])
+            sol = _warm(solver, target, prev) if prev is not None else None
+            if sol is None:
+                sol = inner(target)
+                near = [h[1] for h in sorted(history, key=lambda h: abs(h[0] - target))]
+                sol = _restart(solver, target, sol, [prev, *near])
             iterations += sol[5]
             prev = sol
             g, _ = _map(crank, st, sol[1])

@@ -150,6 +150,11 @@ def _datasheet(ctx: RunContext) -> None:
         psi_contact_limit=psi_contact_limit(ctx),
         drive=drive_settings(ctx),
     )
+    budget = ctx.results.datasheet.compliance_budget
+    if budget is not None and s.life:
+        from corr_cad.mechanics.compliance_budget import with_life_hours
+
+        with_life_hours(budget, s.life["rated_speed_rpm"], s.design.roller_count)
     if s.friction:
         ctx.results.friction = _friction_figures(ctx)
 
@@ -324,7 +329,10 @@ def drive_settings(ctx: RunContext) -> dict | None:
     s = ctx.scene
     if not s.solver.drive:
         return None
-    return {"errors_b": datasheet_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+    out = {"errors_b": datasheet_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+    if getattr(s, "crank", None) is not None:  # [crankshaft] / [bearings.crank]
+        out["crank"] = s.crank
+    return out
 
 
 def datasheet_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
