@@ -53,7 +53,7 @@ def catalogue_number(value: float, digits: int = 4) -> str:
 
 def _get(data: dict, key: str):
     for part in key.split("."):
-        data = data[part]
+        data = data[int(part)] if isinstance(data, list) else data[part]
     return data
 
 
@@ -87,11 +87,7 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             "N*m/arcmin",
             f"(T_2 - T_1) / (theta(T_2) - theta(T_1)), T_1 = {n(rig['from_torque_Nm'])} N*m, "
             f"T_2 = {n(rig['to_torque_Nm'])} N*m, both directions; smallest over the positions; "
-            + (
-                f"contacts in series with {n(series)} N*m/arcmin (bearings, shafts, housing)"
-                if series is not None
-                else "the contacts alone (no series rigidity given: far stiffer than a reducer)"
-            ),
+            + _rigidity_scope(sheet, series),
         ),
     ]
     if series is not None:
@@ -167,6 +163,7 @@ def datasheet_rows(sheet: dict) -> list[dict]:
                 "every moving part reflected to the pinion by its speed ratio squared",
             ),
         ]
+    rows += _budget_rows(sheet.get("compliance_budget"))
     out = []
     for name, key, unit, convention in rows:
         v = float(_get(sheet, key))
@@ -182,6 +179,73 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             }
         )
     return out
+
+
+def _rigidity_scope(sheet: dict, series) -> str:
+    """What the rigidity holds: the contacts alone, with a series rigidity, or the
+    compliances ``datasheet.json`` lists."""
+    n = catalogue_number
+    if "compliances" in sheet:
+        text = "the model's compliances: " + "; ".join(sheet["compliances"]["in_figure"])
+        text += " (not: " + "; ".join(sheet["compliances"]["not_in_figure"]) + ")"
+        if series is not None:
+            text += f"; in series with {n(series)} N*m/arcmin"
+        return text
+    if series is not None:
+        return f"contacts in series with {n(series)} N*m/arcmin (bearings, shafts, housing)"
+    return "the contacts alone (no series rigidity given: far stiffer than a reducer)"
+
+
+def _budget_rows(budget: dict | None) -> list[tuple]:
+    """The compliance budget's rows: each component's windup at T_R, the support bearings."""
+    if not budget:
+        return []
+    n = catalogue_number
+    rows = [
+        (
+            "Windup at T_R",
+            "compliance_budget.windup_arcmin",
+            "arcmin",
+            f"theta(T_R) from the kinematic zero at {n(budget['torque_Nm'])} N*m, mean over "
+            "the positions; split below by component (compliance.png)",
+        )
+    ]
+    for name, c in budget["components"].items():
+        if not c["in_model"]:
+            continue
+        rows.append(
+            (
+                f"  of it: {name.replace('_', ' ')}",
+                f"compliance_budget.components.{name}.windup_arcmin",
+                "arcmin",
+                f"{n(100 * c['share'])} % of the windup; the element's force times its own "
+                "deflection over the torque (virtual work: the parts add up)",
+            )
+        )
+    absent = [k.replace("_", " ") for k, c in budget["components"].items() if not c["in_model"]]
+    if absent and rows:
+        name, key, unit, conv = rows[0]
+        rows[0] = (name, key, unit, conv + "; not in it: " + ", ".join(absent))
+    for i, s in enumerate(budget.get("support_bearings", []), 1):
+        key = f"compliance_budget.support_bearings.{i - 1}"
+        rows.append(
+            (
+                f"Support bearing {i}, radial load",
+                f"{key}.radial_load_at_rated_N.max",
+                "N",
+                f"at z = {n(s['position_mm'])} mm, largest over the positions at +-T_R",
+            )
+        )
+        if "L10_h" in s:
+            rows.append(
+                (
+                    f"Support bearing {i}, life L10",
+                    f"{key}.L10_h",
+                    "h",
+                    f"ISO 281 at {n(s['output_speed_rpm'])} rpm of the output",
+                )
+            )
+    return rows
 
 
 def _model(sheet: dict, design, title: str, modification: str, version: str) -> list[tuple]:
@@ -252,6 +316,14 @@ def render_datasheet_html(
     ):
         data = base64.b64encode((Path(out) / name).read_bytes()).decode("ascii")
         figures.append({"name": name, "data": data, "caption": caption})
+    if "compliance_budget" in sheet:
+        data = base64.b64encode((Path(out) / "compliance.png").read_bytes()).decode("ascii")
+        caption = (
+            "Compliance budget: the windup at T_R and over the rigidity range split by "
+            "component (each element's force times its own deflection, over the torque: "
+            "they add up); grey: held rigid or not modelled."
+        )
+        figures.append({"name": "compliance.png", "data": data, "caption": caption})
     return render_template(
         "datasheet.html.j2",
         {

@@ -25,7 +25,7 @@ from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene import scene_drive as drv
-from corr_cad.run.scene.scene_crank import check_crank_formats, parse_crank
+from corr_cad.run.scene.scene_crank import parse_crank
 from corr_cad.run.scene.scene_drive import SolverSpec
 from corr_cad.run.scene.scene_first_stage import (
     first_stage_load,
@@ -110,8 +110,7 @@ class Scene:
     #: ``[bearings.eccentric]`` and cam B's (None: the cams are fixed).
     bearing: Any = None
     bearing_b: Any = None
-    #: ``[crankshaft]`` / ``[bearings.crank]`` (None: the eccentrics rigid).
-    crank: Any = None
+    crank: Any = None  # [crankshaft] / [bearings.crank] (None: the eccentrics rigid)
     checks: Checks = field(default_factory=Checks)
     measured_profile: Path | None = None
     #: ``[errors.row_b] measured_profile``: ring B's measured contour (drive only).
@@ -339,8 +338,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         contact_law=sv["contact_law"],
     )
     drive = drv.parse_drive(values, data, design)
-    crank = parse_crank(values, data, design, drive["bearing"])
-    check_crank_formats(crank, formats)
+    crank = parse_crank(values, data, design, drive["bearing"], formats)
 
     er = values["errors"]
     per = er["roller_radius_errors"]

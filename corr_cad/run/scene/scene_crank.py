@@ -69,10 +69,17 @@ def default_layout(
     }
 
 
-def parse_crank(values: dict, data: dict, design, bearing) -> CrankSupport | None:
-    """The scene's crankshaft and support bearings (None without either section)."""
+def parse_crank(values: dict, data: dict, design, bearing, formats=()) -> CrankSupport | None:
+    """The scene's crankshaft and support bearings (None without either section); the
+    outputs that do not take it refused (:func:`check_crank_formats`)."""
     if not any(s in data for s in CRANK_SECTION_NAMES):
         return None
+    crank = _parse(values, data, design, bearing)
+    check_crank_formats(crank, formats)
+    return crank
+
+
+def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
     shaft_v = values["crankshaft"]
     brg_v = values["bearings.crank"]
     needle = bearing.needle_diameter if bearing is not None else None

@@ -435,6 +435,11 @@ def _datasheet_files(ctx: RunContext) -> None:
     hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note, width, loop)
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
+    if ds.compliance_budget is not None:  # with [crankshaft] / [bearings.crank]
+        from corr_cad.export.compliance_plot import compliance_png
+
+        compliance_png(ds.compliance_budget, ctx.out / "compliance.png", s.design)
+        ctx.files.append("compliance.png")
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     ff = ctx.results.friction
     figs = ff.figures() if ff is not None else {}
