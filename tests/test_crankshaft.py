@@ -262,3 +262,39 @@ def test_doubling_the_shaft_diameter_lowers_its_bending_part_by_the_fourth_power
         shear.append(np.mean(parts["crankshaft_shear"]))
     assert bend[0] / bend[1] == pytest.approx(16.0, rel=0.01)
     assert shear[0] / shear[1] == pytest.approx(4.0, rel=0.01)
+
+
+def test_the_prototype_with_the_default_crank():
+    """The prototype's figures of the physics page: needles 40 x 6 x 12 mm (5 um), the
+    shaft and cylindrical supports derived from the design: rigidity 3,477 -> 3,226
+    N*m/arcmin; the budget at T_R: contacts 54 %, needles 40 %, crankshaft 2.5 %,
+    supports 3.7 %."""
+    from corr_cad.run.scene.scene import parse_scene
+
+    scene = parse_scene(
+        {
+            "solver": {"model": "drive", "contact_law": "palmgren"},
+            "load": {"input_torque": 1.1e5},
+            "bearings": {
+                "eccentric": {
+                    "needles": 40,
+                    "needle_diameter": 6.0,
+                    "needle_length": 12.0,
+                    "diametral_clearance": 0.005,
+                },
+                "crank": {"type": "cylindrical"},
+            },
+        }
+    )
+    crank = scene.crank
+    assert crank.shaft.shaft_diameter == 60.0 and crank.bearing.rollers == 18
+    assert rigidity(None) == pytest.approx(3477, abs=1)
+    assert rigidity(crank) == pytest.approx(3226, abs=1)
+    parts, total = budget(crank)
+    share = {k: np.mean(v) / np.mean(total) for k, v in parts.items()}
+    contacts = share["contact_cam"] + share["contact_ring"] + share["contact_slot"]
+    assert contacts == pytest.approx(0.54, abs=0.005)
+    assert share["needle_bearings"] == pytest.approx(0.40, abs=0.005)
+    shaft = share["crankshaft_bending"] + share["crankshaft_shear"] + share["crankshaft_torsion"]
+    assert shaft == pytest.approx(0.025, abs=0.001)
+    assert share["support_bearings"] == pytest.approx(0.037, abs=0.001)
