@@ -80,6 +80,9 @@ def test_crank_scene_reports_its_compliances_and_budget(tmp_path):
     branch = sum(c["rigidity_range_arcmin"] for c in comps.values())
     assert branch == pytest.approx(b["rigidity_range_windup_arcmin"], rel=1e-6)
     assert b["sum_relative_residual"] < 1e-9
+    for c in comps.values():
+        assert c["share"] == pytest.approx(c["windup_arcmin"] / b["windup_arcmin"], rel=1e-12)
+    assert sum(c["share"] for c in comps.values()) == pytest.approx(1.0, rel=1e-6)
     for name in ("contact_cam", "contact_ring", "contact_slot", "needle_bearings"):
         assert comps[name]["windup_arcmin"] > 0 and comps[name]["in_model"]
     for name in ("crankshaft_bending", "crankshaft_shear", "crankshaft_torsion"):

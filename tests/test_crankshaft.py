@@ -156,6 +156,12 @@ def test_support_bearing_clearance_and_preload():
     base, loose, tight = cylindrical(), cylindrical(clearance=0.01), cylindrical(clearance=-0.005)
     assert loose.displacement(F) > base.displacement(F) + 0.005 - 1e-12
     assert tight.displacement(F) < base.displacement(F)
+    # At a load of 1 N the first roller has just closed its gap: the cylindrical bearing's
+    # Pd / 2 = 5 um; the tapered pair's end play s_a = 20 um is a normal gap (s_a / 2)
+    # sin(alpha) per roller, i.e. (s_a / 2) tan(alpha) = 2.68 um radially.
+    assert loose.displacement(1.0) == pytest.approx(0.005, rel=0.005)
+    t = tapered(clearance=0.02)
+    assert t.displacement(1.0) == pytest.approx(0.01 * math.tan(math.radians(15.0)), rel=0.005)
     assert float(base.displacement(0.0)) == 0.0
 
 
