@@ -294,6 +294,9 @@ def test_the_prototype_with_the_default_crank():
     )
     crank = scene.crank
     assert crank.shaft.shaft_diameter == 60.0 and crank.bearing.rollers == 18
+    b = crank.bearing
+    assert (b.roller_diameter, b.roller_length, b.pitch_diameter, b.width) == (12, 12, 87, 22)
+    assert crank.shaft.support_positions == (-27.0, 59.0) and crank.shaft.gear_position == -49.0
     assert rigidity(None) == pytest.approx(3477, abs=1)
     assert rigidity(crank) == pytest.approx(3226, abs=1)
     parts, total = budget(crank)
