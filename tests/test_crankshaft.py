@@ -307,3 +307,12 @@ def test_the_prototype_with_the_default_crank():
     shaft = share["crankshaft_bending"] + share["crankshaft_shear"] + share["crankshaft_torsion"]
     assert shaft == pytest.approx(0.025, abs=0.001)
     assert share["support_bearings"] == pytest.approx(0.037, abs=0.001)
+
+
+def test_a_shaft_far_softer_than_the_drive_is_refused_in_one_line():
+    """A 3 mm shaft: the fixed point cannot settle; one line that names the key."""
+    from corr_cad.errors import SolverError
+
+    with pytest.raises(SolverError, match=r"did not settle .* shaft_diameter") as err:
+        drive(CrankSupport(uniform(3.0))).solve(M0)
+    assert "\n" not in str(err.value)

@@ -270,7 +270,9 @@ def solve_with_crank(solver, target: float, inner) -> tuple:
         else:
             raise SolverError(
                 f"crankshaft coupling at crank moment {target:g} N*mm: the eccentric centres' "
-                f"deflection did not settle to {CRANK_RTOL:g} in {_MAX_ITER} solves"
+                f"deflection did not settle to {CRANK_RTOL:g} in {_MAX_ITER} solves (a shaft "
+                "or support far softer than the drive's contacts: check [crankshaft] "
+                "shaft_diameter and [bearings.crank], e.g. shaft_diameter = 60)"
             )
     finally:
         st.set_geometry(solver, None)
