@@ -177,8 +177,8 @@ def test_support_bearing_rating_is_iso281():
 # ---------------------------------------------------------------- the drive
 
 
-def drive(crank=None, law="palmgren"):
-    return DriveSolver(GearDesign(), ANGLES, bearing=NEEDLES, contact_model=law, crank=crank)
+def drive(crank=None, law="palmgren", bearing=NEEDLES):
+    return DriveSolver(GearDesign(), ANGLES, bearing=bearing, contact_model=law, crank=crank)
 
 
 def stiff_crank(scale=1e9):
@@ -188,12 +188,13 @@ def stiff_crank(scale=1e9):
     return CrankSupport(shaft, cylindrical(compliance=soft))
 
 
+@pytest.mark.parametrize("bearing", [NEEDLES, None], ids=["needles", "fixed cams"])
 @pytest.mark.parametrize("law", ["palmgren", "nonlinear"])
-def test_stiff_crank_equals_the_rigid_drive(law):
+def test_stiff_crank_equals_the_rigid_drive(law, bearing):
     """The crank and its supports 1e9 times stiffer: today's rigid drive to 1e-9."""
     for target in (M0, 0.5 * M0, -0.03 * M0):
-        rigid = drive(law=law).solve(target)
-        stiff = drive(stiff_crank(), law=law).solve(target)
+        rigid = drive(law=law, bearing=bearing).solve(target)
+        stiff = drive(stiff_crank(), law=law, bearing=bearing).solve(target)
         np.testing.assert_allclose(stiff[0], rigid[0], rtol=1e-9)
         np.testing.assert_allclose(stiff[1], rigid[1], rtol=1e-9, atol=1e-9 * rigid[1].max())
 
@@ -237,19 +238,20 @@ def test_crank_matches_the_independent_estimate(d, k, notes, with_torsion):
     assert rigidity(full) / k0 == pytest.approx(with_torsion, abs=0.002)
 
 
-def budget(crank, target=M0, law="palmgren"):
-    s = drive(crank, law)
+def budget(crank, target=M0, law="palmgren", bearing=NEEDLES):
+    s = drive(crank, law, bearing)
     sol = s.solve(target)
     return budget_terms(s, target, sol), target * sol[0]
 
 
+@pytest.mark.parametrize("bearing", [NEEDLES, None], ids=["needles", "fixed cams"])
 @pytest.mark.parametrize("law", ["palmgren", "nonlinear"])
-def test_budget_adds_up_and_each_part_is_positive(law):
+def test_budget_adds_up_and_each_part_is_positive(law, bearing):
     crank = CrankSupport(uniform(50.0), cylindrical(clearance=0.004))
-    parts, total = budget(crank, law=law)
+    parts, total = budget(crank, law=law, bearing=bearing)
     np.testing.assert_allclose(sum(parts.values()), total, rtol=1e-6)
     for name, v in parts.items():
-        if name == "initial_gaps":
+        if name == "initial_gaps" or (name == "needle_bearings" and bearing is None):
             np.testing.assert_array_equal(v, 0.0)  # nominal parts: no initial interference
         else:
             assert np.all(v > 0), name
@@ -316,3 +318,19 @@ def test_a_shaft_far_softer_than_the_drive_is_refused_in_one_line():
     with pytest.raises(SolverError, match=r"did not settle .* shaft_diameter") as err:
         drive(CrankSupport(uniform(3.0))).solve(M0)
     assert "\n" not in str(err.value)
+
+
+def test_budget_adds_up_with_errors_and_a_phase_error():
+    """Errors open gaps (the initial-gap term is then the forces' work on them) and a cam
+    phase error turns eccentric B's frame: the split still adds up to the windup."""
+    from corr_cad.geometry.deviations import ManufacturingErrors as ME
+
+    errors = ME(roller_radius_error=-0.002, cam_phase_error=math.radians(0.01))
+    crank = CrankSupport(uniform(50.0), cylindrical())
+    s = DriveSolver(
+        GearDesign(), ANGLES, bearing=NEEDLES, contact_model="palmgren", crank=crank, errors=errors
+    )
+    sol = s.solve(M0)
+    parts = budget_terms(s, M0, sol)
+    np.testing.assert_allclose(sum(parts.values()), M0 * sol[0], rtol=1e-9)
+    assert np.all(parts["initial_gaps"] > 0)  # undersize rollers: gaps taken up
