@@ -334,3 +334,15 @@ def test_budget_adds_up_with_errors_and_a_phase_error():
     parts = budget_terms(s, M0, sol)
     np.testing.assert_allclose(sum(parts.values()), M0 * sol[0], rtol=1e-9)
     assert np.all(parts["initial_gaps"] > 0)  # undersize rollers: gaps taken up
+    tight = DriveSolver(
+        GearDesign(),
+        ANGLES,
+        bearing=NEEDLES,
+        contact_model="palmgren",
+        crank=crank,
+        errors=ME(roller_radius_error=0.002),
+    )
+    sol = tight.solve(M0)
+    parts = budget_terms(tight, M0, sol)
+    np.testing.assert_allclose(sum(parts.values()), M0 * sol[0], rtol=1e-9)
+    assert np.all(parts["initial_gaps"] < 0)  # oversize rollers: a preload
