@@ -193,3 +193,17 @@ def test_without_the_sections_the_files_are_the_bytes_they_were(tmp_path, name):
     assert r.returncode == 0, r.stderr
     golden = json.loads((DATA / "crank_bytes_golden.json").read_text())[name]
     assert _hashes(out) == golden
+
+
+@pytest.mark.parametrize(
+    "section", [{"crankshaft": {"shaft_diameter": 60.0}}, {"bearings": {"crank": {}}}]
+)
+def test_all_formats_leave_out_the_studies_that_keep_the_crank_rigid(section):
+    data = _drive(export={"formats": ["all"]}, tolerances={"cam_radius": {"normal": 0.001}})
+    data.update(section)
+    scene = parse_scene(data)
+    left = dict(scene.formats_left_out)
+    for f in ("montecarlo", "sweeps", "modification"):
+        assert f not in scene.formats
+        assert left[f].startswith("its solves keep the crankshaft rigid")
+    assert "datasheet" in scene.formats and "forces" in scene.formats

@@ -301,7 +301,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     if ALL in formats:
         if len(formats) > 1:
             raise SceneError(f'[export] formats = {show(list(formats))}: "all" stands alone')
-        formats, left_out = every_format(values)
+        formats, left_out = every_format(values, data)
 
     ld = values["load"]
     load = None
