@@ -60,7 +60,8 @@ def _drive(**extra):
 
 @pytest.mark.slow
 def test_crank_scene_reports_its_compliances_and_budget(tmp_path):
-    text = DRIVE + "[bearings.crank]\ntype = 'tapered_pair'\nclearance = -0.002\n[life]\n"
+    text = DRIVE.replace("'datasheet']", "'datasheet', 'report']")
+    text += "[bearings.crank]\ntype = 'tapered_pair'\nclearance = -0.002\n[life]\n"
     r, out = run(tmp_path, text)
     assert r.returncode == 0, r.stderr
     # The console: what was derived, which compliances are in the figure, the budget.
@@ -100,6 +101,8 @@ def test_crank_scene_reports_its_compliances_and_budget(tmp_path):
     page = (out / "datasheet.html").read_text()
     assert 'data-key="compliance_budget.components.support_bearings.windup_arcmin"' in page
     assert "compliance.png" in page
+    report = (out / "report.html").read_text()
+    assert "torsional rigidity, model" in report and "Compliance budget" in report
 
 
 @pytest.mark.parametrize(
