@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["figure", "UNITS", "unit_of"]
+__all__ = ["figure", "catalogue_number", "UNITS", "unit_of"]
 
 
 def figure(v: float, digits: int = 4) -> str:
@@ -60,3 +60,23 @@ def unit_of(metric: str) -> str:
         if metric.endswith(suffix):
             return unit
     return ""
+
+
+def catalogue_number(value: float, digits: int = 4) -> str:
+    """``value`` with ``digits`` significant digits, thousands separated, never in e-notation.
+
+    >>> catalogue_number(21256.3), catalogue_number(0.0123456), catalogue_number(2.2e-19)
+    ('21,256', '0.01235', '0')
+    >>> catalogue_number(2860.0), catalogue_number(-0.5)
+    ('2,860', '-0.5')
+    """
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"not a finite number: {v!r}")
+    if abs(v) < 1e-9:
+        return "0"
+    decimals = max(0, digits - 1 - math.floor(math.log10(abs(v))))
+    text = f"{v:,.{decimals}f}"
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return text

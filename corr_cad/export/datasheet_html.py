@@ -26,8 +26,9 @@ import base64
 import math
 from pathlib import Path
 
+from corr_cad.export.datasheet_compliance import budget_rows, rigidity_scope
 from corr_cad.export.files import writing
-from corr_cad.figure_text import figure
+from corr_cad.figure_text import catalogue_number, figure
 
 __all__ = [
     "catalogue_number",
@@ -38,26 +39,6 @@ __all__ = [
     "render_datasheet_html",
     "write_datasheet_html",
 ]
-
-
-def catalogue_number(value: float, digits: int = 4) -> str:
-    """``value`` with ``digits`` significant digits, thousands separated, never in e-notation.
-
-    >>> catalogue_number(21256.3), catalogue_number(0.0123456), catalogue_number(2.2e-19)
-    ('21,256', '0.01235', '0')
-    >>> catalogue_number(2860.0), catalogue_number(-0.5)
-    ('2,860', '-0.5')
-    """
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"not a finite number: {v!r}")
-    if abs(v) < 1e-9:
-        return "0"
-    decimals = max(0, digits - 1 - math.floor(math.log10(abs(v))))
-    text = f"{v:,.{decimals}f}"
-    if "." in text:
-        text = text.rstrip("0").rstrip(".")
-    return text
 
 
 def _get(data: dict, key: str):
@@ -151,11 +132,7 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             "N*m/arcmin",
             f"(T_2 - T_1) / (theta(T_2) - theta(T_1)), T_1 = {n(rig['from_torque_Nm'])} N*m, "
             f"T_2 = {n(rig['to_torque_Nm'])} N*m, both directions; smallest over the positions; "
-            + (
-                f"contacts in series with {n(series)} N*m/arcmin (bearings, shafts, housing)"
-                if series is not None
-                else "the contacts alone (no series rigidity given: far stiffer than a reducer)"
-            ),
+            + rigidity_scope(sheet, series),
         ),
     ]
     if series is not None:
@@ -232,6 +209,7 @@ def datasheet_rows(sheet: dict) -> list[dict]:
                 "every moving part reflected to the pinion by its speed ratio squared",
             ),
         ]
+    rows += budget_rows(sheet.get("compliance_budget"))
     out = []
     for name, key, unit, convention in rows:
         v = _get(sheet, key)
@@ -469,6 +447,14 @@ def render_datasheet_html(
     ):
         data = base64.b64encode((Path(out) / name).read_bytes()).decode("ascii")
         figures.append({"name": name, "data": data, "caption": caption})
+    if "compliance_budget" in sheet:
+        data = base64.b64encode((Path(out) / "compliance.png").read_bytes()).decode("ascii")
+        caption = (
+            "Compliance budget: the windup at T_R and over the rigidity range split by "
+            "component (each element's force times its own deflection, over the torque: "
+            "they add up); grey: held rigid or not modelled."
+        )
+        figures.append({"name": "compliance.png", "data": data, "caption": caption})
     notes = []
     if short := life_short(sheet):
         notes.append("Short life: " + short.removeprefix("life: ") + ".")

@@ -63,6 +63,7 @@ _PLOT_CAPTIONS = {
     "montecarlo.png": "Monte Carlo: distributions, limits, failure probability, sensitivity",
     "hysteresis.png": "Hysteresis curve: output torque against windup, input locked",
     "transmission_error.png": "Transmission error over one output revolution, both directions",
+    "compliance.png": "Compliance budget: the windup at T_R split by component",
 }
 
 

@@ -135,7 +135,12 @@ def datasheet_rows(d: dict) -> dict:
                 "N*m/arcmin included; catalogue: min",
             )
         )
-    if d.get("model") == "drive":
+    label = "torsional rigidity, contacts alone"
+    if d.get("compliances"):  # [crankshaft] / [bearings.crank]: the model's compliances
+        comp = d["compliances"]
+        note = f"{span}; {'; '.join(comp['in_figure'])}; without {', '.join(comp['not_in_figure'])}"
+        label = "torsional rigidity, model"
+    elif d.get("model") == "drive":
         what = (
             "both rows' contacts and the cams' eccentric bearings"
             if isinstance(d.get("bearing"), dict)
@@ -147,7 +152,7 @@ def datasheet_rows(d: dict) -> dict:
             f"{span}; one row's contacts only (model = paper, at load_share): an upper bound, "
             "not the reducer's rigidity"
         )
-    rows.append(row("torsional rigidity, contacts alone", rig["contact_only"], "N*m/arcmin", note))
+    rows.append(row(label, rig["contact_only"], "N*m/arcmin", note))
     bp = ", ".join(fmt(b) for b in k["breakpoints_Nm"])
     for name in ("K1", "K2", "K3"):
         rows.append(row(name, k[name], "N*m/arcmin", f"slopes between 0, {bp} N*m"))

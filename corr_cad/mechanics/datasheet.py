@@ -200,6 +200,8 @@ class Datasheet:
     peak_pressure_at_rated: np.ndarray | None = field(default=None, repr=False)
     #: ``model = "drive"``: row A's share of the moment, (L, P) at each torque level.
     row_a_share: np.ndarray | None = field(default=None, repr=False)
+    #: With the crankshaft (:mod:`~corr_cad.mechanics.compliance_budget`): the windup's split.
+    compliance_budget: dict | None = None
 
     def _level(self, share: float) -> int:
         """Index of the torque level at ``share`` of T_R."""
@@ -349,6 +351,8 @@ class Datasheet:
             out["peak_contact_pressure_at_rated_MPa"] = float(self.peak_pressure_at_rated.max())
         if self.rated_from_pressure is not None:
             out["rated_torque_from_contact_pressure"] = self.rated_from_pressure
+        if self.compliance_budget is not None:
+            out["compliance_budget"] = self.compliance_budget
         return out
 
 
@@ -468,6 +472,12 @@ def datasheet(
     if spec.allowable_contact_pressure is not None:
         out.rated_from_pressure = rated_torque_from_pressure(
             w, spec.allowable_contact_pressure, spec.rated_torque
+        )
+    if (drive or {}).get("crank") is not None:
+        from corr_cad.mechanics.compliance_budget import compliance_budget
+
+        out.compliance_budget = compliance_budget(
+            w, spec.rated_torque, spec.rigidity_range, spec.series_rigidity_Nm_per_arcmin
         )
     return out
 

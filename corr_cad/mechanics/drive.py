@@ -49,7 +49,7 @@ free, the Jacobian singular along it), an exact line search on the energy
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -57,6 +57,7 @@ from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.drive_crank import CrankSupport, solve_with_crank
 from corr_cad.mechanics.drive_numerics import (
     _forces_of,
     _invert_convex,
@@ -68,6 +69,7 @@ from corr_cad.mechanics.drive_numerics import (
     moved_state,
     rest_idle_cams,
     roller_directions,
+    row_errors,
 )
 from corr_cad.mechanics.solver import CONTACT_MODELS, ForceResult, _result
 from corr_cad.mechanics.solver_geometry import RollerGeometry, cycle_angles, roller_geometry
@@ -84,28 +86,6 @@ _MAX_TAU_STEP, _MAX_U_STEP = 1e-2, 1e-2
 
 #: Relative residual of the moment and of each cam's force balance the bearing solve reaches.
 DRIVE_RTOL = 1e-12
-
-
-def row_errors(
-    errors: ManufacturingErrors | None, errors_b: ManufacturingErrors | None = None
-) -> tuple[ManufacturingErrors, ManufacturingErrors]:
-    """Row A's and row B's error models from ``[errors]`` and ``[errors.row_b]``.
-
-    ``[errors]`` describes both rows unless ``errors_b`` is given. The slot
-    errors and the slots' clearance (``slot_clearance``, 0 when None: the
-    drive's slot fit) are the frame's: row B takes row A's. The cam phase
-    error is cam B's against cam A: row A gets none, row B the scene's.
-    """
-    errors = errors or ManufacturingErrors()
-    b = errors if errors_b is None else errors_b
-    phase = errors.cam_phase_error
-    # The slots' fit is the frame's too; the drive puts the roller error into it both ways.
-    fit = 0.0 if errors.slot_clearance is None else errors.slot_clearance
-    a = replace(errors, cam_phase_error=0.0, slot_clearance=fit)
-    b = replace(
-        b, cam_phase_error=phase, slot_angle_errors=errors.slot_angle_errors, slot_clearance=fit
-    )
-    return a, b
 
 
 def drive_geometry(
@@ -185,6 +165,7 @@ class DriveSolver:
         psi_contact_limit: float = math.pi,
         geometry: tuple[RollerGeometry, RollerGeometry] | None = None,
         rtol: float = _RTOL,
+        crank: CrankSupport | None = None,
     ):
         if contact_model not in CONTACT_MODELS:
             raise SolverError(
@@ -208,11 +189,20 @@ class DriveSolver:
         self.rtol = rtol
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
+        #: The crankshaft on its support bearings (None: rigid, the cams' eccentrics fixed).
+        self.crank = crank
 
     # ------------------------------------------------------------------ solve
 
     def solve(self, target: float):
-        """``(tau, F (P, 2R), u (2, P, 2), Q list, rel, iterations)`` at crank moment ``target``."""
+        """``(tau, F (P, 2R), u (2, P, 2), Q list, rel, iterations)`` at crank moment ``target``
+        (with a crankshaft, ``tau`` is the crank gear's rotation: :mod:`~.drive_crank`)."""
+        if self.crank is not None:
+            return solve_with_crank(self, target, self._solve_on_eccentrics)
+        return self._solve_on_eccentrics(target)
+
+    def _solve_on_eccentrics(self, target: float):
+        """:meth:`solve` with the eccentrics where the geometry puts them."""
         geo, comp = self.geo_joined, self.comp
         tau, F, iterations, _, rel = _solve_positions(geo, comp, target, self.rtol)
         P = len(tau)
@@ -566,6 +556,7 @@ def solve_drive(
     contact_model: str = "nonlinear",
     variants: tuple[str, ...] = (),
     psi_contact_limit: float = math.pi,
+    crank: CrankSupport | None = None,
 ) -> DriveResult:
     """Both rows' forces at each crank angle under the crank moment ``input_torque`` (N*mm).
 
@@ -610,6 +601,7 @@ def solve_drive(
         contact_model=contact_model,
         variants=variants,
         psi_contact_limit=psi_contact_limit,
+        crank=crank,
     )
     res = solver.result(float(input_torque))
     rev, fwd = solver.free_interval(solve=False)  # its width needs no solve: 0 where tight

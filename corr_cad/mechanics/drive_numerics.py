@@ -10,9 +10,11 @@ from dataclasses import replace
 import numpy as np
 
 from corr_cad.geometry.design import GearDesign
+from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 
 __all__ = [
+    "row_errors",
     "energy_search",
     "energy_step",
     "expand_drive",
@@ -294,3 +296,25 @@ def energy_step(stuck, d, x, state):
     with np.errstate(all="ignore"):
         trial = state(t_tau, t_u, F, h, kf)
     return merge_state(stuck & (a > 0), x, (t_tau, t_u) + trial)
+
+
+def row_errors(
+    errors: ManufacturingErrors | None, errors_b: ManufacturingErrors | None = None
+) -> tuple[ManufacturingErrors, ManufacturingErrors]:
+    """Row A's and row B's error models from ``[errors]`` and ``[errors.row_b]``.
+
+    ``[errors]`` describes both rows unless ``errors_b`` is given. The slot
+    errors and the slots' clearance (``slot_clearance``, 0 when None: the
+    drive's slot fit) are the frame's: row B takes row A's. The cam phase
+    error is cam B's against cam A: row A gets none, row B the scene's.
+    """
+    errors = errors or ManufacturingErrors()
+    b = errors if errors_b is None else errors_b
+    phase = errors.cam_phase_error
+    # The slots' fit is the frame's too; the drive puts the roller error into it both ways.
+    fit = 0.0 if errors.slot_clearance is None else errors.slot_clearance
+    a = replace(errors, cam_phase_error=0.0, slot_clearance=fit)
+    b = replace(
+        b, cam_phase_error=phase, slot_angle_errors=errors.slot_angle_errors, slot_clearance=fit
+    )
+    return a, b

@@ -27,6 +27,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.drive_crank import CrankSupport
 from corr_cad.mechanics.drive_numerics import free_row
 from corr_cad.mechanics.drive_restart import restart_missed
 from corr_cad.mechanics.solver_numerics import _RTOL
@@ -56,6 +57,7 @@ class DriveWindup:
         psi_contact_limit: float = math.pi,
         series_rigidity_Nm_per_arcmin: float | None = None,
         rtol: float = _RTOL,
+        crank: CrankSupport | None = None,
     ):
         if "working_half_only" in variants:
             raise SolverError(
@@ -80,6 +82,7 @@ class DriveWindup:
             psi_contact_limit=psi_contact_limit,
             series_rigidity_Nm_per_arcmin=series_rigidity_Nm_per_arcmin,
             rtol=rtol,
+            crank=crank,
         )
         self._ratio = float(design.roller_count)
         step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
@@ -97,6 +100,7 @@ class DriveWindup:
                 variants=variants,
                 psi_contact_limit=psi_contact_limit,
                 rtol=rtol,
+                crank=crank,
             )
             self._blocks.append((sl, solver))
         self._cache: dict[float, tuple] = {}

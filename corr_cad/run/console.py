@@ -73,6 +73,31 @@ def drive_lines(f: dict) -> list[str]:
                 f"drive: cam {name} bearing load up to {row['bearing_load_N']['max']:.0f} N, "
                 f"largest needle load {row['needle_load_max_N']['max']:.0f} N"
             )
+    return out + crank_lines(f.get("crank"))
+
+
+def crank_lines(c: dict | None) -> list[str]:
+    """The crankshaft and its supports as the drive holds them, and what was derived."""
+    if not c:
+        return []
+    sh, sup = c["crankshaft"], c["support_bearings"][0]
+    kind = sup["type"]
+    if kind != "rigid":
+        kind += (
+            f" ({sup['rollers_per_row']} x {sup['rows']} rollers {sup['roller_diameter_mm']:g} mm)"
+        )
+    z1, z2 = sh["support_positions_mm"]
+    out = [
+        f"drive: crankshaft {sh['shaft_diameter_mm']:g} mm ({sh['source']}) on {kind} support "
+        f"bearings at z = {z1:g} and {z2:g} mm ({sup['source']}); eccentrics at "
+        + " and ".join(f"{v:g}" for v in sh["eccentric_positions_mm"])
+        + " mm"
+    ]
+    if c.get("derived_from_design"):
+        out.append(
+            "drive: derived from the design (not in the scene): "
+            + ", ".join(c["derived_from_design"])
+        )
     return out
 
 
@@ -215,6 +240,41 @@ PAPER_RIGIDITY_NOTE = (
 )
 
 
+def budget_lines(b: dict | None) -> list[str]:
+    """The compliance budget's line: each component's share of the windup at T_R."""
+    if not b:
+        return []
+    parts = [
+        f"{name.replace('_', ' ')} {100 * v['share']:.1f} %"
+        for name, v in b["components"].items()
+        if v["in_model"] and v["windup_arcmin"] != 0.0
+    ]
+    absent = [name.replace("_", " ") for name, v in b["components"].items() if not v["in_model"]]
+    out = [
+        f"  compliance budget   windup {figure(b['windup_arcmin'])} arcmin at T_R: "
+        + ", ".join(parts)
+        + " (compliance.png)"
+    ]
+    if absent:
+        out.append(f"                      not in it: {', '.join(absent)}")
+    for i, s in enumerate(b.get("support_bearings", []), 1):
+        life = s.get("L10_h")
+        life_text = (
+            f", L10 {figure(life)} h"
+            if life is not None
+            else (
+                f", L10 {figure(s['L10_million_crank_revolutions'])} million crank turns"
+                if "L10_million_crank_revolutions" in s
+                else ""
+            )
+        )
+        out.append(
+            f"  support bearing {i}   radial load up to "
+            f"{figure(s['radial_load_at_rated_N']['max'])} N at +-T_R{life_text}"
+        )
+    return out
+
+
 def datasheet_lines(d: dict | None) -> list[str]:
     """The datasheet table of the console summary (catalogue units), from its manifest entry."""
     if not d:
@@ -251,7 +311,11 @@ def datasheet_lines(d: dict | None) -> list[str]:
             f"  torsional rigidity  {mmm(rig['with_series'])} N*m/arcmin (series "
             f"{figure(rig['series_rigidity_Nm_per_arcmin'])} included)"
         )
-    if d.get("model") == "drive":
+    if d.get("compliances"):
+        comp = d["compliances"]
+        what = "in it: " + "; ".join(comp["in_figure"])
+        what += "; not in it: " + "; ".join(comp["not_in_figure"])
+    elif d.get("model") == "drive":
         what = (
             "the contacts of both rows and the cams' eccentric bearings: crank, output "
             "bearings and housing are not in it"
@@ -260,12 +324,14 @@ def datasheet_lines(d: dict | None) -> list[str]:
         )
     else:
         what = "the contacts alone: bearings, crank and housing are not in it"
+    label = "rigidity, model   " if d.get("compliances") else "rigidity, contacts"
     out.append(
-        f"  rigidity, contacts  {mmm(rig['contact_only'])} N*m/arcmin "
+        f"  {label}  {mmm(rig['contact_only'])} N*m/arcmin "
         f"({figure(rig['from_torque_Nm'])}-{figure(rig['to_torque_Nm'])} N*m; {what})"
     )
     if d.get("model") != "drive":
         out.append(f"  {PAPER_RIGIDITY_NOTE}")
+    out.extend(budget_lines(d.get("compliance_budget")))
     k = d["stiffness_Nm_per_arcmin"]
     out.append(
         f"  K1 / K2 / K3 (min)  {figure(k['K1']['min'])} / {figure(k['K2']['min'])} / "

@@ -102,6 +102,7 @@ def drive_speed(out: Path, quick: bool = False) -> list:
             ]
         )
         rows.extend(_with_datasheet(design, tol, mc, law, samples, repeat, DatasheetMC(spec)))
+    rows.extend(_with_crank(design, needles, spec, repeat))
     header = [
         "case",
         "median_s",
@@ -114,6 +115,35 @@ def drive_speed(out: Path, quick: bool = False) -> list:
     ]
     _table("drive model, prototype, one process", header, rows)
     _write_csv(out, "drive_speed.csv", header, rows)
+    return rows
+
+
+def _with_crank(design, needles, spec, repeat) -> list:
+    """The drive with the crankshaft on its support bearings (the design's defaults,
+    ``[bearings.crank]`` cylindrical), Palmgren's law: the solve and the datasheet."""
+    from corr_cad.mechanics.datasheet import datasheet
+    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.run.scene.scene import parse_scene
+
+    bearing = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
+    scene = parse_scene(
+        {
+            "solver": {"model": "drive", "contact_law": "palmgren"},
+            "load": {"input_torque": M0},
+            "bearings": {"eccentric": bearing, "crank": {"type": "cylindrical"}},
+        }
+    )
+    crank = scene.crank
+    t = _timed(
+        lambda: solve_drive(
+            design, M0, positions=3600, bearing=needles, contact_model="palmgren", crank=crank
+        ),
+        repeat,
+    )
+    rows = [["3600 positions, bearings and crank, palmgren", *t[:3], "", "", "", t[3]]]
+    drive = {"errors_b": None, "bearing": needles, "bearing_b": None, "crank": crank}
+    t = _timed(lambda: datasheet(design, spec, contact_model="palmgren", drive=drive), repeat)
+    rows.append(["datasheet stage, bearings and crank, palmgren", *t[:3], "", "", "", t[3]])
     return rows
 
 

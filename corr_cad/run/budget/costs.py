@@ -248,6 +248,10 @@ def _datasheet_size(scene) -> tuple[int, int, int, int]:
 #: 0.76-0.89 s for 52 positions and 104 transmission-error classes of the prototype
 #: with 40-needle bearings (tests/test_drive.py's span case), 0.12 s by the row's rate.
 DRIVE_CELLS = 10.0
+#: With ``[crankshaft]`` / ``[bearings.crank]``: the drive's solves a windup cell takes
+#: (the crank's fixed point, drive_crank): 2.9 s against 0.42 s CPU for the prototype's
+#: datasheet with 40-needle bearings (16 positions a mesh), 7.
+CRANK_SOLVES = 7.0
 
 
 @stage_cost("datasheet")
@@ -266,7 +270,8 @@ def _datasheet(scene, env):
         + 1.1e-6
         * R
         * (levels * positions + 2 * solved)
-        * (DRIVE_CELLS if scene.solver.drive else 1),
+        * (DRIVE_CELLS if scene.solver.drive else 1)
+        * (CRANK_SOLVES if getattr(scene, "crank", None) is not None else 1),
         knobs=(
             "[datasheet] positions_per_mesh",
             "[datasheet] transmission_error_positions_per_turn",

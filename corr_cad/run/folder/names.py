@@ -71,7 +71,7 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
         r"datasheet\.(?:json|html)",
         r"assembly\.(?:json|png)",
         r"(?:windup|transmission_error|hysteresis)\.csv",
-        r"(?:hysteresis|transmission_error)\.png",
+        r"(?:hysteresis|transmission_error|compliance)\.png",
         r"efficiency\.(?:csv|png)",
         r"life\.csv",
     ),

@@ -25,6 +25,7 @@ from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene import scene_drive as drv
+from corr_cad.run.scene.scene_crank import parse_crank
 from corr_cad.run.scene.scene_drive import SolverSpec
 from corr_cad.run.scene.scene_first_stage import (
     first_stage_load,
@@ -109,6 +110,7 @@ class Scene:
     #: ``[bearings.eccentric]`` and cam B's (None: the cams are fixed).
     bearing: Any = None
     bearing_b: Any = None
+    crank: Any = None  # [crankshaft] / [bearings.crank] (None: the eccentrics rigid)
     checks: Checks = field(default_factory=Checks)
     measured_profile: Path | None = None
     #: ``[errors.row_b] measured_profile``: ring B's measured contour (drive only).
@@ -299,7 +301,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
     if ALL in formats:
         if len(formats) > 1:
             raise SceneError(f'[export] formats = {show(list(formats))}: "all" stands alone')
-        formats, left_out = every_format(values)
+        formats, left_out = every_format(values, data)
 
     ld = values["load"]
     load = None
@@ -336,6 +338,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         contact_law=sv["contact_law"],
     )
     drive = drv.parse_drive(values, data, design)
+    crank = parse_crank(values, data, design, drive["bearing"], formats)
 
     er = values["errors"]
     per = er["roller_radius_errors"]
@@ -484,6 +487,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         errors_b=drive["errors_b"],
         bearing=drive["bearing"],
         bearing_b=drive["bearing_b"],
+        crank=crank,
         checks=checks,
         measured_profile=(
             (Path(base_dir or ".") / er["measured_profile"])

@@ -67,9 +67,10 @@ def split_drive_tables(data: dict) -> dict:
         if not isinstance(bearings, dict):
             raise SceneError(f"[bearings] must be a table, got {show(bearings)}")
         for k, v in bearings.items():
-            if k not in ("eccentric", "eccentric_b"):
+            if k not in ("eccentric", "eccentric_b", "crank"):
                 raise SceneError(
-                    f"unknown table {show(k)} in [bearings]; valid tables: eccentric, eccentric_b"
+                    f"unknown table {show(k)} in [bearings]; valid tables: eccentric, "
+                    "eccentric_b, crank"
                 )
             out[f"bearings.{k}"] = v
     return out

@@ -51,14 +51,18 @@ def design_refusal(message: str, key: str, design: dict, given: dict) -> str:
     return f"[design] {message}"
 
 
-def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], ...]]:
+def every_format(
+    values: dict, data: dict | None = None
+) -> tuple[tuple[str, ...], tuple[tuple[str, str], ...]]:
     """``formats = ["all"]``: every format this scene can make, and why each other is left out.
 
     Left out: what needs an input the scene lacks (a torque for the forces
     and the studies built on them, tolerances, a limit for the allocation, a
     measured profile for the inspection), ``step`` without Open CASCADE, and
     the studies on samples (montecarlo, allocation, modification) under
-    Palmgren's law on the paper's row.
+    Palmgren's law on the paper's row; the studies that keep the crankshaft rigid
+    (montecarlo, allocation, modification, sweeps) where the scene (``data``) gives
+    ``[crankshaft]`` or ``[bearings.crank]``.
     """
     import importlib.util
 
@@ -92,15 +96,22 @@ def every_format(values: dict) -> tuple[tuple[str, ...], tuple[tuple[str, str], 
         'its samples solve the paper\'s contact law or the drive: contact_law = "palmgren" '
         'needs model = "drive"',
     )
+    given = data or {}
+    crank = (
+        not any(s in given for s in ("crankshaft", "bearings.crank"))
+        and "crank" not in (given.get("bearings") or {}),
+        "its solves keep the crankshaft rigid: [crankshaft] or [bearings.crank] is given",
+    )
     needs = {
         "forces": (load,),
         "datasheet": (rated,),
-        "montecarlo": (load, tol, paper_law),
-        "allocation": (load, tol, limit, paper_law),
-        "sweeps": (load,),
+        "montecarlo": (load, tol, paper_law, crank),
+        "allocation": (load, tol, limit, paper_law, crank),
+        "sweeps": (load, crank),
         "inspection": (measured,),
         "step": (ocp,),
         "modification": (
+            crank,
             paper_law,
             rated,
             tol,

@@ -1,5 +1,6 @@
-"""Scene sections of the two-row drive: ``[errors.row_b]``, ``[bearings.eccentric]`` and
-``[bearings.eccentric_b]`` (part of :data:`corr_cad.run.scene.scene_schema.SCHEMA`).
+"""Scene sections of the two-row drive: ``[errors.row_b]``, ``[bearings.eccentric]``,
+``[bearings.eccentric_b]``, ``[crankshaft]`` and ``[bearings.crank]`` (part of
+:data:`corr_cad.run.scene.scene_schema.SCHEMA`).
 
 Parsed by :func:`corr_cad.run.scene.scene_drive.parse_drive`; they act under
 ``[solver] model = "drive"`` only.
@@ -8,6 +9,7 @@ Parsed by :func:`corr_cad.run.scene.scene_drive.parse_drive`; they act under
 from __future__ import annotations
 
 from corr_cad.run.scene.scene_key import Key
+from corr_cad.run.scene.scene_schema_crank import CRANK_SECTIONS
 
 
 def _bearing(override: bool) -> dict[str, Key]:
@@ -81,4 +83,5 @@ SECTIONS: dict[str, dict[str, Key]] = {
     },
     "bearings.eccentric": _bearing(False),
     "bearings.eccentric_b": _bearing(True),
+    **CRANK_SECTIONS,
 }

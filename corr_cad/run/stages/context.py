@@ -166,7 +166,7 @@ def scene_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
 def drive_kwargs(ctx: RunContext) -> dict:
     """The drive model's keyword arguments (errors of both rows, bearings, contact law)."""
     s = ctx.scene
-    return {
+    out = {
         "errors": scene_errors(ctx),
         "errors_b": scene_errors_b(ctx),
         "bearing": s.bearing,
@@ -175,6 +175,9 @@ def drive_kwargs(ctx: RunContext) -> dict:
         "variants": s.solver.variants,
         "psi_contact_limit": psi_contact_limit(ctx),
     }
+    if getattr(s, "crank", None) is not None:  # [crankshaft] / [bearings.crank]
+        out["crank"] = s.crank
+    return out
 
 
 def psi_contact_limit(ctx: RunContext) -> float:

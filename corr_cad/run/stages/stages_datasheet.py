@@ -155,6 +155,11 @@ def _datasheet(ctx: RunContext) -> None:
         psi_contact_limit=psi_contact_limit(ctx),
         drive=drive_settings(ctx),
     )
+    budget = ctx.results.datasheet.compliance_budget
+    if budget is not None and s.life:
+        from corr_cad.mechanics.compliance_budget import with_life_hours
+
+        with_life_hours(budget, s.life["rated_speed_rpm"], s.design.roller_count)
     if s.friction:
         ctx.results.friction = _friction_figures(ctx)
 
@@ -329,7 +334,10 @@ def drive_settings(ctx: RunContext) -> dict | None:
     s = ctx.scene
     if not s.solver.drive:
         return None
-    return {"errors_b": datasheet_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+    out = {"errors_b": datasheet_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+    if getattr(s, "crank", None) is not None:  # [crankshaft] / [bearings.crank]
+        out["crank"] = s.crank
+    return out
 
 
 def datasheet_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
@@ -504,6 +512,11 @@ def _datasheet_files(ctx: RunContext) -> None:
     )
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
+    if ds.compliance_budget is not None:  # with [crankshaft] / [bearings.crank]
+        from corr_cad.export.compliance_plot import compliance_png
+
+        compliance_png(ds.compliance_budget, ctx.out / "compliance.png", s.design)
+        ctx.files.append("compliance.png")
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     if whole:  # the console's block gives the whole drive's play beside the second stage's
         ctx.manifest["datasheet"].update(first_stage=meta["first_stage"], **whole)

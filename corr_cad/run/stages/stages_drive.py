@@ -26,7 +26,32 @@ def model_description(scene) -> dict:
     }
     if scene.bearing_b is not None and scene.bearing_b != scene.bearing:
         out["bearing_b"] = scene.bearing_b.as_dict()
+    crank = getattr(scene, "crank", None)
+    if crank is not None:  # [crankshaft] / [bearings.crank]: the keys appear with them only
+        out["crank"] = crank.as_dict()
+        out["compliances"] = compliances(scene)
     return out
+
+
+def compliances(scene) -> dict:
+    """Which compliances of the load path the drive's figures hold, and which not."""
+    crank = scene.crank
+    inside = ["contacts: cam, ring and slot of every roller (both rows)"]
+    inside.append(
+        "needle bearings of the cams" if scene.bearing is not None else "none: cams fixed"
+    )
+    inside.append("crankshaft: bending, shear and torsion (Timoshenko beam)")
+    if crank.bearing is not None:
+        inside.append(f"support bearings of the crankshaft ({crank.bearing.type})")
+    outside = [
+        "ring body (rigid)",
+        "frame (rigid)",
+        "first stage",
+        "output bearings and housing",
+    ]
+    if crank.bearing is None:
+        outside.insert(0, "support bearings (rigid)")
+    return {"in_figure": inside, "not_in_figure": outside}
 
 
 def solve_scene_drive(ctx: RunContext, design, input_torque: float, psi_limit: float):

@@ -132,7 +132,14 @@ def _drive_prediction(ctx: RunContext, row: str):
         other = with_modification(other, ctx.results.modification_gap)
     measured = datasheet_errors(ctx) if row == "a" else datasheet_errors_b(ctx)
     a, b = (measured, other) if row == "a" else (other, measured)
-    return a, {"errors_b": b, "bearing": s.bearing, "bearing_b": s.bearing_b}
+    return a, _with_crank(s, {"errors_b": b, "bearing": s.bearing, "bearing_b": s.bearing_b})
+
+
+def _with_crank(scene, drive: dict) -> dict:
+    """The drive's settings with ``[crankshaft]`` / ``[bearings.crank]`` where given."""
+    if getattr(scene, "crank", None) is not None:
+        drive["crank"] = scene.crank
+    return drive
 
 
 def _drive_ring(ctx: RunContext, row: str) -> dict:
@@ -176,7 +183,9 @@ def _predicted(ctx: RunContext) -> dict:
     drive = nominal_drive = None
     if s.solver.drive:
         errors, drive = _drive_prediction(ctx, row)
-        nominal_drive = {"errors_b": None, "bearing": s.bearing, "bearing_b": s.bearing_b}
+        nominal_drive = _with_crank(
+            s, {"errors_b": None, "bearing": s.bearing, "bearing_b": s.bearing_b}
+        )
     else:
         errors = datasheet_errors(ctx)
     common = {
