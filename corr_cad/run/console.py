@@ -267,6 +267,7 @@ def datasheet_lines(d: dict | None) -> list[str]:
         out.extend(friction_lines(d))
     else:
         out.append("  hysteresis loss     0: the model has no friction (both branches coincide)")
+    out.extend(losses_lines(d))
     rp = d.get("rated_torque_from_contact_pressure")
     if rp:
         out.append(
@@ -309,6 +310,60 @@ def friction_lines(d: dict) -> list[str]:
         out.append(
             f"  rated torque from life {figure(rt['value'], 5)} N*m "
             f"(L10 {rt['rated_life_h']:g} h at {rt['rated_speed_rpm']:g} rpm)"
+        )
+    return out
+
+
+def losses_lines(d: dict) -> list[str]:
+    """``[lubrication]`` / ``[thermal]`` rows of the datasheet table (none without them)."""
+    li = d.get("load_independent_losses")
+    if not li:
+        return []
+    e, st = d["efficiency_total"], d["starting_torque_total_Nm"]
+
+    def span(v: list) -> str:
+        return f"{figure(min(v), 4)}-{figure(max(v), 4)}"
+
+    def each(v: list) -> str:
+        return " / ".join("-" if x is None else figure(x, 4) for x in v)
+
+    speeds = each(li["input_speed_rpm"])
+    out = [
+        f"  efficiency, total   {figure(e['forward_min'], 4)}-{figure(e['forward_max'], 4)} over "
+        f"{span(e['temperatures_C'])} C oil, {span(e['input_speed_rpm'])} rpm at the crank "
+        "(Coulomb friction + Palmgren drag + seals)",
+        f"  drag at {figure(li['at_temperature_C'])} C oil   {each(li['torque_at_crank_Nm'])} "
+        f"N*m at the crank at {speeds} rpm ({d['lubrication']['source']})",
+        f"  starting torque, total {figure(st['at_input'], 4)} N*m at the input (drag at "
+        f"standstill + preload friction)",
+    ]
+    ec = d.get("modified_life", {}).get("contamination_factor_eC")
+    for tag, m in d.get("modified_life", {}).items():
+        if isinstance(m, dict) and "a_ISO" in m:
+            life = "inf" if m["L10m_h"] is None else figure(m["L10m_h"], 4)
+            out.append(
+                f"  life L10m {tag} {life} h (ISO 281 a_ISO {figure(m['a_ISO'], 3)}, kappa "
+                f"{figure(m['kappa'], 3)}, e_C {figure(ec)})"
+            )
+    th = d.get("thermal")
+    if th:
+        s, r = th["steady_temperature_C"], th["thermal_rating"]
+        out.append(
+            f"  steady oil, no load {each(s['no_load'])} C at {speeds} rpm (one node, hA "
+            f"{figure(th['hA_W_per_K'], 4)} W/K, ambient {figure(th['ambient_C'])} C)"
+        )
+        rated = r["input_speed_at_rated_torque_rpm"]
+        out.append(
+            f"  thermal rating      {'-' if rated is None else figure(rated, 4)} rpm at the "
+            f"crank at T_R, {each([r['input_speed_at_no_load_rpm']])} rpm at no load (oil "
+            f"{figure(r['max_oil_temperature_C'])} C; ISO/TR 14179-1 heat balance)"
+        )
+    tt = d.get("thermal_test")
+    if tt:
+        out.append(
+            f"  temperature test    final {figure(tt['final_temperature_C'], 4)} C, max "
+            f"{figure(tt['max_temperature_C'], 4)} C over {figure(tt['duration_min'])} min "
+            "(temperature.csv)"
         )
     return out
 

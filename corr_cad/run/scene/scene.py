@@ -25,6 +25,7 @@ from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene import scene_drive as drv
+from corr_cad.run.scene import scene_schema_lubrication as lub
 from corr_cad.run.scene.scene_drive import SolverSpec
 from corr_cad.run.scene.scene_first_stage import (
     first_stage_load,
@@ -125,6 +126,8 @@ class Scene:
     #: gives the section (either one makes the datasheet compute efficiency and life).
     friction: dict = field(default_factory=dict)
     life: dict = field(default_factory=dict)
+    #: ``lubrication``, ``thermal``, ``thermal_test``: those sections (empty: not given).
+    losses: dict = field(default_factory=dict)
     modification: Any = None  # [modification]; None: the conjugate profile
     assembly: dict = field(default_factory=dict)
     modification_design: dict = field(default_factory=dict)
@@ -250,7 +253,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
-    data = drv.split_drive_tables(split_design_table(data))
+    data = lub.split_thermal_test(drv.split_drive_tables(split_design_table(data)))
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -503,6 +506,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         inspection=values["inspection"],
         datasheet=values["datasheet"],
         **friction_sections(values, data, checks),
+        losses=lub.lubrication_sections(values, data),
         modification=modification,
         assembly=assembly,
         modification_design=search,

@@ -152,6 +152,12 @@ def _datasheet(ctx: RunContext) -> None:
     )
     if s.friction:
         ctx.results.friction = _friction_figures(ctx)
+    if s.losses.get("lubrication"):  # load-independent losses, temperature, a_ISO
+        from corr_cad.run.stages.stages_losses import losses_figures
+
+        mounted = s.friction["cam_mounting"] == "bearing"
+        life = friction_spec(s)[1] if mounted else None
+        ctx.results.losses = losses_figures(ctx, ctx.results.friction, life)
 
 
 #: ``datasheet.json`` ``friction["forces"]`` under ``model = "drive"``.
@@ -430,6 +436,11 @@ def _datasheet_files(ctx: RunContext) -> None:
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     ff = ctx.results.friction
     figs = ff.figures() if ff is not None else {}
+    if ctx.results.losses is not None:
+        from corr_cad.run.stages.stages_losses import public_figures, write_losses_files
+
+        figs.update(public_figures(ctx.results.losses))
+        ctx.files.extend(write_losses_files(ctx.results.losses, ctx.out, s.name))
     if ff is not None:
         from corr_cad.export.files import write_json
         from corr_cad.export.friction_io import efficiency_png, write_friction_files
