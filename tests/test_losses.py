@@ -108,6 +108,11 @@ def test_a_iso_by_hand_and_its_limits():
     # kappa = 1, e_C C_u / P = 0.5: 0.1 [1 - (1.5859 - 1.2348)^0.83 0.5^0.4]^-9.185
     by_hand = 0.1 * (1.0 - 0.3511**0.83 * 0.5**0.4) ** -9.185
     assert a_iso_roller(1.0, 0.5) == pytest.approx(by_hand, rel=1e-12)
+    # each piece of the standard at one point of its own (kappa 0.2, 0.6, 2)
+    for kappa, x1, x2 in ((0.2, 1.3993, 0.054381), (0.6, 1.2348, 0.19087), (2.0, 1.2348, 0.071739)):
+        inner = 1.5859 - x1 / kappa**x2
+        by_hand = 0.1 * (1.0 - inner**0.83 * 0.5**0.4) ** -9.185
+        assert a_iso_roller(kappa, 0.5) == pytest.approx(by_hand, rel=1e-12), kappa
     assert a_iso_roller(2.0, 0.0) == pytest.approx(0.1)  # no fatigue limit: 0.1
     assert a_iso_roller(4.0, 10.0) == 50.0  # capped
     for k in (0.4, 1.0):  # continuous where the standard's pieces meet
