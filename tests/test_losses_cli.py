@@ -216,3 +216,50 @@ def test_new_writes_the_sections_commented(tmp_path):
     text = path.read_text()
     for line in ("# [lubrication]", "# iso_vg = 68", "# [thermal]", "# [thermal.test]"):
         assert line in text.splitlines()
+
+
+@pytest.mark.slow
+def test_no_load_template_with_first_stage(tmp_path):
+    """The paper's no-load test as bundled: the programme's speed is the pinion's (i1 = 5),
+    the first stage's wheel and crank bearings drag at their own speeds (Palmgren by hand)."""
+    scene = ROOT / "templates" / "no_load_temperature.toml"
+    out = tmp_path / "out"
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", str(scene), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    d = json.loads((out / "datasheet.json").read_text())
+    li = d["load_independent_losses"]
+    by_name = {b["name"]: b for b in li["bearings"]}
+    assert by_name["first_stage_wheel_bearings"]["speed_per_crank"] == pytest.approx(5 * 18 / 36)
+    assert by_name["crank_bearings"]["speed_per_crank"] == 1.0
+    nu = _walther(40.0)
+    for k, n in enumerate(li["input_speed_rpm"]):
+        b = by_name["crank_bearings"]
+        m0 = 2 * 1e-7 * b["f0"] * (nu * n) ** (2 / 3) * b["pitch_diameter_mm"] ** 3
+        assert li["by_element_torque_at_crank_Nm"]["crank_bearings"][k] == pytest.approx(m0 / 1e3)
+    st = d["starting_torque_total_Nm"]
+    assert st["at_input"] == pytest.approx(st["at_crank"] / 5)
+    assert d["thermal_test"]["input_speed_of"] == "the pinion"
+    rows = [ln.split(",") for ln in (out / "temperature.csv").read_text().splitlines()[1:]]
+    assert [float(r[0]) for r in rows] == [10.0 * i for i in range(19)]  # every 10 min
+    # at 2,000 r/min at the pinion the crank turns at 400 r/min: the loss at the end is the
+    # hand loss at 400 r/min at the final temperature
+    t_end = float(rows[-1][3])
+    assert float(rows[-1][4]) == pytest.approx(_hand_loss_W(li["bearings"], 400.0, t_end), rel=1e-5)
+
+
+def test_sections_without_the_datasheet_warn(tmp_path):
+    text = DESIGN.replace('formats = ["datasheet"]', 'formats = ["dxf"]').split("[load]")[0]
+    text += LUBRICATION + "[thermal]\n"
+    scene = tmp_path / "w.toml"
+    scene.write_text(text)
+    from corr_cad.run.scene.scene import load_scene
+
+    warnings = load_scene(scene).warnings
+    for section in ("[lubrication]", "[thermal]"):
+        assert f'{section} has no effect in this scene: formats does not list "datasheet"' in (
+            warnings
+        )
