@@ -263,3 +263,22 @@ def test_sections_without_the_datasheet_warn(tmp_path):
         assert f'{section} has no effect in this scene: formats does not list "datasheet"' in (
             warnings
         )
+
+
+@pytest.mark.slow
+def test_datasheet_html_holds_the_new_figures_of_datasheet_json(thermal_run):
+    import re
+
+    _, out, d = thermal_run
+    html = (out / "datasheet.html").read_text()
+    cells = dict(re.findall(r'data-key="([\w.]+)" data-value="([^"]+)"', html))
+    for key in (
+        "efficiency_total.forward_min",
+        "starting_torque_total_Nm.at_input",
+        "modified_life.bearing_row1.L10m_h",
+        "thermal_test.final_temperature_C",
+    ):
+        value = d
+        for part in key.split("."):
+            value = value[part]
+        assert float(cells[key]) == value, key

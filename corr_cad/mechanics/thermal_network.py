@@ -24,7 +24,6 @@ Units: W, J/K, C, s.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -117,25 +116,21 @@ class ThermalNetwork:
             q[0] += loss_W(t, T[0])
             return q / c
 
-        out = np.empty((len(times), len(c)))
-        edges = np.unique(np.concatenate([[0.0], np.asarray(breakpoints_s, float), times]))
-        edges = edges[(edges >= 0.0) & (edges <= times[-1])]
-        at = {float(t): i for i, t in enumerate(times)}
-        if 0.0 in at:
-            out[at[0.0]] = y
+        out = np.full((len(times), len(c)), np.nan)
+        end = float(times[-1])
+        edges = np.unique(np.concatenate([[0.0, end], np.asarray(breakpoints_s, dtype=float)]))
+        edges = edges[(edges >= 0.0) & (edges <= end)]
+        out[times == 0.0] = y
         for a, b in zip(edges[:-1], edges[1:], strict=True):
-            sol = solve_ivp(rhs, (a, b), y, method="LSODA", rtol=1e-10, atol=1e-10)
+            inside = (times > a) & (times <= b)
+            te = np.union1d(times[inside], [b])
+            sol = solve_ivp(rhs, (a, b), y, method="LSODA", rtol=1e-10, atol=1e-10, t_eval=te)
             if not sol.success:
                 raise SolverError(f"thermal network: integration failed at {a:g} s ({sol.message})")
+            out[inside] = sol.y.T[np.searchsorted(te, times[inside])]
             y = sol.y[:, -1]
-            if float(b) in at:
-                out[at[float(b)]] = y
         return out
 
     def time_constant_s(self) -> float:
         """``C / (h A)`` of a one-node network (the sum of capacities over ``sum g`` otherwise)."""
         return float(sum(self.capacities) / sum(self.to_ambient))
-
-
-def finite_or_none(v: float) -> float | None:
-    return float(v) if v is not None and math.isfinite(v) else None
