@@ -282,3 +282,28 @@ def test_datasheet_html_holds_the_new_figures_of_datasheet_json(thermal_run):
         for part in key.split("."):
             value = value[part]
         assert float(cells[key]) == value, key
+
+
+@pytest.mark.slow
+def test_duty_cycle_with_output_torque_heats_by_both_losses(tmp_path):
+    """A loaded programme: each row's loss is the drag at its temperature plus the Coulomb
+    losses ``P_out (1 / eta - 1)`` at the torque, with ``eta`` from efficiency.csv."""
+    programme = (
+        "[thermal]\n[thermal.test]\ntime_min = [0.0, 30.0]\ninput_speed_rpm = [1000.0, 1000.0]\n"
+        "output_torque_Nm = [1430.0, 1430.0]\nstep_min = 5.0\n"
+    )
+    r, out = _run(tmp_path, DESIGN + LUBRICATION + programme, "duty")
+    assert r.returncode == 0, r.stderr
+    d = json.loads((out / "datasheet.json").read_text())
+    eff = [ln.split(",") for ln in (out / "efficiency.csv").read_text().splitlines()[1:]]
+    eta = next(float(x[3]) for x in eff if float(x[2]) == 0.5)
+    p_out = 1430.0 * 1000.0 * 2 * math.pi / 60 / 26
+    rows = [ln.split(",") for ln in (out / "temperature.csv").read_text().splitlines()[1:]]
+    assert len(rows) == 7
+    for row in rows:
+        t, loss = float(row[3]), float(row[4])
+        drag = _hand_loss_W(d["load_independent_losses"]["bearings"], 1000.0, t)
+        assert loss == pytest.approx(drag + p_out * (1 / eta - 1), rel=1e-5)
+        assert float(row[2]) == 1430.0
+    temps = [float(r[3]) for r in rows]
+    assert all(b > a for a, b in zip(temps, temps[1:], strict=False))
