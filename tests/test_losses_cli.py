@@ -27,7 +27,7 @@ roller_radius = 8.0
 roller_length = 12.0
 eccentricity = 3.5
 [export]
-formats = ["datasheet"]
+formats = ["datasheet", "report"]
 [load]
 input_torque = 1.1e5
 [friction]
@@ -252,7 +252,8 @@ def test_no_load_template_with_first_stage(tmp_path):
 
 
 def test_sections_without_the_datasheet_warn(tmp_path):
-    text = DESIGN.replace('formats = ["datasheet"]', 'formats = ["dxf"]').split("[load]")[0]
+    text = DESIGN.replace('formats = ["datasheet", "report"]', 'formats = ["dxf"]')
+    text = text.split("[load]")[0]
     text += LUBRICATION + "[thermal]\n"
     scene = tmp_path / "w.toml"
     scene.write_text(text)
@@ -282,6 +283,10 @@ def test_datasheet_html_holds_the_new_figures_of_datasheet_json(thermal_run):
         for part in key.split("."):
             value = value[part]
         assert float(cells[key]) == value, key
+    report = (out / "report.html").read_text()
+    for label in ("efficiency, total", "drag torque at the crank", "L10m bearing_row1"):
+        assert f"<td>{label}</td>" in report, label
+    assert "temperature test, final" in report
 
 
 @pytest.mark.slow
