@@ -43,7 +43,15 @@ def temperature_png(test: dict, path: Path, name: str = "") -> Path:
 
     rows = test["rows"]
     fig, ax = plt.subplots(figsize=(7, 4.4))
-    ax.plot(rows["time_min"], rows["oil_temperature_C"], color="C3", label="oil temperature")
+    few = len(rows["time_min"]) <= 60  # readings a bench would take: marked
+    ax.plot(
+        rows["time_min"],
+        rows["oil_temperature_C"],
+        color="C3",
+        marker="o" if few else None,
+        ms=3,
+        label="oil temperature",
+    )
     ax.set_xlabel("time [min]")
     ax.set_ylabel("oil temperature [C]", color="C3")
     ax.grid(alpha=0.3)
