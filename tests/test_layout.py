@@ -40,6 +40,7 @@ RUN_LAYERS = {
     "interrupts": 0,
     "progress": 0,
     "console": 0,
+    "console_datasheet": 0,
     "dask_exec": 0,
     "cli_messages": 0,
     "scene": 1,

@@ -27,6 +27,7 @@ import math
 from pathlib import Path
 
 from corr_cad.export.datasheet_compliance import budget_rows, rigidity_scope
+from corr_cad.export.datasheet_losses import losses_rows
 from corr_cad.export.files import writing
 from corr_cad.figure_text import catalogue_number, figure
 
@@ -210,6 +211,7 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             ),
         ]
     rows += budget_rows(sheet.get("compliance_budget"))
+    rows += losses_rows(sheet)
     out = []
     for name, key, unit, convention in rows:
         v = _get(sheet, key)

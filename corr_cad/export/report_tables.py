@@ -174,7 +174,7 @@ def datasheet_rows(d: dict) -> dict:
         ),
         "hysteresis": d["hysteresis_loss_note"],
         "hysteresis_value": fmt(d["hysteresis_loss_arcmin"]),
-        "friction": friction_rows(d) if "efficiency_forward" in d else [],
+        "friction": (friction_rows(d) if "efficiency_forward" in d else []) + losses_rows(d),
         "ring": ring_line(d.get("ring")),
     }
 
@@ -242,6 +242,84 @@ def friction_rows(d: dict) -> list[dict]:
                 "note": f"L10 {fmt(rt['rated_life_h'])} h at "
                 f"{fmt(rt['rated_speed_rpm'])} rpm output",
             }
+        )
+    return rows
+
+
+def losses_rows(d: dict) -> list[dict]:
+    """``[lubrication]`` / ``[thermal]``: total efficiency, drag, L10m, temperatures."""
+    li = d.get("load_independent_losses")
+    if not li:
+        return []
+    e, st = d["efficiency_total"], d["starting_torque_total_Nm"]
+
+    def one(label, value, unit, note, lo="", mid=""):
+        return {"label": label, "min": lo, "mean": mid, "max": value, "unit": unit, "note": note}
+
+    drag = li["torque_at_crank_Nm"]
+    rows = [
+        one(
+            "efficiency, total",
+            fmt(e["forward_max"]),
+            "",
+            f"with Palmgren bearing drag and seals over {fmt(min(e['temperatures_C']))}-"
+            f"{fmt(max(e['temperatures_C']))} C oil ({d['lubrication']['source']})",
+            lo=fmt(e["forward_min"]),
+        ),
+        one(
+            "drag torque at the crank",
+            fmt(max(drag)),
+            "N*m",
+            f"load-independent, {fmt(li['at_temperature_C'])} C oil, "
+            f"{fmt(min(li['input_speed_rpm']))}-{fmt(max(li['input_speed_rpm']))} rpm",
+            lo=fmt(min(drag)),
+        ),
+        one("starting torque, total", fmt(st["at_input"]), "N*m", "at the input: drag + preload"),
+    ]
+    for tag, m in d.get("modified_life", {}).items():
+        if isinstance(m, dict) and "a_ISO" in m:
+            life = "inf" if m["L10m_h"] is None else fmt(m["L10m_h"])
+            rows.append(
+                one(
+                    f"L10m {tag}",
+                    life,
+                    "h",
+                    f"ISO 281 a_ISO {fmt(m['a_ISO'])}, kappa {fmt(m['kappa'])}",
+                )
+            )
+    th = d.get("thermal")
+    if th:
+        n = th["steady_temperature_C"]["no_load"]
+        shown = [x for x in n if x is not None]
+        if shown:
+            rows.append(
+                one(
+                    "steady oil temperature, no load",
+                    fmt(max(shown)),
+                    "C",
+                    "over the map's crank speeds (one-node network)",
+                    lo=fmt(min(shown)),
+                )
+            )
+        rated = th["thermal_rating"]["input_speed_at_rated_torque_rpm"]
+        if rated is not None:
+            rows.append(
+                one(
+                    "thermal rating at T_R",
+                    fmt(rated),
+                    "rpm",
+                    f"crank speed at {fmt(th['thermal_rating']['max_oil_temperature_C'])} C oil",
+                )
+            )
+    tt = d.get("thermal_test")
+    if tt:
+        rows.append(
+            one(
+                "temperature test, final",
+                fmt(tt["final_temperature_C"]),
+                "C",
+                f"after {fmt(tt['duration_min'])} min (temperature.csv)",
+            )
         )
     return rows
 

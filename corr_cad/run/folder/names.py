@@ -74,6 +74,7 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
         r"(?:hysteresis|transmission_error|compliance)\.png",
         r"efficiency\.(?:csv|png)",
         r"life\.csv",
+        r"temperature\.(?:csv|png)",
     ),
     "edm": (r"inner_gear_edm\.(?:dxf|nc)",),
     "cmm": (r"inner_gear_nominal\.csv",),

@@ -17,6 +17,7 @@ import numpy as np
 from corr_cad.errors import SceneError
 
 __all__ = [
+    "unique_angle_tags",
     "MAX_PROFILE_VERTICES",
     "MAX_MESH_TRIANGLES",
     "polyline_segments",
@@ -382,3 +383,18 @@ def round_up(x: float) -> float:
         return x
     q = 10 ** (math.floor(math.log10(x)) - 1)
     return math.ceil(x / q) * q
+
+
+def unique_angle_tags(angles: list[float]) -> None:
+    """Two assembly angles must not write the same file name."""
+    from corr_cad.export.files import angle_tag
+
+    seen: dict[str, float] = {}
+    for a in angles:
+        tag = angle_tag(a)
+        if tag in seen:
+            raise SceneError(
+                f"[export] assembly_angles_deg: {seen[tag]:g} and {a:g} both write "
+                f"assembly_{tag}.*; angles must differ by at least 0.001 deg"
+            )
+        seen[tag] = a

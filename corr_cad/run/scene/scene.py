@@ -25,6 +25,8 @@ from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.datasheet import MIN_SHARE
 from corr_cad.mechanics.solver import VARIANTS
 from corr_cad.run.scene import scene_drive as drv
+from corr_cad.run.scene import scene_schema_lubrication as lub
+from corr_cad.run.scene.limits import unique_angle_tags
 from corr_cad.run.scene.scene_crank import parse_crank
 from corr_cad.run.scene.scene_drive import SolverSpec
 from corr_cad.run.scene.scene_first_stage import (
@@ -127,6 +129,8 @@ class Scene:
     #: gives the section (either one makes the datasheet compute efficiency and life).
     friction: dict = field(default_factory=dict)
     life: dict = field(default_factory=dict)
+    #: ``lubrication``, ``thermal``, ``thermal_test``: those sections (empty: not given).
+    losses: dict = field(default_factory=dict)
     modification: Any = None  # [modification]; None: the conjugate profile
     assembly: dict = field(default_factory=dict)
     modification_design: dict = field(default_factory=dict)
@@ -252,7 +256,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
-    data = drv.split_drive_tables(split_design_table(data))
+    data = lub.split_thermal_test(drv.split_drive_tables(split_design_table(data)))
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -444,7 +448,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"{', '.join(checks.datasheet_active())} is judged on the nominal design only "
             "(e.g. add max_backlash_arcmin or max_contact_pressure)"
         )
-    _unique_angle_tags(ex["assembly_angles_deg"])
+    unique_angle_tags(ex["assembly_angles_deg"])
     ip = ex["interference_positions"]
     if ex["interference_method"] != "exact" and ip is not None and ip > MESH_POSITIONS_MAX:
         raise SceneError(
@@ -507,6 +511,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         inspection=values["inspection"],
         datasheet=values["datasheet"],
         **friction_sections(values, data, checks),
+        losses=lub.lubrication_sections(values, data),
         modification=modification,
         assembly=assembly,
         modification_design=search,
@@ -562,21 +567,6 @@ def _check_datasheet(ds: dict, checks: Checks, formats: tuple, load, ld: dict) -
     if ds["rated_torque_Nm"] is None and load is not None and abs(load.input_torque) < 1.0:
         # (z + 1) * 1 N*mm is the smallest rated torque (MIN_RATED_TORQUE_NMM)
         raise SceneError(small_torque_refusal(ld, load.input_torque))
-
-
-def _unique_angle_tags(angles: list[float]) -> None:
-    """Two assembly angles must not write the same file name."""
-    from corr_cad.export.files import angle_tag
-
-    seen: dict[str, float] = {}
-    for a in angles:
-        tag = angle_tag(a)
-        if tag in seen:
-            raise SceneError(
-                f"[export] assembly_angles_deg: {seen[tag]:g} and {a:g} both write "
-                f"assembly_{tag}.*; angles must differ by at least 0.001 deg"
-            )
-        seen[tag] = a
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -170,6 +170,7 @@ def friction_sections(values: dict, data: dict, checks) -> dict:
     given = (
         "friction" in data
         or "life" in data
+        or "lubrication" in data  # the load-independent losses join the efficiency map
         or checks.min_efficiency is not None
         or checks.min_life_h is not None
     )

@@ -91,6 +91,14 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         )
     if "friction" in data and not sheet:
         warn("[friction]", 'formats does not list "datasheet" and no [checks] limit needs it')
+    th = data.get("thermal")
+    for section, given in (
+        ("lubrication", "lubrication" in data),
+        ("thermal", "thermal" in data),
+        ("thermal.test", isinstance(th, dict) and "test" in th),
+    ):
+        if given and "datasheet" not in f:
+            warn(f"[{section}]", 'formats does not list "datasheet"')
     if "life" in data and not sheet and "montecarlo" not in f:  # the Monte Carlo's life_h
         warn(
             "[life]",

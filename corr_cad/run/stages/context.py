@@ -78,6 +78,8 @@ class Results:
     datasheet: Datasheet | None = None
     #: ``[friction]`` / ``[life]``: the efficiency map and the lives.
     friction: Any = None
+    #: ``[lubrication]`` / ``[thermal]``: load-independent losses, temperature, a_ISO.
+    losses: Any = None
     #: ``[modification]``: the unmodified (conjugate) working profile, its
     #: approximation, and the modified exact profile and its gap (made on
     #: first use by :func:`modified_curve`, :func:`scene_errors`).

@@ -18,6 +18,7 @@ import numpy as np
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD, NMM_PER_NM
+from corr_cad.run.stages.as_built import as_built
 from corr_cad.run.stages.context import (
     RunContext,
     modified_curve,
@@ -162,6 +163,12 @@ def _datasheet(ctx: RunContext) -> None:
         with_life_hours(budget, s.life["rated_speed_rpm"], s.design.roller_count)
     if s.friction:
         ctx.results.friction = _friction_figures(ctx)
+    if s.losses.get("lubrication"):  # load-independent losses, temperature, a_ISO
+        from corr_cad.run.stages.stages_losses import losses_figures
+
+        mounted = s.friction["cam_mounting"] == "bearing"
+        life = friction_spec(s)[1] if mounted else None
+        ctx.results.losses = losses_figures(ctx, ctx.results.friction, life)
 
 
 #: ``datasheet.json`` ``friction["forces"]`` under ``model = "drive"``.
@@ -401,31 +408,6 @@ def whole_drive_play(sheet: dict) -> dict:
 
 
 #: The Monte Carlo's metrics the page gives as built (``datasheet.json`` ``as_built``).
-AS_BUILT_METRICS = (
-    "lost_motion_arcmin",
-    "transmission_error_arcsec",
-    "torsional_rigidity_Nm_per_arcmin",
-)
-
-
-def as_built(mc: dict | None) -> dict:
-    """``{"as_built": ...}``: the Monte Carlo's percentiles of the datasheet metrics
-    (``montecarlo_summary.json`` ``percentiles``), or ``{}`` when it has none."""
-    pct = (mc or {}).get("percentiles") or {}
-    got = {m: pct[m] for m in AS_BUILT_METRICS if m in pct}
-    if not got:
-        return {}
-    return {
-        "as_built": {
-            "samples": mc["samples"],
-            **got,
-            "definition": "percentiles over the Monte Carlo's samples of [tolerances] "
-            "(montecarlo_summary.json): each sample's catalogue figure, at the Monte Carlo's "
-            "positions ([montecarlo] datasheet_positions_per_mesh)",
-        }
-    }
-
-
 def add_as_built(ctx: RunContext) -> None:
     """After the Monte Carlo: the as-built figures into ``datasheet.json`` and its page
     (when the datasheet ran first; otherwise the datasheet stage takes them itself)."""
@@ -524,6 +506,11 @@ def _datasheet_files(ctx: RunContext) -> None:
         ctx.manifest["datasheet"]["as_built"] = meta["as_built"]
     ff = ctx.results.friction
     figs = ff.figures() if ff is not None else {}
+    if ctx.results.losses is not None:
+        from corr_cad.run.stages.stages_losses import public_figures, write_losses_files
+
+        figs.update(public_figures(ctx.results.losses))
+        ctx.files.extend(write_losses_files(ctx.results.losses, ctx.out, s.name))
     if ff is not None:
         from corr_cad.export.files import write_json
         from corr_cad.export.friction_io import efficiency_png, write_friction_files
