@@ -105,10 +105,10 @@ def needle_rows(design: GearDesign, bearing_a, bearing_b=None) -> list[NeedleRow
         rp = rb - 0.5 * d
         rj = rb - d - 0.5 * pd
         if 2.0 * rp * math.sin(math.pi / n) <= d:
-            most = int(math.pi / math.asin(min(1.0, d / (2.0 * rp))))
+            most = math.ceil(math.pi / math.asin(min(1.0, d / (2.0 * rp)))) - 1
             raise DesignError(
                 f"[{sec}] needles = {n}: {n} needles of {d:g} mm do not fit on the pitch circle "
-                f"of {2 * rp:g} mm (cam_bore_radius {rb:g} mm); allowed range 3..{most - 1}"
+                f"of {2 * rp:g} mm (cam_bore_radius {rb:g} mm); allowed range 3..{most}"
             )
         if rj - e < 1.25:
             raise DesignError(
