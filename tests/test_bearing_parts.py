@@ -192,6 +192,30 @@ def test_the_input_inertia_with_floating_cams_against_a_hand_sum():
     assert got["input_inertia_cams_fixed_kg_m2"] == pytest.approx(fixed, rel=1e-4)
     assert got["input_inertia_cams_fixed_kg_m2"] > 5 * got["input_inertia_kg_m2"]
     assert "Harris" in got["inertia_convention"]
+    # docs/physics.md: 3.57e-4 kg m^2 floating against 4.22e-3 fixed
+    assert got["input_inertia_kg_m2"] == pytest.approx(3.57e-4, rel=2e-3)
+    assert got["input_inertia_cams_fixed_kg_m2"] == pytest.approx(4.22e-3, rel=2e-3)
+
+
+@pytest.mark.slow
+def test_the_console_and_datasheet_say_the_cams_float(tmp_path):
+    """compound.toml on the drive with bearings: the inertia's convention in datasheet.json,
+    the console's whole-drive line names it and gives the cams-fixed figure."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "templates" / "compound.toml").read_text()
+    text = text.split("[export]")[0] + '[export]\nformats = ["datasheet"]\n'
+    text += '[solver]\nmodel = "drive"\n' + SCENE.split("[solver]")[1].split("\n", 3)[3]
+    (tmp_path / "s.toml").write_text(text)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out"],
+        cwd=tmp_path, capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr[-3000:]
+    ds = json.loads((tmp_path / "out" / "datasheet.json").read_text())
+    assert "spins with the output" in ds["inertia_convention"]
+    assert ds["input_inertia_cams_fixed_kg_m2"] > 5 * ds["input_inertia_kg_m2"]
+    assert "cams floating on their needle bearings" in r.stdout + r.stderr
 
 
 def _circles(path):

@@ -188,10 +188,11 @@ def _outline_pieces(o) -> list:
 FLOATING_CONVENTION = (
     "cams on their needle bearings: each cam's centre orbits at e with the crank (m e^2 "
     "at the crank's speed) and the cam spins with the output, 1/(z + 1) of the crank's "
-    "absolute speed (I_c about its centre, reflected by (1/i)^2); each needle orbits the "
-    "axis with its eccentric, the eccentric's centre at its bearing's cage speed "
-    "[omega_i (1 - gamma) + omega_o (1 + gamma)] / 2 and spins rolling on both races "
-    "(Harris & Kotzalas, Rolling Bearing Analysis, 5th ed., Vol. 1, Ch. 8); "
+    "absolute speed (I_c about its centre, reflected by (1/i)^2); each needle is carried "
+    "round the axis by its eccentric (m e^2), round the eccentric's centre at the "
+    "bearing's cage speed [omega_i (1 - gamma) + omega_o (1 + gamma)] / 2 (m r_p^2) and "
+    "spins rolling on both races (m D^2 / 8; Harris & Kotzalas, Rolling Bearing Analysis, "
+    "5th ed., Vol. 1, Ch. 8); "
     "input_inertia_cams_fixed_kg_m2: the cams turning with the crank, an upper bound"
 )
 
