@@ -216,6 +216,25 @@ def test_the_console_and_datasheet_say_the_cams_float(tmp_path):
     assert "spins with the output" in ds["inertia_convention"]
     assert ds["input_inertia_cams_fixed_kg_m2"] > 5 * ds["input_inertia_kg_m2"]
     assert "cams floating on their needle bearings" in r.stdout + r.stderr
+    html = (tmp_path / "out" / "datasheet.html").read_text(encoding="utf-8")
+    assert "the cams float on their needle bearings" in html
+
+
+def test_a_bearing_that_cannot_be_drawn_is_refused_in_one_line(tmp_path):
+    """Needles longer than the cam is wide: exit 2, one line naming the key, nothing written."""
+    (tmp_path / "s.toml").write_text(
+        SCENE.replace('formats = ["dxf", "stl", "3mf", "glb", "ply", "step", "interference"]',
+                      'formats = ["dxf"]').replace("needle_length = 12.0", "needle_length = 13.0")
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path, capture_output=True, text=True,
+    )
+    assert r.returncode == 2, r.stderr
+    errors = [x for x in r.stderr.splitlines() if "error" in x]
+    assert len(errors) == 1 and "Traceback" not in r.stderr
+    assert "needle_length = 13: " in errors[0] and "e.g. 12" in errors[0]
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
 def _circles(path):
