@@ -87,3 +87,60 @@ def test_roller_layout_by_hand():
     assert roller_z_range(d, "b") == pytest.approx((16.1, 40.0), abs=1e-12)
     # Each ends within its half of the middle plate [w, w + t] = [12, 20].
     assert 12.0 < roller_z_range(d, "a")[1] < 16.0 < roller_z_range(d, "b")[0] < 20.0
+
+
+def _with_bearings(template: str, folder: Path):
+    """The template on the drive model with both cams on needle bearings (the needles the
+    cam's bore takes: 6 mm x the face width, as many as fit, at most 40)."""
+    lines = (ROOT / "templates" / template).read_text().splitlines()
+    text = "\n".join(x for x in lines if not x.startswith("load_share")) + "\n"
+    drive = '[solver]\nmodel = "drive"\n'
+    text = text.replace("[solver]\n", drive) if "[solver]\n" in text else text + "\n" + drive
+    plain = load_scene(ROOT / "templates" / template).design
+    rp = plain.cam_bore_radius - 3.0
+    n = min(40, math.ceil(math.pi / math.asin(6.0 / (2.0 * rp))) - 2)
+    text += (
+        f"\n[bearings.eccentric]\nneedles = {n}\nneedle_diameter = 6.0\n"
+        f"needle_length = {plain.face_width}\ndiametral_clearance = 0.005\n"
+    )
+    path = folder / template
+    path.write_text(text)
+    return load_scene(path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_no_two_solids_intersect_with_the_cams_on_needle_bearings(template, tmp_path):
+    """Every bundled template as a drive with bearings: the needles, the crankshaft with its
+    eccentrics and seats (the first stage's, with ``[first_stage]``) and every other solid,
+    every pair at 10 crank angles; a needle on its races within the tessellation's lens."""
+    from corr_cad.geometry.profile import undercut_analysis, working_profile
+    from corr_cad.run.stages import stages_bearing_parts, stages_first_stage
+    from corr_cad.run.stages.stages_geometry import _placed_solids
+
+    scene = _with_bearings(template, tmp_path)
+    rows = stages_bearing_parts.needle_rows_of(scene)
+    assert rows is not None
+    d, tol = scene.design, scene.chord_tolerance
+    working = working_profile(d, undercut_analysis(d))
+    solids = {n: mesh.solid(o) for n, o in part_outlines(d, working, tol, floating=True).items()}
+    ctx = SimpleNamespace(
+        scene=scene, results=SimpleNamespace(gear_outlines=None, first_stage_solids=None)
+    )
+    extra = stages_first_stage.solids(ctx, {}) if scene.first_stage is not None else {}
+    extra.update(stages_bearing_parts.solids(ctx, rows, {}))
+    ctx.results.first_stage_solids = extra
+    contacts = stages_bearing_parts.contact_allowances(d, rows, tol)
+    stack = mesh.frame_stack(d, solids["frame"])
+    for k in range(10):
+        angle = 36.0 * k + 3.7
+        placed, _ = _placed_solids(ctx, solids, angle, stack=stack)
+        assert sum(name.startswith("needle_") for name in placed) == 2 * rows[0].needles
+        assert "crankshaft" in placed
+        checked, overlaps = mesh.solid_overlaps(placed, contacts=contacts)
+        n = len(placed)
+        contacts_by_design = sum(
+            1 for a in placed for b in placed if a < b and mesh._is_contact(a, b)
+        )
+        assert checked == n * (n - 1) // 2 - contacts_by_design
+        assert not overlaps, (template, angle, overlaps[:3])

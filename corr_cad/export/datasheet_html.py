@@ -207,7 +207,13 @@ def datasheet_rows(sheet: dict) -> list[dict]:
                 "Inertia at the input",
                 "input_inertia_kg_m2",
                 "kg m^2",
-                "every moving part reflected to the pinion by its speed ratio squared",
+                "every moving part reflected to the pinion by its speed ratio squared"
+                + (
+                    "; the cams float on their needle bearings, spinning with the output "
+                    "(inertia_convention)"
+                    if "inertia_convention" in sheet
+                    else ""
+                ),
             ),
         ]
     rows += budget_rows(sheet.get("compliance_budget"))

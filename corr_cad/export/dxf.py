@@ -197,13 +197,15 @@ def write_inner_gear(
     return _save(doc, path)
 
 
-def write_disk_cam(design: GearDesign, path: Path) -> Path:
-    """Disk cam centred on the origin; eccentric bore (crankshaft axis) at (0, -e)."""
-    doc = _new_doc(design, "disk_cam")
+def write_disk_cam(design: GearDesign, path: Path, floating: bool = False) -> Path:
+    """Disk cam centred on the origin; eccentric bore (crankshaft axis) at (0, -e), or with
+    ``floating`` a concentric bore: the outer race of the cam's needle bearing."""
+    extra = {"corr_cad.cam_bore": "concentric: needle bearing outer race"} if floating else None
+    doc = _new_doc(design, "disk_cam", extra)
     msp = doc.modelspace()
     msp.add_circle((0.0, 0.0), design.cam_radius, dxfattribs={"layer": _layer(doc, "CAM_OUTER")})
     msp.add_circle(
-        (0.0, -design.eccentricity),
+        (0.0, 0.0) if floating else (0.0, -design.eccentricity),
         design.cam_bore_radius,
         dxfattribs={"layer": _layer(doc, "CAM_BORE")},
     )
@@ -243,6 +245,7 @@ def write_all(
     out_dir: Path,
     conjugate: ProfileApproximation | None = None,
     modification: dict | None = None,
+    floating: bool = False,
 ) -> dict[str, Path]:
     """Write the four part files into ``out_dir``; returns ``{part: path}``."""
     out_dir = Path(out_dir)
@@ -255,7 +258,7 @@ def write_all(
             conjugate,
             modification,
         ),
-        "disk_cam": write_disk_cam(design, out_dir / PART_FILES["disk_cam"]),
+        "disk_cam": write_disk_cam(design, out_dir / PART_FILES["disk_cam"], floating),
         "roller": write_roller(design, out_dir / PART_FILES["roller"]),
         "teeth_frame": write_teeth_frame(design, out_dir / PART_FILES["teeth_frame"]),
     }

@@ -85,7 +85,10 @@ def write_round_part(design: GearDesign, part: str, pieces: list, path: Path) ->
     doc = _new_doc(design, part, extra)
     msp = doc.modelspace()
     for n, (outer, holes, _, _) in enumerate(pieces, 1):
-        msp.add_circle((0.0, 0.0), outer, dxfattribs={"layer": _layer(doc, f"OUTER_{n}")})
+        centre, radius = (0.0, 0.0), outer
+        if hasattr(outer, "centre"):  # an eccentric journal (bearing_parts.OffsetCircle)
+            centre, radius = tuple(outer.centre), outer.radius
+        msp.add_circle(centre, radius, dxfattribs={"layer": _layer(doc, f"OUTER_{n}")})
         for h in holes:
             msp.add_circle((0.0, 0.0), h, dxfattribs={"layer": _layer(doc, f"BORE_{n}")})
     return _save(doc, path)

@@ -165,6 +165,7 @@ def assembly(
     roller_solids: list[m3d.Manifold] | None = None,
     stack: m3d.Manifold | None = None,
     pieces: list[m3d.Manifold] | None = None,
+    floating: bool = False,
 ) -> Assembly:
     """Place every part as in the running reducer at one crank angle.
 
@@ -173,7 +174,9 @@ def assembly(
     ``crank + crank/z``; cam B is 180 deg out of phase and ring B turned by
     half a tooth pitch. ``roller_solids[i]`` may give roller ``i`` its own
     solid (e.g. with a radius error); ``stack`` and ``pieces`` reuse a frame
-    built once by :func:`frame_stack` and :func:`frame_pieces`.
+    built once by :func:`frame_stack` and :func:`frame_pieces`. With ``floating``
+    the cams (bores concentric) sit on their needle bearings as
+    :func:`corr_cad.geometry.placement.assembly_placements` places them.
     """
     z = design.tooth_count
     w, t = design.face_width, design.frame_thickness
@@ -185,9 +188,14 @@ def assembly(
     parts["ring_b"] = _placed(solids["ring"], math.pi / z, z0=w + t)
     # The cam solid has its disc centred on the origin and the bore (the
     # crank axis) at (0, -e): move the bore to the axis, then turn.
-    cam_centred = solids["cam"].translate((0.0, e, 0.0))
-    parts["cam_a"] = _placed(cam_centred, phi)
-    parts["cam_b"] = _placed(cam_centred, phi + math.pi, z0=w + t)
+    if floating:
+        centre = e * unit_radial(phi)
+        parts["cam_a"] = _placed(solids["cam"], theta0, centre)
+        parts["cam_b"] = _placed(solids["cam"], theta0, -centre, w + t)
+    else:
+        cam_centred = solids["cam"].translate((0.0, e, 0.0))
+        parts["cam_a"] = _placed(cam_centred, phi)
+        parts["cam_b"] = _placed(cam_centred, phi + math.pi, z0=w + t)
     # One solid per frame plate, named as the STEP assembly's instances
     # (corr_cad.geometry.placement): frame_1 below row A, frame_2 between the
     # rows, frame_3 above row B.
@@ -260,8 +268,17 @@ def _is_fit(a: str, b: str) -> bool:
     )
 
 
+def _contact_allowance(a: str, b: str, contacts: dict | None) -> float:
+    for (x, y), allow in (contacts or {}).items():
+        if (a.startswith(x) and b.startswith(y)) or (b.startswith(x) and a.startswith(y)):
+            return allow
+    return 0.0
+
+
 def solid_overlaps(
-    solids: dict[str, m3d.Manifold], fit_allowance_mm3: float = 0.0
+    solids: dict[str, m3d.Manifold],
+    fit_allowance_mm3: float = 0.0,
+    contacts: dict | None = None,
 ) -> tuple[int, list[dict]]:
     """Every pair of solids that does not touch by design, intersected.
 
@@ -269,8 +286,9 @@ def solid_overlaps(
     checked without a boolean. Returns ``(pairs checked, overlaps)``, each
     overlap ``{"a", "b", "volume_mm3"}`` above :data:`OVERLAP_VOLUME_TOL`
     (above ``fit_allowance_mm3`` for a bore on its shaft, the tessellation's
-    sliver). The contacts a roller makes by design are left to
-    :func:`interference_at`.
+    sliver; above ``contacts[(prefix_a, prefix_b)]`` for a pair of instances
+    whose names start so, a contact by design such as a needle on its races).
+    The contacts a roller makes by design are left to :func:`interference_at`.
     """
     names = sorted(solids)
     boxes = {n: np.asarray(solids[n].bounding_box(), dtype=float) for n in names}
@@ -286,7 +304,12 @@ def solid_overlaps(
             vol = float(
                 m3d.Manifold.batch_boolean([solids[a], solids[b]], m3d.OpType.Intersect).volume()
             )
-            if vol > max(OVERLAP_VOLUME_TOL, fit_allowance_mm3 if _is_fit(a, b) else 0.0):
+            allow = max(
+                OVERLAP_VOLUME_TOL,
+                fit_allowance_mm3 if _is_fit(a, b) else 0.0,
+                _contact_allowance(a, b, contacts),
+            )
+            if vol > allow:
                 found.append({"a": a, "b": b, "volume_mm3": vol})
     return checked, found
 

@@ -180,17 +180,21 @@ def _extrude(outer_wire, hole_wires, height: float):
     return BRepPrimAPI_MakePrism(face, gp_Vec(0, 0, float(height))).Shape()
 
 
-def part_shapes(design: GearDesign, working_spline: ProfileApproximation) -> dict:
-    """B-rep solids of ``ring``, ``cam``, ``roller`` and ``frame`` (part coordinates)."""
+def part_shapes(
+    design: GearDesign, working_spline: ProfileApproximation, floating: bool = False
+) -> dict:
+    """B-rep solids of ``ring``, ``cam``, ``roller`` and ``frame`` (part coordinates);
+    with ``floating`` the cam's bore concentric (its needle bearing's outer race)."""
     require_ocp()
     ring = _extrude(
         _wire([_circle_edge(design.ring_outer_radius)]),
         [_profile_wire(working_spline)],
         design.face_width,
     )
+    bore = (0.0, 0.0 if floating else -design.eccentricity)
     cam = _extrude(
         _wire([_circle_edge(design.cam_radius)]),
-        [_wire([_circle_edge(design.cam_bore_radius, (0.0, -design.eccentricity))])],
+        [_wire([_circle_edge(design.cam_bore_radius, bore)])],
         design.face_width,
     )
     roller = _extrude(

@@ -99,7 +99,8 @@ def _gear_spline_wire(gs):
 def stacked_shape(pieces: list):
     """A B-rep solid from ``[(outer, holes, height, z0), ...]`` extrusions (fused).
 
-    A contour is a circle (its radius: an exact circle edge), a polyline
+    A contour is a circle (its radius: an exact circle edge; an ``OffsetCircle``: the
+    same about its centre), a polyline
     ((n, 2) array of vertices, straight edges) or a gear's
     :class:`~corr_cad.geometry.gear_outline.GearSplines` (B-spline edges).
     """
@@ -110,6 +111,8 @@ def stacked_shape(pieces: list):
     require_ocp()
 
     def wire(c):
+        if hasattr(c, "centre"):  # an eccentric circle (geometry.bearing_parts.OffsetCircle)
+            return _wire([_circle_edge(c.radius, c.centre)])
         if isinstance(c, float):
             return _wire([_circle_edge(c)])
         if hasattr(c, "splines"):

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from corr_cad.errors import DesignError
+from corr_cad.geometry.bearing_parts import OffsetCircle, crankshaft_pieces, seat_radius
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.first_stage import FirstStageGeometry
 from corr_cad.geometry.parts import PartOutline, circle_polygon
@@ -45,6 +46,7 @@ __all__ = [
     "Layout",
     "first_stage_layout",
     "first_stage_outlines",
+    "piece_outlines",
     "first_stage_profiles",
     "exact_volume",
     "first_stage_placements",
@@ -107,14 +109,19 @@ class Layout:
     bearing_width: float
 
 
-def first_stage_layout(design: GearDesign, fs: FirstStageGeometry) -> Layout:
-    """The stated sizes of the parts the scene does not describe."""
+def first_stage_layout(design: GearDesign, fs: FirstStageGeometry, rows=None) -> Layout:
+    """The stated sizes of the parts the scene does not describe.
+
+    ``rows`` (:func:`corr_cad.geometry.bearing_parts.needle_rows`): the cams float on
+    needle bearings, the shaft's radius is the support seats'
+    (:func:`~corr_cad.geometry.bearing_parts.seat_radius`).
+    """
     m, b, g = fs.stage.module, fs.stage.face_width, AXIAL_GAP
     t, w = design.frame_thickness, design.face_width
     f = max(5.0, 2.0 * m)
     z_flange = -t - 2 * g - b - f
     rim = fs.crank_gear.root_radius + 3.0 * m
-    shaft = design.cam_bore_radius
+    shaft = design.cam_bore_radius if rows is None else seat_radius(design, rows)
     pin_bore = _round(0.4 * fs.pinion.root_radius, 0.5)
     wheel_bore = _round(0.45 * fs.wheel.root_radius, 0.5)
     if shaft + 1.0 >= rim or min(pin_bore, wheel_bore) < 1.0:
@@ -154,31 +161,47 @@ def _polygon_area(p: np.ndarray) -> float:
 
 
 def _area(c) -> float:
+    if isinstance(c, OffsetCircle):
+        c = c.radius
     return math.pi * c * c if isinstance(c, float) else _polygon_area(c)
 
 
 def _length(c) -> float:
+    if isinstance(c, OffsetCircle):
+        c = c.radius
     return 2.0 * math.pi * c if isinstance(c, float) else _perimeter(c)
 
 
-def first_stage_profiles(design: GearDesign, fs: FirstStageGeometry, gear_vertices: dict) -> dict:
+def first_stage_profiles(
+    design: GearDesign, fs: FirstStageGeometry, gear_vertices: dict, rows=None
+) -> dict:
     """Each part as ``[(outer, holes, height, z0), ...]`` extrusions in part coordinates.
 
-    A contour is a circle (its radius, a float) or a polyline ((n, 2) array:
-    a gear's outline from :func:`~corr_cad.geometry.gear_outline.approximate_gear`,
-    its vertices on the exact outline).
+    A contour is a circle (its radius, a float), an eccentric circle
+    (:class:`~corr_cad.geometry.bearing_parts.OffsetCircle`) or a polyline ((n, 2)
+    array: a gear's outline from :func:`~corr_cad.geometry.gear_outline.approximate_gear`,
+    its vertices on the exact outline). With ``rows`` (the cams on needle bearings) the
+    crankshaft's shaft is :func:`~corr_cad.geometry.bearing_parts.crankshaft_pieces`:
+    seats, core and the two eccentric journals.
     """
-    lay = first_stage_layout(design, fs)
+    lay = first_stage_layout(design, fs, rows)
     b, g = lay.face_width, AXIAL_GAP
     pin, whl, crk = (gear_vertices[k] for k in ("pinion", "wheel", "crank_gear"))
     shaft_len = lay.z_top - (lay.z_flange + lay.flange_thickness)
+    shaft = [(lay.shaft_radius, [], shaft_len, lay.flange_thickness)]
+    if rows is not None:
+        top = lay.z_flange + lay.flange_thickness
+        shaft = [
+            (o, hs, h, z0 - lay.z_flange)
+            for o, hs, h, z0 in crankshaft_pieces(design, rows, lay.bearing_width, top)
+        ]
     return {
         "pinion": [(pin, [lay.pinion_bore], b, 0.0)],
         "wheel": [(whl, [lay.wheel_bore], b, 0.0)],
         "crank_gear": [(lay.rim_outer, [crk], b + g, 0.0)],
         "crankshaft": [
             (lay.rim_outer, [], lay.flange_thickness, 0.0),
-            (lay.shaft_radius, [], shaft_len, lay.flange_thickness),
+            *shaft,
         ],
         "wheel_bearing": [(lay.wheel_bore, [lay.wheel_bearing_inner], b, 0.0)],
         "crank_bearing": [(lay.crank_bearing_outer, [lay.shaft_radius], lay.bearing_width, 0.0)],
@@ -191,19 +214,26 @@ def exact_volume(pieces: list) -> float:
 
 
 def first_stage_outlines(
-    design: GearDesign, fs: FirstStageGeometry, gear_vertices: dict, tol: float
+    design: GearDesign, fs: FirstStageGeometry, gear_vertices: dict, tol: float, rows=None
 ) -> dict[str, list[tuple[PartOutline, float]]]:
     """Each part as polygon outlines (circles inscribed within ``tol``) with their bottom z.
 
     ``exact_area`` counts circles exactly and a gear's outline as its polygon
     (whose deviation from the exact outline is the outline's measured one).
     """
+    return piece_outlines(first_stage_profiles(design, fs, gear_vertices, rows), tol)
+
+
+def piece_outlines(profiles: dict, tol: float) -> dict[str, list[tuple[PartOutline, float]]]:
+    """Parts given as :func:`first_stage_profiles` gives them, as polygon outlines."""
 
     def poly(c):
+        if isinstance(c, OffsetCircle):
+            return circle_polygon(c.radius, tol, c.centre)
         return circle_polygon(c, tol) if isinstance(c, float) else c
 
     out = {}
-    for part, pieces in first_stage_profiles(design, fs, gear_vertices).items():
+    for part, pieces in profiles.items():
         out[part] = [
             (
                 PartOutline(

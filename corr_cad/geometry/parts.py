@@ -171,13 +171,16 @@ def _slot_area(design: GearDesign) -> float:
 
 
 def part_outlines(
-    design: GearDesign, working: ProfileCurve, chord_tol: float
+    design: GearDesign, working: ProfileCurve, chord_tol: float, floating: bool = False
 ) -> dict[str, PartOutline]:
     """Outlines of ``ring``, ``cam``, ``roller`` and ``frame`` within ``chord_tol``.
 
     The ring's inner boundary is the working profile's polyline
     approximation (vertices on the exact curve, measured deviation at most
-    ``chord_tol``); circles are inscribed polygons.
+    ``chord_tol``); circles are inscribed polygons. The cam's bore is at
+    ``(0, -e)`` (the crankshaft's axis), or with ``floating`` concentric with
+    its disc (the outer race of its needle bearing,
+    :mod:`corr_cad.geometry.bearing_parts`).
     """
     w = design.face_width
     t = design.frame_thickness
@@ -196,7 +199,12 @@ def part_outlines(
         circle_polygon(design.cam_radius, chord_tol),
         [
             _oriented(
-                circle_polygon(design.cam_bore_radius, chord_tol, (0.0, -design.eccentricity)), True
+                circle_polygon(
+                    design.cam_bore_radius,
+                    chord_tol,
+                    (0.0, 0.0) if floating else (0.0, -design.eccentricity),
+                ),
+                True,
             )
         ],
         w,

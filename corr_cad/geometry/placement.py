@@ -44,14 +44,18 @@ class Placement:
     pre_offset: tuple[float, float] = (0.0, 0.0)
 
 
-def assembly_placements(design: GearDesign, crank_angle_rad: float) -> list[Placement]:
+def assembly_placements(
+    design: GearDesign, crank_angle_rad: float, floating: bool = False
+) -> list[Placement]:
     """Every part instance at ``crank_angle_rad`` (relative to the frame, as in the forces).
 
     The frame turns by ``crank / z``, the crankshaft by ``crank + crank / z``;
     cam B is half a turn out of phase and ring B turned by half a tooth
     pitch; each roller sits at its crank-slider radius in its slot. Three
     frame plates: ``[-t, 0]``, ``[w, w + t]``, ``[2 w + t, 2 w + 2 t]``; the rollers
-    at :func:`corr_cad.geometry.parts.roller_z_range`.
+    at :func:`corr_cad.geometry.parts.roller_z_range`. With ``floating`` (the cams on
+    their needle bearings, bores concentric) each cam turns with the output
+    (``crank / z``) about its centre, ``e`` from the axis along the eccentric's direction.
     """
     z = design.tooth_count
     w, t = design.face_width, design.frame_thickness
@@ -61,10 +65,19 @@ def assembly_placements(design: GearDesign, crank_angle_rad: float) -> list[Plac
     out = [
         Placement("ring_a", "ring", 0.0),
         Placement("ring_b", "ring", math.pi / z, (0.0, 0.0, w + t)),
-        # The cam's bore (the crank axis) is at (0, -e): move it to the axis, then turn.
-        Placement("cam_a", "cam", phi, (0.0, 0.0, 0.0), (0.0, e)),
-        Placement("cam_b", "cam", phi + math.pi, (0.0, 0.0, w + t), (0.0, e)),
     ]
+    if floating:
+        (xa, ya) = e * unit_radial(phi)
+        out += [
+            Placement("cam_a", "cam", theta0, (float(xa), float(ya), 0.0)),
+            Placement("cam_b", "cam", theta0, (-float(xa), -float(ya), w + t)),
+        ]
+    else:
+        out += [
+            # The cam's bore (the crank axis) is at (0, -e): move it to the axis, then turn.
+            Placement("cam_a", "cam", phi, (0.0, 0.0, 0.0), (0.0, e)),
+            Placement("cam_b", "cam", phi + math.pi, (0.0, 0.0, w + t), (0.0, e)),
+        ]
     for k, z0 in enumerate((-t, w, 2 * w + t), 1):
         out.append(Placement(f"frame_{k}", "frame", theta0, (0.0, 0.0, z0)))
     for row, dphi in (("a", 0.0), ("b", math.pi)):

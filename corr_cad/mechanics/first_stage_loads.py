@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from corr_cad.geometry.bearing_parts import OffsetCircle
 from corr_cad.geometry.first_stage import FirstStageGeometry
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "first_stage_loads",
     "lewis_form_factor",
     "drive_mass_inertia",
+    "FLOATING_CONVENTION",
 ]
 
 #: Density of steel, kg/mm^3 (7850 kg/m^3).
@@ -63,7 +65,12 @@ def _polygon(p: np.ndarray) -> tuple[float, float]:
 
 
 def _contour(c, shift) -> tuple[float, float]:
-    """|area| and polar moment about the origin of a circle (radius) or polyline."""
+    """|area| and polar moment about the origin of a circle (radius), an eccentric
+    circle (:class:`~corr_cad.geometry.bearing_parts.OffsetCircle`) or a polyline."""
+    if isinstance(c, OffsetCircle):
+        a = math.pi * c.radius**2
+        cx, cy = c.centre[0] + shift[0], c.centre[1] + shift[1]
+        return a, a * (0.5 * c.radius**2 + cx * cx + cy * cy)
     if isinstance(c, float):
         a = math.pi * c * c
         return a, a * (0.5 * c * c + shift[0] ** 2 + shift[1] ** 2)
@@ -177,14 +184,52 @@ def _outline_pieces(o) -> list:
     return [(o.outer, list(o.holes), o.thickness, 0.0)]
 
 
-def drive_mass_inertia(design, fs: FirstStageGeometry, profiles: dict, outlines: dict) -> dict:
+#: ``drive`` ``inertia_convention`` where the cams float on their needle bearings.
+FLOATING_CONVENTION = (
+    "cams on their needle bearings: each cam's centre orbits at e with the crank (m e^2 "
+    "at the crank's speed) and the cam spins with the output, 1/(z + 1) of the crank's "
+    "absolute speed (I_c about its centre, reflected by (1/i)^2); each needle is carried "
+    "round the axis by its eccentric (m e^2), round the eccentric's centre at the "
+    "bearing's cage speed [omega_i (1 - gamma) + omega_o (1 + gamma)] / 2 (m r_p^2) and "
+    "spins rolling on both races (m D^2 / 8; Harris & Kotzalas, Rolling Bearing Analysis, "
+    "5th ed., Vol. 1, Ch. 8); "
+    "input_inertia_cams_fixed_kg_m2: the cams turning with the crank, an upper bound"
+)
+
+
+def _needle_parts(design, rows) -> tuple[dict, float]:
+    """Each needle part's (mass, equivalent inertia at the crank's speed, count) and the
+    cam's spin per crank turn (the output's); see :data:`FLOATING_CONVENTION`."""
+    from corr_cad.geometry.bearing_parts import cage_angle, needle_part_names, needle_spin
+
+    cam = 1.0 / (design.tooth_count + 1)  # the output's turn per absolute crank turn
+    e = design.eccentricity
+    out = {}
+    names = needle_part_names(rows)
+    for row in rows:
+        part = "needle_b" if row.row == "b" and "needle_b" in names else "needle"
+        rn = 0.5 * row.needle_diameter
+        m, i_own = extrusion_mass_inertia([(rn, [], row.needle_length, 0.0)])
+        kc, kn = cage_angle(row, 1.0, cam), needle_spin(row, 1.0, cam)
+        eq = m * (e * e + (row.pitch_radius * kc) ** 2) + i_own * kn * kn
+        n = out.get(part, (0, 0, 0, {}))[2] + row.needles
+        out[part] = (m, eq, n, {"cage_per_crank": kc, "spin_per_crank": kn, "own_axis": i_own})
+    return out, cam
+
+
+def drive_mass_inertia(
+    design, fs: FirstStageGeometry, profiles: dict, outlines: dict, rows=None
+) -> dict:
     """Mass of every part, the whole drive's mass and the inertia at the input.
 
     ``profiles``: the first stage's parts
     (:func:`~corr_cad.geometry.first_stage_parts.first_stage_profiles`);
     ``outlines``: the second stage's
     (:func:`~corr_cad.geometry.parts.part_outlines`). Masses in kg, moments of
-    inertia in kg m^2, each about the axis the part turns on.
+    inertia in kg m^2, each about the axis the part turns on. With ``rows``
+    (:func:`~corr_cad.geometry.bearing_parts.needle_rows`: the cams float on needle
+    bearings, their bores concentric) the cams and needles count as
+    :data:`FLOATING_CONVENTION` says.
     """
     z = design.tooth_count
     e, r, link = design.eccentricity, design.roller_radius, design.link_length
@@ -196,14 +241,18 @@ def drive_mass_inertia(design, fs: FirstStageGeometry, profiles: dict, outlines:
     for name, key, n in (("inner_gear", "ring", 2), ("teeth_frame", "frame", 3)):
         m, i = extrusion_mass_inertia(_outline_pieces(outlines[key]))
         parts[name] = (m, i, n)
-    # the cam about the crank axis: its bore centre (0, -e) moved to the origin
-    m, i = extrusion_mass_inertia(_outline_pieces(outlines["cam"]), shift=(0.0, e))
+    i1 = fs.ratio
+    total = i1 * (z + 1)
+    if rows is None:
+        # the cam about the crank axis: its bore centre (0, -e) moved to the origin
+        m, i = extrusion_mass_inertia(_outline_pieces(outlines["cam"]), shift=(0.0, e))
+    else:  # about its own centre (its bore concentric): it spins with the output
+        m, i = extrusion_mass_inertia(_outline_pieces(outlines["cam"]))
+        cam_mass, cam_own = m, i
     parts["disk_cam"] = (m, i, 2)
     m, _ = extrusion_mass_inertia(_outline_pieces(outlines["roller"]))
     parts["roller"] = (m, m * (0.5 * r * r + link * link), 2 * design.roller_count)
 
-    i1 = fs.ratio
-    total = i1 * (z + 1)
     zp, zw = fs.pinion.teeth, fs.wheel.teeth
     reflect = {
         "pinion": 1.0,
@@ -218,14 +267,47 @@ def drive_mass_inertia(design, fs: FirstStageGeometry, profiles: dict, outlines:
         "inner_gear": 0.0,  # fixed
     }
     kg_m2 = 1e-6  # kg mm^2 -> kg m^2
+    extra: dict = {}
+    if rows is not None:
+        needles, cam_speed = _needle_parts(design, rows)
+        for k, (m, eq, n, speeds) in needles.items():
+            parts[k] = (m, eq, n)
+            reflect[k] = 1.0 / i1**2
+            extra[k] = {
+                "inertia_is": "equivalent at the crank's speed: orbit, cage and spin",
+                "own_axis_inertia_kg_m2": speeds["own_axis"] * kg_m2,
+                "cage_speed_per_crank": speeds["cage_per_crank"],
+                "spin_per_crank": speeds["spin_per_crank"],
+            }
+        reflect["disk_cam"] = 1.0 / total**2
+        orbit = cam_mass * e * e
+        extra["disk_cam"] = {
+            "inertia_is": "about its own centre, spinning with the output",
+            "spin_per_crank": cam_speed,
+            "orbit_inertia_kg_m2": orbit * kg_m2,
+            "orbit_reflected_by": 1.0 / i1**2,
+        }
     j_in = sum(n * i * kg_m2 * reflect[k] for k, (_, i, n) in parts.items())
-    return {
+    out = {
         "total_ratio": total,
         "mass_kg": sum(n * m for m, _, n in parts.values()),
         "input_inertia_kg_m2": j_in,
         "density_kg_m3": STEEL_DENSITY * 1e9,
         "parts": {
-            k: {"mass_kg": m, "inertia_kg_m2": i * kg_m2, "count": n, "reflected_by": reflect[k]}
+            k: {
+                "mass_kg": m,
+                "inertia_kg_m2": i * kg_m2,
+                "count": n,
+                "reflected_by": reflect[k],
+                **extra.get(k, {}),
+            }
             for k, (m, i, n) in parts.items()
         },
     }
+    if rows is not None:
+        j_in += 2 * orbit * kg_m2 / i1**2
+        fixed = j_in - 2 * (cam_own * reflect["disk_cam"] + orbit / i1**2) * kg_m2
+        out["input_inertia_kg_m2"] = j_in
+        out["input_inertia_cams_fixed_kg_m2"] = fixed + 2 * (cam_own + orbit) * kg_m2 / i1**2
+        out["inertia_convention"] = FLOATING_CONVENTION
+    return out

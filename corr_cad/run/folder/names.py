@@ -25,6 +25,7 @@ __all__ = [
     "PART_FILE_STEMS",
     "GEAR_FILE_STEMS",
     "FIRST_STAGE_FILE_STEMS",
+    "BEARING_FILE_STEMS",
     "ANGLE_TAG_PATTERN",
     "is_output_name",
 ]
@@ -35,6 +36,9 @@ PART_FILE_STEMS = ("inner_gear", "disk_cam", "roller", "teeth_frame")
 GEAR_FILE_STEMS = ("pinion", "wheel", "crank_gear")
 #: Every part of the first gear stage, as its mesh and STEP files name them.
 FIRST_STAGE_FILE_STEMS = (*GEAR_FILE_STEMS, "crankshaft", "wheel_bearing", "crank_bearing")
+#: The cams' needle bearings (``model = "drive"`` with ``[bearings.eccentric]``): the
+#: needles (row B's own where they differ) and the crankshaft with its eccentrics.
+BEARING_FILE_STEMS = ("needle", "needle_b", "crankshaft")
 #: What :func:`corr_cad.export.files.angle_tag` makes of an angle in [-3600, 3600] deg.
 ANGLE_TAG_PATTERN = r"m?[0-9]{3,4}(?:p[0-9]{1,3})?deg"
 
@@ -48,7 +52,12 @@ _PARTS = _any(PART_FILE_STEMS)
 #: ``[export] formats`` entry -> the names (regular expressions, matched in
 #: full) of every file that format can write.
 OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
-    "dxf": (rf"{_PARTS}\.dxf", r"measured_profile\.dxf", rf"{_any(FIRST_STAGE_FILE_STEMS)}\.dxf"),
+    "dxf": (
+        rf"{_PARTS}\.dxf",
+        r"measured_profile\.dxf",
+        rf"{_any(FIRST_STAGE_FILE_STEMS)}\.dxf",
+        rf"{_any(BEARING_FILE_STEMS)}\.dxf",
+    ),
     "png": (r"preview\.png", r"modification\.png", r"first_stage\.png"),
     "forces": (r"forces\.(?:csv|png)", r"forces_summary\.json", r"load_distribution\.png"),
     **{
@@ -56,6 +65,7 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
             rf"{_PARTS}\.{fmt}",
             rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}",
             rf"{_any(FIRST_STAGE_FILE_STEMS)}\.{fmt}",
+            rf"{_any(BEARING_FILE_STEMS)}\.{fmt}",
         )
         for fmt in ("stl", "3mf", "glb", "ply", "step")
     },

@@ -368,9 +368,13 @@ def _whole_drive(ctx: RunContext) -> dict:
     if s.first_stage is None or d is None:
         return {}
     crank = math.degrees(s.first_stage.crank_backlash_rad) * 60.0
+    floating = {  # the cams on their needle bearings (drive_mass_inertia)
+        k: d[k] for k in ("input_inertia_cams_fixed_kg_m2", "inertia_convention") if k in d
+    }
     return {
         "total_ratio": d["total_ratio"],
         "input_inertia_kg_m2": d["input_inertia_kg_m2"],
+        **floating,
         "mass_kg": d["mass_kg"],
         "first_stage": {
             "backlash_at_crank_arcmin": crank,

@@ -40,13 +40,17 @@ def drive(ctx: RunContext) -> None:
     from corr_cad.geometry.parts import part_outlines
     from corr_cad.mechanics.first_stage_loads import drive_mass_inertia, first_stage_loads
     from corr_cad.run.scene.scene_first_stage import FIRST_STAGE_CHECKS
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
 
     s = ctx.scene
     fs, tol = s.first_stage, s.tolerance
+    rows = needle_rows_of(ctx)
     verts = {k: o.vertices for k, o in gear_outlines(ctx, tol).items()}
-    profiles = first_stage_profiles(s.design, fs, verts)
-    outlines = ctx.results.outlines or part_outlines(s.design, ctx.results.working, tol)
-    report = drive_mass_inertia(s.design, fs, profiles, outlines)
+    profiles = first_stage_profiles(s.design, fs, verts, rows)
+    outlines = ctx.results.outlines or part_outlines(
+        s.design, ctx.results.working, tol, floating=rows is not None
+    )
+    report = drive_mass_inertia(s.design, fs, profiles, outlines, rows)
     if s.load is not None:
         t_in = s.load.input_torque * fs.stage.pinion_teeth / fs.stage.crank_gear_teeth
         loads = first_stage_loads(
@@ -72,9 +76,12 @@ def drive(ctx: RunContext) -> None:
 
 def part_pieces(ctx: RunContext, tol: float) -> dict:
     """``{part: [(PartOutline, z0), ...]}`` of every first-stage part at ``tol``."""
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
+
     outlines = gear_outlines(ctx, tol)
     verts = {k: o.vertices for k, o in outlines.items()}
-    return first_stage_outlines(ctx.scene.design, ctx.scene.first_stage, verts, tol)
+    rows = needle_rows_of(ctx)
+    return first_stage_outlines(ctx.scene.design, ctx.scene.first_stage, verts, tol, rows)
 
 
 def solids(ctx: RunContext, report: dict) -> dict:
@@ -120,8 +127,11 @@ def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:
     fs = ctx.scene.first_stage
     splines = {k: spline_gear(getattr(fs, k), tol) for k in GEARS}
     verts = {k: o.vertices for k, o in gear_outlines(ctx, tol).items()}
-    exact_profiles = first_stage_profiles(ctx.scene.design, fs, verts)
-    profiles = first_stage_profiles(ctx.scene.design, fs, splines)
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
+
+    rows = needle_rows_of(ctx)
+    exact_profiles = first_stage_profiles(ctx.scene.design, fs, verts, rows)
+    profiles = first_stage_profiles(ctx.scene.design, fs, splines, rows)
     lengths = {
         part: sum(o.boundary_length * o.thickness for o, _ in pcs)
         for part, pcs in part_pieces(ctx, tol).items()

@@ -21,10 +21,12 @@ MESH_FORMATS = ("stl", "3mf", "glb", "ply")
 def _solids(ctx: RunContext) -> None:
     from corr_cad.export import mesh
     from corr_cad.geometry.parts import part_outlines
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
 
     s = ctx.scene
     tol = s.chord_tolerance
-    outlines = part_outlines(s.design, ctx.results.working, tol)
+    rows = needle_rows_of(ctx)
+    outlines = part_outlines(s.design, ctx.results.working, tol, floating=rows is not None)
     solids, meshes, report = {}, {}, {}
     for name, outline in outlines.items():
         solid = mesh.solid(outline)
@@ -44,6 +46,11 @@ def _solids(ctx: RunContext) -> None:
         from corr_cad.run.stages import stages_first_stage
 
         ctx.results.first_stage_solids = stages_first_stage.solids(ctx, report)
+    if rows is not None:
+        from corr_cad.run.stages import stages_bearing_parts
+
+        more = stages_bearing_parts.solids(ctx, rows, report)
+        ctx.results.first_stage_solids = {**(ctx.results.first_stage_solids or {}), **more}
     ctx.results.outlines = outlines
     ctx.results.solids = solids
     ctx.results.meshes = meshes
@@ -69,12 +76,7 @@ def _mesh_files(ctx: RunContext) -> None:
             mesh.write_mesh(tm, ctx.out / f"{name}.{fmt}", fmt)
             ctx.files.append(f"{name}.{fmt}")
     for angle in s.assembly_angles_deg:
-        asm = mesh.assembly(s.design, solids, math.radians(angle), stack=stack)
-        placed = asm.all_solids()
-        if first:
-            from corr_cad.run.stages.stages_first_stage import placements
-
-            placed.update({p.name: mesh.place(first[p.part], p) for p in placements(ctx, angle)})
+        placed, _ = _placed_solids(ctx, solids, angle, stack=stack)
         parts = {k: mesh.to_trimesh(v) for k, v in placed.items()}
         for name, tm in parts.items():
             mesh.check_mesh(tm, name)
@@ -84,17 +86,47 @@ def _mesh_files(ctx: RunContext) -> None:
             ctx.files.append(fname)
 
 
+def _placed_solids(ctx: RunContext, solids: dict, angle: float, **kw) -> dict:
+    """Every solid of the assembly at ``angle`` (deg): the second stage's, the first
+    stage's and the bearings' (with ``[first_stage]`` and the eccentric bearings)."""
+    from corr_cad.export import mesh
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
+
+    rows = needle_rows_of(ctx)
+    asm = mesh.assembly(
+        ctx.scene.design, solids, math.radians(angle), floating=rows is not None, **kw
+    )
+    placed = asm.all_solids()
+    extra = ctx.results.first_stage_solids or {}
+    where = []
+    if ctx.scene.first_stage is not None:
+        from corr_cad.run.stages.stages_first_stage import placements
+
+        where += placements(ctx, angle)
+    if rows is not None:
+        from corr_cad.run.stages import stages_bearing_parts
+
+        where += stages_bearing_parts.placements(ctx, rows, angle)
+    placed.update({p.name: mesh.place(extra[p.part], p) for p in where})
+    return placed, asm
+
+
 def _step_files(ctx: RunContext) -> None:
     from corr_cad.export import step
     from corr_cad.geometry.parts import part_outlines
     from corr_cad.geometry.placement import assembly_placements
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
 
     step.require_ocp()
     s = ctx.scene
     tol = s.chord_tolerance
+    rows = needle_rows_of(ctx)
+    floating = rows is not None
     spline = approximate(ctx.results.working, "spline", tol)
-    shapes = step.part_shapes(s.design, spline)
-    outlines = ctx.results.outlines or part_outlines(s.design, ctx.results.working, tol)
+    shapes = step.part_shapes(s.design, spline, floating)
+    outlines = ctx.results.outlines or part_outlines(
+        s.design, ctx.results.working, tol, floating=floating
+    )
     report = {}
     volumes = {}
     quick_boxes = {}  # each part file's quick box, as read back
@@ -135,13 +167,20 @@ def _step_files(ctx: RunContext) -> None:
         from corr_cad.run.stages import stages_first_stage
 
         shapes = {**shapes, **stages_first_stage.step_parts(ctx, report, quick_boxes)}
+    if rows is not None:
+        from corr_cad.run.stages import stages_bearing_parts
+
+        shapes = {**shapes, **stages_bearing_parts.step_parts(ctx, rows, report, quick_boxes)}
+    if len(shapes) > len(PART_NAMES):
         names = {**PART_NAMES, **{k: k for k in shapes if k not in PART_NAMES}}
     for angle in s.assembly_angles_deg:
         tag = angle_tag(angle)
         fname = f"assembly_{tag}.step"
-        placements = assembly_placements(s.design, math.radians(angle))
+        placements = assembly_placements(s.design, math.radians(angle), floating)
         if s.first_stage is not None:
             placements += stages_first_stage.placements(ctx, angle)
+        if rows is not None:
+            placements += stages_bearing_parts.placements(ctx, rows, angle)
         path = step.write_assembly_step(
             shapes, names, placements, ctx.out / fname, f"assembly_{tag}"
         )
@@ -216,24 +255,34 @@ def _interference(ctx: RunContext) -> None:
             cache[de] = mesh.solid(roller_outline(d, float(de), tol)) if de else solids["roller"]
         rollers.append(cache[de])
     allowance = interference_allowance(d, tol)
+    from corr_cad.run.stages.stages_bearing_parts import contact_allowances, needle_rows_of
+
+    rows_b = needle_rows_of(ctx)
+    contacts = None if rows_b is None else contact_allowances(d, rows_b, tol)
     n = s.positions_for("mesh")
     angles = np.arange(n) * 360.0 / n
     rows = []
     pairs_checked, overlaps = 0, []
     # A cam's bore on its shaft: a sliver at most chord_tolerance deep (mesh._FITS).
-    fit = tol * 2 * math.pi * d.cam_bore_radius * d.face_width
+    fit = tol * 2 * math.pi * d.cam_bore_radius * d.face_width if rows_b is None else 0.0
     from corr_cad.run.progress import Progress
 
     bar = Progress(
         n, "      interference", "positions", expected=expected_seconds(ctx, "interference")
     )
     for k, ang in enumerate(angles):
-        asm = mesh.assembly(
-            d, solids, math.radians(ang), roller_solids=rollers, stack=stack, pieces=pieces
-        )
+        if rows_b is None:
+            asm = mesh.assembly(
+                d, solids, math.radians(ang), roller_solids=rollers, stack=stack, pieces=pieces
+            )
+            every = asm.all_solids()
+        else:  # the needles, the crankshaft and (with [first_stage]) the first stage too
+            every, asm = _placed_solids(
+                ctx, solids, float(ang), roller_solids=rollers, stack=stack, pieces=pieces
+            )
         for rec in mesh.interference_at(asm, search_length=max(0.1, 50 * tol)):
             rows.append({"crank_angle_deg": float(ang), **rec})
-        checked, found = mesh.solid_overlaps(asm.all_solids(), fit_allowance_mm3=fit)
+        checked, found = mesh.solid_overlaps(every, fit_allowance_mm3=fit, contacts=contacts)
         pairs_checked += checked
         overlaps += [{"crank_angle_deg": float(ang), **o} for o in found]
         bar.update(1)
@@ -265,6 +314,15 @@ def _interference(ctx: RunContext) -> None:
         # cams, plates): intersection volume above mesh.OVERLAP_VOLUME_TOL.
         "other_pairs": {
             "pairs_checked": pairs_checked,
+            **(
+                {}
+                if contacts is None
+                else {
+                    "needle_contact_allowance_mm3": {
+                        f"{a}*/{b}": v for (a, b), v in contacts.items()
+                    }
+                }
+            ),
             "volume_tol_mm3": mesh.OVERLAP_VOLUME_TOL,
             "overlaps": len(overlaps),
             "first_overlaps": overlaps[:20],

@@ -108,8 +108,10 @@ def _refuse_modified(s, w) -> None:
 
 def _dxf_files(ctx: RunContext) -> None:
     from corr_cad.export import dxf
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
 
     mod = ctx.scene.modification
+    rows = needle_rows_of(ctx)
     paths = dxf.write_all(
         ctx.scene.design,
         ctx.results.working_approx,
@@ -117,6 +119,7 @@ def _dxf_files(ctx: RunContext) -> None:
         ctx.out,
         ctx.results.conjugate_approx,
         None if mod is None else {"equidistant_mm": mod.equidistant_mm, "shift_mm": mod.shift_mm},
+        floating=rows is not None,
     )
     ctx.files.extend(p.name for p in paths.values())
     if ctx.scene.first_stage is not None:
@@ -126,10 +129,14 @@ def _dxf_files(ctx: RunContext) -> None:
         s, outlines = ctx.scene, ctx.results.gear_outlines
         gears = write_gears(s.design, s.first_stage, outlines, ctx.out)
         verts = {k: o.vertices for k, o in outlines.items()}
-        profiles = first_stage_profiles(s.design, s.first_stage, verts)
+        profiles = first_stage_profiles(s.design, s.first_stage, verts, rows)
         for part in ("crankshaft", "wheel_bearing", "crank_bearing"):
             gears.append(write_round_part(s.design, part, profiles[part], ctx.out / f"{part}.dxf"))
         ctx.files.extend(p.name for p in gears)
+    if rows is not None:
+        from corr_cad.run.stages.stages_bearing_parts import dxf_files
+
+        dxf_files(ctx, rows)
 
 
 def _preview_png(ctx: RunContext) -> None:

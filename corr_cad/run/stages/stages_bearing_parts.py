@@ -1,0 +1,154 @@
+"""The cams' needle bearings and the crankshaft inside the file stages.
+
+Only under ``[solver] model = "drive"`` with ``[bearings.eccentric]``
+(:func:`needle_rows_of` is None otherwise, and no other scene reaches the rest of
+this module): the needles (``needle``, and ``needle_b`` where row B's differ) and,
+without ``[first_stage]`` (whose crankshaft carries the eccentrics then), the
+crankshaft (:mod:`corr_cad.geometry.bearing_parts`).
+"""
+
+from __future__ import annotations
+
+import math
+
+from corr_cad.errors import ExportError
+from corr_cad.run.stages.context import RunContext
+
+__all__ = [
+    "needle_rows_of",
+    "profiles",
+    "solids",
+    "placements",
+    "step_parts",
+    "dxf_files",
+    "contact_allowances",
+]
+
+
+def needle_rows_of(ctx_or_scene):
+    """The drawn rows (:func:`~corr_cad.geometry.bearing_parts.needle_rows`), or None."""
+    s = getattr(ctx_or_scene, "scene", ctx_or_scene)
+    solver = getattr(s, "solver", None)
+    if solver is None or not solver.drive or getattr(s, "bearing", None) is None:
+        return None
+    from corr_cad.geometry.bearing_parts import needle_rows
+
+    return needle_rows(s.design, s.bearing, s.bearing_b)
+
+
+def profiles(ctx: RunContext, rows) -> dict:
+    """``{part: [(outer, holes, height, z0), ...]}`` of the parts drawn here."""
+    from corr_cad.geometry.bearing_parts import (
+        crankshaft_pieces,
+        needle_part_names,
+        needle_pieces,
+    )
+
+    s = ctx.scene
+    out = {part: needle_pieces(row) for part, row in needle_part_names(rows).items()}
+    if s.first_stage is None:
+        out["crankshaft"] = crankshaft_pieces(s.design, rows, s.design.face_width)
+    return out
+
+
+def solids(ctx: RunContext, rows, report: dict) -> dict:
+    """Manifold solids of :func:`profiles`; their mesh facts go into ``report``."""
+    from corr_cad.export import mesh
+    from corr_cad.geometry.first_stage_parts import piece_outlines
+
+    tol = ctx.scene.chord_tolerance
+    out = {}
+    for part, pieces in piece_outlines(profiles(ctx, rows), tol).items():
+        solid = mesh.stacked_solid(pieces)
+        facts = mesh.check_mesh(mesh.to_trimesh(solid), part)
+        exact = sum(o.exact_volume for o, _ in pieces)
+        length = sum(o.boundary_length * o.thickness for o, _ in pieces)
+        facts.update(
+            {
+                "exact_volume_mm3": exact,
+                "volume_error_mm3": facts["volume_mm3"] - exact,
+                "volume_error_bound_mm3": tol * length,
+                "chord_tolerance_mm": tol,
+            }
+        )
+        report[part] = facts
+        out[part] = solid
+    return out
+
+
+def placements(ctx: RunContext, rows, angle_deg: float) -> list:
+    """The needles (and the crankshaft without ``[first_stage]``) at ``angle_deg``."""
+    from corr_cad.geometry.bearing_parts import bearing_placements
+
+    s = ctx.scene
+    return bearing_placements(
+        s.design, rows, math.radians(angle_deg), crankshaft=s.first_stage is None
+    )
+
+
+def step_parts(ctx: RunContext, rows, report: dict, quick_boxes: dict) -> dict:
+    """Write ``<part>.step`` of :func:`profiles`, read each back; returns the shapes.
+
+    Circles are exact in STEP: the read-back volume equals the exact one to 1e-9.
+    """
+    from corr_cad.export import step, step_gears
+    from corr_cad.geometry.first_stage_parts import exact_volume
+
+    shapes = {}
+    for part, pieces in profiles(ctx, rows).items():
+        shape = step_gears.stacked_shape(pieces)
+        fname = f"{part}.step"
+        path = step.write_step(shape, ctx.out / fname, part)
+        product, parts = step.read_step(path, heal=False)
+        volume, area = step.mass_properties(parts[0].shape)
+        exact = exact_volume(pieces)
+        bound = 1e-9 * exact
+        facts = {
+            "product_name": product,
+            "readback_volume_mm3": volume,
+            "readback_area_mm2": area,
+            "exact_volume_mm3": exact,
+            "volume_error_mm3": volume - exact,
+            "volume_relative_error": (volume - exact) / exact,
+            "volume_error_bound_mm3": bound,
+            "bbox_mm": step.bounding_box(parts[0].shape).tolist(),
+        }
+        if product != part or not abs(facts["volume_error_mm3"]) <= bound:
+            raise ExportError(f"{fname}: read-back check failed ({facts})")
+        report[fname] = facts
+        quick_boxes[part] = step.bounding_box(parts[0].shape, optimal=False)
+        ctx.files.append(fname)
+        shapes[part] = shape
+    return shapes
+
+
+def dxf_files(ctx: RunContext, rows) -> None:
+    """``needle.dxf`` (and ``needle_b.dxf``), ``crankshaft.dxf`` without ``[first_stage]``."""
+    from corr_cad.export.gear_dxf import write_round_part
+
+    for part, pieces in profiles(ctx, rows).items():
+        path = write_round_part(ctx.scene.design, part, pieces, ctx.out / f"{part}.dxf")
+        ctx.files.append(path.name)
+
+
+def contact_allowances(design, rows, chord_tol: float) -> dict:
+    """What tessellation alone can overlap where a needle touches its races by design.
+
+    Both polygons are inscribed within ``chord_tol``: a nominal tangent contact can
+    show a penetration ``d = 2 chord_tol``, a lens of area ``4/3 d sqrt(2 R* d)``
+    over the needle's length, ``1/R* = 2/D - 1/R_b`` on the cam's bore (concave) and
+    ``2/D + 1/r_j`` on the journal (as :func:`~corr_cad.run.stages.stages_geometry.
+    interference_allowance` for the rollers). Keys: instance-name prefixes for
+    :func:`corr_cad.export.mesh.solid_overlaps`.
+    """
+    d = 2.0 * chord_tol
+    out = {}
+    for row in rows:
+        rn = 0.5 * row.needle_diameter
+        bore = 1.0 / (1.0 / rn - 1.0 / design.cam_bore_radius)
+        journal = 1.0 / (1.0 / rn + 1.0 / row.journal_radius)
+        lens = 4.0 / 3.0 * d * row.needle_length
+        tag = row.row
+        out[(f"needle_{tag}_", f"cam_{tag}")] = lens * math.sqrt(2.0 * bore * d)
+        out[(f"needle_{tag}_", "crankshaft")] = lens * math.sqrt(2.0 * journal * d)
+    return out

@@ -1,0 +1,328 @@
+"""The parts the drive floats its cams on, drawn: needles, eccentric journals, seats.
+
+Under ``model = "drive"`` with ``[bearings.eccentric]`` the cam's bore is the
+needle bearing's outer race (concentric with the disc), the needles sit on the
+pitch circle ``R_b - D / 2`` and the crankshaft's eccentric journals
+(``R_b - D - Pd / 2``) are ``e`` off its axis, 180 deg apart. The reference values
+here come from those closed forms, not from the exporter.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from corr_cad.geometry.bearing_parts import (
+    bearing_placements,
+    cage_angle,
+    core_radius,
+    needle_rows,
+    needle_spin,
+    seat_radius,
+)
+from corr_cad.geometry.design import GearDesign
+from corr_cad.mechanics.bearing import EccentricBearing
+
+BEARING = EccentricBearing(needles=40, needle_diameter=6.0, needle_length=12.0,
+                           diametral_clearance=0.005)
+
+#: The prototype's second stage on the drive model, both cams on 40 x 6 x 12 needles.
+SCENE = """[design]
+tooth_count = 25
+cam_radius = 135.0
+roller_radius = 8.0
+roller_length = 12.0
+eccentricity = 3.5
+[export]
+formats = ["dxf", "stl", "3mf", "glb", "ply", "step", "interference"]
+tolerance = 0.001
+interference_method = "mesh"
+interference_positions = 2
+[solver]
+positions = 40
+model = "drive"
+[bearings.eccentric]
+needles = 40
+needle_diameter = 6.0
+needle_length = 12.0
+diametral_clearance = 0.005
+"""
+
+
+def test_the_bearing_s_sizes_by_hand():
+    """Prototype (R_b = 47.2, e = 3.5): pitch radius 44.2, journal 41.1975, core 37, seat 33."""
+    d = GearDesign()
+    a, b = needle_rows(d, BEARING)
+    assert d.cam_bore_radius == 47.2
+    assert a.pitch_radius == pytest.approx(47.2 - 3.0, abs=1e-12)
+    assert a.journal_radius == pytest.approx(47.2 - 6.0 - 0.0025, abs=1e-12)
+    assert (a.z_low, b.z_low) == (0.0, 12.0 + 8.0)  # centred in rows [0, 12] and [20, 32]
+    assert core_radius(d, [a, b]) == 37.0  # floor to 0.5 of 41.1975 - 3.5 - 0.25
+    assert seat_radius(d, [a, b]) == 33.0  # floor to 0.5 of 0.9 * 37
+
+
+def test_cage_and_needle_speeds_against_rolling_on_both_races():
+    """Each needle rolls without slip on both races: the contact speeds match."""
+    d = GearDesign()
+    row = needle_rows(d, BEARING)[0]
+    wi, wo = 1.0, 1.0 / 26.0
+    wc, wn = cage_angle(row, wi, wo), needle_spin(row, wi, wo)
+    rn = 0.5 * row.needle_diameter
+    ri, ro = row.pitch_radius - rn, row.pitch_radius + rn
+    # in the cage's frame: races at (w - wc) r, needle surface at -/+ (wn - wc) rn
+    assert (wi - wc) * ri == pytest.approx(-(wn - wc) * rn, rel=1e-12)
+    assert (wo - wc) * ro == pytest.approx((wn - wc) * rn, rel=1e-12)
+    # a stationary outer race: the classic cage speed (1 - gamma) / 2
+    assert cage_angle(row, 1.0, 0.0) == pytest.approx(0.5 * (1 - 6.0 / 88.4), rel=1e-12)
+
+
+def test_bad_bearings_are_refused_in_one_line():
+    from corr_cad.errors import DesignError
+
+    d = GearDesign()
+    with pytest.raises(DesignError, match=r"needle_length = 13: .* allowed range \(0, 12\]"):
+        needle_rows(d, EccentricBearing(40, 6.0, 13.0))
+    with pytest.raises(DesignError, match="needles = 47: .*allowed range 3..46"):
+        needle_rows(d, EccentricBearing(47, 6.0, 12.0))
+
+
+def _bearing_solids(d: GearDesign, rows, tol: float):
+    from corr_cad.export import mesh
+    from corr_cad.geometry.bearing_parts import crankshaft_pieces, needle_pieces
+    from corr_cad.geometry.first_stage_parts import piece_outlines
+    from corr_cad.geometry.parts import part_outlines
+    from corr_cad.geometry.profile import undercut_analysis, working_profile
+
+    working = working_profile(d, undercut_analysis(d))
+    solids = {n: mesh.solid(o) for n, o in part_outlines(d, working, tol, floating=True).items()}
+    pieces = piece_outlines(
+        {"needle": needle_pieces(rows[0]), "crankshaft": crankshaft_pieces(d, rows, 12.0)}, tol
+    )
+    extra = {k: mesh.stacked_solid(p) for k, p in pieces.items()}
+    return solids, extra
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.005])
+def test_the_needles_do_not_interfere_with_the_cam_or_the_eccentric(clearance):
+    """Every needle against its cam, the other cam, the crankshaft and every other needle,
+    at 4 crank angles: no overlap beyond the tessellation's lens at a designed contact;
+    a needle drawn 0.02 mm too thick is found."""
+    from dataclasses import replace
+
+    from corr_cad.export import mesh
+    from corr_cad.run.stages.stages_bearing_parts import contact_allowances
+
+    d = GearDesign()
+    tol = 0.002
+    rows = needle_rows(d, replace(BEARING, diametral_clearance=clearance))
+    solids, extra = _bearing_solids(d, rows, tol)
+    contacts = contact_allowances(d, rows, tol)
+    for angle in (0.0, 33.0, 101.5, 250.0):
+        asm = mesh.assembly(d, solids, math.radians(angle), floating=True)
+        placed = {k: v for k, v in asm.parts.items() if k.startswith("cam_")}
+        for p in bearing_placements(d, rows, math.radians(angle)):
+            placed[p.name] = mesh.place(extra[p.part], p)
+        checked, overlaps = mesh.solid_overlaps(placed, contacts=contacts)
+        n = len(placed)
+        assert checked == n * (n - 1) // 2 and not overlaps, (angle, overlaps[:3])
+    # the mistake the check must see: needles 0.02 mm thicker than the gap
+    fat = needle_rows(d, replace(BEARING, needle_diameter=6.0))[0]
+    from corr_cad.geometry.first_stage_parts import piece_outlines
+
+    thick = piece_outlines({"n": [(3.01, [], 12.0, 0.0)]}, tol)["n"]
+    big = mesh.stacked_solid(thick)
+    asm = mesh.assembly(d, solids, 0.0, floating=True)
+    p = bearing_placements(d, [fat, fat], 0.0)[1]
+    _, overlaps = mesh.solid_overlaps({"cam_a": asm.parts["cam_a"], p.name: mesh.place(big, p)},
+                                      contacts=contacts)
+    assert overlaps and overlaps[0]["volume_mm3"] > contacts[("needle_a_", "cam_a")]
+
+
+def test_the_input_inertia_with_floating_cams_against_a_hand_sum():
+    """compound.toml's parts with the cams on 40 x 6 x 12 needles: the cams (annuli) and the
+    needles (cylinders) summed here from closed forms; the other parts as the files give."""
+    from pathlib import Path
+
+    from corr_cad.geometry.first_stage import FirstStageGeometry  # noqa: F401
+    from corr_cad.geometry.first_stage_parts import first_stage_profiles
+    from corr_cad.geometry.gear_outline import approximate_gear
+    from corr_cad.geometry.parts import part_outlines
+    from corr_cad.geometry.profile import undercut_analysis, working_profile
+    from corr_cad.mechanics.first_stage_loads import STEEL_DENSITY, drive_mass_inertia
+    from corr_cad.run.scene.scene import load_scene
+
+    scene = load_scene(Path(__file__).resolve().parents[1] / "templates" / "compound.toml")
+    d, fs = scene.design, scene.first_stage
+    rows = needle_rows(d, BEARING)
+    verts = {k: approximate_gear(getattr(fs, k), 1e-3).vertices
+             for k in ("pinion", "wheel", "crank_gear")}
+    outlines = part_outlines(d, working_profile(d, undercut_analysis(d)), 1e-3, floating=True)
+    got = drive_mass_inertia(d, fs, first_stage_profiles(d, fs, verts, rows), outlines, rows)
+    i1, z, e, w = fs.ratio, d.tooth_count, d.eccentricity, d.face_width
+    rho = STEEL_DENSITY
+    # the cam: an annulus R = 135, R_b = 47.2, spinning with the output about its centre
+    R, Rb = d.cam_radius, d.cam_bore_radius
+    m_cam = rho * math.pi * (R**2 - Rb**2) * w
+    i_cam = 0.5 * m_cam * (R**2 + Rb**2)
+    cams = 2 * (i_cam / (i1 * (z + 1)) ** 2 + m_cam * e**2 / i1**2)
+    # a needle: orbit e with the crank, pitch radius at the cage speed, spin rolling
+    dn, ln, rp = 6.0, 12.0, 44.2
+    m_n = rho * math.pi * (dn / 2) ** 2 * ln
+    g = dn / (2 * rp)
+    wo = 1.0 / (z + 1)
+    wc = 0.5 * ((1 - g) + wo * (1 + g))
+    wn = wc + rp / dn * (1 - g * g) * (wo - 1.0)
+    needles = 80 * (m_n * (e**2 + (rp * wc) ** 2) + m_n * dn**2 / 8 * wn**2) / i1**2
+    others = sum(
+        p["count"] * p["inertia_kg_m2"] * p["reflected_by"]
+        for k, p in got["parts"].items()
+        if k not in ("disk_cam", "needle")
+    )
+    hand = others + (cams + needles) * 1e-6
+    assert got["input_inertia_kg_m2"] == pytest.approx(hand, rel=1e-6)
+    # the cams turning with the crank instead (I + m e^2 about the axis): the upper bound
+    fixed = others + (2 * (i_cam + m_cam * e**2) / i1**2 + needles) * 1e-6
+    # (the files' cam is its outline, polygons inscribed within 1e-3 mm: I_c to ~2e-5)
+    assert got["input_inertia_cams_fixed_kg_m2"] == pytest.approx(fixed, rel=1e-4)
+    assert got["input_inertia_cams_fixed_kg_m2"] > 5 * got["input_inertia_kg_m2"]
+    assert "Harris" in got["inertia_convention"]
+    # docs/physics.md: 3.57e-4 kg m^2 floating against 4.22e-3 fixed
+    assert got["input_inertia_kg_m2"] == pytest.approx(3.57e-4, rel=2e-3)
+    assert got["input_inertia_cams_fixed_kg_m2"] == pytest.approx(4.22e-3, rel=2e-3)
+
+
+@pytest.mark.slow
+def test_the_console_and_datasheet_say_the_cams_float(tmp_path):
+    """compound.toml on the drive with bearings: the inertia's convention in datasheet.json,
+    the console's whole-drive line names it and gives the cams-fixed figure."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "templates" / "compound.toml").read_text()
+    text = text.split("[export]")[0] + '[export]\nformats = ["datasheet"]\n'
+    text += '[solver]\nmodel = "drive"\n' + SCENE.split("[solver]")[1].split("\n", 3)[3]
+    (tmp_path / "s.toml").write_text(text)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out"],
+        cwd=tmp_path, capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr[-3000:]
+    ds = json.loads((tmp_path / "out" / "datasheet.json").read_text())
+    assert "spins with the output" in ds["inertia_convention"]
+    assert ds["input_inertia_cams_fixed_kg_m2"] > 5 * ds["input_inertia_kg_m2"]
+    assert "cams floating on their needle bearings" in r.stdout + r.stderr
+    html = (tmp_path / "out" / "datasheet.html").read_text(encoding="utf-8")
+    assert "the cams float on their needle bearings" in html
+
+
+def test_a_bearing_that_cannot_be_drawn_is_refused_in_one_line(tmp_path):
+    """Needles longer than the cam is wide: exit 2, one line naming the key, nothing written."""
+    (tmp_path / "s.toml").write_text(
+        SCENE.replace('formats = ["dxf", "stl", "3mf", "glb", "ply", "step", "interference"]',
+                      'formats = ["dxf"]').replace("needle_length = 12.0", "needle_length = 13.0")
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path, capture_output=True, text=True,
+    )
+    assert r.returncode == 2, r.stderr
+    errors = [x for x in r.stderr.splitlines() if "error" in x]
+    assert len(errors) == 1 and "Traceback" not in r.stderr
+    assert "needle_length = 13: " in errors[0] and "e.g. 12" in errors[0]
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def _circles(path):
+    """(radius, x, y, z) of every circle edge in a STEP file, as OCP reads it."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.GeomAbs import GeomAbs_Circle
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    from corr_cad.export import step
+
+    shape = step._read_one_shape(path, heal=False)
+    out = []
+    ex = TopExp_Explorer(shape, TopAbs_EDGE)
+    while ex.More():
+        c = BRepAdaptor_Curve(step._static(TopoDS, "Edge")(ex.Current()))
+        if c.GetType() == GeomAbs_Circle:
+            circ = c.Circle()
+            p = circ.Location()
+            out.append((circ.Radius(), p.X(), p.Y(), p.Z()))
+        ex.Next()
+    return out
+
+
+@pytest.mark.slow
+def test_a_drive_with_bearings_writes_its_parts_in_every_format(tmp_path):
+    """The CLI writes needle.* and crankshaft.* in DXF, meshes and STEP, places them in
+    both assemblies under the same names, and the STEP journals are e off the axis."""
+    pytest.importorskip("OCP")
+    import ezdxf
+    import trimesh
+
+    (tmp_path / "s.toml").write_text(SCENE)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path, capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = tmp_path / "out"
+    for part in ("needle", "crankshaft"):
+        for fmt in ("dxf", "stl", "3mf", "glb", "ply", "step"):
+            assert (out / f"{part}.{fmt}").stat().st_size > 0, (part, fmt)
+    e, rj = 3.5, 47.2 - 6.0 - 0.0025
+    # STEP: the eccentric journals' circles at (0, +e) and (0, -e), to 1e-9 mm
+    journals = [c for c in _circles(out / "crankshaft.step") if abs(c[0] - rj) < 1e-9]
+    centres = sorted({(round(x, 6), round(y, 6)) for _, x, y, _ in journals})
+    assert len(centres) == 2, journals
+    for _, x, y, _ in journals:
+        assert abs(x) < 1e-9 and abs(abs(y) - e) < 1e-9
+    ys = {math.copysign(1, y) for _, _, y, _ in journals}
+    assert ys == {1.0, -1.0}  # 180 deg apart
+    # the cam's bore concentric with its disc, in STEP and DXF
+    bores = [c for c in _circles(out / "disk_cam.step") if abs(c[0] - 47.2) < 1e-9]
+    assert bores and all(abs(x) < 1e-12 and abs(y) < 1e-12 for _, x, y, _ in bores)
+    dxf_bore = [c for c in ezdxf.readfile(out / "disk_cam.dxf").modelspace().query("CIRCLE")
+                if abs(c.dxf.radius - 47.2) < 1e-12]
+    assert tuple(dxf_bore[0].dxf.center)[:2] == (0.0, 0.0)
+    dxf_journals = [c for c in ezdxf.readfile(out / "crankshaft.dxf").modelspace().query("CIRCLE")
+                    if abs(c.dxf.radius - rj) < 1e-12]
+    assert sorted(c.dxf.center[1] for c in dxf_journals) == [-e, e]
+    # the assemblies: the same instance names in STEP and the meshes
+    from corr_cad.export import step
+
+    _, parts = step.read_step(out / "assembly_000deg.step", heal=False)
+    names = [p.name for p in parts]
+    want = {f"needle_{row}_{j:02d}" for row in "ab" for j in range(1, 41)} | {"crankshaft"}
+    assert want <= set(names)
+    assert {p.product for p in parts if p.name.startswith("needle_")} == {"needle"}
+    threemf = trimesh.load(out / "assembly_000deg.3mf")
+    assert sorted(threemf.geometry) == sorted(names)
+    # a needle where the placement says: the pitch radius from its eccentric's centre
+    n1 = threemf.geometry["needle_a_01"]
+    centre = 0.5 * (n1.bounds[0] + n1.bounds[1])
+    assert math.hypot(centre[0] - 0.0, centre[1] - e) == pytest.approx(44.2, abs=2e-3)
+    manifest = json.loads((out / "manifest.json").read_text())
+    inter = manifest["interference"]
+    assert inter["ok"] and inter["other_pairs"]["overlaps"] == 0
+    assert "needle_a_*/cam_a" in inter["other_pairs"]["needle_contact_allowance_mm3"]
+    np.testing.assert_equal(sorted(manifest["step"]["assembly_000deg.step"]["instance_counts"]),
+                            sorted(["inner_gear", "disk_cam", "roller", "teeth_frame",
+                                    "needle", "crankshaft"]))
+
+
+def test_scenes_without_bearings_draw_no_bearing_parts():
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
+
+    paper = SimpleNamespace(solver=SimpleNamespace(drive=False), bearing=BEARING)
+    assert needle_rows_of(paper) is None
+    rigid = SimpleNamespace(solver=SimpleNamespace(drive=True), bearing=None)
+    assert needle_rows_of(rigid) is None
