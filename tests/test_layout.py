@@ -42,6 +42,7 @@ RUN_LAYERS = {
     "console": 0,
     "dask_exec": 0,
     "cli_messages": 0,
+    "warmup": 0,
     "scene": 1,
     "folder": 1,
     "stages": 2,

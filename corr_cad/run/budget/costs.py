@@ -24,7 +24,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
-from corr_cad.run.budget.costs_montecarlo import datasheet_pass
+from corr_cad.run.budget.costs_montecarlo import (
+    DRIVE_FORCE_SECONDS,
+    datasheet_pass,
+    drive_seconds,
+)
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
 
@@ -417,6 +421,7 @@ def _sample_work(scene, env, samples: int, positions: int, kernel: bool, grid: i
         env.workers,
         env.local_workers,
         env.remote,
+        drive=scene.solver.drive,
     )
 
 
@@ -433,9 +438,12 @@ def _montecarlo(scene, env):
     task = work.pop("task_seconds")
     # The nominal solve and the plots.
     work["memory"] += 240 * pos * R + 40 * MB
+    force = _mc_seconds(n, pos, R, kernel, env.workers)
+    if scene.solver.drive:  # both rows and the cams' bearings, compiled
+        force = n * pos * R * drive_seconds(scene, DRIVE_FORCE_SECONDS) / env.workers
     return Cost(
         keeps=0.0,
-        seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R + sheet_s,
+        seconds=1.0 + force + 1e-6 * pos * R + sheet_s,
         output={"montecarlo.csv": 70 * n, "montecarlo.png": 0.25 * MB},
         knobs=("[montecarlo] samples", "[montecarlo] positions"),
         task_seconds=task,
@@ -453,12 +461,14 @@ def _allocation(scene, env):
     runs = 2 * len(scene.tolerances) * ALLOCATION_EVALUATIONS
     kernel = n * pos * ALLOCATION_EVALUATIONS >= KERNEL_MIN_WORK
     per_run = _mc_seconds(n, pos, R, kernel, env.workers) - (2.0 if kernel else 0.0)
+    if scene.solver.drive:
+        per_run = n * pos * R * drive_seconds(scene, DRIVE_FORCE_SECONDS) / env.workers
     sheet_s, grid = datasheet_pass(scene, n, env.workers)
     work = _sample_work(scene, env, n, pos, kernel, grid)
     work.pop("chunk")
     task = work.pop("task_seconds")
     if sheet_s:
-        per_run += sheet_s - 8.0
+        per_run += sheet_s - (1.0 if scene.solver.drive else 8.0)
     return Cost(
         seconds=0.5
         + runs * (0.02 + per_run)
