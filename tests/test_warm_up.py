@@ -87,3 +87,18 @@ def test_which_groups_a_scene_uses():
         }
     )
     assert scene_groups(mc) == ["free-play kernel", "drive kernels"]
+
+
+def test_a_small_monte_carlo_of_the_paper_s_row_needs_no_kernel():
+    """It runs the numpy solver; with the datasheet metrics both paper kernels."""
+    from corr_cad.run.scene.scene import parse_scene
+    from corr_cad.run.warmup import scene_groups
+
+    base = {
+        "load": {"input_torque": 1.1e5},
+        "export": {"formats": ["montecarlo"]},
+        "tolerances": {"roller_radius": {"uniform": 0.001}},
+    }
+    assert scene_groups(parse_scene(base)) == []
+    gated = parse_scene({**base, "checks": {"max_lost_motion_arcmin": 3.0}})
+    assert scene_groups(gated) == ["Monte Carlo kernel", "datasheet windup kernel"]

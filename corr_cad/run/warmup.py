@@ -134,7 +134,18 @@ def scene_groups(scene) -> list[str]:
         return ["free-play kernel"] + (["drive kernels"] if drive else [])
     if not sampled:
         return []
-    return ["Monte Carlo kernel", "datasheet windup kernel"]
+    from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics
+    from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
+
+    mc = scene.montecarlo
+    if wants_datasheet_metrics(scene):
+        return ["Monte Carlo kernel", "datasheet windup kernel"]
+    if (
+        formats & {"allocation", "modification"}
+        or mc["samples"] * mc["positions"] >= KERNEL_MIN_WORK
+    ):
+        return ["Monte Carlo kernel"]
+    return []  # a small Monte Carlo of the paper's row runs the numpy solver
 
 
 def warm_up(
