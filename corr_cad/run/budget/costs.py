@@ -23,6 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.budget.costs_friction import friction_seconds
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
 from corr_cad.run.budget.costs_montecarlo import (
     DRIVE_FORCE_SECONDS,
@@ -270,7 +271,8 @@ def _datasheet(scene, env):
         + 1.1e-6
         * R
         * (levels * positions + 2 * solved)
-        * (DRIVE_CELLS if scene.solver.drive else 1),
+        * (DRIVE_CELLS if scene.solver.drive else 1)
+        + friction_seconds(scene, positions, R, DRIVE_CELLS),
         knobs=(
             "[datasheet] positions_per_mesh",
             "[datasheet] transmission_error_positions_per_turn",
