@@ -102,3 +102,24 @@ def test_a_small_monte_carlo_of_the_paper_s_row_needs_no_kernel():
     assert scene_groups(parse_scene(base)) == []
     gated = parse_scene({**base, "checks": {"max_lost_motion_arcmin": 3.0}})
     assert scene_groups(gated) == ["Monte Carlo kernel", "datasheet windup kernel"]
+
+
+def test_an_index_older_than_its_source_is_missing(tmp_path, monkeypatch):
+    """numba recompiles a kernel whose source changed after its cache (an upgrade): an
+    index file older than the module counts as missing, a newer one as cached."""
+    import os
+    import re
+
+    from corr_cad.run import warmup
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    source = warmup._MECHANICS / "free_play.py"
+    names = re.findall(r"^@_jit\s*\ndef (\w+)", source.read_text(), re.M)
+    group = [g for g in warmup.GROUPS if g[1] == ("free_play",)]
+    for name in names:
+        (tmp_path / f"free_play.{name}-1.py311.nbi").write_bytes(b"")
+    assert warmup.missing(group) == []
+    stamp = source.stat().st_mtime - 10.0
+    for name in names[:1]:
+        os.utime(tmp_path / f"free_play.{name}-1.py311.nbi", (stamp, stamp))
+    assert warmup.missing(group) == ["free-play kernel"]

@@ -47,11 +47,15 @@ _UNUSED = {"drive_kernel": ("_invert",)}
 
 
 def _cache_dirs(source: Path) -> list[Path]:
-    """Where numba keeps the cache of ``source``: beside it, or under ``NUMBA_CACHE_DIR``."""
+    """Where numba keeps the cache of ``source``: under ``NUMBA_CACHE_DIR``; else beside
+    it, or (an install it cannot write to) under the user's cache folder."""
     env = os.environ.get("NUMBA_CACHE_DIR")
-    if env:
-        return [p for p in Path(env).rglob("*") if p.is_dir()] + [Path(env)]
-    return [source.parent / "__pycache__"]
+    roots = [Path(env)] if env else []
+    if not env:
+        xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        roots.append(Path(xdg) / "numba")
+    dirs = [d for r in roots if r.is_dir() for d in (r, *r.rglob("*")) if d.is_dir()]
+    return dirs if env else [source.parent / "__pycache__", *dirs]
 
 
 def missing(groups=GROUPS) -> list[str]:
