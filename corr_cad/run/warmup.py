@@ -20,6 +20,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from corr_cad.run.progress import heartbeat, load_factor
+
 __all__ = [
     "GROUPS",
     "command",
@@ -134,8 +136,7 @@ def scene_groups(scene) -> list[str]:
     formats = set(scene.formats)
     sampled = bool({"montecarlo", "allocation", "modification"} & formats)
     if scene.solver.drive:
-        drive = sampled or "datasheet" in formats or "datasheet" in scene.source
-        return ["free-play kernel"] + (["drive kernels"] if drive else [])
+        return ["free-play kernel"] + (["drive kernels"] if sampled else [])
     if not sampled:
         return []
     from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics
@@ -155,8 +156,9 @@ def scene_groups(scene) -> list[str]:
 def warm_up(
     groups: list[str] | None = None, say: Callable[[str], None] = print
 ) -> dict[str, tuple[bool, float]]:
-    """Compile (or load) the kernel ``groups`` (all by default) and say so, one line each:
-    ``{group: (compiled, seconds)}``."""
+    """Compile (or load) the kernel ``groups`` (all by default) and say so, one line each
+    and a progress line every 5 s while one compiles (its time left from the estimate at
+    the machine's load): ``{group: (compiled, seconds)}``."""
     names = [g[0] for g in GROUPS] if groups is None else groups
     todo = set(missing())
     out = {}
@@ -166,7 +168,9 @@ def warm_up(
         what = f"compiling, about {about} s on one core" if compiling else "loading from cache"
         say(f"kernels {i}/{len(names)}: {name} ({what})")
         t0 = time.perf_counter()
-        _RUNS[name]()
+        expected = about * load_factor(1)[0] if compiling else None
+        with heartbeat(f"      kernels {i}/{len(names)}", expected):  # a line every 5 s
+            _RUNS[name]()
         out[name] = (compiling, time.perf_counter() - t0)
     return out
 
