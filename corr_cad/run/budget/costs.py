@@ -25,11 +25,7 @@ from dataclasses import dataclass, field
 
 from corr_cad.run.budget.costs_friction import friction_seconds
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
-from corr_cad.run.budget.costs_montecarlo import (
-    DRIVE_FORCE_SECONDS,
-    datasheet_pass,
-    drive_seconds,
-)
+from corr_cad.run.budget.costs_montecarlo import DRIVE_FORCE_SECONDS, datasheet_pass, drive_seconds
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
 
@@ -513,6 +509,8 @@ def _modification_design(scene, env):
     force = md["force_candidates"] * _mc_seconds(
         md["samples"], md["positions"], R, False, env.workers
     )
+    if scene.solver.drive:  # its samples' drive (R counts both rows: a row's cell cost / 2)
+        force *= drive_seconds(scene, DRIVE_FORCE_SECONDS) / 2 / 6e-7  # CELL_SECONDS[False]
     return Cost(
         memory=40 * MB + (200 + 40 + solver_bytes) * cells + 4e3 * candidates,
         seconds=2.0 + candidates * (CANDIDATE_SECONDS[md["family"]] + cells * 1e-6) + force,
