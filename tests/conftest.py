@@ -22,6 +22,21 @@ settings.load_profile("ci")
 signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+def pytest_configure(config):
+    """Compile the numerical kernels numba's cache lacks once, before any test (and,
+    under xdist, before the workers start): the suite pays the first-run compile at most
+    once, never in several workers at the same time."""
+    if hasattr(config, "workerinput"):
+        return  # an xdist worker: the controller warmed them
+    import subprocess
+    import sys
+
+    from corr_cad.run.warmup import missing
+
+    if missing():
+        subprocess.run([sys.executable, "-m", "corr_cad", "warm-up"], check=False)
+
+
 @pytest.fixture(scope="session")
 def prototype() -> GearDesign:
     """The paper's Table 1 design."""

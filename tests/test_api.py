@@ -31,6 +31,7 @@ DOCTEST_MODULES = [
     "corr_cad.tolerance.sweeps",
     "corr_cad.run.scene.schema_json",
     "corr_cad.export.plots",
+    "corr_cad.run.bench.bench_scaling",
     "corr_cad.run.bench.bench_progress",
 ]
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE

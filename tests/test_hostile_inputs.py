@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers import without_progress
 from tests.test_inputs_issue21 import DESIGN, cli  # the z = 8 design, the CLI in s.toml
 
 #: Longest a single run may take before the test calls it a hang.
@@ -161,7 +162,7 @@ def test_a_closed_stdout_does_not_stop_the_run(folder):
     finally:
         os.close(write_end)
     assert r.returncode == 0, r.stderr[-3000:]
-    assert r.stderr == ""
+    assert without_progress(r.stderr) == ""  # a busy machine adds heartbeat lines
     assert (folder / "out" / "manifest.json").is_file()
     assert (folder / "out" / "inner_gear.dxf").is_file()
 

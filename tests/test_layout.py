@@ -46,6 +46,7 @@ RUN_LAYERS = {
     "scene": 1,
     "folder": 1,
     "stages": 2,
+    "warmup": 2,
     "budget": 3,
     "pipeline": 4,
     "bench": 5,

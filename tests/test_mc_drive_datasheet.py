@@ -500,12 +500,11 @@ def test_the_estimate_counts_the_drive_s_datasheet_pass_over_row_b_s_span():
     s_rigid, g_rigid = datasheet_pass(parse_scene({**base, **drive}), 1000, 2)
     s_needles, _ = datasheet_pass(parse_scene({**base, **drive, **bearing}), 1000, 2)
     assert g_paper == 4 and g_rigid == 4 * 26  # a mesh period; row B's tooth pitch
-    per = (s_rigid - 8.0) / (1000 * g_rigid * 26 / 2)
-    assert per == pytest.approx(DRIVE_DATASHEET_SECONDS[False], rel=1e-12)
-    assert s_needles - 8.0 == pytest.approx(
-        (s_rigid - 8.0) * DRIVE_DATASHEET_SECONDS[True] / DRIVE_DATASHEET_SECONDS[False]
-    )
-    assert (s_rigid - 8.0) > 26 * (s_paper - 8.0)
+    per = (s_rigid - 1.0) / (1000 * g_rigid * 26 / 2)
+    law = DRIVE_DATASHEET_SECONDS["nonlinear"]  # the paper's contact law
+    assert per == pytest.approx(law[0], rel=1e-12)
+    assert s_needles - 1.0 == pytest.approx((s_rigid - 1.0) * law[1] / law[0])
+    assert (s_rigid - 1.0) > 26 * (s_paper - 8.0)
 
 
 def test_allocation_on_the_drive_gates_transmission_error():

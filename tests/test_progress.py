@@ -223,3 +223,47 @@ def test_an_estimate_that_has_run_out_is_not_stated_as_zero_left(clock):
     p.update(2)  # past the estimate, two units done: the measured rate
     assert p.time_left() == "15s left"
     p.close()
+
+
+def test_a_stage_says_it_is_past_its_estimate_once(clock):
+    """A stage far past its estimate on a busy machine printed "past the estimate" on
+    every heartbeat (27 such lines in one run); once, then the elapsed time alone."""
+    buf = io.StringIO()
+    with progress.heartbeat("      step", 3.0, stream=buf, interval=5.0):
+        (tick,) = clock.tickers
+        _run_ticks(clock, tick, 30.0, 0.5)
+    lines = buf.getvalue().splitlines()
+    assert len(lines) >= 5
+    assert [ln for ln in lines if "past the estimate" in ln] == [lines[0]]
+    assert lines[1].endswith("s elapsed")
+    assert all(is_progress_line(ln) for ln in lines)
+
+
+@pytest.mark.parametrize(
+    "load,workers,factor", [(0.0, 2, 1.0), (1.0, 1, 1.0), (9.0, 2, 5.5), (3.0, 1, 2.0)]
+)
+def test_the_load_factor_shares_the_cpus_with_the_load(monkeypatch, load, workers, factor):
+    """(load + workers) / CPUs, at least 1: 2 CPUs, a load of 9 and 2 workers: 5.5 times."""
+    import os
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (load, load, load))
+    assert progress.load_factor(workers) == (factor, load, 2)
+
+
+def test_the_estimate_line_says_the_time_at_the_present_load(monkeypatch):
+    import os
+
+    from corr_cad.run.budget.resources import Budget, estimate
+    from corr_cad.run.scene.scene import parse_scene
+
+    scene = parse_scene({"export": {"formats": ["forces"]}, "load": {"input_torque": 1.1e5}})
+    est = estimate(scene, 2, "process")
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    quiet = est.line(Budget())
+    assert "present load" not in quiet
+    monkeypatch.setattr(os, "getloadavg", lambda: (9.0, 9.0, 9.0))
+    busy = est.line(Budget())
+    assert busy.startswith(quiet + " on a quiet machine, ~")
+    assert busy.endswith(" at the present load (load average 9.0 on 2 CPUs)")

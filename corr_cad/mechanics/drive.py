@@ -431,17 +431,17 @@ class DriveSolver:
         ``idx`` with no bearing load: ``sum_k F_k(g_k + n_k . v) n_k = 0``, by Newton with
         backtracking from ``v``, each position until it settles (``DRIVE_RTOL``)."""
         R, geo = self.R, self.geo_joined
-        other, v = np.arange(2 * R) // R != c, np.array(v, dtype=float)
+        sl, v = slice(c * R, (c + 1) * R), np.array(v, dtype=float)
 
-        def residual(at, u):
-            h = gap[at] + np.einsum("pkx,px->pk", n[at], u)
-            h[:, other] = -1e300
+        def residual(at, u):  # the other row's rollers carry nothing: -1e300 of overlap
+            h = np.full((len(at), 2 * R), -1e300)
+            h[:, sl] = gap[at] + np.einsum("pkx,px->pk", n[at], u)
             F, k = _forces_of(comp.take(at), h)
-            return np.einsum("pk,pkx->px", F, n[at]), F, k
+            return np.einsum("pk,pkx->px", F[:, sl], n[at]), F[:, sl], k[:, sl]
 
         comp = self.comp.take(idx)
-        gap = np.where(geo.loadable, geo.gap, -1e300)[idx]
-        n = self.n[idx]
+        gap = np.where(geo.loadable, geo.gap, -1e300)[idx][:, sl]
+        n = self.n[idx][:, sl]
         going = np.arange(len(idx))  # the positions not yet settled
         r, F, k = residual(going, v)
         for _ in range(100):
@@ -455,7 +455,7 @@ class DriveSolver:
             step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
             alpha = np.ones(len(going))
             m0 = np.linalg.norm(r, axis=1)
-            rt, Ft, kt = r.copy(), np.empty((len(going), 2 * R)), np.empty((len(going), 2 * R))
+            rt, Ft, kt = r.copy(), np.empty((len(going), R)), np.empty((len(going), R))
             look = np.arange(len(going))  # those still halving their step
             for _ in range(40):
                 at = going[look]

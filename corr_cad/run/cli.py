@@ -152,6 +152,7 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="write it to this new file instead of printing (refuses to overwrite)",
     )
+    sub.add_parser("warm-up", help="compile the numerical kernels now (once after install)")
     new = sub.add_parser("new", help="write a commented scene template")
     new.add_argument("scene", type=_out_arg, help="file to create (refuses to overwrite)")
     return p
@@ -223,6 +224,9 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     check_disk(est, out)  # the files must fit where they go
     say = (lambda m: None) if args.quiet else (lambda m: print(m, flush=True))
     say(f"corr-cad {__version__}: scene {scene.name!r} -> {out}")
+    from corr_cad.run.warmup import compile_ahead
+
+    compile_ahead(scene, say)  # before any pool worker starts: they load what it compiles
     staging = StagingDir(out, formats=scene.formats)
     state["staging"] = staging
     concurrent = _concurrent_stages(args, scene)
@@ -527,6 +531,10 @@ def _dispatch(args: argparse.Namespace, state: dict) -> int:
         return 0
     if args.command == "schema":
         return _schema(args)
+    if args.command == "warm-up":
+        from corr_cad.run.warmup import command
+
+        return command()
     return _new(args)
 
 

@@ -33,6 +33,7 @@ from typing import TextIO
 __all__ = [
     "set_enabled",
     "enabled",
+    "load_factor",
     "Progress",
     "progress",
     "heartbeat",
@@ -60,6 +61,21 @@ def set_enabled(on: bool) -> None:
 
 def enabled() -> bool:
     return _ENABLED
+
+
+def load_factor(workers: int = 1) -> tuple[float, float, int]:
+    """``(factor, load average, CPUs)``: how many times longer work takes at the machine's
+    present load than on a quiet one. ``workers`` processes of this run share the CPUs
+    with the one-minute load average's runnable processes: ``(load + workers) / CPUs``,
+    at least 1 (1 where the load average is unknown)."""
+    import os
+
+    cpus = os.cpu_count() or 1
+    try:
+        load = os.getloadavg()[0]
+    except (OSError, AttributeError):  # no load average on this platform
+        return 1.0, 0.0, cpus
+    return max(1.0, (load + max(workers, 1)) / cpus), load, cpus
 
 
 def duration(seconds: float) -> str:
@@ -243,6 +259,7 @@ def heartbeat(
         yield
         return
     t0 = time.monotonic()
+    past = [False]  # "past the estimate" said
     with _LOCK:
         _LAST_LINE[0] = max(_LAST_LINE[0], t0)  # the stage's start counts as its first line
 
@@ -260,8 +277,10 @@ def heartbeat(
                 left = ""
             elif elapsed <= expected:
                 left = f", estimated {duration(expected - elapsed)} left"
+            elif not past[0]:  # said once a stage; then the elapsed time alone
+                left, past[0] = f", past the estimate of {duration(expected)}", True
             else:
-                left = f", past the estimate of {duration(expected)}"
+                left = ""
             _emit(stream, f"{desc}: {duration(elapsed)} elapsed{left}")
 
     ticker = _Ticker(interval, tick)

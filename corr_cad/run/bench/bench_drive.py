@@ -8,11 +8,17 @@ never asserted; ``cpu_s``: the median CPU seconds of this process per timed call
 (``time.process_time``), what the shared machine's load cannot inflate. The Monte
 Carlo rows measure the force metrics alone and with the datasheet metrics
 (``datasheet_positions_per_mesh`` 4: 104 grid positions a sample under a roller
-tolerance), in this process and on 2 pool workers, and with the cams fixed.
+tolerance), in this process and on 2 pool workers, and with the cams fixed; the
+fixed cost is the Monte Carlo stage of ``corr-cad run`` with one sample (its
+manifest's seconds: imports, the pool, the nominal pass and the plot; kernels cached). Each law
+on 40 needles 6 x 12 mm without and with a 5 um diametral clearance; every row
+records the one-minute load average at its end (``load_avg``): a row measured on
+a busy machine says so.
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 from pathlib import Path
@@ -35,74 +41,33 @@ def _timed(fn, repeat: int) -> tuple[float, float, float, float]:
     return statistics.median(times), min(times), max(times), statistics.median(cpu)
 
 
-def drive_speed(out: Path, quick: bool = False) -> list:
-    """Wall time of the drive's solve, datasheet and Monte Carlo, per contact law."""
-    from concurrent.futures import ProcessPoolExecutor
+def _load() -> float:
+    """The one-minute load average (0 where the platform has none)."""
+    try:
+        return os.getloadavg()[0]
+    except (OSError, AttributeError):
+        return 0.0
 
+
+def drive_speed(out: Path, quick: bool = False) -> list:
+    """Wall and CPU time of the drive's solve, datasheet and Monte Carlo, per contact law,
+    on needles without and with a 5 um diametral clearance; each row with the load
+    average it met (``load_avg``, the one-minute figure at its end)."""
     from corr_cad.mechanics.bearing import EccentricBearing
-    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
-    from corr_cad.mechanics.drive import solve_drive
-    from corr_cad.tolerance.mc_datasheet import DatasheetMC
-    from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 
     design = GearDesign()
-    needles = EccentricBearing(40, 6.0, 12.0)
-    spec = DatasheetSpec(rated_torque=design.roller_count * M0)
-    tol = {"roller_radius": Distribution("normal", 0.001)}
     repeat = 1 if quick else 3
     samples = 20 if quick else 100
-    many = 4 * samples
     rows = []
     for law in ("nonlinear", "palmgren"):
-        drive = {"errors_b": None, "bearing": needles, "bearing_b": None}
-        t = _timed(
-            lambda law=law: solve_drive(
-                design, M0, positions=3600, bearing=needles, contact_model=law
-            ),
-            repeat,
-        )
-        rows.append([f"3600 positions, bearings, {law}", *t[:3], 0.3, "", "", t[3]])
-        t = _timed(
-            lambda law=law, drive=drive: datasheet(design, spec, contact_model=law, drive=drive),
-            repeat,
-        )
-        rows.append([f"datasheet stage, bearings, {law}", *t[:3], 1.5, "", "", t[3]])
-        mc = {"bearing": needles, "contact_model": law}
-        t = _timed(lambda law=law, mc=mc: monte_carlo(design, M0, tol, samples, 1, 72, drive=mc), 1)
-        # CPU time per sample in this process: what the machine's other load cannot
-        # inflate; two idle cores give about 2 / cpu samples per second.
-        c0 = time.process_time()
-        monte_carlo(design, M0, tol, samples, 1, 72, drive=mc)
-        cpu = (time.process_time() - c0) / samples
-        rows.append(
-            [
-                f"Monte Carlo {samples} samples (72 positions), {law}",
-                *t[:3],
-                "",
-                samples / t[0],
-                2.0 / cpu,
-                cpu * samples,
-            ]
-        )
-        with ProcessPoolExecutor(2) as ex:
-            t = _timed(
-                lambda mc=mc, ex=ex: monte_carlo(
-                    design, M0, tol, many, 1, 72, drive=mc, executor=ex, chunk=many // 2
-                ),
-                repeat,
-            )
-        rows.append(
-            [
-                f"Monte Carlo {many} samples (72 positions), {law}, 2 workers",
-                *t[:3],
-                "",
-                many / t[0],
-                "",
-                "",  # the workers' CPU is not this process's
-            ]
-        )
-        rows.extend(_with_datasheet(design, tol, mc, law, samples, repeat, DatasheetMC(spec)))
-    rows.extend(_with_crank(design, needles, spec, repeat))
+        for clearance in (0.0, 0.005):
+            needles = EccentricBearing(40, 6.0, 12.0, diametral_clearance=clearance)
+            tag = f", {clearance * 1e3:g} um clearance" if clearance else ""
+            rows += _one_drive(design, needles, law, tag, samples, repeat)
+    from corr_cad.mechanics.datasheet import DatasheetSpec
+
+    spec = DatasheetSpec(rated_torque=design.roller_count * M0)
+    rows.extend(_with_crank(design, EccentricBearing(40, 6.0, 12.0), spec, repeat))
     header = [
         "case",
         "median_s",
@@ -112,6 +77,7 @@ def drive_speed(out: Path, quick: bool = False) -> list:
         "samples_per_s",
         "two_idle_cores_per_s",
         "cpu_s",
+        "load_avg",
     ]
     _table("drive model, prototype, one process", header, rows)
     _write_csv(out, "drive_speed.csv", header, rows)
@@ -140,39 +106,114 @@ def _with_crank(design, needles, spec, repeat) -> list:
         ),
         repeat,
     )
-    rows = [["3600 positions, bearings and crank, palmgren", *t[:3], "", "", "", t[3]]]
+    rows = [["3600 positions, bearings and crank, palmgren", *t[:3], "", "", "", t[3], _load()]]
     drive = {"errors_b": None, "bearing": needles, "bearing_b": None, "crank": crank}
     t = _timed(lambda: datasheet(design, spec, contact_model="palmgren", drive=drive), repeat)
-    rows.append(["datasheet stage, bearings and crank, palmgren", *t[:3], "", "", "", t[3]])
+    rows.append(
+        ["datasheet stage, bearings and crank, palmgren", *t[:3], "", "", "", t[3], _load()]
+    )
     return rows
 
 
-def _with_datasheet(design, tol, mc, law, samples, repeat, sheet) -> list:
+def _one_drive(design, needles, law: str, tag: str, samples: int, repeat: int) -> list:
+    """The rows of one contact law and bearing (``tag``: its clearance, "" for none)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.tolerance.mc_datasheet import DatasheetMC
+    from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
+
+    spec = DatasheetSpec(rated_torque=design.roller_count * M0)
+    tol = {"roller_radius": Distribution("normal", 0.001)}
+    many = 4 * samples
+    rows = []
+    drive = {"errors_b": None, "bearing": needles, "bearing_b": None}
+    t = _timed(
+        lambda: solve_drive(design, M0, positions=3600, bearing=needles, contact_model=law),
+        repeat,
+    )
+    rows.append([f"3600 positions, bearings, {law}{tag}", *t[:3], 0.3, "", "", t[3], _load()])
+    t = _timed(lambda: datasheet(design, spec, contact_model=law, drive=drive), repeat)
+    rows.append([f"datasheet stage, bearings, {law}{tag}", *t[:3], 1.5, "", "", t[3], _load()])
+    mc = {"bearing": needles, "contact_model": law}
+    t = [_cli_fixed_cost(law, needles.diametral_clearance) for _ in range(repeat)]
+    name = f"Monte Carlo fixed cost (1 sample, corr-cad run's stage), {law}{tag}"
+    rows.append([name, statistics.median(t), min(t), max(t), 1.0, "", "", "", _load()])
+    t = _timed(lambda: monte_carlo(design, M0, tol, samples, 1, 72, drive=mc), 1)
+    # CPU time per sample in this process: what the machine's other load cannot
+    # inflate; two idle cores give about 2 / cpu samples per second.
+    cpu = t[3] / samples
+    name = f"Monte Carlo {samples} samples (72 positions), {law}{tag}"
+    rows.append([name, *t[:3], "", samples / t[0], 2.0 / cpu, t[3], _load()])
+    with ProcessPoolExecutor(2) as ex:
+        t = _timed(
+            lambda: monte_carlo(
+                design, M0, tol, many, 1, 72, drive=mc, executor=ex, chunk=many // 2
+            ),
+            repeat,
+        )
+    name = f"Monte Carlo {many} samples (72 positions), {law}{tag}, 2 workers"
+    rows.append([name, *t[:3], "", many / t[0], "", "", _load()])
+    rows.extend(_with_datasheet(design, tol, mc, law, tag, samples, repeat, DatasheetMC(spec)))
+    return rows
+
+
+def _cli_fixed_cost(law: str, clearance: float) -> float:
+    """The Monte Carlo stage's seconds (``manifest.json``) of ``corr-cad run`` with one
+    sample of the drive on 40 needles (2 workers, the kernels' cache warm): the fixed
+    cost, imports, pool and plot included."""
+    import json
+    import shutil
+    import subprocess
+    import sys
+    import tempfile
+
+    folder = Path(tempfile.mkdtemp(prefix="corr-cad-bench-"))
+    contact = "palmgren" if law == "palmgren" else "paper"
+    scene = (
+        '[export]\nformats = ["montecarlo"]\n[load]\ninput_torque = 1.1e5\n'
+        f'[solver]\nmodel = "drive"\ncontact_law = "{contact}"\n'
+        "[tolerances]\nroller_radius = { normal = 0.001 }\n[montecarlo]\nsamples = 1\n"
+        "positions = 72\n[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\n"
+        f"needle_length = 12.0\ndiametral_clearance = {clearance!r}\n"
+    )
+    try:
+        (folder / "s.toml").write_text(scene)
+        subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+            cwd=folder,
+            check=True,
+            capture_output=True,
+        )
+        manifest = json.loads((folder / "out" / "manifest.json").read_text())
+        return next(x["seconds"] for x in manifest["stages"] if x["name"] == "montecarlo")
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _with_datasheet(design, tol, mc, law, tag, samples, repeat, sheet) -> list:
     """The Monte Carlo with the datasheet metrics: in this process (its wall rate and 2 / the
-    CPU seconds a sample) and on 2 pool workers."""
+    CPU seconds a sample) and on 2 pool workers; without bearings (``tag`` ""), the cams
+    fixed as well."""
     from concurrent.futures import ProcessPoolExecutor
 
     from corr_cad.tolerance.montecarlo import monte_carlo
 
-    def run(n, **kw):
-        return monte_carlo(design, M0, tol, n, 1, 72, drive=mc, datasheet=sheet, **kw)
+    def run(n, drive=mc, **kw):
+        return monte_carlo(design, M0, tol, n, 1, 72, drive=drive, datasheet=sheet, **kw)
 
     t = _timed(lambda: run(samples), 1)
-    c0 = time.process_time()
-    run(samples)
-    cpu = (time.process_time() - c0) / samples
-    name = f"Monte Carlo + datasheet metrics {samples} samples (72 + 104 positions), {law}"
-    rows = [[name, *t[:3], "", samples / t[0], 2.0 / cpu, cpu * samples]]
+    cpu = t[3] / samples
+    name = f"Monte Carlo + datasheet metrics {samples} samples (72 + 104 positions), {law}{tag}"
+    rows = [[name, *t[:3], "", samples / t[0], 2.0 / cpu, t[3], _load()]]
     many = 2 * samples
     with ProcessPoolExecutor(2) as ex:
         t = _timed(lambda: run(many, executor=ex, chunk=max(1, many // 4)), repeat)
-    rows.append([f"{name}, {many} samples, 2 workers", *t[:3], "", many / t[0], "", ""])
-    fixed = {**mc, "bearing": None}  # the cams fixed: the rigid solve alone
-    t = _timed(
-        lambda: monte_carlo(design, M0, tol, samples, 1, 72, drive=fixed, datasheet=sheet), 1
-    )
-    c0 = time.process_time()
-    monte_carlo(design, M0, tol, samples, 1, 72, drive=fixed, datasheet=sheet)
-    cpu = (time.process_time() - c0) / samples
-    rows.append([f"{name}, cams fixed", *t[:3], "", samples / t[0], 2.0 / cpu, cpu * samples])
+    rows.append([f"{name}, {many} samples, 2 workers", *t[:3], "", many / t[0], "", "", _load()])
+    if not tag:
+        fixed = {**mc, "bearing": None}  # the cams fixed: the rigid solve alone
+        t = _timed(lambda: run(samples, drive=fixed), 1)
+        cpu = t[3] / samples
+        rows.append([f"{name}, cams fixed", *t[:3], "", samples / t[0], 2.0 / cpu, t[3], _load()])
     return rows

@@ -10,7 +10,10 @@ file pages of the process that maps most, at least the main process's own
 peak RSS). ``rss_sum_MB`` is the sum of each process's peak RSS
 (``VmHWM``), shared pages counted in every process. Also the wall time and
 the bytes written, against the estimate the run printed. The memory
-estimate must never be below the measured peak.
+estimate must never be below the measured peak. ``load_avg``: the one-minute
+load average as the run started; ``est_time_at_load_s``: the time estimate
+scaled by the load (:func:`~corr_cad.run.progress.load_factor`, what the run's
+estimate line gives on a busy machine) and its ratio to the measured time.
 """
 
 from __future__ import annotations
@@ -31,6 +34,11 @@ __all__ = ["resources", "GRID", "measure"]
 CAP_BYTES = 10 * 1024**3
 
 _MC = "[load]\ninput_torque = 1.1e5\n[tolerances]\nroller_radius = { normal = 0.001 }\n"
+#: The prototype's drive on 40 needles 6 x 12 mm with a 5 um diametral clearance, Palmgren.
+_DRIVE = (
+    '[solver]\nmodel = "drive"\ncontact_law = "palmgren"\n[bearings.eccentric]\nneedles = 40\n'
+    "needle_diameter = 6.0\nneedle_length = 12.0\ndiametral_clearance = 0.005\n"
+)
 _Z1000 = "[design]\ntooth_count = 1000\neccentricity = 0.05\nroller_radius = 0.3\n"
 
 #: name -> (scene text, extra CLI arguments, in the quick grid?)
@@ -128,6 +136,18 @@ GRID = {
         '[export]\nformats = ["modification"]\n' + _MC + "[modification.design]\n"
         'family = "free"\nequidistant_range_mm = [0.0, 0.03]\ntarget_backlash_arcmin = 3.0\n'
         "steps = 4\nsamples = 10\npositions = 8\n",
+        (),
+        True,
+    ),
+    "drive montecarlo 400 palmgren 5 um": (
+        '[export]\nformats = ["montecarlo"]\n' + _MC + _DRIVE + "[montecarlo]\nsamples = 400\n"
+        "positions = 72\n",
+        (),
+        True,
+    ),
+    "drive montecarlo + datasheet 100 palmgren 5 um": (
+        '[export]\nformats = ["montecarlo"]\n' + _MC + _DRIVE + "[montecarlo]\nsamples = 100\n"
+        "positions = 72\n[checks]\nmax_lost_motion_arcmin = 5.0\n",
         (),
         True,
     ),
@@ -266,6 +286,7 @@ def resources(out: Path, quick: bool = False) -> list:
 
     from corr_cad.export.bench_plots import resources_png
     from corr_cad.run.budget.resources import estimate
+    from corr_cad.run.progress import load_factor
     from corr_cad.run.scene.scene import load_scene
 
     rows = []
@@ -284,6 +305,7 @@ def resources(out: Path, quick: bool = False) -> list:
             serial = "serial" in args
             est = estimate(load_scene(folder / "s.toml"), 1 if serial else None,
                            "serial" if serial else "process")  # fmt: skip
+            factor, load, _ = load_factor(est.workers)  # the machine's load as the run starts
             got = measure(folder, scene, args)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
@@ -301,6 +323,9 @@ def resources(out: Path, quick: bool = False) -> list:
                 got["bytes"] / mb,
                 (est.output_bytes / got["bytes"]) if got["bytes"] else float("nan"),
                 got["peak"] / mb,
+                load,
+                est.seconds * factor,
+                est.seconds * factor / got["seconds"],
             ]
         )
     header = [
@@ -315,6 +340,9 @@ def resources(out: Path, quick: bool = False) -> list:
         "output_MB",
         "output_ratio",
         "rss_sum_MB",
+        "load_avg",
+        "est_time_at_load_s",
+        "time_ratio_at_load",
     ]
     _table("Resource estimate / measured (peak memory of the process tree)", header, rows)
     _write_csv(out, "resources.csv", header, rows)

@@ -8,7 +8,11 @@ rate (samples/s between the two runs), the fixed cost (the stage's time at
 the smaller count less its samples at that rate: pool tasks, numba loading
 the cached kernels in every worker, the nominal solve, the plot), the
 stage's time with one sample (the same fixed cost, measured directly) and the
-parallel efficiency (the rate over ``N`` times the one-worker rate). The
+parallel efficiency (the rate over ``N`` times the one-worker rate). Where no
+machine of many cores is at hand, the fixed cost is the serial fraction of
+Amdahl's law (:func:`amdahl_serial_fraction`, of the larger run on one worker)
+and each row gives the efficiency it predicts at 16 and 64 workers
+(:func:`amdahl_efficiency`), with the load average the row met. The
 peak memory of the larger run is the machine's (``tree`` of
 :func:`~corr_cad.run.bench.bench_resources.measure`), beside the estimate. The
 first run warms the kernels' cache; it is not reported.
@@ -24,7 +28,14 @@ from pathlib import Path
 
 from corr_cad.run.bench.bench_common import _table, _write_csv
 
-__all__ = ["SCENE", "machine_line", "workers_sweep", "default_worker_counts"]
+__all__ = [
+    "SCENE",
+    "amdahl_efficiency",
+    "amdahl_serial_fraction",
+    "default_worker_counts",
+    "machine_line",
+    "workers_sweep",
+]
 
 #: The sweep's scene; ``{samples}`` is filled in.
 SCENE = (
@@ -81,6 +92,28 @@ def _one(samples: int, workers: int) -> tuple[float, dict, float]:
         shutil.rmtree(folder, ignore_errors=True)
 
 
+def amdahl_serial_fraction(fixed: float, samples: int, rate_one: float, workers: int) -> float:
+    """The serial fraction of a run of ``samples`` on one worker: its fixed cost (imports,
+    the nominal pass, the plot, the pool's hand-off: :func:`workers_sweep`'s
+    ``fixed_cost_s``, measured at ``workers``) over the whole time, the samples at
+    ``rate_one`` samples/s (one worker's rate, or this count's scaled to one).
+
+    >>> round(amdahl_serial_fraction(1.0, 1000, 100.0, 2), 4)
+    0.0909
+    """
+    whole = fixed + samples / max(rate_one, 1e-12)
+    return fixed / whole if whole > 0 else 0.0
+
+
+def amdahl_efficiency(serial: float, workers: int) -> float:
+    """Amdahl's parallel efficiency at ``workers``: ``1 / (N f + 1 - f)``.
+
+    >>> round(amdahl_efficiency(0.01, 16), 3), round(amdahl_efficiency(0.01, 64), 3)
+    (0.87, 0.613)
+    """
+    return 1.0 / (workers * serial + 1.0 - serial)
+
+
 def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = None) -> list:
     """Samples/s, parallel efficiency, fixed cost and peak memory per worker count."""
     counts = workers or default_worker_counts()
@@ -96,6 +129,7 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
         rate = (large - small) / max(t_large - t_small, 1e-9)
         base = base or (n, rate)  # efficiency against the first count (1 by default)
         fixed = max(t_small - small / rate, 0.0)
+        serial = amdahl_serial_fraction(fixed, large, base[1] / base[0], n)
         rows.append(
             [
                 machine,
@@ -109,6 +143,10 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
                 got["tree"] / mb,
                 est / mb,
                 est / got["tree"],
+                serial,
+                amdahl_efficiency(serial, 16),
+                amdahl_efficiency(serial, 64),
+                os.getloadavg()[0],
             ]
         )
     header = [
@@ -123,6 +161,10 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
         "peak_MB",
         "est_memory_MB",
         "memory_ratio",
+        "serial_fraction",
+        "amdahl_efficiency_16",
+        "amdahl_efficiency_64",
+        "load_avg",
     ]
     _table(
         "Monte Carlo workers sweep (4 tolerances, datasheet metrics, 36 positions)", header, rows

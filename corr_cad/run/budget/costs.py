@@ -3,14 +3,8 @@
 One estimator per stage of :data:`corr_cad.run.stages.stages.STAGES`, registered
 with :func:`stage_cost`; :func:`corr_cad.run.budget.resources.estimate` adds them up
 along the planned stages. A new stage (a datasheet, a modification study)
-registers its own::
-
-    @stage_cost("datasheet")
-    def _datasheet(scene, env):
-        return Cost(memory=..., seconds=..., output={"datasheet.pdf": ...},
-                    knobs=("[datasheet] pages",))
-
-Every constant below was measured on this project's 2-core machine (peak
+registers its own (``@stage_cost("name")`` on a function of ``(scene, env)`` that
+returns a :class:`Cost`: memory, seconds, output bytes by file, the knobs). Every constant below was measured on this project's 2-core machine (peak
 RSS above the RSS at the stage's start with ``/proc/self/clear_refs``; the
 bytes of the files written; wall time) and rounded up; ``corr-cad bench
 --study resources`` checks the sum against whole runs. Memory is in bytes,
@@ -23,8 +17,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.budget.costs_friction import friction_seconds
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
-from corr_cad.run.budget.costs_montecarlo import datasheet_pass
+from corr_cad.run.budget.costs_montecarlo import DRIVE_FORCE_SECONDS, datasheet_pass, drive_seconds
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
 
@@ -271,7 +266,8 @@ def _datasheet(scene, env):
         * R
         * (levels * positions + 2 * solved)
         * (DRIVE_CELLS if scene.solver.drive else 1)
-        * (CRANK_SOLVES if getattr(scene, "crank", None) is not None else 1),
+        * (CRANK_SOLVES if getattr(scene, "crank", None) is not None else 1)
+        + friction_seconds(scene, positions, R, DRIVE_CELLS),
         knobs=(
             "[datasheet] positions_per_mesh",
             "[datasheet] transmission_error_positions_per_turn",
@@ -424,6 +420,7 @@ def _sample_work(scene, env, samples: int, positions: int, kernel: bool, grid: i
         env.workers,
         env.local_workers,
         env.remote,
+        drive=scene.solver.drive,
     )
 
 
@@ -440,9 +437,12 @@ def _montecarlo(scene, env):
     task = work.pop("task_seconds")
     # The nominal solve and the plots.
     work["memory"] += 240 * pos * R + 40 * MB
+    force = _mc_seconds(n, pos, R, kernel, env.workers)
+    if scene.solver.drive:  # both rows and the cams' bearings, compiled
+        force = n * pos * R * drive_seconds(scene, DRIVE_FORCE_SECONDS) / env.workers
     return Cost(
         keeps=0.0,
-        seconds=1.0 + _mc_seconds(n, pos, R, kernel, env.workers) + 1e-6 * pos * R + sheet_s,
+        seconds=1.0 + force + 1e-6 * pos * R + sheet_s,
         output={"montecarlo.csv": 70 * n, "montecarlo.png": 0.25 * MB},
         knobs=("[montecarlo] samples", "[montecarlo] positions"),
         task_seconds=task,
@@ -460,12 +460,14 @@ def _allocation(scene, env):
     runs = 2 * len(scene.tolerances) * ALLOCATION_EVALUATIONS
     kernel = n * pos * ALLOCATION_EVALUATIONS >= KERNEL_MIN_WORK
     per_run = _mc_seconds(n, pos, R, kernel, env.workers) - (2.0 if kernel else 0.0)
+    if scene.solver.drive:
+        per_run = n * pos * R * drive_seconds(scene, DRIVE_FORCE_SECONDS) / env.workers
     sheet_s, grid = datasheet_pass(scene, n, env.workers)
     work = _sample_work(scene, env, n, pos, kernel, grid)
     work.pop("chunk")
     task = work.pop("task_seconds")
     if sheet_s:
-        per_run += sheet_s - 8.0
+        per_run += sheet_s - (1.0 if scene.solver.drive else 8.0)
     return Cost(
         seconds=0.5
         + runs * (0.02 + per_run)
@@ -508,6 +510,8 @@ def _modification_design(scene, env):
     force = md["force_candidates"] * _mc_seconds(
         md["samples"], md["positions"], R, False, env.workers
     )
+    if scene.solver.drive:  # its samples' drive (R counts both rows: a row's cell cost / 2)
+        force *= drive_seconds(scene, DRIVE_FORCE_SECONDS) / 2 / 6e-7  # CELL_SECONDS[False]
     return Cost(
         memory=40 * MB + (200 + 40 + solver_bytes) * cells + 4e3 * candidates,
         seconds=2.0 + candidates * (CANDIDATE_SECONDS[md["family"]] + cells * 1e-6) + force,

@@ -21,6 +21,10 @@ the 2-core machine, 2 tolerances, 36 positions a sample (``bench_resources``'s
 from __future__ import annotations
 
 __all__ = [
+    "DRIVE_BLOCK_BYTES",
+    "DRIVE_DATASHEET_SECONDS",
+    "DRIVE_FORCE_SECONDS",
+    "drive_seconds",
     "WORKER_ANON_BYTES",
     "NUMBA_WORKER_BYTES",
     "kept_bytes_per_sample",
@@ -35,18 +39,46 @@ WORKER_ANON_BYTES = 55 * MB
 #: What numba and the two compiled kernels (loaded from the cache) add to a
 #: worker's own pages (38 MB measured; its library files, ~90 MB, are shared).
 NUMBA_WORKER_BYTES = 45 * MB
+#: A drive Monte Carlo's block in a worker: the stacked drive solver of
+#: ``BLOCK_POSITIONS`` (1,000) positions of both rows and its Newton's arrays. 473 MB
+#: peak measured for 400 samples x 72 positions on 2 workers (Palmgren, 40 needles, 5 um
+#: clearance) where the estimate without numba (its worker pages and its library files)
+#: gave 353 MB; with them 573 MB, and this.
+DRIVE_BLOCK_BYTES = 10 * MB
 #: Windup torques the datasheet pass solves at most per position.
 DATASHEET_TORQUES = 8
+#: The drive's Monte Carlo, seconds a (sample, position, roller of a row) per contact
+#: model, with the cams fixed, on needles, on needles with a diametral clearance
+#: (:func:`drive_seconds`). Force metrics (each sample's drive solve and its free
+#: interval, a preloaded row's cam centre included): CPU time of 30 prototype samples
+#: of 72 positions under a +-1 um (1 sigma) roller tolerance, 40 needles 6 x 12 mm, 5 um
+#: clearance, load average 10.5-10.9 on 2 cores: 2.58, 4.54, 12.0 ms a sample (paper's
+#: law), 1.80, 2.70, 7.09 ms (Palmgren's).
+DRIVE_FORCE_SECONDS = {
+    "nonlinear": (1.4e-6, 2.4e-6, 6.4e-6),
+    "palmgren": (1.0e-6, 1.4e-6, 3.8e-6),
+}
 #: The drive's datasheet pass (both rows, six windup torques and the zero-moment
 #: preload a grid position, :mod:`corr_cad.tolerance.mc_drive_datasheet`), seconds a
-#: (sample, grid position, roller), without and with eccentric bearings: 7.4 and
-#: 20.6 ms of CPU a prototype sample of 104 positions measured (load average 6.5 on 2
-#: cores), 2.7 and 7.6 us a cell, rounded up.
-DRIVE_DATASHEET_SECONDS = {False: 3e-6, True: 8e-6}
-#: A bearing with a diametral clearance slows the drive's pass: a z = 9 drive with
-#: 30-needle bearings ran its datasheet Monte Carlo at 272 samples/s without and 53-74
-#: with 2 um clearance (2 workers, load average 3-4, the same minute), taken as 5 times.
-DRIVE_CLEARANCE_FACTOR = 5.0
+#: (sample, grid position, roller), in the same three cases: the samples above with
+#: the datasheet metrics (104 grid positions) less their force metrics, 17.9, 27.2,
+#: 59.2 ms a sample (paper's law) and 14.8, 18.1, 23.6 ms (Palmgren's).
+DRIVE_DATASHEET_SECONDS = {
+    "nonlinear": (5.7e-6, 8.4e-6, 17.5e-6),
+    "palmgren": (4.8e-6, 5.7e-6, 6.1e-6),
+}
+
+
+def drive_seconds(scene, table: dict) -> float:
+    """Seconds a cell of the drive's Monte Carlo for the scene's contact law and bearings
+    (``table``: :data:`DRIVE_FORCE_SECONDS` or :data:`DRIVE_DATASHEET_SECONDS`)."""
+    bearings = [b for b in (scene.bearing, scene.bearing_b) if b is not None]
+    case = 0 if not bearings else 1
+    if any(b.diametral_clearance > 0 for b in bearings):
+        case = 2
+    return table[scene.solver.contact_model][case]
+
+
 #: The summary's temporaries per sample, bytes: a metric's ranks and their
 #: argsort (Spearman), a percentile's sorted copy.
 SUMMARY_TEMP_BYTES = 64
@@ -73,13 +105,15 @@ def sample_work(
     workers: int,
     local: int,
     remote: bool,
+    drive: bool = False,
 ) -> dict:
     """Main-process and per-machine worker bytes of ``samples`` samples.
 
     ``width``: standard draws a sample (``draw_width``); ``kinds``:
     tolerances; ``grid``: positions of the datasheet pass (0: none);
     ``workers``: processes the chunks are cut for; ``local``: pool workers on
-    this machine (0: serial or Dask).
+    this machine (0: serial or Dask); ``drive``: the samples solve the drive
+    (compiled, a block of :data:`DRIVE_BLOCK_BYTES`).
     """
     from corr_cad.tolerance.montecarlo import (
         _BLOCK_ROWS,
@@ -92,13 +126,13 @@ def sample_work(
     per = sample_bytes(R, width, grid, DATASHEET_TORQUES if grid else 0)
     seconds = sample_seconds(positions, R, kernel, grid)
     chunk = chunk_size(samples, workers, per, seconds)
-    compiled = kernel or grid > 0
+    compiled = kernel or grid > 0 or drive  # the drive's samples run its compiled solver
     if kernel:
         geometry = 300.0 * positions * R  # the nominal geometry of every position
     else:  # numpy path: blocks of samples x positions x rollers, ~700 bytes a cell
         geometry = 700.0 * min(max(1, _BLOCK_ROWS // max(positions, 1)), chunk) * positions * R
     geometry += 300.0 * grid * R
-    in_worker = geometry + chunk * per
+    in_worker = geometry + chunk * per + (DRIVE_BLOCK_BYTES if drive else 0.0)
     metrics = 4 + (5 if grid else 0)
     columns = 1 + kinds + metrics
     # The main process: the chunks in flight (draws as made and pickled for the
@@ -159,10 +193,7 @@ def datasheet_pass(scene, samples: int, workers: int) -> tuple[float, int]:
         )
     )
     R = scene.design.roller_count
-    per = 1e-6
-    if scene.solver.drive:
-        per = DRIVE_DATASHEET_SECONDS[scene.bearing is not None]
-        bearings = (scene.bearing, scene.bearing_b)
-        if any(b is not None and b.diametral_clearance > 0 for b in bearings):
-            per *= DRIVE_CLEARANCE_FACTOR
-    return 8.0 + samples * grid * R * per / max(workers, 1), grid
+    if scene.solver.drive:  # the drive's kernels load from the cache (compiled ahead)
+        per = drive_seconds(scene, DRIVE_DATASHEET_SECONDS)
+        return 1.0 + samples * grid * R * per / max(workers, 1), grid
+    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), grid

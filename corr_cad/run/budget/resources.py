@@ -164,10 +164,19 @@ class Estimate:
         """``estimate: peak memory ~..., files ~..., time ~...`` for the run's first lines."""
         slow = sorted(self.stages.items(), key=lambda kv: -kv[1].seconds)[:3]
         parts = ", ".join(f"{n} {_duration(c.seconds)}" for n, c in slow if c.seconds >= 1.0)
+        from corr_cad.run.progress import load_factor
+
+        factor, load, cpus = load_factor(self.workers)
+        busy = ""
+        if factor >= 1.25:  # the machine is busy: the time it will take now, said as such
+            busy = (
+                f" on a quiet machine, ~{_duration(self.seconds * factor)} at the present load "
+                f"(load average {load:.1f} on {cpus} CPUs)"
+            )
         return (
             f"estimate: peak memory ~{_mb(self.memory)} (budget {_mb(budget.memory_bytes)}), "
             f"files ~{_mb(self.output_bytes)} (budget {_mb(budget.output_bytes)}), "
-            f"time ~{_duration(self.seconds)}" + (f" ({parts})" if parts else "")
+            f"time ~{_duration(self.seconds)}" + (f" ({parts})" if parts else "") + busy
         )
 
 

@@ -189,7 +189,10 @@ def psi_contact_limit(ctx: RunContext) -> float:
 
 
 def expected_seconds(ctx: RunContext, stage: str) -> float | None:
-    """The resource estimate's time for ``stage`` (None without an estimate)."""
+    """The resource estimate's time for ``stage`` at the machine's present load
+    (:func:`~corr_cad.run.progress.load_factor`; None without an estimate)."""
+    from corr_cad.run.progress import load_factor
+
     est = ctx.estimate
     cost = est.stages.get(stage) if est is not None else None
-    return cost.seconds if cost is not None else None
+    return cost.seconds * load_factor(est.workers)[0] if cost is not None else None

@@ -1,0 +1,202 @@
+"""The compiled kernels: which are not yet in numba's disk cache, and compiling them ahead.
+
+numba compiles a kernel at its first call and keeps the machine code on disk
+(``cache=True``: ``__pycache__`` beside the module, or ``NUMBA_CACHE_DIR``); a
+later process loads it in milliseconds. The first run after an install (or
+after an upgrade, which changes the sources) pays the compile: about a minute
+for all the kernels on one core. :func:`missing` reads the cache's index files
+(no numba import: a run that needs no kernel pays nothing for the check);
+:func:`warm_up` runs each group of kernels once on a tiny problem through the
+code paths the stages use, so that every signature a run needs is compiled and
+cached (``corr-cad warm-up``; a run whose scene uses a group that is missing
+does the same before its stages, with a line that says so).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from corr_cad.run.progress import heartbeat, load_factor
+
+__all__ = [
+    "GROUPS",
+    "command",
+    "compile_ahead",
+    "compile_seconds",
+    "missing",
+    "scene_groups",
+    "warm_up",
+]
+
+_MECHANICS = Path(__file__).resolve().parents[1] / "mechanics"
+
+#: Kernel groups: (name, modules, about how many seconds they take to compile on one
+#: quiet core, what uses them).
+GROUPS = (
+    ("Monte Carlo kernel", ("mc_kernel",), 12, "the paper's row, large Monte Carlos"),
+    ("datasheet windup kernel", ("mc_windup_kernel",), 8, "datasheet metrics in a Monte Carlo"),
+    ("free-play kernel", ("free_play",), 4, "the drive's backlash with a bearing clearance"),
+    ("drive kernels", ("drive_kernel",), 40, "the drive's Monte Carlo, allocation, design"),
+)
+
+_JIT = re.compile(r"^@_jit\s*\ndef (\w+)", re.M)
+#: Kernels no stage calls (a test's alone): never compiled by a run, never missed.
+_UNUSED = {"drive_kernel": ("_invert",)}
+
+
+def _cache_dirs(source: Path) -> list[Path]:
+    """Where numba keeps the cache of ``source``: under ``NUMBA_CACHE_DIR``; else beside
+    it, or (an install it cannot write to) under the user's cache folder."""
+    env = os.environ.get("NUMBA_CACHE_DIR")
+    roots = [Path(env)] if env else []
+    if not env:
+        xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        roots.append(Path(xdg) / "numba")
+    dirs = [d for r in roots if r.is_dir() for d in (r, *r.rglob("*")) if d.is_dir()]
+    return dirs if env else [source.parent / "__pycache__", *dirs]
+
+
+def missing(groups=GROUPS) -> list[str]:
+    """The names of the ``groups`` with a kernel whose cache index is absent or older than
+    its source (numba then compiles it at its first call)."""
+    out = []
+    for name, modules, _, _ in groups:
+        for module in modules:
+            source = _MECHANICS / f"{module}.py"
+            stamp = source.stat().st_mtime
+            dirs = _cache_dirs(source)
+            kernels = set(_JIT.findall(source.read_text())) - set(_UNUSED.get(module, ()))
+            if not all(
+                any(p.stat().st_mtime >= stamp for d in dirs for p in d.glob(f"{module}.{k}-*.nbi"))
+                for k in kernels
+            ):
+                out.append(name)
+                break
+    return out
+
+
+def compile_seconds(names: list[str]) -> int:
+    """About how long compiling the groups ``names`` takes on one quiet core."""
+    return sum(s for name, _, s, _ in GROUPS if name in names)
+
+
+def _paper_kernels(datasheet: bool) -> None:
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.mechanics.datasheet import DatasheetSpec
+    from corr_cad.tolerance.mc_datasheet import DatasheetMC
+    from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
+
+    design = GearDesign()
+    tol = {"roller_radius": Distribution("normal", 0.001)}
+    sheet = DatasheetMC(DatasheetSpec(rated_torque=26 * 1.1e5)) if datasheet else None
+    monte_carlo(design, 1.1e5, tol, 2, 1, 8, kernel=True, datasheet=sheet)
+
+
+def _drive_kernels() -> None:
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.datasheet import DatasheetSpec
+    from corr_cad.tolerance.mc_datasheet import DatasheetMC
+    from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
+
+    design = GearDesign()
+    tol = {"roller_radius": Distribution("normal", 0.001)}
+    sheet = DatasheetMC(DatasheetSpec(rated_torque=26 * 1.1e5), positions_per_mesh=1)
+    for law in ("nonlinear", "palmgren"):
+        for clearance in (0.0, 0.005):
+            bearing = EccentricBearing(40, 6.0, 12.0, diametral_clearance=clearance)
+            drive = {"bearing": bearing, "contact_model": law}
+            monte_carlo(design, 1.1e5, tol, 1, 1, 4, drive=drive, datasheet=sheet)
+
+
+def _free_play() -> None:
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.drive import DriveSolver
+    from corr_cad.mechanics.solver_geometry import cycle_angles
+
+    bearing = EccentricBearing(40, 6.0, 12.0, diametral_clearance=0.005)
+    DriveSolver(GearDesign(), cycle_angles(4), bearing=bearing).free_interval(solve=False)
+
+
+_RUNS = {
+    "Monte Carlo kernel": lambda: _paper_kernels(False),
+    "datasheet windup kernel": lambda: _paper_kernels(True),
+    "free-play kernel": _free_play,
+    "drive kernels": _drive_kernels,
+}
+
+
+def scene_groups(scene) -> list[str]:
+    """The kernel groups a run of ``scene`` calls (a superset: what may run)."""
+    formats = set(scene.formats)
+    sampled = bool({"montecarlo", "allocation", "modification"} & formats)
+    if scene.solver.drive:
+        return ["free-play kernel"] + (["drive kernels"] if sampled else [])
+    if not sampled:
+        return []
+    from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics
+    from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
+
+    mc = scene.montecarlo
+    if wants_datasheet_metrics(scene):
+        return ["Monte Carlo kernel", "datasheet windup kernel"]
+    if (
+        formats & {"allocation", "modification"}
+        or mc["samples"] * mc["positions"] >= KERNEL_MIN_WORK
+    ):
+        return ["Monte Carlo kernel"]
+    return []  # a small Monte Carlo of the paper's row runs the numpy solver
+
+
+def warm_up(
+    groups: list[str] | None = None, say: Callable[[str], None] = print
+) -> dict[str, tuple[bool, float]]:
+    """Compile (or load) the kernel ``groups`` (all by default) and say so, one line each
+    and a progress line every 5 s while one compiles (its time left from the estimate at
+    the machine's load): ``{group: (compiled, seconds)}``."""
+    names = [g[0] for g in GROUPS] if groups is None else groups
+    todo = set(missing())
+    out = {}
+    for i, name in enumerate(names, 1):
+        compiling = name in todo
+        about = compile_seconds([name])
+        what = f"compiling, about {about} s on one core" if compiling else "loading from cache"
+        say(f"kernels {i}/{len(names)}: {name} ({what})")
+        t0 = time.perf_counter()
+        expected = about * load_factor(1)[0] if compiling else None
+        with heartbeat(f"      kernels {i}/{len(names)}", expected):  # a line every 5 s
+            _RUNS[name]()
+        out[name] = (compiling, time.perf_counter() - t0)
+    return out
+
+
+def command() -> int:
+    """``corr-cad warm-up``: every kernel group compiled or loaded, one line each."""
+    done = warm_up(say=lambda m: print(m, flush=True))
+    compiled = [n for n, (c, _) in done.items() if c]
+    seconds = sum(t for _, t in done.values())
+    print(
+        f"kernels ready in {seconds:.0f} s: {len(compiled)} of {len(done)} groups compiled"
+        f"{' (' + ', '.join(compiled) + ')' if compiled else ''}, the rest loaded from cache",
+        flush=True,
+    )
+    return 0
+
+
+def compile_ahead(scene, say: Callable[[str], None]) -> None:
+    """Compile the kernel groups the scene uses that numba's cache lacks, in this process
+    before any pool worker starts (the workers then load them), and say so."""
+    wanted = scene_groups(scene)
+    todo = [g for g in missing() if g in wanted] if wanted else []
+    if not todo:
+        return
+    say(
+        f"compiling the numerical kernels once after install ({', '.join(todo)}): about "
+        f"{compile_seconds(todo)} s on one core; 'corr-cad warm-up' does it ahead"
+    )
+    warm_up(todo, say=lambda m: say(f"      {m}"))

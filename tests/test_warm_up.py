@@ -1,0 +1,125 @@
+"""The first run after install compiles the numerical kernels once; a later run in a
+fresh process compiles nothing (numba's own record: ``NUMBA_DEBUG_CACHE`` prints what
+it saves and loads), and ``corr-cad warm-up`` compiles them ahead."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+DRIVE_MC = """[export]
+formats = ["montecarlo"]
+[load]
+input_torque = 1.1e5
+[solver]
+model = "drive"
+contact_law = "palmgren"
+[tolerances]
+roller_radius = { uniform = 0.002 }
+[montecarlo]
+samples = 4
+positions = 8
+seed = 1
+datasheet_positions_per_mesh = 1
+[checks]
+max_lost_motion_arcmin = 5.0
+[bearings.eccentric]
+needles = 40
+needle_diameter = 6.0
+needle_length = 12.0
+diametral_clearance = 0.005
+"""
+
+
+def _cli(*args, cwd, **env):
+    return subprocess.run(
+        [sys.executable, "-m", "corr_cad", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        env={**os.environ, "PYTHONPATH": str(ROOT), **env},
+    )
+
+
+def test_a_second_run_of_a_drive_monte_carlo_compiles_nothing(tmp_path):
+    first = _cli("warm-up", cwd=tmp_path)  # compiles only what the cache lacks
+    assert first.returncode == 0, first.stderr
+    again = _cli("warm-up", cwd=tmp_path, NUMBA_DEBUG_CACHE="1")
+    assert again.returncode == 0, again.stderr
+    assert "groups compiled, the rest loaded from cache" in again.stdout
+    assert "0 of 4 groups compiled" in again.stdout, again.stdout
+    scene = tmp_path / "drive_mc.toml"
+    scene.write_text(DRIVE_MC)
+    run = _cli("run", str(scene), "--out", "out", cwd=tmp_path, NUMBA_DEBUG_CACHE="1")
+    assert run.returncode == 0, run.stderr
+    record = run.stdout + run.stderr
+    assert "[cache] data loaded" in record  # the kernels ran, from the cache
+    assert "[cache] data saved" not in record  # and none was compiled
+    assert "compiling the numerical kernels" not in record
+
+
+def test_an_empty_cache_lacks_every_group(tmp_path, monkeypatch):
+    """The check reads the cache's index files: an empty ``NUMBA_CACHE_DIR`` has none."""
+    from corr_cad.run.warmup import GROUPS, missing
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    assert missing() == [g[0] for g in GROUPS]
+
+
+def test_which_groups_a_scene_uses():
+    from corr_cad.run.scene.scene import parse_scene
+    from corr_cad.run.warmup import scene_groups
+
+    assert scene_groups(parse_scene({"export": {"formats": ["dxf"]}})) == []
+    load = {"load": {"input_torque": 1.1e5}}
+    drive = parse_scene({**load, "solver": {"model": "drive"}, "export": {"formats": ["forces"]}})
+    assert scene_groups(drive) == ["free-play kernel"]
+    mc = parse_scene(
+        {
+            **load,
+            "solver": {"model": "drive"},
+            "export": {"formats": ["montecarlo"]},
+            "tolerances": {"roller_radius": {"uniform": 0.001}},
+        }
+    )
+    assert scene_groups(mc) == ["free-play kernel", "drive kernels"]
+
+
+def test_a_small_monte_carlo_of_the_paper_s_row_needs_no_kernel():
+    """It runs the numpy solver; with the datasheet metrics both paper kernels."""
+    from corr_cad.run.scene.scene import parse_scene
+    from corr_cad.run.warmup import scene_groups
+
+    base = {
+        "load": {"input_torque": 1.1e5},
+        "export": {"formats": ["montecarlo"]},
+        "tolerances": {"roller_radius": {"uniform": 0.001}},
+    }
+    assert scene_groups(parse_scene(base)) == []
+    gated = parse_scene({**base, "checks": {"max_lost_motion_arcmin": 3.0}})
+    assert scene_groups(gated) == ["Monte Carlo kernel", "datasheet windup kernel"]
+
+
+def test_an_index_older_than_its_source_is_missing(tmp_path, monkeypatch):
+    """numba recompiles a kernel whose source changed after its cache (an upgrade): an
+    index file older than the module counts as missing, a newer one as cached."""
+    import os
+    import re
+
+    from corr_cad.run import warmup
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    source = warmup._MECHANICS / "free_play.py"
+    names = re.findall(r"^@_jit\s*\ndef (\w+)", source.read_text(), re.M)
+    group = [g for g in warmup.GROUPS if g[1] == ("free_play",)]
+    for name in names:
+        (tmp_path / f"free_play.{name}-1.py311.nbi").write_bytes(b"")
+    assert warmup.missing(group) == []
+    stamp = source.stat().st_mtime - 10.0
+    for name in names[:1]:
+        os.utime(tmp_path / f"free_play.{name}-1.py311.nbi", (stamp, stamp))
+    assert warmup.missing(group) == ["free-play kernel"]
