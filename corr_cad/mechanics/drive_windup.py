@@ -56,6 +56,7 @@ class DriveWindup:
         psi_contact_limit: float = math.pi,
         series_rigidity_Nm_per_arcmin: float | None = None,
         rtol: float = _RTOL,
+        bodies=None,
     ):
         if "working_half_only" in variants:
             raise SolverError(
@@ -80,6 +81,7 @@ class DriveWindup:
             psi_contact_limit=psi_contact_limit,
             series_rigidity_Nm_per_arcmin=series_rigidity_Nm_per_arcmin,
             rtol=rtol,
+            bodies=bodies,
         )
         self._ratio = float(design.roller_count)
         step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
@@ -97,6 +99,7 @@ class DriveWindup:
                 variants=variants,
                 psi_contact_limit=psi_contact_limit,
                 rtol=rtol,
+                bodies=bodies,
             )
             self._blocks.append((sl, solver))
         self._cache: dict[float, tuple] = {}

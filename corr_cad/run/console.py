@@ -62,6 +62,12 @@ def drive_lines(f: dict) -> list[str]:
         else str(b)
     )
     sh = f["row_a_share"]
+    bodies = f.get("bodies")
+    if isinstance(bodies, dict):
+        bearing += (
+            f"; ring and frame elastic (FE, {bodies.get('mesh_nodes', {}).get('ring', '?')} + "
+            f"{bodies.get('mesh_nodes', {}).get('frame', '?')} nodes)"
+        )
     out = [
         f"drive model (both rows), contact law {f['contact_law']}, eccentric bearing: {bearing}",
         f"drive: row A share {sh['min']:.4f}-{sh['max']:.4f} (mean {sh['mean']:.4f})",
@@ -237,7 +243,14 @@ def datasheet_lines(d: dict | None) -> list[str]:
             f"  torsional rigidity  {mmm(rig['with_series'])} N*m/arcmin (series "
             f"{figure(rig['series_rigidity_Nm_per_arcmin'])} included)"
         )
-    if d.get("model") == "drive":
+    if d.get("model") == "drive" and isinstance(d.get("bodies"), dict):
+        what = (
+            "the contacts of both rows"
+            + (", the cams' eccentric bearings" if isinstance(d.get("bearing"), dict) else "")
+            + ", the elastic gear rings and frame (FE): crank, its bearings, output bearings "
+            "and housing are not in it"
+        )
+    elif d.get("model") == "drive":
         what = (
             "the contacts of both rows and the cams' eccentric bearings: crank, output "
             "bearings and housing are not in it"

@@ -334,6 +334,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         variants=tuple(sv["variants"]),
         model=sv["model"],
         contact_law=sv["contact_law"],
+        bodies=sv["bodies"],
     )
     drive = drv.parse_drive(values, data, design)
 

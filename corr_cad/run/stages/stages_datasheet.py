@@ -20,6 +20,7 @@ from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD, NMM_PER_NM
 from corr_cad.run.stages.context import (
     RunContext,
+    elastic_bodies,
     modified_curve,
     psi_contact_limit,
     scene_errors,
@@ -324,7 +325,12 @@ def drive_settings(ctx: RunContext) -> dict | None:
     s = ctx.scene
     if not s.solver.drive:
         return None
-    return {"errors_b": datasheet_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+    return {
+        "errors_b": datasheet_errors_b(ctx),
+        "bearing": s.bearing,
+        "bearing_b": s.bearing_b,
+        **elastic_bodies(ctx),
+    }
 
 
 def datasheet_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
@@ -372,7 +378,7 @@ def _meta(ctx: RunContext) -> dict:
         "rated_torque_source": (
             "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"
         ),
-        **_model_meta(s),
+        **_model_meta(s, ctx.results.bodies),
         "variants": list(s.solver.variants),
         "units": {"torque": "N*m", "windup": "arcmin", "transmission_error": "arcsec"},
         "conventions": {
@@ -389,7 +395,7 @@ def _meta(ctx: RunContext) -> dict:
     }
 
 
-def _model_meta(s) -> dict:
+def _model_meta(s, tables=None) -> dict:
     """The model, contact law and bearing as ``datasheet.json`` states them.
 
     The paper's model with its contact law keeps the two keys it always had.
@@ -398,7 +404,7 @@ def _model_meta(s) -> dict:
         return {"load_share": s.solver.load_share, "contact_model": "nonlinear"}
     from corr_cad.run.stages.stages_drive import model_description
 
-    out = model_description(s)
+    out = model_description(s, tables)
     if not s.solver.drive:
         out["load_share"] = s.solver.load_share
         out.pop("bearing", None)
@@ -444,7 +450,7 @@ def _datasheet_files(ctx: RunContext) -> None:
         ctx.files.append("efficiency.png")
         ctx.manifest["datasheet"].update(figs)
     if s.solver.drive or s.solver.contact_law != "paper":
-        ctx.manifest["datasheet"].update(_model_meta(s))
+        ctx.manifest["datasheet"].update(_model_meta(s, ctx.results.bodies))
     _datasheet_html(ctx, {**meta, **ds.figures(), **figs})
     if s.assembly:
         _assembly(ctx)

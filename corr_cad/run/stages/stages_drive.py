@@ -16,7 +16,7 @@ __all__ = ["drive_forces", "drive_force_files", "drive_check_values", "model_des
 ROWS = ("A", "B")
 
 
-def model_description(scene) -> dict:
+def model_description(scene, tables=None) -> dict:
     """The model, the contact law and the bearings as the files state them."""
     sv = scene.solver
     out = {
@@ -26,6 +26,10 @@ def model_description(scene) -> dict:
     }
     if scene.bearing_b is not None and scene.bearing_b != scene.bearing:
         out["bearing_b"] = scene.bearing_b.as_dict()
+    if sv.bodies == "elastic":  # absent under rigid bodies: those files keep their bytes
+        from corr_cad.run.stages.stages_bodies import bodies_description
+
+        out["bodies"] = bodies_description(tables)
     return out
 
 
@@ -118,7 +122,7 @@ def drive_force_files(ctx: RunContext) -> None:
             summary["bearing"] = res.bearings[i].as_dict()
         rows[ROWS[i]] = summary
     summary = {
-        **model_description(s),
+        **model_description(s, ctx.results.bodies),
         "row_a_share": _stats(res.row_a_share),
         "rows": rows,
         "solver": {

@@ -1,0 +1,225 @@
+"""The bodies in the drive's solve: influence matrices and the coupled equilibrium.
+
+At each crank position the bodies add to roller ``k``'s overlap (along its
+cam line, :mod:`corr_cad.mechanics.drive`) the approach
+
+    d_k = sum_j C_kj F_j,
+    C_kj = rho_n,k rho_n,j G_ring(k, j)           (k and j in one row)
+         + |rho_s,k| |rho_s,j| G_frame(k, j) / 4   (/ 2 in one row)
+
+where ``G_ring(k, j)`` is the ring's displacement along roller ``k``'s gear
+normal under a unit gear force of roller ``j`` (both rows' rings are bodies of
+their own) and ``G_frame`` one frame plate's displacement along roller ``k``'s
+slot force under roller ``j``'s: each roller rests on the two plates it runs
+through (its row's outer plate and the middle plate shared by both rows), half
+its slot force on each, and moves by their mean; ``rho_n = F_n / F_j`` and
+``rho_s = F_s / F_j`` turn the gear and slot approaches into the cam line's, as
+the contact law does (the principle of virtual work). Where roller ``k`` is
+not loadable its row and column are zero.
+
+The coupled equilibrium ``h_k = a_k tau + g_k + n_k . u - d_k``, ``d = C F``:
+Newton on ``d``. Each step solves the drive with the gaps ``g - d``
+(:meth:`~corr_cad.mechanics.drive.DriveSolver.solve_contacts`, its own
+solve) and corrects ``d`` with the linearised drive's response
+``dF/dd = -(K - K B J^-1 A^T K)`` (``K`` the rollers' contact stiffnesses,
+``B``, ``A`` the overlaps' and the balances' columns of the crank rotation and
+of each floating cam's centre, ``J = A^T K B`` plus the needles' stiffness):
+exact where no roller changes between loaded and free, so a few steps reach
+round-off.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from corr_cad.geometry.design import GearDesign
+from corr_cad.mechanics.drive_numerics import _forces_of
+from corr_cad.mechanics.solver_geometry import RollerGeometry
+
+__all__ = ["BodyTables", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
+
+#: The body approaches' relative residual ``|d - C F| / max |C F|`` the coupled solve reaches.
+BODIES_RTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class BodyTables:
+    """Influence tables of both bodies (see the module's docstring), mm/N.
+
+    ``ring`` (M, M z): one ring; ``frame`` (Mf, R, 2, Mf): one frame plate
+    (side 0 = ``+``, 1 = ``-``) at ``frame_radii`` (Mf,), mm; ``nodes``: the
+    meshes' node counts (ring, frame); ``mesh_size``: the finest element, mm.
+    """
+
+    ring: np.ndarray
+    frame: np.ndarray
+    frame_radii: np.ndarray
+    nodes: tuple[int, int]
+    mesh_size: float
+
+
+def _ring(T: np.ndarray, xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
+    """The ring's table at grid coordinates ``xa`` (load), ``xb`` (read), bilinear in
+    the load angle and the offset ``xb - xa`` (exact on the offset grid: a roller's own
+    term is read at offset 0)."""
+    M, Mz = T.shape
+    xa = np.mod(xa, Mz)
+    d = np.mod(xb - xa + 0.5 * Mz, Mz) - 0.5 * Mz
+    i0 = np.floor(xa)
+    fi = xa - i0
+    d0 = np.floor(d)
+    fd = d - d0
+    i0, d0 = i0.astype(int), d0.astype(int)
+
+    def g(i, dd):
+        iw = np.mod(i, M)
+        return T[iw, np.mod(iw + dd, Mz)]
+
+    return (
+        (1 - fi) * (1 - fd) * g(i0, d0)
+        + fi * (1 - fd) * g(i0 + 1, d0)
+        + (1 - fi) * fd * g(i0, d0 + 1)
+        + fi * fd * g(i0 + 1, d0 + 1)
+    )
+
+
+def _frame(T, rho, ra, sa, ka, rb, sb, kb):
+    """One frame plate's table for loads at radius ``ra``, side ``sa``, slot ``ka`` read at
+    ``rb``, ``sb``, ``kb`` (arrays of one shape); the mirror gives a ``-`` side's load."""
+    Mf, R = T.shape[0], T.shape[1]
+    m = np.mod(kb - ka, R)
+    flip = sa < 0
+    m = np.where(flip, np.mod(-m, R), m)
+    side = np.where((sb > 0) != flip, 0, 1)
+    step = rho[1] - rho[0]
+    xa = np.clip((ra - rho[0]) / step, 0.0, Mf - 1.0)
+    xb = np.clip((rb - rho[0]) / step, 0.0, Mf - 1.0)
+    d = xb - xa
+    i0 = np.minimum(np.floor(xa), Mf - 2)
+    fi = xa - i0
+    d0 = np.floor(d)
+    fd = d - d0
+    i0, d0 = i0.astype(int), d0.astype(int)
+
+    def g(i, dd):
+        return T[i, m, side, np.clip(i + dd, 0, Mf - 1)]
+
+    return (
+        (1 - fi) * (1 - fd) * g(i0, d0)
+        + fi * (1 - fd) * g(i0 + 1, d0)
+        + (1 - fi) * fd * g(i0, d0 + 1)
+        + fi * fd * g(i0 + 1, d0 + 1)
+    )
+
+
+def influence_matrices(
+    tables: BodyTables,
+    design: GearDesign,
+    crank_angles: np.ndarray,
+    geometry: tuple[RollerGeometry, RollerGeometry],
+) -> np.ndarray:
+    """``C`` (P, 2R, 2R), mm/N: roller ``k``'s body approach per newton of roller ``j``'s
+    cam force (row A's rollers first), at crank angles (P,)."""
+    z, R = design.tooth_count, design.roller_count
+    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
+    theta = np.arange(R) * design.slot_pitch_rad
+    M, Mz = tables.ring.shape
+    step = 2.0 * np.pi / Mz
+    slot = np.concatenate([np.arange(R), np.arange(R)])
+    row = np.repeat([0, 1], R)
+    t = np.concatenate(
+        [(phi[:, None] + c * np.pi) / z + theta[None, :] for c in (0, 1)], axis=1
+    )  # each roller's polar angle on its own ring
+    geo = geometry
+    rn = np.concatenate([np.where(g.loadable, g.rho_n, 0.0) for g in geo], axis=1)
+    rs = np.concatenate([np.where(g.loadable, g.rho_s, 0.0) for g in geo], axis=1)
+    s = np.concatenate([g.s for g in geo], axis=1)
+    x = t / step
+    same = row[:, None] == row[None, :]
+    ring = _ring(tables.ring, x[:, None, :], x[:, :, None])  # [p, k (read), j (load)]
+    C = np.where(same, rn[:, :, None] * rn[:, None, :] * ring, 0.0)
+    sg = np.sign(rs)
+    fr = _frame(
+        tables.frame,
+        tables.frame_radii,
+        s[:, None, :],
+        sg[:, None, :],
+        slot[None, None, :],
+        s[:, :, None],
+        sg[:, :, None],
+        slot[None, :, None],
+    )
+    share = np.where(same, 0.5, 0.25)
+    C += share * np.abs(rs)[:, :, None] * np.abs(rs)[:, None, :] * fr
+    return C
+
+
+def _response(solver, tau, F, u, geo) -> np.ndarray:
+    """``dF/dd`` (P, N, N) of the drive at its solution (module docstring)."""
+    loadable = geo.loadable
+    a_c = np.where(loadable, geo.advance, 0.0)
+    a_m = np.where(loadable, geo.arm, 0.0)
+    h0 = np.where(loadable, geo.gap, -1e300)
+    n, R = solver.n, solver.R
+    P, N = F.shape
+    uu = np.concatenate([np.repeat(u[0][:, None, :], R, 1), np.repeat(u[1][:, None, :], R, 1)], 1)
+    h = a_c * tau[:, None] + h0 + np.sum(n * uu, axis=-1)
+    _, k = _forces_of(solver.comp, h)
+    k = np.where(F > 0, k, 0.0)
+    floating = solver.bearings[0] is not None
+    ncol = 5 if floating else 1
+    B = np.zeros((P, N, ncol))
+    B[:, :, 0] = a_c
+    A = np.zeros((P, N, ncol))
+    A[:, :, 0] = a_m
+    if floating:
+        for c in (0, 1):
+            sl = slice(c * R, (c + 1) * R)
+            B[:, sl, 1 + 2 * c : 3 + 2 * c] = n[:, sl]
+            A[:, sl, 1 + 2 * c : 3 + 2 * c] = n[:, sl]
+    KB = k[:, :, None] * B
+    J = np.einsum("pni,pnj->pij", A, KB)
+    if floating:
+        for c, b in enumerate(solver.bearings):
+            _, kq = b.loads(u[c])
+            e = b.directions()
+            J[:, 1 + 2 * c : 3 + 2 * c, 1 + 2 * c : 3 + 2 * c] += np.einsum(
+                "pj,jx,jy->pxy", kq, e, e
+            )
+    tr = np.trace(J, axis1=1, axis2=2)
+    J += (1e-12 * tr + 1e-300)[:, None, None] * np.eye(ncol)
+    KA = k[:, :, None] * A
+    X = np.linalg.solve(J, np.transpose(KA, (0, 2, 1)))  # (P, ncol, N)
+    return -(k[:, :, None] * np.eye(N) - KB @ X)
+
+
+def coupled_solve(solver, target: float, C: np.ndarray, max_iter: int = 50):
+    """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies' influence
+    ``C`` (P, N, N) (module docstring); ``rel`` includes the body residual."""
+    geo0 = solver.geo_joined
+    P, N = geo0.gap.shape
+    d = np.zeros((P, N))
+    eye = np.eye(N)
+    its = 0
+    body_rel = np.zeros(P)
+    try:
+        for _ in range(max_iter):
+            solver.geo_joined = replace(geo0, gap=geo0.gap - d)
+            tau, F, u, Qs, rel, it = solver.solve_contacts(target)
+            its += it
+            cf = np.einsum("pkj,pj->pk", C, F)
+            r = d - cf
+            body_rel = np.max(np.abs(r), axis=1) / (np.max(np.abs(cf), axis=1) + 1e-300)
+            body_rel = np.where(np.max(np.abs(cf), axis=1) > 0, body_rel, 0.0)
+            todo = body_rel > BODIES_RTOL
+            if not np.any(todo):
+                break
+            S = _response(solver, tau, F, u, solver.geo_joined)
+            Jd = eye - np.einsum("pkj,pjl->pkl", C, S)
+            step = -np.linalg.solve(Jd, r[:, :, None])[:, :, 0]
+            d = d + np.where(todo[:, None], step, 0.0)
+    finally:
+        solver.geo_joined = geo0
+    return tau, F, u, Qs, np.maximum(rel, np.where(body_rel > BODIES_RTOL, body_rel, 0.0)), its
