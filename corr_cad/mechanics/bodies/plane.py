@@ -35,7 +35,9 @@ class PlaneBody:
     each boundary's point indices, outer first), the held loop, E, nu, t.
 
     Every node of ``loops[held]`` is held (zero displacement), and P2's edge
-    nodes on its chords.
+    nodes on its chords. ``held = None``: a free body, its rigid-body modes tied
+    by a spring of ``1e-10`` of the mean diagonal stiffness at every node (for
+    self-equilibrated loads, which it does not feel).
     """
 
     def __init__(
@@ -43,13 +45,12 @@ class PlaneBody:
         points: np.ndarray,
         triangles: np.ndarray,
         loops: list[np.ndarray],
-        held: int,
+        held: int | None,
         young_modulus: float,
         poisson_ratio: float,
         thickness: float,
     ):
         self.region = shapely.Polygon(points[loops[0]], [points[lp] for lp in loops[1:]])
-        held = loops[held]
         self.mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(triangles.T))
         # Three-point quadrature: exact for the P2 stiffness on straight-sided triangles.
         self.basis = Basis(self.mesh, ElementVector(ElementTriP2()), intorder=2)
@@ -58,12 +59,16 @@ class PlaneBody:
         mu = E / (2.0 * (1.0 + nu))
 
         K = _stiffness(self.basis, lam, mu, t)
-        held_set = np.zeros(self.mesh.p.shape[1], dtype=bool)
-        held_set[np.asarray(held)] = True
-        f = self.mesh.facets
-        on = held_set[f[0]] & held_set[f[1]]
-        fixed = self.basis.get_dofs(facets=np.flatnonzero(on)).all()
-        fixed = np.union1d(fixed, self.basis.nodal_dofs[:, held_set].ravel())
+        if held is None:
+            K = K + sp.identity(K.shape[0], format="csc") * (1e-10 * K.diagonal().mean())
+            fixed = np.zeros(0, dtype=int)
+        else:
+            held_set = np.zeros(self.mesh.p.shape[1], dtype=bool)
+            held_set[np.asarray(loops[held])] = True
+            f = self.mesh.facets
+            on = held_set[f[0]] & held_set[f[1]]
+            fixed = self.basis.get_dofs(facets=np.flatnonzero(on)).all()
+            fixed = np.union1d(fixed, self.basis.nodal_dofs[:, held_set].ravel())
         self.free = np.setdiff1d(np.arange(self.basis.N), fixed)
         self.lu = splu(
             K[self.free][:, self.free].tocsc(),
