@@ -60,34 +60,38 @@ class BodyTables:
     mesh_size: float
 
 
+def _bilinear(flat, base, i0, fi, d0, fd, di, dd):
+    """Bilinear interpolation in (load index, offset) of a flattened table: corner
+    ``(i, d)`` at ``flat[base + i * di + d * dd]``."""
+    k = base + i0 * di + d0 * dd
+    return (1 - fi) * ((1 - fd) * flat[k] + fd * flat[k + dd]) + fi * (
+        (1 - fd) * flat[k + di] + fd * flat[k + di + dd]
+    )
+
+
 def _ring(T: np.ndarray, xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
     """The ring's table at grid coordinates ``xa`` (load), ``xb`` (read), bilinear in
     the load angle and the offset ``xb - xa`` (exact on the offset grid: a roller's own
-    term is read at offset 0)."""
+    term is read at offset 0). ``T`` is re-indexed by (load, offset), the load index
+    wrapped once (row ``M`` is row 0 one pitch on) and the offset padded by one."""
     M, Mz = T.shape
-    xa = np.mod(xa, Mz)
     d = np.mod(xb - xa + 0.5 * Mz, Mz) - 0.5 * Mz
-    i0 = np.floor(xa)
-    fi = xa - i0
-    d0 = np.floor(d)
-    fd = d - d0
-    i0, d0 = i0.astype(int), d0.astype(int)
-
-    def g(i, dd):
-        iw = np.mod(i, M)
-        return T[iw, np.mod(iw + dd, Mz)]
-
-    return (
-        (1 - fi) * (1 - fd) * g(i0, d0)
-        + fi * (1 - fd) * g(i0 + 1, d0)
-        + (1 - fi) * fd * g(i0, d0 + 1)
-        + fi * fd * g(i0 + 1, d0 + 1)
-    )
+    xa = np.mod(xa, M)  # the ring's z-fold symmetry: both shifted by whole pitches
+    i0 = np.minimum(np.floor(xa).astype(np.intp), M - 1)
+    d0 = np.floor(d).astype(np.intp)
+    fi, fd = xa - i0, d - d0
+    # By (load i, offset o): U[i, o] = T[i mod M, (i mod M + o) mod Mz], o in [-Mz/2 - 1, Mz/2 + 1].
+    half = Mz // 2 + 2
+    offs = np.arange(-half, half + 1)
+    rows = np.arange(M + 1)
+    U = T[rows[:, None] % M, (rows[:, None] % M + offs[None, :]) % Mz]
+    return _bilinear(U.ravel(), half, i0, fi, d0, fd, U.shape[1], 1)
 
 
 def _frame(T, rho, ra, sa, ka, rb, sb, kb):
     """One frame plate's table for loads at radius ``ra``, side ``sa``, slot ``ka`` read at
-    ``rb``, ``sb``, ``kb`` (arrays of one shape); the mirror gives a ``-`` side's load."""
+    ``rb``, ``sb``, ``kb`` (broadcasting arrays); the mirror gives a ``-`` side's load.
+    Bilinear in the load radius and the offset of the read radius from it."""
     Mf, R = T.shape[0], T.shape[1]
     m = np.mod(kb - ka, R)
     flip = sa < 0
@@ -97,21 +101,14 @@ def _frame(T, rho, ra, sa, ka, rb, sb, kb):
     xa = np.clip((ra - rho[0]) / step, 0.0, Mf - 1.0)
     xb = np.clip((rb - rho[0]) / step, 0.0, Mf - 1.0)
     d = xb - xa
-    i0 = np.minimum(np.floor(xa), Mf - 2)
-    fi = xa - i0
-    d0 = np.floor(d)
-    fd = d - d0
-    i0, d0 = i0.astype(int), d0.astype(int)
-
-    def g(i, dd):
-        return T[i, m, side, np.clip(i + dd, 0, Mf - 1)]
-
-    return (
-        (1 - fi) * (1 - fd) * g(i0, d0)
-        + fi * (1 - fd) * g(i0 + 1, d0)
-        + (1 - fi) * fd * g(i0, d0 + 1)
-        + fi * fd * g(i0 + 1, d0 + 1)
-    )
+    i0 = np.minimum(np.floor(xa), Mf - 2).astype(np.intp)
+    d0 = np.floor(d).astype(np.intp)
+    fi, fd = xa - i0, d - d0
+    # The read radius padded by one each side (i0 + d0 + 1 lies in [0, Mf]).
+    Tp = np.concatenate([T[..., :1], T, T[..., -1:]], axis=-1)  # (Mf, R, 2, Mf + 2)
+    W = Mf + 2
+    base = (m * 2 + side) * W + 1 + i0 * (R * 2 * W) + i0
+    return _bilinear(Tp.ravel(), base, 0, fi, d0, fd, R * 2 * W + 1, 1)
 
 
 def influence_matrices(
@@ -119,9 +116,12 @@ def influence_matrices(
     design: GearDesign,
     crank_angles: np.ndarray,
     geometry: tuple[RollerGeometry, RollerGeometry],
+    compiled: bool = True,
 ) -> np.ndarray:
     """``C`` (P, 2R, 2R), mm/N: roller ``k``'s body approach per newton of roller ``j``'s
-    cam force (row A's rollers first), at crank angles (P,)."""
+    cam force (row A's rollers first), at crank angles (P,). ``compiled``: by the
+    compiled loop (:mod:`~corr_cad.mechanics.bodies.coupling_kernel`), else by numpy
+    (the same interpolation; the tests hold them equal)."""
     z, R = design.tooth_count, design.roller_count
     phi = np.asarray(crank_angles, dtype=float).reshape(-1)
     theta = np.arange(R) * design.slot_pitch_rad
@@ -137,9 +137,27 @@ def influence_matrices(
     rs = np.concatenate([np.where(g.loadable, g.rho_s, 0.0) for g in geo], axis=1)
     s = np.concatenate([g.s for g in geo], axis=1)
     x = t / step
+    if compiled:
+        from corr_cad.mechanics.bodies.coupling_kernel import influence_kernel
+
+        C = np.empty((len(phi), 2 * R, 2 * R))
+        influence_kernel(
+            np.ascontiguousarray(tables.ring),
+            np.ascontiguousarray(tables.frame),
+            float(tables.frame_radii[0]),
+            float(tables.frame_radii[1] - tables.frame_radii[0]),
+            x,
+            rn,
+            rs,
+            np.ascontiguousarray(s),
+            C,
+        )
+        return C
     same = row[:, None] == row[None, :]
-    ring = _ring(tables.ring, x[:, None, :], x[:, :, None])  # [p, k (read), j (load)]
-    C = np.where(same, rn[:, :, None] * rn[:, None, :] * ring, 0.0)
+    C = np.zeros((len(phi), 2 * R, 2 * R))
+    for sl in (slice(0, R), slice(R, 2 * R)):  # each row's own ring: [p, k (read), j (load)]
+        ring = _ring(tables.ring, x[:, None, sl], x[:, sl, None])
+        C[:, sl, sl] = rn[:, sl, None] * rn[:, None, sl] * ring
     sg = np.sign(rs)
     fr = _frame(
         tables.frame,
@@ -209,7 +227,7 @@ def coupled_solve(solver, target: float, C: np.ndarray, max_iter: int = 50):
             solver.geo_joined = replace(geo0, gap=geo0.gap - d)
             tau, F, u, Qs, rel, it = solver.solve_contacts(target)
             its += it
-            cf = np.einsum("pkj,pj->pk", C, F)
+            cf = (C @ F[:, :, None])[:, :, 0]
             r = d - cf
             body_rel = np.max(np.abs(r), axis=1) / (np.max(np.abs(cf), axis=1) + 1e-300)
             body_rel = np.where(np.max(np.abs(cf), axis=1) > 0, body_rel, 0.0)
@@ -217,7 +235,7 @@ def coupled_solve(solver, target: float, C: np.ndarray, max_iter: int = 50):
             if not np.any(todo):
                 break
             S = _response(solver, tau, F, u, solver.geo_joined)
-            Jd = eye - np.einsum("pkj,pjl->pkl", C, S)
+            Jd = eye - C @ S
             step = -np.linalg.solve(Jd, r[:, :, None])[:, :, 0]
             d = d + np.where(todo[:, None], step, 0.0)
     finally:
