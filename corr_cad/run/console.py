@@ -65,8 +65,9 @@ def drive_lines(f: dict) -> list[str]:
     bodies = f.get("bodies")
     if isinstance(bodies, dict):
         bearing += (
-            f"; ring and frame elastic (FE, {bodies.get('mesh_nodes', {}).get('ring', '?')} + "
-            f"{bodies.get('mesh_nodes', {}).get('frame', '?')} nodes)"
+            "; ring, frame and cams elastic (FE, "
+            + " + ".join(str(v) for v in bodies.get("mesh_nodes", {}).values())
+            + " nodes)"
         )
     out = [
         f"drive model (both rows), contact law {f['contact_law']}, eccentric bearing: {bearing}",
@@ -247,8 +248,8 @@ def datasheet_lines(d: dict | None) -> list[str]:
         what = (
             "the contacts of both rows"
             + (", the cams' eccentric bearings" if isinstance(d.get("bearing"), dict) else "")
-            + ", the elastic gear rings and frame (FE): crank, its bearings, output bearings "
-            "and housing are not in it"
+            + ", the elastic gear rings, frame and cams (FE): crank, its bearings, output "
+            "bearings and housing are not in it"
         )
     elif d.get("model") == "drive":
         what = (

@@ -4,8 +4,8 @@ At each crank position the bodies add to roller ``k``'s overlap (along its
 cam line, :mod:`corr_cad.mechanics.drive`) the approach
 
     d_k = sum_j C_kj F_j,
-    C_kj = rho_n,k rho_n,j G_ring(k, j)           (k and j in one row)
-         + |rho_s,k| |rho_s,j| G_frame(k, j) / 4   (/ 2 in one row)
+    C_kj = rho_n,k rho_n,j G_ring(k, j) + G_cam(k, j)   (k and j in one row)
+         + |rho_s,k| |rho_s,j| G_frame(k, j) / 4         (/ 2 in one row)
 
 where ``G_ring(k, j)`` is the ring's displacement along roller ``k``'s gear
 normal under a unit gear force of roller ``j`` (both rows' rings are bodies of
@@ -14,8 +14,10 @@ slot force under roller ``j``'s: each roller rests on the two plates it runs
 through (its row's outer plate and the middle plate shared by both rows), half
 its slot force on each, and moves by their mean; ``rho_n = F_n / F_j`` and
 ``rho_s = F_s / F_j`` turn the gear and slot approaches into the cam line's, as
-the contact law does (the principle of virtual work). Where roller ``k`` is
-not loadable its row and column are zero.
+the contact law does (the principle of virtual work); ``G_cam(k, j)`` is the
+cam's approach along roller ``k``'s cam line under roller ``j``'s cam force (an
+annulus: a function of the angle between them). Where roller ``k`` is not
+loadable its row and column are zero.
 
 The coupled equilibrium ``h_k = a_k tau + g_k + n_k . u - d_k``, ``d = C F``:
 Newton on ``d``. Each step solves the drive with the gaps ``g - d``
@@ -35,7 +37,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from corr_cad.geometry.design import GearDesign
-from corr_cad.mechanics.drive_numerics import _forces_of
+from corr_cad.mechanics.drive_numerics import _forces_of, roller_directions
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 
 __all__ = ["BodyTables", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
@@ -50,14 +52,17 @@ class BodyTables:
 
     ``ring`` (M, M z): one ring; ``frame`` (Mf, R, 2, Mf): one frame plate
     (side 0 = ``+``, 1 = ``-``) at ``frame_radii`` (Mf,), mm; ``nodes``: the
-    meshes' node counts (ring, frame); ``mesh_size``: the finest element, mm.
+    meshes' node counts (ring, frame, cam); ``mesh_size``: the finest element,
+    mm; ``cam`` (Mc,): one cam, the approach at angle ``2 pi m / Mc`` from a unit
+    load (None: the cams rigid).
     """
 
     ring: np.ndarray
     frame: np.ndarray
     frame_radii: np.ndarray
-    nodes: tuple[int, int]
+    nodes: tuple[int, ...]
     mesh_size: float
+    cam: np.ndarray | None = None
 
 
 def _bilinear(flat, base, i0, fi, d0, fd, di, dd):
@@ -137,6 +142,11 @@ def influence_matrices(
     rs = np.concatenate([np.where(g.loadable, g.rho_s, 0.0) for g in geo], axis=1)
     s = np.concatenate([g.s for g in geo], axis=1)
     x = t / step
+    # Each roller's direction from its cam's centre, as an index of the cam's table.
+    n = np.concatenate([roller_directions(design, g) for g in geo], axis=1)
+    cam = np.zeros(1) if tables.cam is None else np.ascontiguousarray(tables.cam)
+    xc = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi) * (len(cam) / (2 * np.pi))
+    on = np.concatenate([g.loadable for g in geo], axis=1) & (tables.cam is not None)
     if compiled:
         from corr_cad.mechanics.bodies.coupling_kernel import influence_kernel
 
@@ -150,6 +160,9 @@ def influence_matrices(
             rn,
             rs,
             np.ascontiguousarray(s),
+            cam,
+            xc,
+            on,
             C,
         )
         return C
@@ -171,6 +184,13 @@ def influence_matrices(
     )
     share = np.where(same, 0.5, 0.25)
     C += share * np.abs(rs)[:, :, None] * np.abs(rs)[:, None, :] * fr
+    if tables.cam is not None:  # each row's own cam, by the angle between the contacts
+        Mc = len(cam)
+        dc = np.mod(xc[:, :, None] - xc[:, None, :], Mc)
+        i0 = np.floor(dc).astype(np.intp)
+        f = dc - i0
+        G = (1 - f) * cam[i0 % Mc] + f * cam[(i0 + 1) % Mc]
+        C += np.where(same & on[:, :, None] & on[:, None, :], G, 0.0)
     return C
 
 

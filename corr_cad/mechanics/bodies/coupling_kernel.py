@@ -60,10 +60,12 @@ def _frame_at(T, rho0, step, ra, sa, ka, rb, sb, kb):
 
 
 @_jit
-def influence_kernel(ring, frame, rho0, step, x, rn, rs, s, C):
+def influence_kernel(ring, frame, rho0, step, x, rn, rs, s, cam, xc, on, C):
     """Fill ``C`` (P, 2R, 2R): ``x`` (P, 2R) each roller's ring coordinate, ``rn``,
     ``rs`` (P, 2R) its gear and slot force ratios (0 where not loadable), ``s`` its
-    centre's radius, mm."""
+    centre's radius, mm; ``cam`` (Mc,) the cam's table by angle, ``xc`` each roller's
+    direction from its cam's centre as its index, ``on`` where the cam term counts."""
+    Mc = cam.shape[0]
     P, N = x.shape
     R = N // 2
     for p in range(P):
@@ -79,4 +81,10 @@ def influence_kernel(ring, frame, rho0, step, x, rn, rs, s, C):
                     sk = 1.0 if rs[p, k] > 0.0 else -1.0
                     f = _frame_at(frame, rho0, step, s[p, j], sj, j % R, s[p, k], sk, k % R)
                     v += share * abs(rs[p, k]) * abs(rs[p, j]) * f
+                if same and on[p, k] and on[p, j]:
+                    dc = xc[p, k] - xc[p, j]
+                    dc -= Mc * math.floor(dc / Mc)
+                    i0 = int(math.floor(dc))
+                    fc = dc - i0
+                    v += (1.0 - fc) * cam[i0 % Mc] + fc * cam[(i0 + 1) % Mc]
                 C[p, k, j] = v

@@ -111,6 +111,9 @@ def mesh_region(
     a, b, c = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
     cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     tri = np.where((cross < 0)[:, None], tri[:, [0, 2, 1]], tri)
+    # Boundary points on one straight chord of the outline are collinear: the hull's
+    # zero-area triangles among them are no part of the region.
+    tri = tri[np.abs(cross) > 1e-9 * h0 * h0]
     # Every boundary chord must be an edge of exactly one triangle.
     edges = np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
     uniq, counts = np.unique(edges, axis=0, return_counts=True)

@@ -1,4 +1,4 @@
-"""The gear ring and the slotted frame reduced to influence tables (once per design).
+"""The gear ring, the slotted frame and the cams reduced to influence tables (once per design).
 
 Each body is a plane-stress finite-element model
 (:class:`~corr_cad.mechanics.bodies.plane.PlaneBody`) of the outline the tool
@@ -23,8 +23,11 @@ material:
 
 A load is Hertz's pressure over ``+-b`` of the boundary; each displacement is
 read ``depth`` below the surface along the force (the contact law covers the
-indentation above it). The cams stay rigid (their compliance, a thick disk
-under the rollers' loads, is stated in the manual).
+indentation above it).
+
+* **Each cam** (thickness: the face width), an annulus of the drawn outer and
+  bore radii about its own centre (the cam on its eccentric), held at its
+  bore: one load, read all round (the table by the angle from the load).
 """
 
 from __future__ import annotations
@@ -189,6 +192,37 @@ def frame_table(
     return C.T.reshape(Mf, R, 2, Mf), rho, body
 
 
+def cam_table(design: GearDesign, cam: PartOutline, spec: MeshSpec) -> tuple[np.ndarray, int]:
+    """``(table (Mc,), nodes)`` of one cam: the approach at angle ``2 pi m / Mc`` from a
+    unit load at angle 0. The cam on its eccentric: an annulus of the drawn radii, its
+    bore about its own centre and held there (the drawn cam's bore, offset by ``e`` on
+    the crank, changes its own term by about 2 %: the manual)."""
+    r, Rj = design.roller_radius, design.cam_radius
+    fine, coarse = spec.fine * r, spec.coarse * r
+    bore = design.cam_bore_radius
+    n_b = max(64, int(np.ceil(2 * np.pi * bore / coarse)))
+    a = 2 * np.pi * np.arange(n_b) / n_b
+    hole = np.stack([bore * np.sin(a), bore * np.cos(a)], axis=1)  # clockwise
+    tree = cKDTree(_densify(cam.outer, 0.25 * fine))
+    h = _size(tree, fine, spec.grade, coarse)
+    pts, tri, loops = mesh_region(cam.outer, [hole], h, fine)
+    E, nu = design.material.young_modulus, design.material.poisson_ratio
+    body = PlaneBody(pts, tri, loops, 1, E, nu, cam.thickness)
+    Mc = int(np.ceil(2 * np.pi * Rj / (spec.spacing * r)))
+    ang = 2 * np.pi * np.arange(Mc) / Mc
+    u = kin.unit_radial(ang)  # the roller's direction from the cam's centre
+    patch = Rj * u[:1]
+    C = body.influence(
+        patch,
+        -u[:1],
+        kin.unit_tangential(ang[:1]),
+        spec.half_width * r,
+        (Rj - spec.depth * r) * u,
+        -u,
+    )
+    return C[:, 0], int(body.mesh.p.shape[1])
+
+
 def reduce_bodies(
     design: GearDesign, outlines: dict[str, PartOutline], spec: MeshSpec | None = None
 ) -> BodyTables:
@@ -196,10 +230,12 @@ def reduce_bodies(
     spec = spec or MeshSpec()
     ring, rbody = ring_table(design, outlines["ring"], spec)
     frame, rho, fbody = frame_table(design, outlines["frame"], spec)
+    cam, cam_nodes = cam_table(design, outlines["cam"], spec)
     return BodyTables(
         ring=ring,
         frame=frame,
         frame_radii=rho,
-        nodes=(int(rbody.mesh.p.shape[1]), int(fbody.mesh.p.shape[1])),
+        nodes=(int(rbody.mesh.p.shape[1]), int(fbody.mesh.p.shape[1]), cam_nodes),
         mesh_size=spec.fine * design.roller_radius,
+        cam=cam,
     )

@@ -25,7 +25,7 @@ from corr_cad.mechanics.bodies.reduction import BodyTables, MeshSpec, reduce_bod
 __all__ = ["cache_dir", "body_key", "cached_tables", "body_tables", "bodies_description"]
 
 #: Bumped whenever the tables' meaning or the FE model changes (a new key for every design).
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 
 
 def cache_dir() -> Path:
@@ -52,7 +52,7 @@ def body_key(design, outlines: dict, spec: MeshSpec) -> str:
         "spec": [spec.fine, spec.grade, spec.coarse, spec.half_width, spec.depth, spec.spacing],
     }
     h.update(json.dumps(meta, sort_keys=True).encode())
-    for name in ("ring", "frame"):
+    for name in ("ring", "frame", "cam"):
         o = outlines[name]
         h.update(name.encode())
         h.update(np.float64(o.thickness).tobytes())
@@ -68,8 +68,9 @@ def _read(path: Path) -> BodyTables | None:
                 ring=f["ring"],
                 frame=f["frame"],
                 frame_radii=f["frame_radii"],
-                nodes=(int(f["nodes"][0]), int(f["nodes"][1])),
+                nodes=tuple(int(n) for n in f["nodes"]),
                 mesh_size=float(f["mesh_size"]),
+                cam=f["cam"],
             )
     except (OSError, KeyError, ValueError, IndexError):
         return None
@@ -87,6 +88,7 @@ def _write(path: Path, t: BodyTables) -> None:
             frame_radii=t.frame_radii,
             nodes=np.array(t.nodes),
             mesh_size=np.array(t.mesh_size),
+            cam=t.cam,
         )
         os.replace(tmp, path)
     except OSError:
@@ -128,7 +130,8 @@ def bodies_description(tables: BodyTables | None = None) -> dict:
         "round (pressed into a rigid housing bore)",
         "frame": "the frame plates as drawn, each held on its inner rim (the output flange); "
         "a roller rests half its slot force on each of the two plates it runs through",
-        "cams": "rigid",
+        "cams": "each cam an annulus of the drawn radii about its own centre (as on its "
+        "eccentric), held at its bore",
         "read_depth": "each body's approach read 3 r / 8 below the contact (the contact law "
         "holds the indentation above it)",
         "in_figure": [
@@ -136,16 +139,11 @@ def bodies_description(tables: BodyTables | None = None) -> dict:
             "eccentric bearings where given",
             "gear ring body",
             "frame body",
+            "cam body",
         ],
-        "not_in_figure": [
-            "crankshaft",
-            "support bearings",
-            "output bearings",
-            "housing",
-            "cams' own compliance",
-        ],
+        "not_in_figure": ["crankshaft", "support bearings", "output bearings", "housing"],
     }
     if tables is not None:
         out["mesh_size_mm"] = tables.mesh_size
-        out["mesh_nodes"] = {"ring": tables.nodes[0], "frame": tables.nodes[1]}
+        out["mesh_nodes"] = dict(zip(("ring", "frame", "cam"), tables.nodes, strict=False))
     return out
