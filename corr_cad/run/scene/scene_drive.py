@@ -172,7 +172,7 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
         raise SceneError(
             f"[export] formats lists {rigid_only[0]!r}, which solves the drive with rigid "
             '[solver] bodies only; remove it or set bodies = "rigid" (the elastic bodies reach '
-            "forces, datasheet and inspection)"
+            "forces and datasheet)"
         )
     if "modification" in formats and not solver.drive:
         raise SceneError(
