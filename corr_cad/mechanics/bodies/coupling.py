@@ -32,7 +32,7 @@ round-off.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -195,7 +195,9 @@ def influence_matrices(
 
 
 def _response(solver, tau, F, u, geo) -> np.ndarray:
-    """``dF/dd`` (P, N, N) of the drive at its solution (module docstring)."""
+    """``dF/dd`` of the drive at its solution (module docstring) as ``(k (P, N),
+    K B (P, N, m), X (P, m, N))``: ``dF/dd = -(diag(k) - K B X)``, ``m`` = 1 (cams
+    fixed) or 5 (the crank and both cams' centres)."""
     loadable = geo.loadable
     a_c = np.where(loadable, geo.advance, 0.0)
     a_m = np.where(loadable, geo.arm, 0.0)
@@ -230,34 +232,65 @@ def _response(solver, tau, F, u, geo) -> np.ndarray:
     J += (1e-12 * tr + 1e-300)[:, None, None] * np.eye(ncol)
     KA = k[:, :, None] * A
     X = np.linalg.solve(J, np.transpose(KA, (0, 2, 1)))  # (P, ncol, N)
-    return -(k[:, :, None] * np.eye(N) - KB @ X)
+    return k, KB, X  # dF/dd = -(diag(k) - KB X): a diagonal less a rank-ncol term
+
+
+def _take(geo: RollerGeometry, idx: np.ndarray) -> RollerGeometry:
+    """The positions ``idx`` of a roller geometry."""
+    return replace(
+        geo,
+        **{
+            f.name: getattr(geo, f.name)[idx]
+            for f in fields(geo)
+            if isinstance(getattr(geo, f.name), np.ndarray) and getattr(geo, f.name).ndim == 2
+        },
+    )
 
 
 def coupled_solve(solver, target: float, C: np.ndarray, max_iter: int = 50):
     """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies' influence
-    ``C`` (P, N, N) (module docstring); ``rel`` includes the body residual."""
-    geo0 = solver.geo_joined
+    ``C`` (P, N, N) (module docstring); ``rel`` includes the body residual. Each Newton
+    step solves again only the positions not yet converged."""
+    geo0, comp0, n0 = solver.geo_joined, solver.comp, solver.n
     P, N = geo0.gap.shape
     d = np.zeros((P, N))
     eye = np.eye(N)
     its = 0
     body_rel = np.zeros(P)
+    out = None
+    idx = np.arange(P)
     try:
         for _ in range(max_iter):
-            solver.geo_joined = replace(geo0, gap=geo0.gap - d)
+            sub = idx.size < P
+            solver.geo_joined = replace(_take(geo0, idx) if sub else geo0, gap=(geo0.gap - d)[idx])
+            solver.comp = comp0.take(idx) if sub else comp0
+            solver.n = n0[idx]
             tau, F, u, Qs, rel, it = solver.solve_contacts(target)
             its += it
-            cf = (C @ F[:, :, None])[:, :, 0]
-            r = d - cf
-            body_rel = np.max(np.abs(r), axis=1) / (np.max(np.abs(cf), axis=1) + 1e-300)
-            body_rel = np.where(np.max(np.abs(cf), axis=1) > 0, body_rel, 0.0)
-            todo = body_rel > BODIES_RTOL
+            if out is None:
+                out = [tau, F, u, Qs, rel]
+            else:
+                out[0][idx], out[1][idx], out[2][:, idx], out[4][idx] = tau, F, u, rel
+                if Qs is not None:
+                    for c in (0, 1):
+                        out[3][c][idx] = Qs[c]
+            Ci = C[idx] if idx.size < P else C
+            cf = (Ci @ F[:, :, None])[:, :, 0]
+            r = d[idx] - cf
+            top = np.max(np.abs(cf), axis=1)
+            rel_i = np.where(top > 0, np.max(np.abs(r), axis=1) / (top + 1e-300), 0.0)
+            body_rel[idx] = rel_i
+            todo = rel_i > BODIES_RTOL
             if not np.any(todo):
                 break
-            S = _response(solver, tau, F, u, solver.geo_joined)
-            Jd = eye - C @ S
-            step = -np.linalg.solve(Jd, r[:, :, None])[:, :, 0]
-            d = d + np.where(todo[:, None], step, 0.0)
+            k, KB, X = _response(solver, tau, F, u, solver.geo_joined)
+            t = np.flatnonzero(todo)
+            Ct = Ci[t]
+            # I - C dF/dd = I + C diag(k) - (C K B) X: no N^3 product.
+            Jd = eye + Ct * k[t, None, :] - (Ct @ KB[t]) @ X[t]
+            d[idx[t]] -= np.linalg.solve(Jd, r[t, :, None])[:, :, 0]
+            idx = idx[t]
     finally:
-        solver.geo_joined = geo0
+        solver.geo_joined, solver.comp, solver.n = geo0, comp0, n0
+    tau, F, u, Qs, rel = out
     return tau, F, u, Qs, np.maximum(rel, np.where(body_rel > BODIES_RTOL, body_rel, 0.0)), its
