@@ -293,6 +293,8 @@ def _cli(tmp_path, name, cache, **kw):
 
 @pytest.mark.slow
 def test_cli_elastic_drive_states_its_bodies_and_caches_outside_the_output(tmp_path):
+    import json
+
     cache = tmp_path / "cache"
     r, ds = _cli(tmp_path, "el", cache)
     assert r.returncode == 0, r.stderr
@@ -302,6 +304,9 @@ def test_cli_elastic_drive_states_its_bodies_and_caches_outside_the_output(tmp_p
     assert {"gear ring body", "frame body", "cam body"} <= set(b["in_figure"])
     assert "crankshaft" in b["not_in_figure"]
     assert b["mesh_size_mm"] == pytest.approx(0.5)  # r / 8
+    fs = json.loads((tmp_path / "el" / "forces_summary.json").read_text())
+    assert fs["bodies"] == b  # the same statement in both files
+    assert "Elastic bodies" in (tmp_path / "el" / "datasheet.html").read_text()
     cached = list((cache / "bodies").glob("*.npz"))
     assert len(cached) == 1
     assert not list((tmp_path / "el").rglob("*.npz"))

@@ -213,6 +213,20 @@ def _model(sheet: dict, design, title: str, modification: str, version: str) -> 
         ("Ring", ring_text),
         ("Errors applied", ", ".join(errs) if errs else "none (nominal parts)"),
         ("Contact model", model_text(sheet)),
+        *(
+            [
+                (
+                    "Elastic bodies",
+                    "in the figures: "
+                    + ", ".join(b["in_figure"])
+                    + "; not in them: "
+                    + ", ".join(b["not_in_figure"])
+                    + f" (FE mesh {b['mesh_size_mm']:g} mm)",
+                )
+            ]
+            if isinstance(b := sheet.get("bodies"), dict)
+            else []
+        ),
         (
             "Positions",
             f"{pos['count']} output positions over {pos['span']} "

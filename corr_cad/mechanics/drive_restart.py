@@ -31,8 +31,8 @@ def restart_missed(solver, target: float, sol, starts: list) -> tuple:
     moments, nearest first), where they settle from one."""
     limit = max(solver.rtol, 1e-9)
     out = list(sol)
-    if solver.bearings[0] is None:
-        return sol
+    if solver.bearings[0] is None or solver.bodies is not None:
+        return sol  # (the restart solves the rigid bodies' drive: not the elastic one)
     for start in starts:
         idx = np.flatnonzero(~(out[4] <= limit) & (start[4] <= limit))
         if idx.size == 0:

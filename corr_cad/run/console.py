@@ -253,10 +253,11 @@ def datasheet_lines(d: dict | None) -> list[str]:
         )
     elif d.get("model") == "drive":
         what = (
-            "the contacts of both rows and the cams' eccentric bearings: crank, output "
-            "bearings and housing are not in it"
+            "the contacts of both rows and the cams' eccentric bearings, ring, frame and cams "
+            "rigid: crank, output bearings and housing are not in it"
             if isinstance(d.get("bearing"), dict)
-            else "the contacts of both rows, cams fixed: bearings, crank and housing are not in it"
+            else "the contacts of both rows, cams fixed, ring, frame and cams rigid: bearings, "
+            "crank and housing are not in it"
         )
     else:
         what = "the contacts alone: bearings, crank and housing are not in it"
