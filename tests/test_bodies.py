@@ -307,6 +307,15 @@ def test_cli_elastic_drive_states_its_bodies_and_caches_outside_the_output(tmp_p
     fs = json.loads((tmp_path / "el" / "forces_summary.json").read_text())
     assert fs["bodies"] == b  # the same statement in both files
     assert "Elastic bodies" in (tmp_path / "el" / "datasheet.html").read_text()
+    from matplotlib.testing.compare import compare_images
+
+    from corr_cad.export.datasheet_plots import hysteresis_png
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+
+    ds_small = datasheet(SMALL, DatasheetSpec(rated_torque=2.0e4 * SMALL.roller_count))
+    a = hysteresis_png(ds_small, tmp_path / "a.png", SMALL)
+    e = hysteresis_png(ds_small, tmp_path / "e.png", SMALL, elastic=True)
+    assert compare_images(str(a), str(e), tol=0) is not None  # the label differs
     cached = list((cache / "bodies").glob("*.npz"))
     assert len(cached) == 1
     assert not list((tmp_path / "el").rglob("*.npz"))

@@ -90,6 +90,9 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             + (
                 f"contacts in series with {n(series)} N*m/arcmin (bearings, shafts, housing)"
                 if series is not None
+                else "the contacts and the elastic rings, frame and cams (no series rigidity "
+                "given: crank, bearings and housing rigid)"
+                if isinstance(sheet.get("bodies"), dict)
                 else "the contacts alone (no series rigidity given: far stiffer than a reducer)"
             ),
         ),
@@ -97,7 +100,9 @@ def datasheet_rows(sheet: dict) -> list[dict]:
     if series is not None:
         rows.append(
             (
-                "Torsional rigidity, contacts alone",
+                "Torsional rigidity, contacts and elastic bodies"
+                if isinstance(sheet.get("bodies"), dict)
+                else "Torsional rigidity, contacts alone",
                 "torsional_rigidity_Nm_per_arcmin.contact_only.min",
                 "N*m/arcmin",
                 "the same, without the series rigidity; smallest over the positions",

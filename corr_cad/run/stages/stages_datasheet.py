@@ -430,7 +430,8 @@ def _datasheet_files(ctx: RunContext) -> None:
     if ff is not None and ff.hysteresis is not None:
         width = float(np.max(ff.hysteresis["width_at_rated"]) * ARCMIN_PER_RAD)
     loop = ff.hysteresis["loop"] if width is not None else None
-    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note, width, loop)
+    elastic = s.solver.bodies == "elastic"
+    hysteresis_png(ds, ctx.out / "hysteresis.png", s.design, note, width, loop, elastic)
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
