@@ -448,3 +448,21 @@ def test_the_coupled_newton_converges_quadratically(small_tables, law):
     solver = DriveSolver(SMALL, ang, contact_model=law, bodies=small_tables)
     rel = coupled_solve(solver, -2.0e4, solver.bodies, max_iter=5)[4]
     assert np.max(rel) <= 1e-12
+
+
+def test_positions_coupled_a_block_at_a_time_give_the_same_drive(small_tables, monkeypatch):
+    """A design of many rollers couples its positions a block at a time (memory); the
+    positions are independent, so blocks of 3 give the one-block solve."""
+    from corr_cad.mechanics.bodies import coupling
+
+    ang = np.radians(np.arange(0.0, 40.0, 4.0))
+    whole = DriveSolver(SMALL, ang, contact_model="palmgren", bodies=small_tables)
+    assert whole.bodies.block >= len(ang)
+    N = 2 * SMALL.roller_count
+    monkeypatch.setattr(coupling, "BLOCK_ENTRIES", 3 * N * N)
+    blocks = DriveSolver(SMALL, ang, contact_model="palmgren", bodies=small_tables)
+    assert blocks.bodies.block == 3
+    a, b = whole.solve(-2.0e4), blocks.solve(-2.0e4)
+    assert np.array_equal(whole.bodies[4], blocks.bodies[4])
+    assert np.max(np.abs(a[1] - b[1])) <= 1e-12 * np.max(a[1])
+    assert np.max(np.abs(a[0] / b[0] - 1)) <= 1e-12

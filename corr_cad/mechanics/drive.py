@@ -56,7 +56,7 @@ from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.bodies.coupling import BodyTables, coupled_solve, influence_matrices
+from corr_cad.mechanics.bodies.coupling import BodyTables, Influence, coupled_solve
 from corr_cad.mechanics.drive_numerics import (
     _forces_of,
     _invert_convex,
@@ -207,7 +207,7 @@ class DriveSolver:
         self.rtol = rtol
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
-        self.bodies = bodies and influence_matrices(bodies, design, self.crank_angles, geometry)
+        self.bodies = bodies and Influence(bodies, design, self.crank_angles, geometry)
 
     # ------------------------------------------------------------------ solve
 

@@ -40,7 +40,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.drive_numerics import _forces_of, roller_directions
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 
-__all__ = ["BodyTables", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
+__all__ = ["BodyTables", "Influence", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
 
 #: The body approaches' relative residual ``|d - C F| / max |C F|`` the coupled solve reaches.
 BODIES_RTOL = 1e-12
@@ -247,49 +247,89 @@ def _take(geo: RollerGeometry, idx: np.ndarray) -> RollerGeometry:
     )
 
 
-def coupled_solve(solver, target: float, C: np.ndarray, max_iter: int = 50):
-    """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies' influence
-    ``C`` (P, N, N) (module docstring); ``rel`` includes the body residual. Each Newton
-    step solves again only the positions not yet converged."""
+#: Influence coefficients held at once: positions are coupled a block at a time (4M
+#: doubles, 32 MB; the prototype's 1,800 distinct positions of 52 rollers in two blocks).
+BLOCK_ENTRIES = 1 << 22
+
+
+class Influence:
+    """The influence matrices ``C`` of a drive solver's positions
+    (:func:`influence_matrices`), made once where they fit in :data:`BLOCK_ENTRIES`,
+    else a block of positions at a time; ``influence[p]`` is position ``p``'s (N, N)."""
+
+    def __init__(self, tables: BodyTables, design: GearDesign, crank_angles, geometry):
+        self.tables, self.design, self.geometry = tables, design, geometry
+        self.angles = np.asarray(crank_angles, dtype=float).reshape(-1)
+        N = 2 * design.roller_count
+        self.block = max(1, BLOCK_ENTRIES // (N * N))
+        P = len(self.angles)
+        self._all = self._make(np.arange(P)) if P <= self.block else None
+
+    def _make(self, idx: np.ndarray) -> np.ndarray:
+        geo = tuple(_take(g, idx) for g in self.geometry)
+        return influence_matrices(self.tables, self.design, self.angles[idx], geo)
+
+    def matrices(self, idx: np.ndarray) -> np.ndarray:
+        """``C`` (len(idx), N, N) of the positions ``idx``."""
+        return self._all[idx] if self._all is not None else self._make(idx)
+
+    def __getitem__(self, p):
+        idx = np.arange(len(self.angles))[p]
+        C = self.matrices(np.atleast_1d(idx))
+        return C if np.ndim(idx) else C[0]
+
+
+def coupled_solve(solver, target: float, influence: Influence, max_iter: int = 50):
+    """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies'
+    ``influence`` (module docstring); ``rel`` includes the body residual. A block of
+    positions at a time; each Newton step solves again only the positions not yet
+    converged."""
     geo0, comp0, n0 = solver.geo_joined, solver.comp, solver.n
     P, N = geo0.gap.shape
-    d = np.zeros((P, N))
     eye = np.eye(N)
     its = 0
     body_rel = np.zeros(P)
-    out = None
-    idx = np.arange(P)
+    out: list = []
     try:
-        for _ in range(max_iter):
-            sub = idx.size < P
-            solver.geo_joined = replace(_take(geo0, idx) if sub else geo0, gap=(geo0.gap - d)[idx])
-            solver.comp = comp0.take(idx) if sub else comp0
-            solver.n = n0[idx]
-            tau, F, u, Qs, rel, it = solver.solve_contacts(target)
-            its += it
-            if out is None:
-                out = [tau, F, u, Qs, rel]
-            else:
+        for start in range(0, P, influence.block):
+            blk = np.arange(start, min(P, start + influence.block))
+            C = influence.matrices(blk)
+            d = np.zeros((len(blk), N))
+            at = np.arange(len(blk))  # the block's positions still iterating
+            for _ in range(max_iter):
+                idx = blk[at]
+                sub = idx.size < P
+                solver.geo_joined = replace(
+                    _take(geo0, idx) if sub else geo0, gap=geo0.gap[idx] - d[at]
+                )
+                solver.comp = comp0.take(idx) if sub else comp0
+                solver.n = n0[idx]
+                tau, F, u, Qs, rel, it = solver.solve_contacts(target)
+                its += it
+                if not out:
+                    out = [np.zeros(P), np.zeros((P, N)), np.zeros((2, P, 2)), None, np.zeros(P)]
+                    if Qs is not None:
+                        out[3] = [np.zeros((P, q.shape[1])) for q in Qs]
                 out[0][idx], out[1][idx], out[2][:, idx], out[4][idx] = tau, F, u, rel
                 if Qs is not None:
                     for c in (0, 1):
                         out[3][c][idx] = Qs[c]
-            Ci = C[idx] if idx.size < P else C
-            cf = (Ci @ F[:, :, None])[:, :, 0]
-            r = d[idx] - cf
-            top = np.max(np.abs(cf), axis=1)
-            rel_i = np.where(top > 0, np.max(np.abs(r), axis=1) / (top + 1e-300), 0.0)
-            body_rel[idx] = rel_i
-            todo = rel_i > BODIES_RTOL
-            if not np.any(todo):
-                break
-            k, KB, X = _response(solver, tau, F, u, solver.geo_joined)
-            t = np.flatnonzero(todo)
-            Ct = Ci[t]
-            # I - C dF/dd = I + C diag(k) - (C K B) X: no N^3 product.
-            Jd = eye + Ct * k[t, None, :] - (Ct @ KB[t]) @ X[t]
-            d[idx[t]] -= np.linalg.solve(Jd, r[t, :, None])[:, :, 0]
-            idx = idx[t]
+                Ci = C[at]
+                cf = (Ci @ F[:, :, None])[:, :, 0]
+                r = d[at] - cf
+                top = np.max(np.abs(cf), axis=1)
+                rel_i = np.where(top > 0, np.max(np.abs(r), axis=1) / (top + 1e-300), 0.0)
+                body_rel[idx] = rel_i
+                todo = rel_i > BODIES_RTOL
+                if not np.any(todo):
+                    break
+                k, KB, X = _response(solver, tau, F, u, solver.geo_joined)
+                t = np.flatnonzero(todo)
+                Ct = Ci[t]
+                # I - C dF/dd = I + C diag(k) - (C K B) X: no N^3 product.
+                Jd = eye + Ct * k[t, None, :] - (Ct @ KB[t]) @ X[t]
+                d[at[t]] -= np.linalg.solve(Jd, r[t, :, None])[:, :, 0]
+                at = at[t]
     finally:
         solver.geo_joined, solver.comp, solver.n = geo0, comp0, n0
     tau, F, u, Qs, rel = out
