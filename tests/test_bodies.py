@@ -466,3 +466,25 @@ def test_positions_coupled_a_block_at_a_time_give_the_same_drive(small_tables, m
     assert np.array_equal(whole.bodies[4], blocks.bodies[4])
     assert np.max(np.abs(a[1] - b[1])) <= 1e-12 * np.max(a[1])
     assert np.max(np.abs(a[0] / b[0] - 1)) <= 1e-12
+
+
+def test_elastic_bodies_of_an_allowed_undercut_are_refused():
+    from corr_cad.errors import SceneError
+    from corr_cad.run.scene.scene import parse_scene
+
+    data = {
+        "design": {
+            "tooth_count": 30,
+            "cam_radius": 100.0,
+            "roller_radius": 8.0,
+            "eccentricity": 3.0,
+            "allow_undercut": True,
+        },
+        "solver": {"model": "drive", "bodies": "elastic"},
+        "load": {"input_torque": 1e5},
+        "export": {"formats": ["forces"]},
+    }
+    with pytest.raises(SceneError, match=r"allowed undercut .* roller radius below 4\.05027 mm"):
+        parse_scene(data)
+    data["solver"]["bodies"] = "rigid"
+    assert parse_scene(data).solver.bodies == "rigid"

@@ -262,6 +262,15 @@ def parse_drive(values: dict[str, dict[str, Any]], data: dict, design) -> dict:
             '[solver] bodies = "elastic": the elastic ring and frame act under model = "drive" '
             'only; set model = "drive" or bodies = "rigid"'
         )
+    if sv["bodies"] == "elastic" and design.allow_undercut:
+        from corr_cad.geometry.profile import undercut_analysis
+
+        if undercut_analysis(design).undercut:
+            raise SceneError(
+                '[solver] bodies = "elastic": the ring of an allowed undercut (trimmed tooth '
+                'tips) is not modelled by finite elements; set bodies = "rigid" or a roller '
+                f"radius below {undercut_analysis(design).admissible_roller_radius:.6g} mm"
+            )
     if model == "drive" and "load_share" in given:
         raise SceneError(
             f'[solver] load_share = {sv["load_share"]:g}: has no meaning under model = "drive" '
