@@ -488,3 +488,22 @@ def test_elastic_bodies_of_an_allowed_undercut_are_refused():
         parse_scene(data)
     data["solver"]["bodies"] = "rigid"
     assert parse_scene(data).solver.bodies == "rigid"
+
+
+@pytest.mark.slow
+def test_prototype_rigidity_with_elastic_bodies_is_the_manual_s():
+    """docs/physics.md: with Palmgren's contacts and 40-needle bearings (5 um) the
+    prototype's rigidity at the rated torque falls from 3,477 to 2,671 N*m/arcmin."""
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+
+    d = GearDesign()
+    tables = reduce_bodies(d, part_outlines(d, working_profile(d), 0.001))
+    spec = DatasheetSpec(rated_torque=2.86e6)
+    needles = EccentricBearing(40, 6.0, 12.0, 0.005)
+    out = []
+    for bodies in ({}, {"bodies": tables}):
+        drive = {"errors_b": None, "bearing": needles, "bearing_b": None, **bodies}
+        ds = datasheet(d, spec, contact_model="palmgren", drive=drive)
+        out.append(ds.figures()["torsional_rigidity_Nm_per_arcmin"]["contact_only"]["min"])
+    assert round(out[0]) == 3477 and round(out[1]) == 2671, out
