@@ -23,6 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.budget.costs_bodies import elastic_terms
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
 from corr_cad.run.budget.costs_montecarlo import datasheet_pass
 
@@ -190,7 +191,9 @@ def _forces(scene, env):
     # The solution (every (position, roller) array) is kept for the later
     # stages: 133-194 bytes a cell measured (36 000 and 120 855 positions).
     key, cells = _force_cells(scene)
-    return Cost(memory=240 * cells, keeps=220 * cells, seconds=0.05 + 1e-6 * cells, knobs=(key,))
+    m, s, f = elastic_terms(scene)
+    mem, sec = 240 * cells + m, 0.05 + 1e-6 * cells * f + s
+    return Cost(memory=mem, keeps=220 * cells, seconds=sec, knobs=(key,))
 
 
 @stage_cost("force_files")
@@ -258,7 +261,8 @@ def _datasheet(scene, env):
     R = _rollers(scene)
     positions, levels, solved, _ = _datasheet_size(scene)
     cells = positions * R
-    memory = 20 * MB + cells * (600 + 16 * levels) + solved * (600 * R + 40)
+    m, s, f = elastic_terms(scene)
+    memory = 20 * MB + cells * (600 + 16 * levels) + solved * (600 * R + 40) + m
     return Cost(
         memory=memory,
         keeps=cells * 16 * levels + solved * 32,
@@ -266,7 +270,9 @@ def _datasheet(scene, env):
         + 1.1e-6
         * R
         * (levels * positions + 2 * solved)
-        * (DRIVE_CELLS if scene.solver.drive else 1),
+        * (DRIVE_CELLS if scene.solver.drive else 1)
+        * f
+        + s,
         knobs=(
             "[datasheet] positions_per_mesh",
             "[datasheet] transmission_error_positions_per_turn",
