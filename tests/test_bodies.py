@@ -507,3 +507,28 @@ def test_prototype_rigidity_with_elastic_bodies_is_the_manual_s():
         ds = datasheet(d, spec, contact_model="palmgren", drive=drive)
         out.append(ds.figures()["torsional_rigidity_Nm_per_arcmin"]["contact_only"]["min"])
     assert round(out[0]) == 3477 and round(out[1]) == 2671, out
+
+
+@pytest.mark.parametrize("part", ["ring", "frame", "cam"])
+def test_meshes_fill_the_outline_with_sound_triangles(part):
+    """The mesh of each exported outline covers its area (the exact area less the
+    chords' sagittas: within 1e-3), every boundary chord an edge of one triangle (the
+    mesher checks it), no angle below 12 degrees."""
+    from scipy.spatial import cKDTree
+
+    from corr_cad.mechanics.bodies import reduction as red
+
+    o = part_outlines(SMALL, working_profile(SMALL), 0.01)[part]
+    r = SMALL.roller_radius
+    spec = MeshSpec()
+    fine, coarse = spec.fine * r, spec.coarse * r
+    near = o.holes[0] if part == "ring" else (o.outer if part == "cam" else np.vstack(o.holes[1:]))
+    h = red._size(cKDTree(red._densify(near, 0.25 * fine)), fine, spec.grade, coarse)
+    pts, tri, loops = mesh_region(o.outer, o.holes, h, fine)
+    a, b, c = (pts[tri[:, i]] for i in range(3))
+    area = 0.5 * np.sum(
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
+    assert abs(area / o.exact_area - 1) < 1e-3
+    assert min_angle_deg(pts, tri) > 12.0
+    assert len(loops) == 1 + len(o.holes)
