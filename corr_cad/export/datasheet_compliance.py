@@ -20,6 +20,11 @@ def rigidity_scope(sheet: dict, series) -> str:
         return text
     if series is not None:
         return f"contacts in series with {n(series)} N*m/arcmin (bearings, shafts, housing)"
+    if isinstance(sheet.get("bodies"), dict):
+        return (
+            "the contacts and the elastic rings, frame and cams (no series rigidity given: "
+            "crank, bearings and housing rigid)"
+        )
     return "the contacts alone (no series rigidity given: far stiffer than a reducer)"
 
 

@@ -139,7 +139,9 @@ def datasheet_rows(sheet: dict) -> list[dict]:
     if series is not None:
         rows.append(
             (
-                "Torsional rigidity, contacts alone",
+                "Torsional rigidity, contacts and elastic bodies"
+                if isinstance(sheet.get("bodies"), dict)
+                else "Torsional rigidity, contacts alone",
                 "torsional_rigidity_Nm_per_arcmin.contact_only.min",
                 "N*m/arcmin",
                 "the same, without the series rigidity; smallest over the positions",
@@ -416,6 +418,20 @@ def _model(sheet: dict, design, title: str, modification: str, version: str) -> 
         ("Ring", ring_text),
         ("Errors applied", ", ".join(errs) if errs else "none (nominal parts)"),
         ("Contact model", model_text(sheet)),
+        *(
+            [
+                (
+                    "Elastic bodies",
+                    "in the figures: "
+                    + ", ".join(b["in_figure"])
+                    + "; not in them: "
+                    + ", ".join(b["not_in_figure"])
+                    + f" (FE mesh {b['mesh_size_mm']:g} mm)",
+                )
+            ]
+            if isinstance(b := sheet.get("bodies"), dict)
+            else []
+        ),
         (
             "Positions",
             f"{pos['count']} output positions over {pos['span']} "

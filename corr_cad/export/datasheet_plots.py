@@ -52,7 +52,7 @@ _LABEL_BOX = {
 }
 
 
-def _marks(ax, ds: Datasheet, j: int, zoom: bool, stage: str = "") -> None:
+def _marks(ax, ds: Datasheet, j: int, zoom: bool, stage: str = "", elastic: bool = False) -> None:
     """The lost-motion band; near zero torque the lost motion (on position ``j``, the
     largest) and the backlash (on the position of the largest); on the full curve the
     rigidity secant on the position and branch of the catalogue (least) rigidity.
@@ -120,9 +120,10 @@ def _marks(ax, ds: Datasheet, j: int, zoom: bool, stage: str = "") -> None:
     )
     if sp.series_rigidity_Nm_per_arcmin is not None:
         contact = float(ds.rigidity(contact_only=True)[branch, jr])
-        text += f";\ncontacts alone {figure(contact)} N*m/arcmin)"
+        alone = "contacts and elastic bodies" if elastic else "contacts alone"
+        text += f";\n{alone} {figure(contact)} N*m/arcmin)"
     else:
-        text += "; contacts only)"
+        text += ";\ncontacts, elastic rings, frame, cams)" if elastic else "; contacts only)"
     # In the upper left quadrant, which the curve never enters (+T: windup > 0).
     ax.text(0.02, 0.97, text, transform=ax.transAxes, color="C2", ha="left", va="top", fontsize=8)
     ax.text(
@@ -144,8 +145,10 @@ def hysteresis_png(
     friction_width_arcmin: float | None = None,
     loop: dict | None = None,
     whole_drive: dict | None = None,
+    elastic: bool = False,
 ) -> Path:
     """The torque-windup curve at every position, the worst one marked (largest lost motion).
+    ``elastic``: the rigidity's label names the elastic bodies (``[solver] bodies``).
 
     ``whole_drive`` (with ``[first_stage]``: ``datasheet.json`` ``whole_drive``): the curves
     are the second stage's (crank locked); the title gives the whole drive's backlash and
@@ -181,7 +184,7 @@ def hysteresis_png(
                     zorder=5)  # fmt: skip
         ax.axhline(0.0, color="0.3", lw=0.5)
         ax.axvline(0.0, color="0.3", lw=0.5)
-        _marks(ax, ds, j, zoom, "second stage: " if whole_drive else "")
+        _marks(ax, ds, j, zoom, "second stage: " if whole_drive else "", elastic)
         ax.set_xlabel("output windup (torsion angle) [arcmin]")
         ax.set_ylabel("output torque [N*m]")
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))

@@ -27,12 +27,11 @@ At crank angle ``phi`` (relative to the frame, as in the one-row solver):
   one-row solver, with the overlap ``a_k tau + h_k + u_c . n_k``; ``n_k`` is the
   unit vector from the cam centre to the roller centre, ``u_c`` the
   displacement of its cam's centre on the eccentric bearing
-  (:mod:`corr_cad.mechanics.bearing`; zero without bearings: rigid cams);
+  (:mod:`corr_cad.mechanics.bearing`; zero without bearings: rigid cams), less
+  the elastic ring's and frame's approach (``bodies``, :mod:`corr_cad.mechanics.bodies`);
 * each cam with a bearing: ``sum_k F_k n_k = sum_j Q_j e_j`` (the needles
-  carry the rollers' resultant).
-
-The row A share is ``sum_A a_k F_k / M0``. The roller forces pass through
-the cam centre, so a cam's displacement changes no moment arm.
+  carry the rollers' resultant). The row A share is ``sum_A a_k F_k / M0``.
+  The roller forces pass through the cam centre: a cam's displacement moves no arm.
 
 Numerics: rigid cams are the one-row problem with ``2 (z + 1)`` rollers
 (the one-row solver's Newton-bisection on ``tau``). With bearings, a joint
@@ -57,6 +56,7 @@ from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.bodies.coupling import BodyTables, Influence, coupled_solve
 from corr_cad.mechanics.drive_crank import CrankSupport, solve_with_crank
 from corr_cad.mechanics.drive_numerics import (
     _forces_of,
@@ -166,6 +166,7 @@ class DriveSolver:
         geometry: tuple[RollerGeometry, RollerGeometry] | None = None,
         rtol: float = _RTOL,
         crank: CrankSupport | None = None,
+        bodies: BodyTables | None = None,
     ):
         if contact_model not in CONTACT_MODELS:
             raise SolverError(
@@ -181,16 +182,16 @@ class DriveSolver:
         self.geo = geometry
         self.geo_joined = joined(*geometry)
         self.comp = make_compliance(self.geo_joined, design, contact_model)
-        if bearing_b is None:
-            bearing_b = bearing
-        self.bearings = (bearing, bearing_b)
-        if (bearing is None) != (bearing_b is None):
+        self.bearings = (bearing, bearing if bearing_b is None else bearing_b)
+        if (bearing is None) != (self.bearings[1] is None):
             raise SolverError("eccentric bearings: give both cams a bearing or neither")
         self.rtol = rtol
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
-        #: The crankshaft on its support bearings (None: rigid, the cams' eccentrics fixed).
-        self.crank = crank
+        self.crank = crank  # the crankshaft on its supports (None: the eccentrics fixed)
+        self.bodies = bodies and Influence(bodies, design, self.crank_angles, geometry)
+        if crank is not None and self.bodies is not None:
+            raise SolverError('a crankshaft and [solver] bodies = "elastic" together: give one')
 
     # ------------------------------------------------------------------ solve
 
@@ -203,6 +204,12 @@ class DriveSolver:
 
     def _solve_on_eccentrics(self, target: float):
         """:meth:`solve` with the eccentrics where the geometry puts them."""
+        if self.bodies is not None:
+            return coupled_solve(self, target, self.bodies)
+        return self.solve_contacts(target)
+
+    def solve_contacts(self, target: float):
+        """:meth:`solve` with rigid bodies and the eccentrics where the geometry puts them."""
         geo, comp = self.geo_joined, self.comp
         tau, F, iterations, _, rel = _solve_positions(geo, comp, target, self.rtol)
         P = len(tau)
@@ -240,8 +247,7 @@ class DriveSolver:
             depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
             with np.errstate(divide="ignore", invalid="ignore"):
                 u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
-        # Fixed residual scales (a zero moment with preload has forces, not M0, as its scale;
-        # each on the eccentricity too, as in _scales: a zero arm leaves no 1e-300 scale).
+        # Fixed residual scales (zero moment with preload: the forces; on e too, as _scales).
         e = self.design.eccentricity
         scale_m = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F), axis=1) + 1e-300
         scale_f = (scale_m / self.design.eccentricity)[:, None]
@@ -322,10 +328,10 @@ class DriveSolver:
                 ]
             )
             d = step / whole[:, None]
-            # No step beyond 0.01 rad of crank or 0.01 mm of a cam: far outside the
-            # small-displacement model, where a near-singular Jacobian (needles in their
-            # clearance) would throw it. Each capped on its own: a crank in its free play
-            # (no moment stiffness yet) asks a huge rotation, which must not shrink the cams'.
+            # No step beyond 0.01 rad of crank or 0.01 mm of a cam (far outside the small-
+            # displacement model, where a near-singular Jacobian, needles in their clearance,
+            # would throw it), each capped on its own: a crank in its free play asks a huge
+            # rotation, which must not shrink the cams'.
             step[:, 0] /= np.maximum(np.abs(step[:, 0]) / _MAX_TAU_STEP, 1.0)
             for i in (slice(1, 3), slice(3, 5)):
                 big = np.linalg.norm(step[:, i], axis=1) / _MAX_U_STEP
@@ -557,13 +563,14 @@ def solve_drive(
     variants: tuple[str, ...] = (),
     psi_contact_limit: float = math.pi,
     crank: CrankSupport | None = None,
+    bodies: BodyTables | None = None,
 ) -> DriveResult:
     """Both rows' forces at each crank angle under the crank moment ``input_torque`` (N*mm).
 
     ``errors`` describes both rows unless ``errors_b`` is given (then row B);
     the slot errors are ``errors``'s, ``errors.cam_phase_error`` is cam B's
     phase against cam A. ``bearing`` floats both cams on needle bearings
-    (``bearing_b`` overrides cam B's); without it the cams are fixed.
+    (``bearing_b`` overrides cam B's); without it the cams are fixed; ``bodies``: elastic.
 
     >>> import numpy as np
     >>> from corr_cad import GearDesign
@@ -572,8 +579,7 @@ def solve_drive(
     >>> np.round(res.row_a_share, 12)          # identical rows, z + 1 even: exactly half
     array([0.5, 0.5])
     """
-    v = input_torque
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+    if type(v := input_torque) is bool or not isinstance(v, int | float) or not math.isfinite(v):
         raise SolverError(f"input_torque = {v!r}: must be a finite number")
     inverse = None
     if crank_angles is None:
@@ -602,6 +608,7 @@ def solve_drive(
         variants=variants,
         psi_contact_limit=psi_contact_limit,
         crank=crank,
+        bodies=bodies,
     )
     res = solver.result(float(input_torque))
     rev, fwd = solver.free_interval(solve=False)  # its width needs no solve: 0 where tight

@@ -31,8 +31,9 @@ def restart_missed(solver, target: float, sol, starts: list) -> tuple:
     moments, nearest first), where they settle from one."""
     limit = max(solver.rtol, 1e-9)
     out = list(sol)
-    # With a crankshaft the coupling restarts its own misses (drive_crank: the geometry moves).
-    if solver.bearings[0] is None or getattr(solver, "crank", None) is not None:
+    # With a crankshaft the coupling restarts its own misses (drive_crank: the geometry
+    # moves); with elastic bodies the restart would solve the rigid bodies' drive.
+    if solver.bearings[0] is None or solver.crank is not None or solver.bodies is not None:
         return sol
     for start in starts:
         idx = np.flatnonzero(~(out[4] <= limit) & (start[4] <= limit))

@@ -58,6 +58,7 @@ class DriveWindup:
         series_rigidity_Nm_per_arcmin: float | None = None,
         rtol: float = _RTOL,
         crank: CrankSupport | None = None,
+        bodies=None,
     ):
         if "working_half_only" in variants:
             raise SolverError(
@@ -83,6 +84,7 @@ class DriveWindup:
             series_rigidity_Nm_per_arcmin=series_rigidity_Nm_per_arcmin,
             rtol=rtol,
             crank=crank,
+            bodies=bodies,
         )
         self._ratio = float(design.roller_count)
         step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
@@ -101,6 +103,7 @@ class DriveWindup:
                 psi_contact_limit=psi_contact_limit,
                 rtol=rtol,
                 crank=crank,
+                bodies=bodies,
             )
             self._blocks.append((sl, solver))
         self._cache: dict[float, tuple] = {}

@@ -133,6 +133,7 @@ def _parser() -> argparse.ArgumentParser:
             "drive",
             "progress",
             "compound",
+            "bodies",
         ),
         help="run only this study (repeatable); default all",
     )

@@ -72,6 +72,13 @@ def drive_lines(f: dict) -> list[str]:
         else str(b)
     )
     sh = f["row_a_share"]
+    bodies = f.get("bodies")
+    if isinstance(bodies, dict):
+        bearing += (
+            "; ring, frame and cams elastic (FE, "
+            + " + ".join(str(v) for v in bodies.get("mesh_nodes", {}).values())
+            + " nodes)"
+        )
     out = [
         f"drive model (both rows), contact law {f['contact_law']}, eccentric bearing: {bearing}",
         f"drive: row A share {sh['min']:.4f}-{sh['max']:.4f} (mean {sh['mean']:.4f})",

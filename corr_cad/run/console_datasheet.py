@@ -99,12 +99,20 @@ def datasheet_lines(d: dict | None) -> list[str]:
         comp = d["compliances"]
         what = "in it: " + "; ".join(comp["in_figure"])
         what += "; not in it: " + "; ".join(comp["not_in_figure"])
+    elif d.get("model") == "drive" and isinstance(d.get("bodies"), dict):
+        what = (
+            "the contacts of both rows"
+            + (", the cams' eccentric bearings" if isinstance(d.get("bearing"), dict) else "")
+            + ", the elastic gear rings, frame and cams (FE): crank, its bearings, output "
+            "bearings and housing are not in it"
+        )
     elif d.get("model") == "drive":
         what = (
-            "the contacts of both rows and the cams' eccentric bearings: crank, output "
-            "bearings and housing are not in it"
+            "the contacts of both rows and the cams' eccentric bearings, ring, frame and cams "
+            "rigid: crank, output bearings and housing are not in it"
             if isinstance(d.get("bearing"), dict)
-            else "the contacts of both rows, cams fixed: bearings, crank and housing are not in it"
+            else "the contacts of both rows, cams fixed, ring, frame and cams rigid: bearings, "
+            "crank and housing are not in it"
         )
     else:
         what = "the contacts alone: bearings, crank and housing are not in it"

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from corr_cad.run.bench.bench_accuracy import fidelity, interference, profile_export, solids
+from corr_cad.run.bench.bench_bodies import bodies_speed
 from corr_cad.run.bench.bench_compound import compound_speed
 from corr_cad.run.bench.bench_datasheet import datasheet_speed
 from corr_cad.run.bench.bench_drive import drive_speed
@@ -47,6 +48,7 @@ STUDIES = {
     "drive": drive_speed,
     "progress": progress_study,
     "compound": compound_speed,
+    "bodies": bodies_speed,
 }
 
 

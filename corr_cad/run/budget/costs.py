@@ -4,9 +4,10 @@ One estimator per stage of :data:`corr_cad.run.stages.stages.STAGES`, registered
 with :func:`stage_cost`; :func:`corr_cad.run.budget.resources.estimate` adds them up
 along the planned stages. A new stage (a datasheet, a modification study)
 registers its own (``@stage_cost("name")`` on a function of ``(scene, env)`` that
-returns a :class:`Cost`: memory, seconds, output bytes by file, the knobs). Every constant below was measured on this project's 2-core machine (peak
-RSS above the RSS at the stage's start with ``/proc/self/clear_refs``; the
-bytes of the files written; wall time) and rounded up; ``corr-cad bench
+returns a :class:`Cost`: memory, seconds, output bytes by file, the knobs). Every
+constant below was measured on this project's 2-core machine (peak RSS above the
+RSS at the stage's start with ``/proc/self/clear_refs``; the bytes of the files
+written; wall time) and rounded up; ``corr-cad bench
 --study resources`` checks the sum against whole runs. Memory is in bytes,
 time in seconds. A *cell* is one (crank position, roller) pair.
 """
@@ -17,6 +18,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from corr_cad.run.budget.costs_bodies import elastic_terms
+from corr_cad.run.budget.costs_datasheet import datasheet_size
 from corr_cad.run.budget.costs_friction import friction_seconds
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
 from corr_cad.run.budget.costs_montecarlo import DRIVE_FORCE_SECONDS, datasheet_pass, drive_seconds
@@ -185,7 +188,9 @@ def _forces(scene, env):
     # The solution (every (position, roller) array) is kept for the later
     # stages: 133-194 bytes a cell measured (36 000 and 120 855 positions).
     key, cells = _force_cells(scene)
-    return Cost(memory=240 * cells, keeps=220 * cells, seconds=0.05 + 1e-6 * cells, knobs=(key,))
+    m, s, f = elastic_terms(scene)
+    mem, sec = 240 * cells + m, 0.05 + 1e-6 * cells * f + s
+    return Cost(memory=mem, keeps=220 * cells, seconds=sec, knobs=(key,))
 
 
 @stage_cost("force_files")
@@ -212,33 +217,6 @@ def _checks(scene, env):
 WINDUP_ROW_BYTES = 45
 
 
-def _datasheet_size(scene) -> tuple[int, int, int, int]:
-    """Windup positions, torque rows per position, solved transmission-error positions,
-    and the transmission error's rows.
-
-    Positions: ``positions_per_mesh`` per mesh period over the span after
-    which the windup repeats (one mesh period, a tooth pitch of z + 1 mesh
-    periods, or z (z + 1) for a ring deviation, a measured one included);
-    the transmission error solves at most ``per_turn`` classes for alike
-    parts, else every one of its ``per_turn (z + 1)`` positions.
-    """
-    from corr_cad.mechanics.datasheet import TORQUE_LEVELS, span_errors
-    from corr_cad.mechanics.windup import mesh_period_rad, result_period_rad
-
-    d = scene.design
-    z, R = d.tooth_count, d.roller_count
-    ds = scene.datasheet
-    drive = {"errors_b": scene.errors_b} if scene.solver.drive else None
-    periodic = span_errors(d, scene.errors, drive, scene.solver.variants)
-    mult = round(result_period_rad(d, periodic, scene.solver.variants) / mesh_period_rad(d))
-    if scene.measured_profile is not None:
-        mult = z * R
-    ppm, turn = ds["positions_per_mesh"], ds["transmission_error_positions_per_turn"]
-    levels = TORQUE_LEVELS + 3  # the grid, 0- and 0+, the band rows
-    solved = turn * (1 if mult == 1 else R)
-    return mult * ppm, levels, solved, turn * R
-
-
 #: A drive windup cell (both rows, the cams on their bearings) against the paper's row:
 #: 0.76-0.89 s for 52 positions and 104 transmission-error classes of the prototype
 #: with 40-needle bearings (tests/test_drive.py's span case), 0.12 s by the row's rate.
@@ -255,9 +233,10 @@ def _datasheet(scene, env):
     # and a torque level), the transmission error solves each of its positions
     # forward and reverse.
     R = _rollers(scene)
-    positions, levels, solved, _ = _datasheet_size(scene)
+    positions, levels, solved, _ = datasheet_size(scene)
     cells = positions * R
-    memory = 20 * MB + cells * (600 + 16 * levels) + solved * (600 * R + 40)
+    m, s, f = elastic_terms(scene)
+    memory = 20 * MB + cells * (600 + 16 * levels) + solved * (600 * R + 40) + m
     return Cost(
         memory=memory,
         keeps=cells * 16 * levels + solved * 32,
@@ -267,6 +246,8 @@ def _datasheet(scene, env):
         * (levels * positions + 2 * solved)
         * (DRIVE_CELLS if scene.solver.drive else 1)
         * (CRANK_SOLVES if getattr(scene, "crank", None) is not None else 1)
+        * f
+        + s
         + friction_seconds(scene, positions, R, DRIVE_CELLS),
         knobs=(
             "[datasheet] positions_per_mesh",
@@ -283,7 +264,7 @@ CLASS_DATASHEETS = 1.0
 
 @stage_cost("datasheet_files")
 def _datasheet_files(scene, env):
-    positions, levels, _, te_rows = _datasheet_size(scene)
+    positions, levels, _, te_rows = datasheet_size(scene)
     rows = positions * levels
     classes = len((getattr(scene, "assembly", None) or {}).get("roller_classes_um") or ())
     # [assembly]: one full datasheet a roller class, one at a time.

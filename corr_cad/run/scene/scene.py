@@ -340,6 +340,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         variants=tuple(sv["variants"]),
         model=sv["model"],
         contact_law=sv["contact_law"],
+        bodies=sv["bodies"],
     )
     drive = drv.parse_drive(values, data, design)
     crank = parse_crank(values, data, design, drive["bearing"], formats)

@@ -36,6 +36,8 @@ class SolverSpec:
     model: str = "paper"
     #: ``"paper"`` (Eqs. 9-12) or ``"palmgren"``.
     contact_law: str = "paper"
+    #: ``"rigid"`` or ``"elastic"``: the ring and the frame (:mod:`corr_cad.mechanics.bodies`).
+    bodies: str = "rigid"
 
     @property
     def contact_model(self) -> str:
@@ -50,7 +52,7 @@ class SolverSpec:
 
 #: Keys of ``[solver]`` recorded in the run's inputs only when the scene gives them
 #: (a scene without them keeps the bytes it had before they existed).
-_NEW_SOLVER_KEYS = ("model", "contact_law")
+_NEW_SOLVER_KEYS = ("model", "contact_law", "bodies")
 
 
 def split_drive_tables(data: dict) -> dict:
@@ -166,6 +168,13 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
     )
     if what is None:
         return
+    rigid_only = [f for f in ("montecarlo", "allocation", "sweeps", "modification") if f in formats]
+    if solver.bodies == "elastic" and rigid_only:
+        raise SceneError(
+            f"[export] formats lists {rigid_only[0]!r}, which solves the drive with rigid "
+            '[solver] bodies only; remove it or set bodies = "rigid" (the elastic bodies reach '
+            "forces and datasheet)"
+        )
     if "modification" in formats and not solver.drive:
         raise SceneError(
             "[export] formats lists 'modification', whose design solves the paper's contact "
@@ -249,6 +258,20 @@ def parse_drive(values: dict[str, dict[str, Any]], data: dict, design) -> dict:
             f'[{drive_sections[0]}] acts under [solver] model = "drive" only; '
             'set model = "drive" or remove the section'
         )
+    if sv["bodies"] == "elastic" and model != "drive":
+        raise SceneError(
+            '[solver] bodies = "elastic": the elastic ring and frame act under model = "drive" '
+            'only; set model = "drive" or bodies = "rigid"'
+        )
+    if sv["bodies"] == "elastic" and design.allow_undercut:
+        from corr_cad.geometry.profile import undercut_analysis
+
+        if undercut_analysis(design).undercut:
+            raise SceneError(
+                '[solver] bodies = "elastic": the ring of an allowed undercut (trimmed tooth '
+                'tips) is not modelled by finite elements; set bodies = "rigid" or a roller '
+                f"radius below {undercut_analysis(design).admissible_roller_radius:.6g} mm"
+            )
     if model == "drive" and "load_share" in given:
         raise SceneError(
             f'[solver] load_share = {sv["load_share"]:g}: has no meaning under model = "drive" '

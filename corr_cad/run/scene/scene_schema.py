@@ -56,6 +56,8 @@ FORMATS = (
 SOLVER_MODELS = ("paper", "drive")
 #: ``[solver] contact_law``: the paper's Eqs. 9-12, or Palmgren's line contact.
 CONTACT_LAWS = ("paper", "palmgren")
+#: ``[solver] bodies``: the ring and the frame rigid, or elastic (finite elements).
+BODIES = ("rigid", "elastic")
 
 #: ``formats = ["all"]``: every format the scene can make (those that need an
 #: input the scene lacks are left out, and the run says which and why).
@@ -262,6 +264,13 @@ SCHEMA: dict[str, dict[str, Key]] = {
             'roller contact law: "paper" (Eqs. 9-12), "palmgren" (steel line contact, '
             "delta = 3.84e-5 Q^0.9 / l^0.8)",
             choices=CONTACT_LAWS,
+        ),
+        "bodies": Key(
+            "str",
+            "rigid",
+            'the gear ring and the slotted frame: "rigid", or "elastic" (plane-stress finite '
+            'elements of the drawn outlines, model = "drive" only)',
+            choices=BODIES,
         ),
         "load_share": Key(
             "float",

@@ -63,7 +63,7 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
     sv = data.get("solver", {})
     # model = "drive" describes the hardware, as the drive's sections do: it lets them and
     # [design] slot_clearance load whatever the formats (so does its contact law).
-    described = sv.get("model") == "drive" and set(sv) <= {"model", "contact_law"}
+    described = sv.get("model") == "drive" and set(sv) <= {"model", "contact_law", "bodies"}
     if "solver" in data and not solver and not described:
         warn(
             "[solver]",

@@ -33,6 +33,7 @@ __all__ = [
     "raw_errors",
     "modified_curve",
     "psi_contact_limit",
+    "elastic_bodies",
     "expected_seconds",
 ]
 
@@ -65,6 +66,8 @@ class Results:
     forces: ForceResult | None = None
     #: ``forces`` under ``[solver] model = "drive"``: both rows (``forces`` is row A's).
     drive: Any = None
+    #: ``[solver] bodies = "elastic"``: the ring's and frame's influence tables.
+    bodies: Any = None
     #: ``solids``: part outlines, manifold solids and their meshes, by part name.
     outlines: dict[str, Any] | None = None
     solids: dict[str, Any] | None = None
@@ -176,10 +179,20 @@ def drive_kwargs(ctx: RunContext) -> dict:
         "contact_model": s.solver.contact_model,
         "variants": s.solver.variants,
         "psi_contact_limit": psi_contact_limit(ctx),
+        **elastic_bodies(ctx),
     }
     if getattr(s, "crank", None) is not None:  # [crankshaft] / [bearings.crank]
         out["crank"] = s.crank
     return out
+
+
+def elastic_bodies(ctx: RunContext) -> dict:
+    """``{"bodies": tables}`` under ``[solver] bodies = "elastic"``, else nothing."""
+    if ctx.scene.solver.bodies != "elastic":
+        return {}
+    from corr_cad.run.stages.stages_bodies import body_tables
+
+    return {"bodies": body_tables(ctx)}
 
 
 def psi_contact_limit(ctx: RunContext) -> float:

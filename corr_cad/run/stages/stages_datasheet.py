@@ -21,6 +21,7 @@ from corr_cad.mechanics.windup import ARCMIN_PER_RAD, NMM_PER_NM
 from corr_cad.run.stages.as_built import as_built
 from corr_cad.run.stages.context import (
     RunContext,
+    elastic_bodies,
     modified_curve,
     psi_contact_limit,
     scene_errors,
@@ -341,7 +342,12 @@ def drive_settings(ctx: RunContext) -> dict | None:
     s = ctx.scene
     if not s.solver.drive:
         return None
-    out = {"errors_b": datasheet_errors_b(ctx), "bearing": s.bearing, "bearing_b": s.bearing_b}
+    out = {
+        "errors_b": datasheet_errors_b(ctx),
+        "bearing": s.bearing,
+        "bearing_b": s.bearing_b,
+        **elastic_bodies(ctx),
+    }
     if getattr(s, "crank", None) is not None:  # [crankshaft] / [bearings.crank]
         out["crank"] = s.crank
     return out
@@ -438,7 +444,7 @@ def _meta(ctx: RunContext) -> dict:
         "rated_torque_source": (
             "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"
         ),
-        **_model_meta(s),
+        **_model_meta(s, ctx.results.bodies),
         "variants": list(s.solver.variants),
         "units": {"torque": "N*m", "windup": "arcmin", "transmission_error": "arcsec"},
         "conventions": {
@@ -455,7 +461,7 @@ def _meta(ctx: RunContext) -> dict:
     }
 
 
-def _model_meta(s) -> dict:
+def _model_meta(s, tables=None) -> dict:
     """The model, contact law and bearing as ``datasheet.json`` states them.
 
     The paper's model with its contact law keeps the two keys it always had.
@@ -464,7 +470,7 @@ def _model_meta(s) -> dict:
         return {"load_share": s.solver.load_share, "contact_model": "nonlinear"}
     from corr_cad.run.stages.stages_drive import model_description
 
-    out = model_description(s)
+    out = model_description(s, tables)
     if not s.solver.drive:
         out["load_share"] = s.solver.load_share
         out.pop("bearing", None)
@@ -493,8 +499,16 @@ def _datasheet_files(ctx: RunContext) -> None:
     if ff is not None and ff.hysteresis is not None:
         width = float(np.max(ff.hysteresis["width_at_rated"]) * ARCMIN_PER_RAD)
     loop = ff.hysteresis["loop"] if width is not None else None
+    elastic = s.solver.bodies == "elastic"
     hysteresis_png(
-        ds, ctx.out / "hysteresis.png", s.design, note, width, loop, whole.get("whole_drive")
+        ds,
+        ctx.out / "hysteresis.png",
+        s.design,
+        note,
+        width,
+        loop,
+        whole.get("whole_drive"),
+        elastic,
     )
     transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
@@ -529,7 +543,7 @@ def _datasheet_files(ctx: RunContext) -> None:
         ctx.files.append("efficiency.png")
         ctx.manifest["datasheet"].update(figs)
     if s.solver.drive or s.solver.contact_law != "paper":
-        ctx.manifest["datasheet"].update(_model_meta(s))
+        ctx.manifest["datasheet"].update(_model_meta(s, ctx.results.bodies))
     _datasheet_html(ctx, {**meta, **ds.figures(), **figs})
     if s.assembly:
         _assembly(ctx)

@@ -16,7 +16,7 @@ __all__ = ["drive_forces", "drive_force_files", "drive_check_values", "model_des
 ROWS = ("A", "B")
 
 
-def model_description(scene) -> dict:
+def model_description(scene, tables=None) -> dict:
     """The model, the contact law and the bearings as the files state them."""
     sv = scene.solver
     out = {
@@ -30,6 +30,10 @@ def model_description(scene) -> dict:
     if crank is not None:  # [crankshaft] / [bearings.crank]: the keys appear with them only
         out["crank"] = crank.as_dict()
         out["compliances"] = compliances(scene)
+    if sv.bodies == "elastic":  # absent under rigid bodies: those files keep their bytes
+        from corr_cad.run.stages.stages_bodies import bodies_description
+
+        out["bodies"] = bodies_description(tables)
     return out
 
 
@@ -156,7 +160,7 @@ def drive_force_files(ctx: RunContext) -> None:
         rows[ROWS[i]] = summary
     h = heavier_row(res)
     summary = {
-        **model_description(s),
+        **model_description(s, ctx.results.bodies),
         "row_a_share": _stats(res.row_a_share),
         "heavier_row": ROWS[h],
         "rows": rows,

@@ -1,0 +1,336 @@
+"""The bodies in the drive's solve: influence matrices and the coupled equilibrium.
+
+At each crank position the bodies add to roller ``k``'s overlap (along its
+cam line, :mod:`corr_cad.mechanics.drive`) the approach
+
+    d_k = sum_j C_kj F_j,
+    C_kj = rho_n,k rho_n,j G_ring(k, j) + G_cam(k, j)   (k and j in one row)
+         + |rho_s,k| |rho_s,j| G_frame(k, j) / 4         (/ 2 in one row)
+
+where ``G_ring(k, j)`` is the ring's displacement along roller ``k``'s gear
+normal under a unit gear force of roller ``j`` (both rows' rings are bodies of
+their own) and ``G_frame`` one frame plate's displacement along roller ``k``'s
+slot force under roller ``j``'s: each roller rests on the two plates it runs
+through (its row's outer plate and the middle plate shared by both rows), half
+its slot force on each, and moves by their mean; ``rho_n = F_n / F_j`` and
+``rho_s = F_s / F_j`` turn the gear and slot approaches into the cam line's, as
+the contact law does (the principle of virtual work); ``G_cam(k, j)`` is the
+cam's approach along roller ``k``'s cam line under roller ``j``'s cam force (an
+annulus: a function of the angle between them). Where roller ``k`` is not
+loadable its row and column are zero.
+
+The coupled equilibrium ``h_k = a_k tau + g_k + n_k . u - d_k``, ``d = C F``:
+Newton on ``d``. Each step solves the drive with the gaps ``g - d``
+(:meth:`~corr_cad.mechanics.drive.DriveSolver.solve_contacts`, its own
+solve) and corrects ``d`` with the linearised drive's response
+``dF/dd = -(K - K B J^-1 A^T K)`` (``K`` the rollers' contact stiffnesses,
+``B``, ``A`` the overlaps' and the balances' columns of the crank rotation and
+of each floating cam's centre, ``J = A^T K B`` plus the needles' stiffness):
+exact where no roller changes between loaded and free, so a few steps reach
+round-off.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+
+from corr_cad.geometry.design import GearDesign
+from corr_cad.mechanics.drive_numerics import _forces_of, roller_directions
+from corr_cad.mechanics.solver_geometry import RollerGeometry
+
+__all__ = ["BodyTables", "Influence", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
+
+#: The body approaches' relative residual ``|d - C F| / max |C F|`` the coupled solve reaches.
+BODIES_RTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class BodyTables:
+    """Influence tables of both bodies (see the module's docstring), mm/N.
+
+    ``ring`` (M, M z): one ring; ``frame`` (Mf, R, 2, Mf): one frame plate
+    (side 0 = ``+``, 1 = ``-``) at ``frame_radii`` (Mf,), mm; ``nodes``: the
+    meshes' node counts (ring, frame, cam); ``mesh_size``: the finest element,
+    mm; ``cam`` (Mc,): one cam, the approach at angle ``2 pi m / Mc`` from a unit
+    load (None: the cams rigid).
+    """
+
+    ring: np.ndarray
+    frame: np.ndarray
+    frame_radii: np.ndarray
+    nodes: tuple[int, ...]
+    mesh_size: float
+    cam: np.ndarray | None = None
+
+
+def _bilinear(flat, base, i0, fi, d0, fd, di, dd):
+    """Bilinear interpolation in (load index, offset) of a flattened table: corner
+    ``(i, d)`` at ``flat[base + i * di + d * dd]``."""
+    k = base + i0 * di + d0 * dd
+    return (1 - fi) * ((1 - fd) * flat[k] + fd * flat[k + dd]) + fi * (
+        (1 - fd) * flat[k + di] + fd * flat[k + di + dd]
+    )
+
+
+def _ring(T: np.ndarray, xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
+    """The ring's table at grid coordinates ``xa`` (load), ``xb`` (read), bilinear in
+    the load angle and the offset ``xb - xa`` (exact on the offset grid: a roller's own
+    term is read at offset 0). ``T`` is re-indexed by (load, offset), the load index
+    wrapped once (row ``M`` is row 0 one pitch on) and the offset padded by one."""
+    M, Mz = T.shape
+    d = np.mod(xb - xa + 0.5 * Mz, Mz) - 0.5 * Mz
+    xa = np.mod(xa, M)  # the ring's z-fold symmetry: both shifted by whole pitches
+    i0 = np.minimum(np.floor(xa).astype(np.intp), M - 1)
+    d0 = np.floor(d).astype(np.intp)
+    fi, fd = xa - i0, d - d0
+    # By (load i, offset o): U[i, o] = T[i mod M, (i mod M + o) mod Mz], o in [-Mz/2 - 1, Mz/2 + 1].
+    half = Mz // 2 + 2
+    offs = np.arange(-half, half + 1)
+    rows = np.arange(M + 1)
+    U = T[rows[:, None] % M, (rows[:, None] % M + offs[None, :]) % Mz]
+    return _bilinear(U.ravel(), half, i0, fi, d0, fd, U.shape[1], 1)
+
+
+def _frame(T, rho, ra, sa, ka, rb, sb, kb):
+    """One frame plate's table for loads at radius ``ra``, side ``sa``, slot ``ka`` read at
+    ``rb``, ``sb``, ``kb`` (broadcasting arrays); the mirror gives a ``-`` side's load.
+    Bilinear in the load radius and the offset of the read radius from it."""
+    Mf, R = T.shape[0], T.shape[1]
+    m = np.mod(kb - ka, R)
+    flip = sa < 0
+    m = np.where(flip, np.mod(-m, R), m)
+    side = np.where((sb > 0) != flip, 0, 1)
+    step = rho[1] - rho[0]
+    xa = np.clip((ra - rho[0]) / step, 0.0, Mf - 1.0)
+    xb = np.clip((rb - rho[0]) / step, 0.0, Mf - 1.0)
+    d = xb - xa
+    i0 = np.minimum(np.floor(xa), Mf - 2).astype(np.intp)
+    d0 = np.floor(d).astype(np.intp)
+    fi, fd = xa - i0, d - d0
+    # The read radius padded by one each side (i0 + d0 + 1 lies in [0, Mf]).
+    Tp = np.concatenate([T[..., :1], T, T[..., -1:]], axis=-1)  # (Mf, R, 2, Mf + 2)
+    W = Mf + 2
+    base = (m * 2 + side) * W + 1 + i0 * (R * 2 * W) + i0
+    return _bilinear(Tp.ravel(), base, 0, fi, d0, fd, R * 2 * W + 1, 1)
+
+
+def influence_matrices(
+    tables: BodyTables,
+    design: GearDesign,
+    crank_angles: np.ndarray,
+    geometry: tuple[RollerGeometry, RollerGeometry],
+    compiled: bool = True,
+) -> np.ndarray:
+    """``C`` (P, 2R, 2R), mm/N: roller ``k``'s body approach per newton of roller ``j``'s
+    cam force (row A's rollers first), at crank angles (P,). ``compiled``: by the
+    compiled loop (:mod:`~corr_cad.mechanics.bodies.coupling_kernel`), else by numpy
+    (the same interpolation; the tests hold them equal)."""
+    z, R = design.tooth_count, design.roller_count
+    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
+    theta = np.arange(R) * design.slot_pitch_rad
+    M, Mz = tables.ring.shape
+    step = 2.0 * np.pi / Mz
+    slot = np.concatenate([np.arange(R), np.arange(R)])
+    row = np.repeat([0, 1], R)
+    t = np.concatenate(
+        [(phi[:, None] + c * np.pi) / z + theta[None, :] for c in (0, 1)], axis=1
+    )  # each roller's polar angle on its own ring
+    geo = geometry
+    rn = np.concatenate([np.where(g.loadable, g.rho_n, 0.0) for g in geo], axis=1)
+    rs = np.concatenate([np.where(g.loadable, g.rho_s, 0.0) for g in geo], axis=1)
+    s = np.concatenate([g.s for g in geo], axis=1)
+    x = t / step
+    # Each roller's direction from its cam's centre, as an index of the cam's table.
+    n = np.concatenate([roller_directions(design, g) for g in geo], axis=1)
+    cam = np.zeros(1) if tables.cam is None else np.ascontiguousarray(tables.cam)
+    xc = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi) * (len(cam) / (2 * np.pi))
+    on = np.concatenate([g.loadable for g in geo], axis=1) & (tables.cam is not None)
+    if compiled:
+        from corr_cad.mechanics.bodies.coupling_kernel import influence_kernel
+
+        C = np.empty((len(phi), 2 * R, 2 * R))
+        influence_kernel(
+            np.ascontiguousarray(tables.ring),
+            np.ascontiguousarray(tables.frame),
+            float(tables.frame_radii[0]),
+            float(tables.frame_radii[1] - tables.frame_radii[0]),
+            x,
+            rn,
+            rs,
+            np.ascontiguousarray(s),
+            cam,
+            xc,
+            on,
+            C,
+        )
+        return C
+    same = row[:, None] == row[None, :]
+    C = np.zeros((len(phi), 2 * R, 2 * R))
+    for sl in (slice(0, R), slice(R, 2 * R)):  # each row's own ring: [p, k (read), j (load)]
+        ring = _ring(tables.ring, x[:, None, sl], x[:, sl, None])
+        C[:, sl, sl] = rn[:, sl, None] * rn[:, None, sl] * ring
+    sg = np.sign(rs)
+    fr = _frame(
+        tables.frame,
+        tables.frame_radii,
+        s[:, None, :],
+        sg[:, None, :],
+        slot[None, None, :],
+        s[:, :, None],
+        sg[:, :, None],
+        slot[None, :, None],
+    )
+    share = np.where(same, 0.5, 0.25)
+    C += share * np.abs(rs)[:, :, None] * np.abs(rs)[:, None, :] * fr
+    if tables.cam is not None:  # each row's own cam, by the angle between the contacts
+        Mc = len(cam)
+        dc = np.mod(xc[:, :, None] - xc[:, None, :], Mc)
+        i0 = np.floor(dc).astype(np.intp)
+        f = dc - i0
+        G = (1 - f) * cam[i0 % Mc] + f * cam[(i0 + 1) % Mc]
+        C += np.where(same & on[:, :, None] & on[:, None, :], G, 0.0)
+    return C
+
+
+def _response(solver, tau, F, u, geo) -> np.ndarray:
+    """``dF/dd`` of the drive at its solution (module docstring) as ``(k (P, N),
+    K B (P, N, m), X (P, m, N))``: ``dF/dd = -(diag(k) - K B X)``, ``m`` = 1 (cams
+    fixed) or 5 (the crank and both cams' centres)."""
+    loadable = geo.loadable
+    a_c = np.where(loadable, geo.advance, 0.0)
+    a_m = np.where(loadable, geo.arm, 0.0)
+    h0 = np.where(loadable, geo.gap, -1e300)
+    n, R = solver.n, solver.R
+    P, N = F.shape
+    uu = np.concatenate([np.repeat(u[0][:, None, :], R, 1), np.repeat(u[1][:, None, :], R, 1)], 1)
+    h = a_c * tau[:, None] + h0 + np.sum(n * uu, axis=-1)
+    _, k = _forces_of(solver.comp, h)
+    k = np.where(F > 0, k, 0.0)
+    floating = solver.bearings[0] is not None
+    ncol = 5 if floating else 1
+    B = np.zeros((P, N, ncol))
+    B[:, :, 0] = a_c
+    A = np.zeros((P, N, ncol))
+    A[:, :, 0] = a_m
+    if floating:
+        for c in (0, 1):
+            sl = slice(c * R, (c + 1) * R)
+            B[:, sl, 1 + 2 * c : 3 + 2 * c] = n[:, sl]
+            A[:, sl, 1 + 2 * c : 3 + 2 * c] = n[:, sl]
+    KB = k[:, :, None] * B
+    J = np.einsum("pni,pnj->pij", A, KB)
+    if floating:
+        for c, b in enumerate(solver.bearings):
+            _, kq = b.loads(u[c])
+            e = b.directions()
+            J[:, 1 + 2 * c : 3 + 2 * c, 1 + 2 * c : 3 + 2 * c] += np.einsum(
+                "pj,jx,jy->pxy", kq, e, e
+            )
+    tr = np.trace(J, axis1=1, axis2=2)
+    J += (1e-12 * tr + 1e-300)[:, None, None] * np.eye(ncol)
+    KA = k[:, :, None] * A
+    X = np.linalg.solve(J, np.transpose(KA, (0, 2, 1)))  # (P, ncol, N)
+    return k, KB, X  # dF/dd = -(diag(k) - KB X): a diagonal less a rank-ncol term
+
+
+def _take(geo: RollerGeometry, idx: np.ndarray) -> RollerGeometry:
+    """The positions ``idx`` of a roller geometry."""
+    return replace(
+        geo,
+        **{
+            f.name: getattr(geo, f.name)[idx]
+            for f in fields(geo)
+            if isinstance(getattr(geo, f.name), np.ndarray) and getattr(geo, f.name).ndim == 2
+        },
+    )
+
+
+#: Influence coefficients held at once: positions are coupled a block at a time (4M
+#: doubles, 32 MB; the prototype's 1,800 distinct positions of 52 rollers in two blocks).
+BLOCK_ENTRIES = 1 << 22
+
+
+class Influence:
+    """The influence matrices ``C`` of a drive solver's positions
+    (:func:`influence_matrices`), made once where they fit in :data:`BLOCK_ENTRIES`,
+    else a block of positions at a time; ``influence[p]`` is position ``p``'s (N, N)."""
+
+    def __init__(self, tables: BodyTables, design: GearDesign, crank_angles, geometry):
+        self.tables, self.design, self.geometry = tables, design, geometry
+        self.angles = np.asarray(crank_angles, dtype=float).reshape(-1)
+        N = 2 * design.roller_count
+        self.block = max(1, BLOCK_ENTRIES // (N * N))
+        P = len(self.angles)
+        self._all = self._make(np.arange(P)) if P <= self.block else None
+
+    def _make(self, idx: np.ndarray) -> np.ndarray:
+        geo = tuple(_take(g, idx) for g in self.geometry)
+        return influence_matrices(self.tables, self.design, self.angles[idx], geo)
+
+    def matrices(self, idx: np.ndarray) -> np.ndarray:
+        """``C`` (len(idx), N, N) of the positions ``idx``."""
+        return self._all[idx] if self._all is not None else self._make(idx)
+
+    def __getitem__(self, p):
+        idx = np.arange(len(self.angles))[p]
+        C = self.matrices(np.atleast_1d(idx))
+        return C if np.ndim(idx) else C[0]
+
+
+def coupled_solve(solver, target: float, influence: Influence, max_iter: int = 50):
+    """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies'
+    ``influence`` (module docstring); ``rel`` includes the body residual. A block of
+    positions at a time; each Newton step solves again only the positions not yet
+    converged."""
+    geo0, comp0, n0 = solver.geo_joined, solver.comp, solver.n
+    P, N = geo0.gap.shape
+    eye = np.eye(N)
+    its = 0
+    body_rel = np.zeros(P)
+    out: list = []
+    try:
+        for start in range(0, P, influence.block):
+            blk = np.arange(start, min(P, start + influence.block))
+            C = influence.matrices(blk)
+            d = np.zeros((len(blk), N))
+            at = np.arange(len(blk))  # the block's positions still iterating
+            for _ in range(max_iter):
+                idx = blk[at]
+                sub = idx.size < P
+                solver.geo_joined = replace(
+                    _take(geo0, idx) if sub else geo0, gap=geo0.gap[idx] - d[at]
+                )
+                solver.comp = comp0.take(idx) if sub else comp0
+                solver.n = n0[idx]
+                tau, F, u, Qs, rel, it = solver.solve_contacts(target)
+                its += it
+                if not out:
+                    out = [np.zeros(P), np.zeros((P, N)), np.zeros((2, P, 2)), None, np.zeros(P)]
+                    if Qs is not None:
+                        out[3] = [np.zeros((P, q.shape[1])) for q in Qs]
+                out[0][idx], out[1][idx], out[2][:, idx], out[4][idx] = tau, F, u, rel
+                if Qs is not None:
+                    for c in (0, 1):
+                        out[3][c][idx] = Qs[c]
+                Ci = C[at]
+                cf = (Ci @ F[:, :, None])[:, :, 0]
+                r = d[at] - cf
+                top = np.max(np.abs(cf), axis=1)
+                rel_i = np.where(top > 0, np.max(np.abs(r), axis=1) / (top + 1e-300), 0.0)
+                body_rel[idx] = rel_i
+                todo = rel_i > BODIES_RTOL
+                if not np.any(todo):
+                    break
+                k, KB, X = _response(solver, tau, F, u, solver.geo_joined)
+                t = np.flatnonzero(todo)
+                Ct = Ci[t]
+                # I - C dF/dd = I + C diag(k) - (C K B) X: no N^3 product.
+                Jd = eye + Ct * k[t, None, :] - (Ct @ KB[t]) @ X[t]
+                d[at[t]] -= np.linalg.solve(Jd, r[t, :, None])[:, :, 0]
+                at = at[t]
+    finally:
+        solver.geo_joined, solver.comp, solver.n = geo0, comp0, n0
+    tau, F, u, Qs, rel = out
+    return tau, F, u, Qs, np.maximum(rel, np.where(body_rel > BODIES_RTOL, body_rel, 0.0)), its
