@@ -25,7 +25,6 @@ from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.drive_windup import DriveWindup
 from corr_cad.mechanics.efficiency import (
-    drive_friction,
     drive_life,
     friction_figures,
     rows_from_drive,
@@ -103,7 +102,7 @@ def test_row_b_draws_its_own_rollers():
     a = ManufacturingErrors(roller_radius_errors=rollers(np.random.default_rng(7)))
     b = ManufacturingErrors(roller_radius_errors=rollers(np.random.default_rng([7, 1])))
     rows = rows_from_drive(D, DriveWindup(D, X, errors=a, errors_b=b).forces(-T_R))
-    by_hand = drive_life(D, rows, drive_friction(D, rows, FR), LifeSpec(), "bearing", 15.0)
+    by_hand = drive_life(D, rows, LifeSpec(), "bearing", 15.0)
     for name in ("ring_row1", "ring_row2", "bearing_row2", "system"):
         assert lives[name][1] == pytest.approx(by_hand[name], rel=1e-9), name
     p = life_percentiles(lives, model="drive")
