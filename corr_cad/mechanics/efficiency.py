@@ -289,6 +289,14 @@ class FrictionFigures:
     def self_locking_shares(self) -> list[float]:
         return [float(s) for s, e in zip(self.shares, self.backdriving, strict=True) if e <= 0.0]
 
+    def self_locking_range_Nm(self) -> list[float] | None:
+        """``[lowest, highest]`` output torque (N*m) of the map that self-locks, or None."""
+        locked = self.self_locking_shares()
+        if not locked:
+            return None
+        T = self.rated_torque / 1000.0
+        return [min(locked) * T, max(locked) * T]
+
     def check_values(self) -> dict[str, float]:
         out = {"efficiency": float(np.min(self.forward))}
         if self.lives is not None:
@@ -304,13 +312,16 @@ class FrictionFigures:
         out = {
             "efficiency_forward": {
                 **stats(self.forward),
-                "definition": "1 - losses / crank power over one cycle, crank driving",
+                "definition": "1 - losses / crank power over one cycle, crank driving, the "
+                "rollers' moment on the output (with friction) equal to the load torque",
             },
             "efficiency_backdriving": {
                 **stats(self.backdriving),
-                "definition": "1 - losses / output power over one cycle, output driving",
+                "definition": "1 - losses / output power over one cycle, output driving at the "
+                "same output torque; 0 where self-locking (the load cannot turn the crank)",
                 "self_locking": bool(self.self_locking_shares()),
                 "self_locking_torque_shares": self.self_locking_shares(),
+                "self_locking_torque_range_Nm": self.self_locking_range_Nm(),
             },
             "friction": {
                 "mu_cam": fr.mu_cam,
@@ -319,8 +330,10 @@ class FrictionFigures:
                 "mu_bearing": fr.mu_bearing,
                 "cam_mounting": fr.mounting,
                 "bearing_bore_mm": fr.bearing_diameter,
-                "model": "Coulomb, first order: frictionless load sharing, friction in each "
-                "roller's and the cam's own balance; efficiency independent of speed",
+                "model": "Coulomb in every balance (each roller, each cam with its needle "
+                "bearing's 0.5 mu P d, the crank), both directions at the same output torque; "
+                "the normal forces' sharing between rollers frictionless (first order); "
+                "efficiency independent of speed",
                 "power_balance_relative": self.balance,
                 **({"forces": self.source} if self.source else {}),
             },
