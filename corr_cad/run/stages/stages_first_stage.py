@@ -159,3 +159,77 @@ def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:
         ctx.files.append(fname)
         shapes[part] = shape
     return shapes
+
+
+#: The whole drive's checks: metric -> how the first stage's share combines with the
+#: second stage's ("add": backlash and lost motion; "series": rigidity; "product":
+#: efficiency), and the figure the check reads.
+WHOLE_DRIVE_METRICS = {
+    "backlash_arcmin": (
+        "add",
+        "whole drive at the output: the second stage's free play (largest over the "
+        "positions) plus the first stage's backlash (pinion held) / (z + 1)",
+    ),
+    "lost_motion_arcmin": (
+        "add",
+        "whole drive at the output: the second stage's lost motion (datasheet, largest) "
+        "plus the first stage's backlash / (z + 1) and its meshes' windup at +-band T_R",
+    ),
+    "torsional_rigidity_Nm_per_arcmin": (
+        "series",
+        "whole drive: 1 / (1/K2 + 1/K1), the second stage's catalogue rigidity (smallest) "
+        "in series with the first stage's mesh stiffness (ISO 6336-1) times (z + 1)^2",
+    ),
+    "efficiency": (
+        "product",
+        "whole drive, forward: the second stage's smallest efficiency over the map times "
+        "the first stage's eta1 (ISO/TR 14179-2 sliding loss)",
+    ),
+}
+
+
+def first_stage_mesh_of(ctx: RunContext):
+    """The first stage's :class:`~corr_cad.mechanics.first_stage_mesh.FirstStageMesh`
+    (``[friction] mu_mesh``; 0 without ``[friction]``: no loss figure is read then)."""
+    from corr_cad.mechanics.first_stage_mesh import first_stage_mesh
+
+    s = ctx.scene
+    mu = s.friction.get("mu_mesh", 0.0) if s.friction else 0.0
+    return first_stage_mesh(s.first_stage, s.design.roller_count, mu)
+
+
+def first_stage_shares(ctx: RunContext) -> dict[str, float]:
+    """The first stage's part of each whole-drive check metric that this run has."""
+    from corr_cad.tolerance.checks import ARCMIN_PER_RAD
+
+    m = first_stage_mesh_of(ctx)
+    out = {"backlash_arcmin": m.output_backlash * ARCMIN_PER_RAD}
+    ds = ctx.results.datasheet
+    if ds is not None:
+        sp = ds.spec
+        out["lost_motion_arcmin"] = (
+            m.lost_motion(sp.rated_torque, sp.lost_motion_band) * ARCMIN_PER_RAD
+        )
+        out["torsional_rigidity_Nm_per_arcmin"] = m.output_stiffness / ARCMIN_PER_RAD / 1000.0
+    if ctx.results.friction is not None:
+        out["efficiency"] = m.efficiency
+    return out
+
+
+def whole_drive_values(values: dict[str, float], shares: dict[str, float]) -> dict[str, dict]:
+    """Each whole-drive metric with its parts: ``{metric: {value, second_stage,
+    first_stage, combined}}``, for the metrics both ``values`` and ``shares`` have."""
+    out = {}
+    for k, first in shares.items():
+        if k not in values:
+            continue
+        second = float(values[k])
+        how, figure = WHOLE_DRIVE_METRICS[k]
+        if how == "add":
+            total = second + first
+        elif how == "series":
+            total = 1.0 / (1.0 / second + 1.0 / first)
+        else:
+            total = second * first
+        out[k] = {"value": total, "second_stage": second, "first_stage": first, "figure": figure}
+    return out
