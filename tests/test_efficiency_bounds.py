@@ -109,6 +109,8 @@ def test_preloaded_prototype_from_the_command_line(tmp_path):
     assert fwd[0] == pytest.approx(0.31, abs=0.02)  # 10 % of T_R
     locked = np.char.lower(eff["self_locking_backdriving"].astype(str)) == "true"
     assert locked[0] and np.all(back[locked] == 0.0) and not locked[-1]
+    # docs: self-locking backwards up to 20 % of T_R, forward 0.80 at T_R
+    assert locked[1] and not locked[2] and fwd[-1] == pytest.approx(0.80, abs=0.01)
     losses = sum(eff[c] for c in ("loss_cam_W", "loss_slot_W", "loss_ring_W", "loss_bearing_W"))
     resid = eff["input_power_W"] - losses - eff["output_power_W"]
     assert np.all(np.abs(resid) <= 1e-7 * eff["input_power_W"])

@@ -70,6 +70,7 @@ def test_gear_loss_factors_against_the_sliding_integral():
     assert m.efficiency == pytest.approx((1 - mu * h1) * (1 - mu * h2), rel=1e-8)
     # The internal mesh slides less: (u + 1) / u is 1 - 1/|u| there.
     assert m.loss_factors[1] < m.loss_factors[0]
+    assert m.efficiency == pytest.approx(0.986, abs=5e-4)  # docs/physics.md
     # Limiting case: no friction, no loss.
     assert first_stage_mesh(g, 26, 0.0).efficiency == 1.0
 
@@ -86,6 +87,8 @@ def test_mesh_stiffness_through_three_wheels_by_hand():
     assert m.crank_stiffness == pytest.approx(M / theta, rel=1e-12)
     assert m.output_stiffness == pytest.approx(26**2 * M / theta, rel=1e-12)
     assert m.output_backlash == pytest.approx(g.crank_backlash_rad / 26, rel=1e-15)
+    # docs/physics.md: about 356,000 N*m/arcmin at the output
+    assert m.output_stiffness * math.pi / 10800 / 1000 == pytest.approx(356000, rel=2e-3)
 
 
 @pytest.mark.slow
