@@ -128,3 +128,16 @@ def test_loss_factor_is_ohlendorfs_closed_form_where_both_tips_share_at_most_one
     for e1, e2 in ((0.7, 0.6), (0.9, 0.95), (0.5, 0.99)):
         closed = math.pi * (2 + 1) / (18 * 2) * (1 - e1 - e2 + e1**2 + e2**2)
         assert gear_loss_factor(18, 2.0, e1, e2) == pytest.approx(closed, rel=1e-14)
+
+
+def test_whole_drive_values_add_backlash_and_put_rigidities_in_series():
+    from corr_cad.run.stages.stages_first_stage import whole_drive_values
+
+    second = {"backlash_arcmin": 0.01, "torsional_rigidity_Nm_per_arcmin": 1000.0}
+    first = {"backlash_arcmin": 0.2, "torsional_rigidity_Nm_per_arcmin": 3000.0, "efficiency": 0.9}
+    out = whole_drive_values(second, first)
+    assert out["backlash_arcmin"]["value"] == pytest.approx(0.21, rel=1e-15)
+    assert out["torsional_rigidity_Nm_per_arcmin"]["value"] == pytest.approx(750.0, rel=1e-15)
+    assert "efficiency" not in out  # no second-stage figure: nothing to combine
+    eff = whole_drive_values({"efficiency": 0.8}, first)["efficiency"]
+    assert eff["value"] == pytest.approx(0.72, rel=1e-15) and eff["first_stage"] == 0.9
