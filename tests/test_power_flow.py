@@ -17,6 +17,8 @@ with and without a preload.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -117,3 +119,27 @@ def test_power_balance_from_forces_and_slips(errors, backdriving):
         assert np.allclose(op.crank_power, p_in, rtol=1e-9, atol=0)
         assert np.allclose(op.output_torque, t_out, rtol=1e-9, atol=1e-9 * scale.max())
         assert np.all(losses >= 0.0)
+
+
+def test_load_independent_drag_enters_the_efficiency_exactly_without_friction():
+    """mu = 0 and drag moments (M_in at the crank, T_out at the output): forward
+    T / (T + T_out + M_in (z + 1)), backdriving 1 - (T_out + M_in (z + 1)) / T."""
+    w = Windup(D, X)
+    zero = Friction(0.0, 0.0, 0.0, 0.0, "bearing", 82.4)
+
+    def evaluate(T):
+        rows = [row_loads_from_forces(D, w.forces(T))]
+        return rows, drive_friction(D, rows, zero)
+
+    T, m_in, t_out = 0.5 * T_R, 500.0, 20000.0
+    z1 = D.roller_count
+    fwd = operating_point(evaluate, T, False, w.load_share, z1, drag=(m_in, t_out))
+    back = operating_point(evaluate, T, True, w.load_share, z1, drag=(m_in, t_out))
+    assert fwd.efficiency == pytest.approx(T / (T + t_out + m_in * z1), rel=1e-12)
+    assert back.efficiency == pytest.approx(1.0 - (t_out + m_in * z1) / T, rel=1e-12)
+    # The rollers carry the load and the output's drag: T + T_out forward, T - T_out back.
+    assert np.mean(fwd.output_torque) == pytest.approx(w.load_share * (T + t_out), rel=1e-12)
+    assert np.mean(back.output_torque) == pytest.approx(-w.load_share * (T - t_out), rel=1e-12)
+    # An output drag above the load: self-locking backwards.
+    locked = operating_point(evaluate, T, True, w.load_share, z1, drag=(0.0, 2 * T))
+    assert locked.efficiency == -math.inf

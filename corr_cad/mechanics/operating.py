@@ -41,6 +41,13 @@ the friction (the root lies on the forward side), the point is
 self-locking without a backdriving state to report. Efficiencies are
 ``1 - losses / driving power``, exactly 1 without friction.
 
+Load-independent losses (bearing drag, seals, churning) enter as two
+moments of the drive, ``drag = (M_in, T_out)``, resisting the crank's and
+the output's rotation: the rollers then carry ``T + T_out`` forward and
+``T - T_out`` backdriving, and the efficiency counts ``M_in (z + 1) +
+T_out`` per unit output speed with the contacts' losses (exact with every
+contact coefficient 0: forward ``T / (T + T_out + M_in (z + 1))``).
+
 Units: N, mm; powers per unit output speed (N*mm per rad of output).
 """
 
@@ -74,7 +81,9 @@ class OperatingPoint:
     ``-share T`` backdriving); ``crank_power``, ``frame_power`` the power
     the crank and the frame put in; ``losses`` (P, 4) cam, slot, ring,
     bearing; ``matched``: False where the search stopped at the smallest
-    ``T'`` (self-locking backdriving).
+    ``T'`` (self-locking backdriving); ``drag``: the load-independent
+    moments ``(at the crank, at the output)`` (N*mm, the drive's, each
+    resisting its member's motion) the point was solved with.
     """
 
     torque: float
@@ -89,6 +98,7 @@ class OperatingPoint:
     losses: np.ndarray
     crank_speed: float
     matched: bool = True
+    drag: tuple[float, float] = (0.0, 0.0)
 
     @property
     def crank_moment(self) -> np.ndarray:
@@ -97,10 +107,17 @@ class OperatingPoint:
 
     @property
     def efficiency(self) -> float:
-        """Over the cycle, ``1 - losses / driving power`` (by the balance, the driven
-        power over the driving); forward in (0, 1]; backdriving <= 0: self-locking."""
-        loss = float(np.sum(np.mean(self.losses, axis=0)))
-        driver = float(np.mean(self.frame_power if self.backdriving else self.crank_power))
+        """Over the cycle, ``1 - losses / driving power`` of the drive (by the balance,
+        the driven power over the driving); forward in (0, 1]; backdriving <= 0:
+        self-locking. The rows' losses count ``1 / share``; the drag moments add
+        ``M_in (z + 1) + T_out`` per unit output speed."""
+        m_in, t_out = self.drag
+        drag = m_in * self.crank_speed + t_out
+        loss = float(np.sum(np.mean(self.losses, axis=0))) / self.share + drag
+        if self.backdriving:
+            driver = float(np.mean(self.frame_power)) / self.share + t_out
+        else:
+            driver = float(np.mean(self.crank_power)) / self.share + m_in * self.crank_speed
         if driver <= 0.0 or not self.matched:
             if not self.backdriving:
                 raise SolverError(f"efficiency: no crank power at {self.torque:g} N*mm")
@@ -121,19 +138,33 @@ def operating_point(
     backdriving: bool,
     share: float,
     crank_speed: float,
+    drag: tuple[float, float] = (0.0, 0.0),
 ) -> OperatingPoint:
     """The operating point at load ``torque`` (N*mm, > 0) in one direction.
 
     ``evaluate(T')`` gives ``(rows, frictions)``: the rows' frictionless
     loads at the windup torque ``T'`` and their friction states (running
     kinematics). ``share``: the part of the torque the rows carry;
-    ``crank_speed`` per unit output speed (``z + 1``).
+    ``crank_speed`` per unit output speed (``z + 1``). ``drag``: load-independent
+    moments of the drive ``(M_in at the crank, T_out at the output)``, N*mm,
+    each resisting its member's rotation (bearings, seals, churning): the
+    rollers then deliver ``T + T_out`` forward and receive ``T - T_out``
+    backdriving, and the crank supplies (or loses) ``M_in`` besides.
     """
     T = float(torque)
     if not (math.isfinite(T) and T > 0.0):
         raise SolverError(f"operating point at torque {T!r}: give a finite torque > 0 (N*mm)")
+    m_in, t_out = (float(v) for v in drag)
+    if not (math.isfinite(m_in) and math.isfinite(t_out) and m_in >= 0.0 and t_out >= 0.0):
+        raise SolverError(f"drag = {drag!r}: give two finite moments >= 0 (N*mm)")
     sense = 1.0 if backdriving else -1.0  # the sign of T' in the frictionless state
-    target = -sense * share * T  # mean output torque along the motion
+    drag = (m_in, t_out)
+    T_r = T - t_out if backdriving else T + t_out  # what the rollers carry at the output
+    if T_r <= 0.0:  # the output's own drag takes the whole load: self-locking
+        x = sense * SMALLEST_SHARE * T
+        rows, frs = evaluate(x)
+        return _point(T, backdriving, share, crank_speed, x, (rows, frs, 0.0), False, drag)
+    target = -sense * share * T_r  # mean output torque along the motion
     smallest = SMALLEST_SHARE * T
     cache: dict[float, tuple] = {}
 
@@ -150,7 +181,7 @@ def operating_point(
 
     # A Newton step on the frictionless slope, a little long so that it brackets the root;
     # then steps doubling in the same direction, never below the smallest u.
-    u0, g0 = T, g(T)
+    u0, g0 = T_r, g(T_r)
     u1 = max(u0 - 1.02 * g0 / share, smallest)
     g1 = g(u1) if g0 != 0.0 else 0.0
     for _ in range(60):
@@ -162,18 +193,19 @@ def operating_point(
         g1 = g(u1)
     if g0 != 0.0 and g1 != 0.0 and (g0 > 0.0) == (g1 > 0.0):
         if backdriving:  # the load cannot overcome the friction at any state: self-locking
-            return _point(T, backdriving, share, crank_speed, sense * u1, state(sense * u1), False)
+            x = sense * u1
+            return _point(T, backdriving, share, crank_speed, x, state(x), False, drag)
         raise SolverError(f"operating point at torque {T:g} N*mm: output torque not bracketed")
     u = u0 if g0 == 0.0 else u1
     if g0 != 0.0 and g1 != 0.0:
         from scipy.optimize import brentq
 
         lo, hi = sorted((u0, u1))
-        u = brentq(g, lo, hi, xtol=_RTOL * T, rtol=1e-15, maxiter=200)
-    return _point(T, backdriving, share, crank_speed, sense * u, state(sense * u))
+        u = brentq(g, lo, hi, xtol=_RTOL * T_r, rtol=1e-15, maxiter=200)
+    return _point(T, backdriving, share, crank_speed, sense * u, state(sense * u), True, drag)
 
 
-def _point(T, backdriving, share, crank_speed, x, st, matched=True) -> OperatingPoint:
+def _point(T, backdriving, share, crank_speed, x, st, matched, drag) -> OperatingPoint:
     rows, frs, _ = st
     crank = sum(np.asarray(f.crank_power) for f in frs)
     frame = sum(np.asarray(f.frame_power) for f in frs)
@@ -191,4 +223,5 @@ def _point(T, backdriving, share, crank_speed, x, st, matched=True) -> Operating
         losses=losses,
         crank_speed=float(crank_speed),
         matched=matched,
+        drag=drag,
     )
