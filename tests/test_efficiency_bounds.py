@@ -67,6 +67,15 @@ def test_paper_row_bounds_over_the_load_range(errors):
     else:  # the preload's losses stay at no load: the efficiency falls at low torque
         assert np.all(np.diff(ff.forward) > 0.0)
         assert ff.backdriving[0] == 0.0  # self-locking at 1 % of T_R
+        # efficiency.png's legend says what the backdriving curve's 0 means
+        import matplotlib.pyplot as plt
+
+        from corr_cad.export.friction_io import efficiency_figure
+
+        fig = efficiency_figure(ff)
+        labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+        plt.close(fig)
+        assert "backdriving (0: self-locking)" in labels
 
 
 @pytest.mark.slow

@@ -140,7 +140,8 @@ def efficiency_figure(ff: FrictionFigures, note: str = ""):
     fig, ax = plt.subplots(figsize=(7, 4.6))
     for k, n in enumerate(ff.speeds_rpm):
         ax.plot(T, 100 * ff.forward, marker="o", ms=4 + 2 * k, mfc="none", label=f"{n:g} rpm in")
-    ax.plot(T, 100 * ff.backdriving, color="0.4", ls="--", label="backdriving")
+    locked = " (0: self-locking)" if ff.self_locking_shares() else ""
+    ax.plot(T, 100 * ff.backdriving, color="0.4", ls="--", label="backdriving" + locked)
     ax.set_xlabel("output torque [N*m]")
     ax.set_ylabel("efficiency [%]")
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))
