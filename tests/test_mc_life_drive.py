@@ -69,13 +69,10 @@ def test_identical_rigid_rows_give_the_paper_lives_at_share_one_half(mu_contact)
     fr = Friction(mu_contact, mu_contact, mu_contact, 0.0025, "bearing", 82.4)
     drive = life_samples(D, ManufacturingErrors(), ZERO, 1, 3, LifeSpec(), fr, T_R, drive=RIGID)
     paper = life_samples(D, ManufacturingErrors(), ZERO, 1, 3, LifeSpec(), fr, T_R, load_share=0.5)
-    for name in ("cam_row1", "ring_row1", "cam_row2", "ring_row2"):
+    # No friction coefficient enters a life (frictionless loads, rolling kinematics):
+    # every component alike at any mu.
+    for name in drive:
         assert drive[name][0] == pytest.approx(paper[name][0], rel=1e-9), name
-    for name in ("bearing_row1", "bearing_row2", "system"):
-        if mu_contact == 0.0:
-            assert drive[name][0] == pytest.approx(paper[name][0], rel=1e-9), name
-        else:  # the paper's row rates the friction-loaded, larger bearing load
-            assert drive[name][0] > paper[name][0] * 1.01, name
 
 
 @pytest.mark.slow
