@@ -130,3 +130,11 @@ def test_preloaded_prototype_from_the_command_line(tmp_path):
     assert b["self_locking"] is True
     lo, hi = b["self_locking_torque_range_Nm"]
     assert lo == pytest.approx(eff["output_torque_Nm"][0]) and hi < ds["rated_torque_Nm"]
+
+
+def test_a_cam_fixed_on_the_crank_slides_and_self_locks_backwards():
+    """docs/datasheet.md: about 0.32 forward with 0.05 everywhere, self-locking backwards."""
+    fixed = Friction(0.05, 0.05, 0.05, 0.0025, "fixed", 82.4)
+    ff = friction_figures(D, Windup(D, X), T_R, fixed, [0.1, 1.0], [1000.0])
+    assert np.allclose(ff.forward, 0.32, atol=0.005)
+    assert np.all(ff.backdriving == 0.0) and ff.figures()["efficiency_backdriving"]["self_locking"]
