@@ -331,7 +331,8 @@ class FrictionFigures:
                 "cam_mounting": fr.mounting,
                 "bearing_bore_mm": fr.bearing_diameter,
                 "model": "Coulomb in every balance (each roller, each cam with its needle "
-                "bearing's 0.5 mu P d, the crank), both directions at the same output torque; "
+                "bearing's 0.5 mu P d, the crank), both directions at the same output torque "
+                "(the rollers' moment on the output with friction, its mean over the cycle); "
                 "the normal forces' sharing between rollers frictionless (first order); "
                 "efficiency independent of speed",
                 "power_balance_relative": self.balance,
