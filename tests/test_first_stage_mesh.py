@@ -9,6 +9,7 @@ and the compound template run from the command line.
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import subprocess
@@ -141,3 +142,32 @@ def test_whole_drive_values_add_backlash_and_put_rigidities_in_series():
     assert "efficiency" not in out  # no second-stage figure: nothing to combine
     eff = whole_drive_values({"efficiency": 0.8}, first)["efficiency"]
     assert eff["value"] == pytest.approx(0.72, rel=1e-15) and eff["first_stage"] == 0.9
+
+
+@pytest.mark.slow
+def test_monte_carlo_gates_the_whole_drives_backlash(tmp_path):
+    """Under [first_stage] a Monte Carlo gate on max_backlash_arcmin judges each sample's
+    second-stage backlash plus the first stage's (nominal gears): recounted from the CSV."""
+    text = (ROOT / "templates" / "compound.toml").read_text()
+    formats = text[text.index("formats = [") :].split("\n")[0]
+    text = text.replace(formats, 'formats = ["montecarlo"]')
+    text = text.replace(
+        "[checks]\n", "[checks]\nmax_backlash_arcmin = 0.3\nmax_failure_probability = 0.5\n"
+    )
+    text += "\n[tolerances]\ncam_radius = { uniform = 0.01 }\n"
+    text += "[montecarlo]\nsamples = 16\npositions = 52\nseed = 1\n"
+    (tmp_path / "s.toml").write_text(text)
+    out = tmp_path / "o"
+    cmd = [sys.executable, "-m", "corr_cad", "run", str(tmp_path / "s.toml"), "--out", str(out)]
+    r = subprocess.run(cmd + ["--quiet"], capture_output=True, text=True)
+    assert r.returncode in (0, 1), r.stderr
+    summary = json.loads((out / "montecarlo_summary.json").read_text())
+    lim = summary["whole_drive_limits"]["max_backlash_arcmin"]
+    assert lim["limit"] == 0.3 and lim["first_stage"] == pytest.approx(0.2351, abs=1e-4)
+    assert lim["second_stage_limit"] == pytest.approx(0.3 - lim["first_stage"], rel=1e-15)
+    with open(out / "montecarlo.csv", newline="") as fh:
+        backlash = [float(row["backlash_arcmin"]) for row in csv.DictReader(fh)]
+    whole = [b + lim["first_stage"] for b in backlash]
+    p = sum(w > 0.3 for w in whole) / len(whole)
+    assert 0.0 < p < 1.0  # the case separates samples: the first stage's share decides
+    assert summary["failure_probability"]["max_backlash_arcmin"] == pytest.approx(p, rel=1e-15)

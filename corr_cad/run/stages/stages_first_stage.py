@@ -198,15 +198,18 @@ def first_stage_mesh_of(ctx: RunContext):
     return first_stage_mesh(s.first_stage, s.design.roller_count, mu)
 
 
-def first_stage_shares(ctx: RunContext) -> dict[str, float]:
-    """The first stage's part of each whole-drive check metric that this run has."""
+def first_stage_shares(ctx: RunContext, spec=None) -> dict[str, float]:
+    """The first stage's part of each whole-drive check metric that this run has
+    (``spec``: the datasheet's :class:`DatasheetSpec`, default the run's datasheet's)."""
     from corr_cad.tolerance.checks import ARCMIN_PER_RAD
 
     m = first_stage_mesh_of(ctx)
     out = {"backlash_arcmin": m.output_backlash * ARCMIN_PER_RAD}
     ds = ctx.results.datasheet
-    if ds is not None:
-        sp = ds.spec
+    if spec is None and ds is not None:
+        spec = ds.spec
+    if spec is not None:
+        sp = spec
         out["lost_motion_arcmin"] = (
             m.lost_motion(sp.rated_torque, sp.lost_motion_band) * ARCMIN_PER_RAD
         )
@@ -233,3 +236,32 @@ def whole_drive_values(values: dict[str, float], shares: dict[str, float]) -> di
             total = second * first
         out[k] = {"value": total, "second_stage": second, "first_stage": first, "figure": figure}
     return out
+
+
+def second_stage_limits(ctx: RunContext, checks, spec=None):
+    """The limits the second stage's Monte Carlo samples must meet for the whole drive
+    to meet ``checks``: ``(Checks, {check: {limit, second_stage_limit, first_stage}})``.
+
+    The first stage's share is the nominal gears' (no tolerance of its own):
+    a sum's limit less it; a rigidity in series ``1 / (1/L - 1/K1)`` (infinite
+    where ``K1`` alone is below ``L``).
+    """
+    from dataclasses import replace
+
+    from corr_cad.tolerance.checks import CHECK_METRICS
+
+    shares = first_stage_shares(ctx, spec)
+    new, record = {}, {}
+    for name, limit in checks.active().items():
+        metric = CHECK_METRICS[name][0]
+        if metric not in shares or metric == "efficiency":
+            continue
+        first = shares[metric]
+        if WHOLE_DRIVE_METRICS[metric][0] == "add":
+            second = limit - first
+        else:
+            rest = 1.0 / limit - 1.0 / first if limit > 0.0 else float("inf")
+            second = 1.0 / rest if rest > 0.0 else float("inf")
+        new[name] = second
+        record[name] = {"limit": limit, "second_stage_limit": second, "first_stage": first}
+    return replace(checks, **new), record
