@@ -449,13 +449,16 @@ def friction_figures(
         return rows, drive_friction(design, rows, friction)
 
     points = []
+    ratio = {False: None, True: None}  # |T'| / T of the last matched point: the next start
     for s in shares:
         T = s * rated_torque
-        points.append(
-            tuple(
-                operating_point(evaluate, T, b, share, design.roller_count) for b in (False, True)
-            )
-        )
+        pair = []
+        for b in (False, True):
+            p = operating_point(evaluate, T, b, share, design.roller_count, start=ratio[b])
+            if p.matched:
+                ratio[b] = abs(p.frictionless_torque) / T
+            pair.append(p)
+        points.append(tuple(pair))
     fwd = [f.efficiency for f, _ in points]
     back = [max(b.efficiency, 0.0) for _, b in points]
     out = FrictionFigures(

@@ -139,6 +139,7 @@ def operating_point(
     share: float,
     crank_speed: float,
     drag: tuple[float, float] = (0.0, 0.0),
+    start: float | None = None,
 ) -> OperatingPoint:
     """The operating point at load ``torque`` (N*mm, > 0) in one direction.
 
@@ -150,6 +151,8 @@ def operating_point(
     each resisting its member's rotation (bearings, seals, churning): the
     rollers then deliver ``T + T_out`` forward and receive ``T - T_out``
     backdriving, and the crank supplies (or loses) ``M_in`` besides.
+    ``start``: the ratio ``|T'| / (T +- T_out)`` to start the search from
+    (another torque's, where it is nearly the same; default 1).
     """
     T = float(torque)
     if not (math.isfinite(T) and T > 0.0):
@@ -179,8 +182,25 @@ def operating_point(
     def g(u: float) -> float:
         return -sense * state(sense * u)[2]
 
-    # A Newton step on the frictionless slope, a little long so that it brackets the root;
-    # then steps doubling in the same direction, never below the smallest u.
+    # Secant steps from u = T_r and a Newton step on the frictionless slope: the output
+    # torque is nearly linear in T', so three or four evaluations reach the tolerance.
+    tol = _RTOL * share * T_r
+    a0 = max(T_r * (1.0 if start is None or not start > 0.0 else float(start)), smallest)
+    h0 = g(a0)
+    a1 = max(a0 - h0 / share, smallest)
+    h1 = g(a1) if abs(h0) > tol else h0
+    for _ in range(8):
+        if abs(h1) <= tol:
+            return _point(
+                T, backdriving, share, crank_speed, sense * a1, state(sense * a1), True, drag
+            )
+        if h1 == h0 or (a1 <= smallest and h1 > 0.0):
+            break
+        a0, h0, a1 = a1, h1, max(a1 - h1 * (a1 - a0) / (h1 - h0), smallest)
+        h1 = g(a1)
+    # Otherwise a bracket: a Newton step on the frictionless slope, a little long so that
+    # it brackets the root; then steps doubling in the same direction, never below the
+    # smallest u; then Brent's method.
     u0, g0 = T_r, g(T_r)
     u1 = max(u0 - 1.02 * g0 / share, smallest)
     g1 = g(u1) if g0 != 0.0 else 0.0
