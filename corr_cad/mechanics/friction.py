@@ -1,12 +1,14 @@
 """Coulomb friction at the roller contacts and in the eccentric bearing: where each watt goes.
 
-Losses are computed **first order** from the frictionless load distribution:
-the cam force of every roller comes from the force solver (or the drive
-model) without friction; friction is then fed back into each roller's own
-equilibrium (force and moment), not into the load sharing between rollers
-or rows. That keeps the power balance exact: with every roller in
-equilibrium, the power the crank and the output put in equals the sum of
-the contact and bearing losses to rounding, at every position.
+Given the normal cam force of every roller (the elastic solution of the
+force solver or the drive model), friction enters each roller's own
+equilibrium (force and moment: its slot and ring forces are solved with
+friction) and, on a floating cam, the cam's moment balance; the load
+sharing between rollers stays the elastic one (first order in ``mu``).
+With every body in equilibrium the power the crank and the output put in
+equals the sum of the contact and bearing losses at every position.
+:mod:`corr_cad.mechanics.operating` chooses the elastic state whose output
+torque with friction is the load, in both directions of power flow.
 
 Which surfaces roll and which slide
 -----------------------------------
