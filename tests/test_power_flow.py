@@ -143,3 +143,31 @@ def test_load_independent_drag_enters_the_efficiency_exactly_without_friction():
     # An output drag above the load: self-locking backwards.
     locked = operating_point(evaluate, T, True, w.load_share, z1, drag=(0.0, 2 * T))
     assert locked.efficiency == -math.inf
+
+
+@pytest.mark.parametrize("backdriving", [False, True], ids=["forward", "backdriving"])
+def test_power_balance_of_both_rows_of_the_drive(backdriving):
+    """The drive with 40-needle bearings and a preload: each row's balance on its own, and
+    the output torque of both rows together the load."""
+    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.drive_windup import DriveWindup
+    from corr_cad.mechanics.efficiency import rows_from_drive
+
+    bearing = EccentricBearing(needles=40, needle_diameter=6.0, needle_length=12.0)
+    w = DriveWindup(D, X, errors=PRELOAD, bearing=bearing)
+
+    def evaluate(T):
+        rows = rows_from_drive(D, w.forces(T))
+        return rows, drive_friction(D, rows, MU)
+
+    T = 0.6 * T_R
+    op = operating_point(evaluate, T, backdriving, 1.0, D.roller_count)
+    assert op.matched and len(op.rows) == 2
+    total = 0.0
+    for row, fr in zip(op.rows, op.frictions, strict=True):
+        p_in, t_out, losses = _independent_balance(row, fr)
+        scale = np.maximum(np.abs(p_in), np.abs(t_out))
+        assert np.all(np.abs(p_in - t_out - losses) <= 1e-9 * scale)
+        total = total + t_out
+    sign = -1.0 if backdriving else 1.0
+    assert np.mean(total) == pytest.approx(sign * T, rel=1e-9)
