@@ -81,8 +81,8 @@ def test_the_drive_page_holds_every_number_of_datasheet_json(drive):
     check_every_number_is_a_cell(page, sheet)
     # the figures a buyer reads first, in the catalogue table with their conventions
     for key in (
-        "whole_drive.backlash_arcmin",
-        "whole_drive.lost_motion_arcmin",
+        "whole_drive.backlash_arcmin.value",
+        "whole_drive.lost_motion_arcmin.value",
         "efficiency_forward.min",
         "efficiency_backdriving.min",
         "starting_torque_Nm.max",
@@ -108,23 +108,26 @@ def test_the_drive_page_holds_every_number_of_datasheet_json(drive):
 def test_the_whole_drives_play_adds_the_first_stage_and_is_labelled(drive):
     out, sheet, html, r = drive
     w, fs = sheet["whole_drive"], sheet["first_stage"]
-    assert w["backlash_arcmin"] == sheet["backlash_arcmin"]["max"] + fs["lost_motion_arcmin"]
-    assert w["lost_motion_arcmin"] == (
-        sheet["lost_motion_arcmin"]["max"] + fs["lost_motion_arcmin"]
+    back, lost = w["backlash_arcmin"]["value"], w["lost_motion_arcmin"]["value"]
+    assert back == pytest.approx(sheet["backlash_arcmin"]["max"] + fs["backlash_arcmin"], rel=1e-12)
+    # the first stage's lost motion: its backlash and its meshes' windup at +-band T_R
+    assert fs["lost_motion_arcmin"] > fs["backlash_arcmin"]
+    assert lost == pytest.approx(
+        sheet["lost_motion_arcmin"]["max"] + fs["lost_motion_arcmin"], rel=1e-12
     )
-    # the first stage's 0.235 arcmin dwarfs the second stage's play
-    assert fs["lost_motion_arcmin"] == pytest.approx(0.235, abs=5e-4)
-    assert w["lost_motion_arcmin"] > 2 * sheet["lost_motion_arcmin"]["max"]
-    # docs/datasheet.md: second stage 0.0756 and 0.120, whole drive 0.311 and 0.355 arcmin
+    # the first stage's 0.235 arcmin of backlash dwarfs the second stage's play
+    assert fs["backlash_arcmin"] == pytest.approx(0.235, abs=5e-4)
+    assert lost > 2 * sheet["lost_motion_arcmin"]["max"]
+    # docs/datasheet.md: second stage 0.0756 and 0.120, whole drive 0.311 and 0.356 arcmin
     assert sheet["backlash_arcmin"]["max"] == pytest.approx(0.0756, abs=5e-5)
     assert sheet["lost_motion_arcmin"]["max"] == pytest.approx(0.120, abs=5e-4)
-    assert w["backlash_arcmin"] == pytest.approx(0.311, abs=5e-4)
-    assert w["lost_motion_arcmin"] == pytest.approx(0.355, abs=5e-4)
+    assert back == pytest.approx(0.311, abs=5e-4)
+    assert lost == pytest.approx(0.356, abs=5e-4)
     from corr_cad.figure_text import figure
 
     line = next(ln for ln in r.stdout.splitlines() if ln.startswith("  whole drive"))
-    assert f"backlash {figure(w['backlash_arcmin'])} arcmin" in line
-    assert f"lost motion {figure(w['lost_motion_arcmin'])} arcmin" in line
+    assert f"backlash {figure(back)} arcmin" in line
+    assert f"lost motion {figure(lost)} arcmin" in line
     assert "(second stage, crank locked)" in r.stdout
 
 

@@ -16,7 +16,6 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.mechanics.efficiency import (
-    drive_friction,
     drive_life,
     friction_figures,
     row_loads_from_forces,
@@ -169,20 +168,18 @@ def test_iso281_fc_against_table_7():
 
 def _lives(windup, T, rpm, spec):
     rows = [row_loads_from_forces(D, windup.forces(-T))]
-    fr = drive_friction(D, rows, MU)
-    return drive_life(D, rows * 2, fr * 2, spec, "bearing", rpm), rows, fr
+    return drive_life(D, rows * 2, spec, "bearing", rpm), rows
 
 
 def test_bearing_l10_by_iso281_from_the_bearing_loads(windup):
+    """ISO 281 on the frictionless resultant |sum F_j n_k| at the rolling kinematics' speed."""
     spec = LifeSpec(dynamic_load_rating=60000.0)
-    lives, _, fr = _lives(windup, T_R, 15.0, spec)
-    res = windup.forces(-T_R)
-    # The bearing load from the cam forces with the cam friction's share, recomputed by hand.
-    P_k = fr[0].bearing_load
-    assert np.allclose(P_k, _hand_bearing_load(res), rtol=0.05)  # cam friction adds about 3 %
-    n_k = np.abs(D.roller_count - fr[0].cam_spin)
-    P = (np.sum(P_k ** (10 / 3) * n_k) / np.sum(n_k)) ** 0.3
-    L10_h = (60000.0 / P) ** (10 / 3) * 1e6 / (60.0 * np.mean(n_k) * 15.0)
+    lives, _ = _lives(windup, T_R, 15.0, spec)
+    P_k = _hand_bearing_load(windup.forces(-T_R))
+    # Rolling bearing kinematics, ring fixed, frame as the cage: the cam spins at 2 L / R_j.
+    n = D.roller_count - 2.0 * (D.cam_radius + D.roller_radius) / D.cam_radius
+    P = np.mean(P_k ** (10 / 3)) ** 0.3
+    L10_h = (60000.0 / P) ** (10 / 3) * 1e6 / (60.0 * n * 15.0)
     assert lives["bearing_row1"] == pytest.approx(L10_h, rel=1e-12)
     # Two rows of three components: the Weibull sum with slope 9/8.
     parts = [v for k, v in lives.items() if k != "system"]
@@ -193,7 +190,7 @@ def test_rated_torque_from_life_inverts(windup):
     spec = LifeSpec()
     ff = friction_figures(D, windup, T_R, MU, [1.0], [1000.0], spec)
     T = ff.rated_torque_from_life
-    lives, _, _ = _lives(windup, T, 15.0, spec)
+    lives, _ = _lives(windup, T, 15.0, spec)
     assert lives["system"] == pytest.approx(6000.0, rel=1e-3)
     assert ff.lives_at_rated_from_life["system"] == pytest.approx(6000.0, rel=1e-3)
 
@@ -205,8 +202,8 @@ def test_life_at_another_point_follows_the_catalogue_rule(windup):
     system departs from the rule: measured here for T/2 at 2 N.
     """
     spec = LifeSpec()
-    l0, _, _ = _lives(windup, T_R, 15.0, spec)
-    l1, _, _ = _lives(windup, 0.5 * T_R, 30.0, spec)
+    l0, _ = _lives(windup, T_R, 15.0, spec)
+    l1, _ = _lives(windup, 0.5 * T_R, 30.0, spec)
     rule = (15.0 / 30.0) * (1.0 / 0.5) ** (10 / 3)
     # The Hertz contacts are not linear: the load shares shift slightly with the torque.
     assert l1["bearing_row1"] / l0["bearing_row1"] == pytest.approx(rule, rel=5e-3)
@@ -221,8 +218,8 @@ def test_clearance_breaks_the_catalogue_rule():
 
     w = Windup(D, X, errors=ManufacturingErrors(roller_radius_error=-0.005))
     spec = LifeSpec()
-    l0, _, _ = _lives(w, T_R, 15.0, spec)
-    l1, _, _ = _lives(w, 0.25 * T_R, 15.0, spec)
+    l0, _ = _lives(w, T_R, 15.0, spec)
+    l1, _ = _lives(w, 0.25 * T_R, 15.0, spec)
     assert abs(l1["cam_row1"] / l0["cam_row1"] / 4.0**4 - 1.0) > 0.05
 
 

@@ -232,13 +232,19 @@ def test_datasheet_has_the_whole_drive(sheet_run):
     assert d["mass_kg"] == m["drive"]["mass_kg"] and d["mass_kg"] > 0
     assert d["input_inertia_kg_m2"] == m["drive"]["input_inertia_kg_m2"]
     fs = d["first_stage"]
-    assert fs["lost_motion_arcmin"] == pytest.approx(fs["backlash_at_crank_arcmin"] / 26, rel=1e-15)
+    assert fs["backlash_arcmin"] == pytest.approx(fs["backlash_at_crank_arcmin"] / 26, rel=1e-15)
+    # the lost motion adds the meshes' windup at +-3 % T_R: 2 (0.03 T_R) / K1, K1 the first
+    # stage's rigidity at the output
+    k1 = fs["torsional_rigidity_at_output_Nm_per_arcmin"]
+    windup = 2 * 0.03 * d["rated_torque_Nm"] / k1
+    assert fs["lost_motion_arcmin"] == pytest.approx(fs["backlash_arcmin"] + windup, rel=1e-12)
     assert fs["backlash_at_crank_arcmin"] == pytest.approx(
         m["first_stage"]["crank_backlash_arcmin"], rel=1e-15
     )
     assert fs["transmission_error_arcsec"] == 0.0
     # docs/datasheet.md: 0.235 arcmin, thirty times the second stage's lost motion
-    assert fs["lost_motion_arcmin"] == pytest.approx(0.235, abs=5e-4)
+    assert fs["backlash_arcmin"] == pytest.approx(0.235, abs=5e-4)
+    assert fs["lost_motion_arcmin"] == pytest.approx(0.2355, abs=5e-5)
     assert fs["lost_motion_arcmin"] > 30 * d["lost_motion_arcmin"]["max"]
 
 

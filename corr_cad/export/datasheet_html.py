@@ -95,19 +95,19 @@ def datasheet_rows(sheet: dict) -> list[dict]:
             [
                 (
                     "Backlash, whole drive",
-                    "whole_drive.backlash_arcmin",
+                    "whole_drive.backlash_arcmin.value",
                     "arcmin",
                     "free output rotation at zero torque, pinion held: the second stage's "
                     "backlash below plus the first stage's backlash at the output "
-                    f"({n(sheet['first_stage']['lost_motion_arcmin'])} arcmin); gear teeth "
-                    "rigid",
+                    f"({n(sheet['first_stage']['backlash_arcmin'])} arcmin)",
                 ),
                 (
                     "Lost motion, whole drive",
-                    "whole_drive.lost_motion_arcmin",
+                    "whole_drive.lost_motion_arcmin.value",
                     "arcmin",
-                    "the second stage's lost motion below plus the first stage's backlash at "
-                    "the output; pinion held",
+                    "the second stage's lost motion below plus the first stage's at the output "
+                    f"({n(sheet['first_stage']['lost_motion_arcmin'])} arcmin: its backlash and "
+                    "its meshes' windup, ISO 6336-1); pinion held",
                 ),
             ]
             if whole

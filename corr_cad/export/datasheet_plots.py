@@ -242,8 +242,9 @@ def hysteresis_png(
     if whole_drive:
         title += (
             "\ncurves and marks: the second stage, crank locked; the whole drive, pinion "
-            f"held: backlash {figure(whole_drive['backlash_arcmin'])} arcmin, lost motion "
-            f"{figure(whole_drive['lost_motion_arcmin'])} arcmin (first stage included)"
+            f"held: backlash {figure(whole_drive['backlash_arcmin']['value'])} arcmin, lost "
+            f"motion {figure(whole_drive['lost_motion_arcmin']['value'])} arcmin (first stage "
+            "included)"
         )
     _title(fig, title, design, None)
     fig.tight_layout()

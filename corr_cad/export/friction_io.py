@@ -2,13 +2,17 @@
 efficiency.png, life.csv, hysteresis.csv.
 
 ``efficiency.csv``: one row per input speed and output torque, both
-directions' efficiencies; the forward powers in W at that speed for the
-whole drive (output power ``T omega_out``; Coulomb losses scale with the
-speed, so the efficiency does not). ``life.csv``: one row per component,
-L10 in hours at T_R and at the rated torque from life, both at the rated
-output speed. ``hysteresis.csv``: the loop at the position of the widest
-loop at +-T_R, one row per torque level of the datasheet (-T_R .. -0,
-+0 .. +T_R), the frictionless windup and both branches.
+directions' efficiencies (a backdriving efficiency of 0 with
+``self_locking_backdriving`` true: self-locking); the forward powers in W at
+that speed for the whole drive, each computed on its own from the forces:
+the input from the crank moment, each loss from its contact's friction
+force and slip, the output from the rollers' moment on the frame
+(Coulomb losses scale with the speed, so the efficiency does not).
+``life.csv``: one row per component, L10 in hours at T_R and at the rated
+torque from life, both at the rated output speed. ``hysteresis.csv``: the
+loop at the position of the widest loop at +-T_R, one row per torque level
+of the datasheet (-T_R .. -0, +0 .. +T_R), the frictionless windup and both
+branches.
 """
 
 from __future__ import annotations
@@ -40,6 +44,8 @@ EFFICIENCY_COLUMNS = (
     "loss_slot_W",
     "loss_ring_W",
     "loss_bearing_W",
+    "output_power_W",
+    "self_locking_backdriving",
 )
 LIFE_COLUMNS = ("component", "method", "life_h", "life_h_at_rated_torque_from_life")
 HYSTERESIS_COLUMNS = (
@@ -73,9 +79,10 @@ def write_friction_files(ff: FrictionFigures, out: Path) -> list[str]:
         # Output speed in rad/s; powers are N*mm per rad of output: times it and 1e-3 is W.
         to_W = 2.0 * math.pi * n / 60.0 / ff.ratio * 1e-3
         for i, s in enumerate(ff.shares):
-            # The map's powers are the modelled row's (first order: friction lowers the output
-            # side); scaled so that the output power is the drive's T * omega_out.
-            k = to_W * s * ff.rated_torque / ff.output_power[i]
+            # The map's powers are the modelled rows', which carry ``share`` of the torque:
+            # one fixed factor (not fitted to the result), so that the balance
+            # input - losses - output stays a check of the equilibrium.
+            k = to_W / ff.share
             rows.append(
                 [
                     f"{n:.9g}",
@@ -85,6 +92,8 @@ def write_friction_files(ff: FrictionFigures, out: Path) -> list[str]:
                     f"{ff.backdriving[i]:.12g}",
                     f"{ff.input_power[i] * k:.9g}",
                     *(f"{v * k:.9g}" for v in ff.losses_forward[i]),
+                    f"{ff.output_power[i] * k:.9g}",
+                    "true" if ff.backdriving[i] <= 0.0 else "false",
                 ]
             )
     write_csv(out / "efficiency.csv", EFFICIENCY_COLUMNS, rows)
@@ -131,7 +140,8 @@ def efficiency_figure(ff: FrictionFigures, note: str = ""):
     fig, ax = plt.subplots(figsize=(7, 4.6))
     for k, n in enumerate(ff.speeds_rpm):
         ax.plot(T, 100 * ff.forward, marker="o", ms=4 + 2 * k, mfc="none", label=f"{n:g} rpm in")
-    ax.plot(T, 100 * ff.backdriving, color="0.4", ls="--", label="backdriving")
+    locked = " (0: self-locking)" if ff.self_locking_shares() else ""
+    ax.plot(T, 100 * ff.backdriving, color="0.4", ls="--", label="backdriving" + locked)
     ax.set_xlabel("output torque [N*m]")
     ax.set_ylabel("efficiency [%]")
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _pos: figure(v)))

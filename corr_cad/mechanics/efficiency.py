@@ -7,26 +7,28 @@ paper's one-row model gives one row (:func:`row_loads_from_forces`; the
 other cam is taken as a copy at the modelled share for the life, which is
 conservative with ``load_share`` 0.55); a drive model gives its rows.
 
-Forward: the crank drives at positive speed against the output's load
-(windup convention: output torque ``-T``). Backdriving: the output drives
-at the same positive speed (output torque ``+T``). Efficiency over the
-cycle is ``1 - (sum of losses) / (power of the driving member)``, energies
-summed over the positions, so it is exactly 1 when every coefficient is 0.
-A backdriving efficiency at or below 0 means the output cannot drive the
-crank: the drive is **self-locking** at that torque (reported as 0 where
-the output would deliver no power at all).
+Forward: the crank drives at positive speed against the output's load;
+backdriving: the output drives at the same positive speed. Each is an
+operating point with friction in every balance at the same output torque
+(:mod:`corr_cad.mechanics.operating`); efficiency over the cycle is the
+driven member's energy over the driving member's, exactly 1 when every
+coefficient is 0. A backdriving efficiency at or below 0 means the output
+cannot drive the crank: the drive is **self-locking** at that torque
+(reported as 0, flagged).
 
-Friction is not fed back into the load sharing (first order, see
-:mod:`corr_cad.mechanics.friction`); the windup, the forces, the lives and
-every figure besides the efficiency and the losses use the frictionless
-solution.
+Friction is not fed back into the load sharing between rollers (first
+order); the windup, the forces and every figure besides the efficiency and
+the losses use the frictionless solution. The lives take no friction at
+all: frictionless loads and the rolling kinematics' speeds
+(:func:`~corr_cad.mechanics.life.rolling_speeds`), so a rating does not
+hang on a friction coefficient.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -39,15 +41,17 @@ from corr_cad.mechanics.life import (
     equivalent_load,
     raceway_capacity,
     raceway_life_h,
+    rolling_speeds,
     system_life_h,
 )
+from corr_cad.mechanics.operating import operating_point
 
 __all__ = [
     "RowLoads",
     "row_loads_from_forces",
     "rows_from_drive",
     "drive_friction",
-    "cycle_efficiency",
+    "bearing_loads",
     "drive_life",
     "torque_for_life",
 ]
@@ -123,44 +127,30 @@ def drive_friction(design, rows: list[RowLoads], friction: Friction) -> list[Row
     return out
 
 
-def cycle_efficiency(rows: list[RowFriction], backdriving: bool) -> dict:
-    """Efficiency over the cycle and the losses by kind (per unit output speed).
+def bearing_loads(design, row: RowLoads) -> np.ndarray:
+    """The load on a row's eccentric bearing at each position, N (P,), without friction.
 
-    Returns ``efficiency``, ``driver_power`` (N*mm per rad of output, summed
-    over the positions and rows, divided by the positions), ``losses``
-    (cam, slot, ring, bearing, same units), ``balance`` the largest
-    ``|P_crank + P_frame - losses| / |P_driver|`` over the positions.
+    The drive model's own ``bearing_load`` where it gives one; else the
+    rollers' frictionless resultant ``|sum F_j n_k|`` (``n_k`` from the cam
+    centre to roller ``k``'s centre).
     """
-    crank = sum(np.asarray(r.crank_power) for r in rows)
-    frame = sum(np.asarray(r.frame_power) for r in rows)
-    loss = sum(np.asarray(r.loss) for r in rows)
-    driver = frame if backdriving else crank
-    n = len(crank)
-    total_driver = float(np.sum(driver)) / n
-    losses = np.sum(loss, axis=0) / n
-    if total_driver <= 0.0:
-        if not backdriving:
-            raise SolverError("efficiency: the crank delivers no power at this torque")
-        # The output would have to be driven too: self-locking, reported as 0.
-        eta = 0.0
-    else:
-        eta = 1.0 - float(np.sum(losses)) / total_driver
-    scale = np.maximum(np.maximum(np.abs(crank), np.abs(frame)), 1e-300)
-    balance = float(np.max(np.abs(crank + frame - np.sum(loss, axis=1)) / scale))
-    return {
-        "efficiency": eta,
-        "driver_power": total_driver,
-        "losses": {
-            k: float(v) for k, v in zip(("cam", "slot", "ring", "bearing"), losses, strict=True)
-        },
-        "balance": balance,
-    }
+    if row.bearing_load is not None:
+        return np.asarray(row.bearing_load, dtype=float)
+    c = row_contacts(
+        design.tooth_count,
+        design.eccentricity,
+        design.cam_radius,
+        design.roller_radius,
+        row.crank_angles,
+        row.slot_force,
+    )
+    push = np.einsum("pk,pkx->px", np.asarray(row.cam_force, dtype=float), -c.d[:, :, 0])
+    return np.linalg.norm(push, axis=1)
 
 
 def drive_life(
     design,
     rows: list[RowLoads],
-    frictions: list[RowFriction],
     spec: LifeSpec,
     mounting: str,
     output_rpm: float,
@@ -170,30 +160,31 @@ def drive_life(
 
     Per row: its eccentric bearing (ISO 281, mounting ``"bearing"`` only),
     its cam raceway and its ring raceway (Lundberg-Palmgren line contact).
-    The bearing's load is the row's ``bearing_load`` where the drive model
-    gives it, else the friction model's resultant; ``spec_b`` rates the
-    second row's bearing (default ``spec``).
+    Loads without friction (:func:`bearing_loads`), speeds from the rolling
+    kinematics (:func:`~corr_cad.mechanics.life.rolling_speeds`): no
+    friction coefficient enters a life. ``spec_b`` rates the second row's
+    bearing (default ``spec``).
     """
     ratings = [spec.rating()[0], (spec_b or spec).rating()[0]]
     R = design.roller_count
     r, L, length = design.roller_radius, design.link_length, design.roller_length
     gamma = r / L
+    speeds = rolling_speeds(design, mounting)
     lives: dict[str, float] = {}
-    for i, (row, fr) in enumerate(zip(rows, frictions, strict=True)):
+    for i, row in enumerate(rows):
         tag = f"row{i + 1}"
         if mounting == "bearing":
-            load = fr.bearing_load if row.bearing_load is None else row.bearing_load
+            load = bearing_loads(design, row)
             lives[f"bearing_{tag}"] = bearing_life_h(
-                ratings[min(i, 1)], load, fr.bearing_speed, output_rpm
+                ratings[min(i, 1)], load, np.full(len(load), speeds["bearing"]), output_rpm
             )
         q_cam = raceway_capacity(row.conformity_cam, False, R, 2.0 * r, length, gamma)
         q_ring = raceway_capacity(row.conformity_ring, True, R, 2.0 * r, length, gamma)
-        cam_speed = float(np.mean(np.abs(fr.cam_spin - 1.0)))
         lives[f"cam_{tag}"] = raceway_life_h(
-            row.cam_force, q_cam, cam_speed, output_rpm, stationary_load=mounting == "fixed"
+            row.cam_force, q_cam, speeds["cam"], output_rpm, stationary_load=mounting == "fixed"
         )
         lives[f"ring_{tag}"] = raceway_life_h(
-            row.ring_force, q_ring, 1.0, output_rpm, stationary_load=False
+            row.ring_force, q_ring, speeds["ring"], output_rpm, stationary_load=False
         )
     lives["system"] = system_life_h([v for v in lives.values()])
     return lives
@@ -282,18 +273,29 @@ class FrictionFigures:
     #: Which force model the figures come from, as ``datasheet.json`` states it
     #: (``friction["forces"]``; empty: not stated, the paper's row).
     source: str = ""
+    #: The part of the torque the modelled rows carry (the paper's row: load_share).
+    share: float = 1.0
+    #: The operating points (forward, backdriving) behind each torque.
+    points: list | None = field(default=None, repr=False)
 
     def drive_losses(self) -> np.ndarray:
         """The drive's forward losses per radian of output at each torque, N*mm (S,).
 
-        The modelled row's losses scaled so that its output power is the
-        drive's ``T`` per radian (as in ``efficiency.csv``).
+        The modelled rows' losses over their share of the torque (as in
+        ``efficiency.csv``).
         """
-        k = self.shares * self.rated_torque / self.output_power
-        return self.losses_forward.sum(axis=1) * k
+        return self.losses_forward.sum(axis=1) / self.share
 
     def self_locking_shares(self) -> list[float]:
         return [float(s) for s, e in zip(self.shares, self.backdriving, strict=True) if e <= 0.0]
+
+    def self_locking_range_Nm(self) -> list[float] | None:
+        """``[lowest, highest]`` output torque (N*m) of the map that self-locks, or None."""
+        locked = self.self_locking_shares()
+        if not locked:
+            return None
+        T = self.rated_torque / 1000.0
+        return [min(locked) * T, max(locked) * T]
 
     def check_values(self) -> dict[str, float]:
         out = {"efficiency": float(np.min(self.forward))}
@@ -310,13 +312,16 @@ class FrictionFigures:
         out = {
             "efficiency_forward": {
                 **stats(self.forward),
-                "definition": "1 - losses / crank power over one cycle, crank driving",
+                "definition": "1 - losses / crank power over one cycle, crank driving, the "
+                "rollers' moment on the output (with friction) equal to the load torque",
             },
             "efficiency_backdriving": {
                 **stats(self.backdriving),
-                "definition": "1 - losses / output power over one cycle, output driving",
+                "definition": "1 - losses / output power over one cycle, output driving at the "
+                "same output torque; 0 where self-locking (the load cannot turn the crank)",
                 "self_locking": bool(self.self_locking_shares()),
                 "self_locking_torque_shares": self.self_locking_shares(),
+                "self_locking_torque_range_Nm": self.self_locking_range_Nm(),
             },
             "friction": {
                 "mu_cam": fr.mu_cam,
@@ -325,8 +330,11 @@ class FrictionFigures:
                 "mu_bearing": fr.mu_bearing,
                 "cam_mounting": fr.mounting,
                 "bearing_bore_mm": fr.bearing_diameter,
-                "model": "Coulomb, first order: frictionless load sharing, friction in each "
-                "roller's and the cam's own balance; efficiency independent of speed",
+                "model": "Coulomb in every balance (each roller, each cam with its needle "
+                "bearing's 0.5 mu P d, the crank), both directions at the same output torque "
+                "(the rollers' moment on the output with friction, its mean over the cycle); "
+                "the normal forces' sharing between rollers frictionless (first order); "
+                "efficiency independent of speed",
                 "power_balance_relative": self.balance,
                 **({"forces": self.source} if self.source else {}),
             },
@@ -434,55 +442,56 @@ def friction_figures(
         def rows_at(T: float) -> list[RowLoads]:
             return [row_loads_from_forces(design, windup.forces(T))]
 
-    fwd, back, lf, lb, pin, pout = [], [], [], [], [], []
-    balance = 0.0
+    share = 1.0 if given else float(windup.load_share)
+
+    def evaluate(T: float):
+        rows = rows_at(T)
+        return rows, drive_friction(design, rows, friction)
+
+    points = []
+    ratio = {False: None, True: None}  # |T'| / T of the last matched point: the next start
     for s in shares:
         T = s * rated_torque
-        f_rows = rows_at(-T)
-        e_f = cycle_efficiency(drive_friction(design, f_rows, friction), False)
-        e_b = cycle_efficiency(drive_friction(design, rows_at(T), friction), True)
-        fwd.append(e_f["efficiency"])
-        back.append(e_b["efficiency"])
-        lf.append(list(e_f["losses"].values()))
-        lb.append(list(e_b["losses"].values()))
-        pin.append(e_f["driver_power"])
-        pout.append(e_f["driver_power"] - sum(e_f["losses"].values()))
-        balance = max(balance, e_f["balance"], e_b["balance"])
+        pair = []
+        for b in (False, True):
+            p = operating_point(evaluate, T, b, share, design.roller_count, start=ratio[b])
+            if p.matched:
+                ratio[b] = abs(p.frictionless_torque) / T
+            pair.append(p)
+        points.append(tuple(pair))
+    fwd = [f.efficiency for f, _ in points]
+    back = [max(b.efficiency, 0.0) for _, b in points]
     out = FrictionFigures(
         rated_torque=rated_torque,
         shares=shares,
         speeds_rpm=np.asarray(speeds_rpm, dtype=float),
         forward=np.array(fwd),
         backdriving=np.array(back),
-        losses_forward=np.array(lf),
-        losses_backdriving=np.array(lb),
-        input_power=np.array(pin),
-        output_power=np.array(pout),
-        balance=balance,
+        losses_forward=np.array([np.mean(f.losses, axis=0) for f, _ in points]),
+        losses_backdriving=np.array([np.mean(b.losses, axis=0) for _, b in points]),
+        input_power=np.array([np.mean(f.crank_power) for f, _ in points]),
+        output_power=np.array([np.mean(f.output_torque) for f, _ in points]),
+        balance=max(max(f.balance, b.balance) for f, b in points),
         friction=friction,
         ratio=float(design.roller_count),
+        share=share,
+        points=points,
     )
     if life is not None:
 
         def lives_at(T: float) -> dict:
-            if given:
-                r = rows_at(-T)
-                fr = drive_friction(design, r, friction)
-            else:
-                r = rows_at(-T) * rows
-                fr = drive_friction(design, r[:1], friction) * rows
+            r = rows_at(-T) if given else rows_at(-T) * rows
             return drive_life(
-                design, r, fr, life, friction.mounting, life.rated_speed_rpm, spec_b=life_b
+                design, r, life, friction.mounting, life.rated_speed_rpm, spec_b=life_b
             )
 
         out.lives = lives_at(rated_torque)
         out.life_spec = life
         if friction.mounting == "bearing":
             at_rated = rows_at(-rated_torque)
-            frs = drive_friction(design, at_rated if given else at_rated[:1], friction)
-            out.bearing = _bearing_figure(frs[0], at_rated[0], life, "row 1's")
-            if given and len(frs) > 1:
-                out.bearing_b = _bearing_figure(frs[1], at_rated[1], life, "row 2's")
+            out.bearing = _bearing_figure(design, at_rated[0], life, "row 1's")
+            if given and len(at_rated) > 1:
+                out.bearing_b = _bearing_figure(design, at_rated[1], life, "row 2's")
         out.rating_source = life.rating()[1]
         out.rated_torque_from_life = torque_for_life(
             lambda T: lives_at(T)["system"], life.rated_life_h, rated_torque
@@ -491,14 +500,15 @@ def friction_figures(
     return out
 
 
-def _bearing_figure(fr, row: RowLoads, life: LifeSpec, which: str) -> dict:
-    """A row's eccentric bearing at T_R: ISO 281 equivalent load and mean relative speed."""
-    speed = np.abs(fr.bearing_speed)
-    load = fr.bearing_load if row.bearing_load is None else row.bearing_load
+def _bearing_figure(design, row: RowLoads, life: LifeSpec, which: str) -> dict:
+    """A row's eccentric bearing at T_R: ISO 281 equivalent load and relative speed."""
+    load = bearing_loads(design, row)
+    speed = rolling_speeds(design, "bearing")["bearing"]
     return {
-        "equivalent_load_N": equivalent_load(load, speed, BEARING_EXPONENT),
-        "relative_speed_rpm": float(np.mean(speed)) * life.rated_speed_rpm,
+        "equivalent_load_N": equivalent_load(load, np.ones(len(load)), BEARING_EXPONENT),
+        "relative_speed_rpm": speed * life.rated_speed_rpm,
         "definition": f"{which} eccentric bearing at T_R and rated_speed_rpm: "
-        "ISO 281 equivalent load (exponent 10/3, weighted by the revolutions at each "
-        "position) and mean relative speed; L10 = (C/P)^(10/3) 1e6 / (60 n)",
+        "ISO 281 equivalent load (exponent 10/3) without friction and the relative speed of "
+        "the rolling kinematics (crank less the cam's spin 2 L / R_j, ring fixed, frame as "
+        "cage); L10 = (C/P)^(10/3) 1e6 / (60 n)",
     }

@@ -1,12 +1,14 @@
 """Coulomb friction at the roller contacts and in the eccentric bearing: where each watt goes.
 
-Losses are computed **first order** from the frictionless load distribution:
-the cam force of every roller comes from the force solver (or the drive
-model) without friction; friction is then fed back into each roller's own
-equilibrium (force and moment), not into the load sharing between rollers
-or rows. That keeps the power balance exact: with every roller in
-equilibrium, the power the crank and the output put in equals the sum of
-the contact and bearing losses to rounding, at every position.
+Given the normal cam force of every roller (the elastic solution of the
+force solver or the drive model), friction enters each roller's own
+equilibrium (force and moment: its slot and ring forces are solved with
+friction) and, on a floating cam, the cam's moment balance; the load
+sharing between rollers stays the elastic one (first order in ``mu``).
+With every body in equilibrium the power the crank and the output put in
+equals the sum of the contact and bearing losses at every position.
+:mod:`corr_cad.mechanics.operating` chooses the elastic state whose output
+torque with friction is the load, in both directions of power flow.
 
 Which surfaces roll and which slide
 -----------------------------------
@@ -399,7 +401,7 @@ def row_friction(c: RowContacts, cam_force: np.ndarray, friction: Friction) -> R
     # split of friction between them is free, and takes up the cam's moment balance.
     at = np.where(sticks | flat | (j == 0), -1, order[rows, np.maximum(j - 1, 0)])
     at = np.where(at >= b.shape[1], -1, at)  # the bearing's own breakpoint: it sticks
-    res = _balance_cam(c, res, mu, mid, at, k, w_in)
+    res = _balance_cam(c, res, mu, mid, at, k, w_in, b.reshape(P, -1, 2))
     load = np.linalg.norm(res["cam_force_on_rollers"], axis=1)
     rel = np.abs(w_in - mid)
     bearing_loss = k * load * rel
@@ -407,16 +409,19 @@ def row_friction(c: RowContacts, cam_force: np.ndarray, friction: Friction) -> R
     return _row(res, mid, rel, bearing_loss, load, resid)
 
 
-def _balance_cam(c: RowContacts, res: dict, mu, spin, at, k: float, w_in: float) -> dict:
-    """Close the cam's moment balance on the roller whose breakpoint the spin sits on.
+def _balance_cam(c: RowContacts, res: dict, mu, spin, at, k: float, w_in: float, bps) -> dict:
+    """Close the cam's moment balance on the rollers whose breakpoint the spin sits on.
 
-    ``at`` (P,): the breakpoint's flat index ``roller * 2 + (0 slot, 1 ring)``,
-    or -1. That roller's cam and that contact both roll; its cam friction is
-    set so that the cam's moments balance (the bearing's included), its other
-    rolling contact takes the roller's moment balance, the third slides. The
-    normal forces are solved again (a 2 x 2 system); three passes follow the
-    bearing load's small change. A balance outside the friction cones is left
-    as it is (clipped to the cone).
+    ``at`` (P,): a breakpoint's flat index ``roller * 2 + (0 slot, 1 ring)``,
+    or -1; ``bps`` (P, R, 2) every roller's breakpoints. The rollers whose
+    breakpoint equals the spin (one, or several alike: rollers in mirror
+    positions) roll on the cam and on that contact; their cam friction is
+    set so that the cam's moments balance (the bearing's included), shared
+    in proportion to their friction cones ``mu N``; each one's other rolling
+    contact takes its moment balance, the third slides. The normal forces
+    are solved again (a 2 x 2 system); three passes follow the bearing
+    load's small change. A balance outside the friction cones is left as it
+    is (clipped to the cones).
     """
     idx = np.flatnonzero(at >= 0)
     if idx.size == 0:
@@ -426,33 +431,47 @@ def _balance_cam(c: RowContacts, res: dict, mu, spin, at, k: float, w_in: float)
     N, f, slip = res["N"].copy(), res["f"].copy(), res["slip"].copy()
     stick = res["stick"].copy()
     for p in idx:
-        r, m = divmod(int(at[p]), 2)
-        m += 1
-        o = 3 - m  # the contact that slides (slot 1, ring 2)
-        d, tt = c.d[p, r], t[p, r]
+        r0, m0 = divmod(int(at[p]), 2)
+        tie = np.abs(bps[p] - bps[p, r0, m0]) <= 1e-12 * max(abs(bps[p, r0, m0]), 1.0)
+        tie[r0] = False
+        tie[r0, m0] = True
+        tied = [(int(r), int(m) + 1) for r, m in zip(*np.nonzero(tie), strict=True)]
+        tied = list({r: m for r, m in tied}.items())  # one contact per roller
+        rs = [r for r, _ in tied]
         for _ in range(3):
             load = np.linalg.norm(
                 np.sum(-N[p, :, 0, None] * c.d[p, :, 0] + f[p, :, 0, None] * t[p, :, 0], axis=0)
             )
-            others = c.cam_radius * (np.sum(f[p, :, 0]) - f[p, r, 0])
+            others = c.cam_radius * (np.sum(f[p, :, 0]) - np.sum(f[p, rs, 0]))
             bearing = k * load * np.sign(spin[p] - w_in)
-            fc = (bearing - others) / c.cam_radius
-            lim = mu[0] * abs(N[p, r, 0])
-            fc = min(max(fc, -lim), lim)
-            co = -mu[o] * np.sign(slip[p, r, o]) * (1.0 if N[p, r, o] >= 0 else -1.0)
-            g_o = -d[o] + co * (tt[o] - tt[m])
-            g_m = -d[m]
-            rhs = N[p, r, 0] * d[0] - fc * (tt[0] - tt[m])
-            gs, gg = (g_m, g_o) if m == 1 else (g_o, g_m)
-            sol = _solve2(gs[None], gg[None], rhs[None])[0]
-            N[p, r, 1:] = sol
-            f[p, r, 0] = fc
-            f[p, r, o] = co * N[p, r, o]
-            f[p, r, m] = -fc - f[p, r, o]
-        slip[p, r, 0] = slip[p, r, m] = 0.0
-        stick[p, r] = m
+            lims = np.array([mu[0] * abs(N[p, r, 0]) for r in rs])
+            total = (bearing - others) / c.cam_radius
+            cap = float(np.sum(lims))
+            total = min(max(total, -cap), cap)
+            for (r, m), lim in zip(tied, lims, strict=True):
+                fc = total * lim / cap if cap > 0.0 else 0.0
+                _roll_two(c, N, f, slip, t, mu, p, r, m, fc)
+        for r, m in tied:
+            slip[p, r, 0] = slip[p, r, m] = 0.0
+            stick[p, r] = m
     out = {"N": N, "f": f, "slip": slip, "spin": res["spin"], "stick": stick}
     return _finish(c, vb, out)
+
+
+def _roll_two(c: RowContacts, N, f, slip, t, mu, p: int, r: int, m: int, fc: float) -> None:
+    """Roller ``r`` at position ``p`` rolls on the cam (friction ``fc``) and on contact
+    ``m`` (1 slot, 2 ring), slides on the third: its forces and moment balance, in place."""
+    d, tt = c.d[p, r], t[p, r]
+    o = 3 - m  # the contact that slides
+    co = -mu[o] * np.sign(slip[p, r, o]) * (1.0 if N[p, r, o] >= 0 else -1.0)
+    g_o = -d[o] + co * (tt[o] - tt[m])
+    g_m = -d[m]
+    rhs = N[p, r, 0] * d[0] - fc * (tt[0] - tt[m])
+    gs, gg = (g_m, g_o) if m == 1 else (g_o, g_m)
+    N[p, r, 1:] = _solve2(gs[None], gg[None], rhs[None])[0]
+    f[p, r, 0] = fc
+    f[p, r, o] = co * N[p, r, o]
+    f[p, r, m] = -fc - f[p, r, o]
 
 
 def _row(res, spin, rel, bearing_loss, load, resid=None) -> RowFriction:

@@ -65,6 +65,7 @@ __all__ = [
     "raceway_capacity",
     "raceway_life_h",
     "system_life_h",
+    "rolling_speeds",
 ]
 
 #: ISO 281 life exponent of roller bearings.
@@ -182,6 +183,26 @@ def raceway_life_h(
     if mean == 0.0 or rpm == 0.0:
         return math.inf
     return mean ** (-4.0 / w) * 1e6 / (60.0 * rpm)
+
+
+def rolling_speeds(design, mounting: str) -> dict[str, float]:
+    """Relative speeds per unit output speed from the rolling kinematics, for the lives.
+
+    The rollers about the cam as a roller bearing (module docstring): the
+    frame is the cage (speed 1), the ring the outer race (fixed), the cam
+    the inner race. With rolling at both races the cage turns at
+    ``omega_i (1 - gamma) / 2 + omega_o (1 + gamma) / 2`` (Harris &
+    Kotzalas, *Rolling Bearing Analysis*, rolling element and cage speeds),
+    so a cam floating on its bearing spins at ``omega_cam = 2 / (1 - gamma)
+    = 2 L / R_j``, whatever the friction coefficients. Returns ``bearing``:
+    the eccentric bearing's ``|omega_crank - omega_cam|`` (``z + 1 - 2 L /
+    R_j``; 0 with the cam fixed on the crank), ``cam``: the cam raceway's
+    speed relative to the rollers (``2 L / R_j - 1``; fixed: ``z``),
+    ``ring``: the ring's (1).
+    """
+    crank = float(design.roller_count)
+    cam = 2.0 * design.link_length / design.cam_radius if mounting == "bearing" else crank
+    return {"bearing": abs(crank - cam), "cam": abs(cam - 1.0), "ring": 1.0}
 
 
 def system_life_h(lives: list[float] | np.ndarray) -> float:

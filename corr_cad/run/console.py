@@ -238,11 +238,21 @@ def failed_checks(manifest: dict) -> list[str]:
                         f"allowed {figure(g['allowed'])})"
                     )
         elif not r["passed"]:
-            line = f"{name} (value {figure(r['value'])}, limit {figure(r['limit'])})"
+            line = f"{name} (value {figure(r['value'])}, limit {figure(r['limit'])}{_parts(r)})"
             if "passes_with" in r:
                 line += "; " + passes_with_text(r["passes_with"])
             out.append(line)
     return out
+
+
+def _parts(r: dict) -> str:
+    """A whole-drive check's parts: the second stage's and the first stage's share."""
+    if "first_stage" not in r:
+        return ""
+    return (
+        f"; whole drive: second stage {figure(r['second_stage'])}, first stage "
+        f"{figure(r['first_stage'])}"
+    )
 
 
 def _where(p: dict) -> str:
@@ -379,7 +389,10 @@ def summary_lines(manifest: dict, out) -> list[str]:
                 )
         else:
             state = "pass" if r["passed"] else "FAIL"
-            line = f"check {name}: {state} (value {figure(r['value'])}, limit {figure(r['limit'])})"
+            line = (
+                f"check {name}: {state} (value {figure(r['value'])}, limit "
+                f"{figure(r['limit'])}{_parts(r)})"
+            )
             if "passes_with" in r:
                 line += "; " + passes_with_text(r["passes_with"])
             lines.append(line)

@@ -85,10 +85,10 @@ def datasheet_lines(d: dict | None) -> list[str]:
     ]
     if whole:
         out.append(
-            f"  whole drive         backlash {figure(whole['backlash_arcmin'])} arcmin, lost "
-            f"motion {figure(whole['lost_motion_arcmin'])} arcmin (pinion held: the first "
-            f"stage's backlash {figure(d['first_stage']['lost_motion_arcmin'])} arcmin at the "
-            "output included)"
+            f"  whole drive         backlash {figure(whole['backlash_arcmin']['value'])} arcmin, "
+            f"lost motion {figure(whole['lost_motion_arcmin']['value'])} arcmin (pinion held: "
+            f"the first stage's {figure(d['first_stage']['backlash_arcmin'])} and "
+            f"{figure(d['first_stage']['lost_motion_arcmin'])} arcmin at the output included)"
         )
     if rig["with_series"] is not None:
         out.append(

@@ -3,13 +3,11 @@
 Each sample is the Monte Carlo's own (same seed, same draws:
 :func:`corr_cad.tolerance.montecarlo.draw_samples`), solved by the windup's
 force solver at the rated torque over one tooth pitch (every roller meets
-every tooth) at ``positions_per_mesh``. Friction enters as on the nominal
-design: the floating cam's spin (so the bearing's relative speed and the
-cam raceway's) is the nominal design's at each position, and the
-bearing's load is the sample's frictionless resultant ``|sum F_k n_k|``
-times the nominal design's ratio of its friction-loaded to frictionless
-bearing load at that position (about 1.03 with 0.05 everywhere). The
-nominal design's draws (all zero) reproduce its life exactly.
+every tooth) at ``positions_per_mesh``, as the datasheet rates the nominal
+design (:func:`~corr_cad.mechanics.efficiency.drive_life`): loads without
+friction (the bearing's the sample's resultant ``|sum F_k n_k|``), speeds
+from the rolling kinematics. The nominal design's draws (all zero)
+reproduce its life exactly.
 
 Under the drive (``[solver] model = "drive"``, ``drive`` given as the Monte
 Carlo's): each sample's two rows are drawn as the drive's Monte Carlo draws
@@ -17,42 +15,27 @@ them (row A and the frame from the seed's stream, row B's own tolerances
 from :data:`~corr_cad.tolerance.montecarlo_drive.ROW_B_STREAM`) and solved
 together by :class:`~corr_cad.mechanics.drive_windup.DriveWindup` at the
 rated torque; each row's raceways are rated on its own forces and each
-cam's bearing on the drive's ``bearing_load`` of that cam, with the
-sample's own friction kinematics (cam spin, bearing speed), as the drive's
+cam's bearing on the drive's ``bearing_load`` of that cam, as the drive's
 datasheet rates the design (``friction_figures`` with ``rows_at``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
 from corr_cad.mechanics.efficiency import (
-    drive_friction,
     drive_life,
     row_loads_from_forces,
     rows_from_drive,
 )
-from corr_cad.mechanics.friction import Friction, row_contacts
+from corr_cad.mechanics.friction import Friction
 from corr_cad.mechanics.life import LifeSpec
 from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
 from corr_cad.tolerance.montecarlo import _errors_for, draw_samples
 
 __all__ = ["DRIVE_LIFE_SOURCE", "life_samples", "life_percentiles"]
-
-
-def _frictionless_bearing_load(design, res) -> np.ndarray:
-    c = row_contacts(
-        design.tooth_count,
-        design.eccentricity,
-        design.cam_radius,
-        design.roller_radius,
-        res.crank_angles,
-        res.F_s,
-    )
-    return np.linalg.norm(np.einsum("pr,prx->px", res.F_j, -c.d[:, :, 0]), axis=1)
 
 
 def life_samples(
@@ -115,20 +98,12 @@ def life_samples(
         "variants": variants,
         "psi_contact_limit": psi_contact_limit,
     }
-    # The nominal design's friction: its cam spin and its bearing-load ratio at each position.
-    nom = Windup(design, x, errors=base_errors, **common).forces(-rated_torque)
-    fr_nom = drive_friction(design, [row_loads_from_forces(design, nom)], friction)[0]
-    free = _frictionless_bearing_load(design, nom)
-    ratio = np.where(free > 0.0, fr_nom.bearing_load / np.where(free > 0.0, free, 1.0), 1.0)
     out: dict[str, list[float]] = {}
     for k in range(samples):
         err = _errors_for(base_errors, tolerances, units, k)
         res = Windup(design, x, errors=err, **common).forces(-rated_torque)
         row = row_loads_from_forces(design, res)
-        fr = replace(fr_nom, bearing_load=_frictionless_bearing_load(design, res) * ratio)
-        lives = drive_life(
-            design, [row] * rows, [fr] * rows, spec, friction.mounting, spec.rated_speed_rpm
-        )
+        lives = drive_life(design, [row] * rows, spec, friction.mounting, spec.rated_speed_rpm)
         for name, v in lives.items():
             out.setdefault(name, []).append(v)
     return {name: np.asarray(v) for name, v in out.items()}
@@ -184,13 +159,7 @@ def _drive_life_samples(
         )
         rows = rows_from_drive(design, dw.forces(-rated_torque))
         lives = drive_life(
-            design,
-            rows,
-            drive_friction(design, rows, friction),
-            spec,
-            friction.mounting,
-            spec.rated_speed_rpm,
-            spec_b=life_b,
+            design, rows, spec, friction.mounting, spec.rated_speed_rpm, spec_b=life_b
         )
         for name, v in lives.items():
             out.setdefault(name, []).append(v)

@@ -362,7 +362,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
             "float",
             None,
             "allowable lost motion at +-[datasheet] lost_motion_band of the rated torque, arcmin "
-            "(its meaning before the datasheet, the free play, is max_backlash_arcmin)",
+            "(its meaning before the datasheet, the free play, is max_backlash_arcmin; with "
+            "[first_stage] the whole drive's)",
             low=0,
             high=21600,
             example=1.0,
@@ -370,7 +371,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "max_backlash_arcmin": Key(
             "float",
             None,
-            "allowable output backlash (free rotation at zero torque), arcmin",
+            "allowable output backlash (free rotation at zero torque), arcmin (with "
+            "[first_stage] the whole drive's)",
             low=0,
             high=21600,
             example=1.0,
@@ -378,7 +380,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "min_torsional_rigidity_Nm_per_arcmin": Key(
             "float",
             None,
-            "smallest allowed torsional rigidity (with the series rigidity), N*m/arcmin",
+            "smallest allowed torsional rigidity (with the series rigidity), N*m/arcmin (with "
+            "[first_stage] the whole drive's)",
             low=0,
             high=1e9,
             example=1000.0,
@@ -394,7 +397,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "min_efficiency": Key(
             "float",
             None,
-            "smallest allowed forward efficiency over the [friction] map",
+            "smallest allowed forward efficiency over the [friction] map (with [first_stage] "
+            "the whole drive's)",
             low=0,
             high=1,
             example=0.8,

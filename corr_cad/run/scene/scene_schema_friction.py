@@ -34,6 +34,12 @@ SECTIONS: dict[str, dict[str, Key]] = {
             0.0025,
             "SKF/Koyo: needle roller and cage 0.002-0.003",
         ),
+        "mu_mesh": _mu(
+            "the first stage's tooth meshes, mean over the path of contact (with "
+            "[first_stage]; ISO/TR 14179-2's mu_mz)",
+            0.05,
+            "lubricated steel gears 0.04-0.08",
+        ),
         "cam_mounting": Key(
             "str",
             "bearing",

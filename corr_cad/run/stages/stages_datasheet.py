@@ -10,7 +10,6 @@ figures read the first, without the files.
 
 from __future__ import annotations
 
-import math
 from dataclasses import fields
 
 import numpy as np
@@ -27,6 +26,7 @@ from corr_cad.run.stages.context import (
     scene_errors,
     scene_errors_b,
 )
+from corr_cad.run.stages.stages_whole_drive import whole_drive
 
 __all__ = [
     "datasheet_spec",
@@ -368,56 +368,6 @@ def datasheet_errors_b(ctx: RunContext) -> ManufacturingErrors | None:
     return with_modification(measured, ctx.results.modification_gap)
 
 
-def _whole_drive(ctx: RunContext) -> dict:
-    """With ``[first_stage]``: the whole drive's figures and the first stage's share."""
-    s, d = ctx.scene, ctx.manifest.get("drive")
-    if s.first_stage is None or d is None:
-        return {}
-    crank = math.degrees(s.first_stage.crank_backlash_rad) * 60.0
-    floating = {  # the cams on their needle bearings (drive_mass_inertia)
-        k: d[k] for k in ("input_inertia_cams_fixed_kg_m2", "inertia_convention") if k in d
-    }
-    return {
-        "total_ratio": d["total_ratio"],
-        "input_inertia_kg_m2": d["input_inertia_kg_m2"],
-        **floating,
-        "mass_kg": d["mass_kg"],
-        "first_stage": {
-            "backlash_at_crank_arcmin": crank,
-            "lost_motion_arcmin": crank / s.design.roller_count,
-            "transmission_error_arcsec": 0.0,
-            "definition": "the first stage's backlash (pinion held) reflected to the output, "
-            "backlash_1 / (z + 1); exact involutes are conjugate: no transmission error of "
-            "their own; both add to the second stage's figures above",
-        },
-    }
-
-
-def whole_drive_play(sheet: dict) -> dict:
-    """The whole drive's backlash and lost motion at the output: the second stage's (the
-    largest over the positions) plus the first stage's backlash reflected to the output
-    (``sheet["first_stage"]["lost_motion_arcmin"]``); ``{}`` without a first stage.
-
-    The two plays are in series: with the pinion held the crank turns through the first
-    stage's free play, and with the crank held the output turns through the second stage's
-    (its lost motion at +-b T_R); the gear teeth are taken rigid (their mesh compliance is
-    not in the model)."""
-    fs = sheet.get("first_stage")
-    if not fs:
-        return {}
-    first = fs["lost_motion_arcmin"]
-    return {
-        "whole_drive": {
-            "backlash_arcmin": sheet["backlash_arcmin"]["max"] + first,
-            "lost_motion_arcmin": sheet["lost_motion_arcmin"]["max"] + first,
-            "definition": "at the output, the pinion held: the second stage's backlash and "
-            "lost motion (largest over the positions) plus the first stage's backlash "
-            "reflected to the output (first_stage.lost_motion_arcmin); gear teeth rigid",
-        }
-    }
-
-
-#: The Monte Carlo's metrics the page gives as built (``datasheet.json`` ``as_built``).
 def add_as_built(ctx: RunContext) -> None:
     """After the Monte Carlo: the as-built figures into ``datasheet.json`` and its page
     (when the datasheet ran first; otherwise the datasheet stage takes them itself)."""
@@ -439,7 +389,7 @@ def _meta(ctx: RunContext) -> dict:
     s = ctx.scene
     given = s.datasheet.get("rated_torque_Nm") is not None
     return {
-        **_whole_drive(ctx),
+        **whole_drive(ctx),
         "ring": ring_description(ctx),
         "rated_torque_source": (
             "[datasheet] rated_torque_Nm" if given else "(z + 1) * [load] input_torque"
@@ -484,8 +434,7 @@ def _datasheet_files(ctx: RunContext) -> None:
     ds = ctx.results.datasheet
     s = ctx.scene
     meta = _meta(ctx)
-    whole = whole_drive_play({**meta, **ds.figures()})
-    meta.update(whole)
+    whole = {"whole_drive": meta["whole_drive"]} if "whole_drive" in meta else {}
     meta.update(as_built(ctx.manifest.get("montecarlo")))  # the Monte Carlo ran first
     names = write_datasheet_files(ds, ctx.out, meta)
     ring = ring_description(ctx)

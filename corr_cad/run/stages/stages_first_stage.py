@@ -169,3 +169,109 @@ def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:
         ctx.files.append(fname)
         shapes[part] = shape
     return shapes
+
+
+#: The whole drive's checks: metric -> how the first stage's share combines with the
+#: second stage's ("add": backlash and lost motion; "series": rigidity; "product":
+#: efficiency), and the figure the check reads.
+WHOLE_DRIVE_METRICS = {
+    "backlash_arcmin": (
+        "add",
+        "whole drive at the output: the second stage's free play (largest over the "
+        "positions) plus the first stage's backlash (pinion held) / (z + 1)",
+    ),
+    "lost_motion_arcmin": (
+        "add",
+        "whole drive at the output: the second stage's lost motion (datasheet, largest) "
+        "plus the first stage's backlash / (z + 1) and its meshes' windup at +-band T_R",
+    ),
+    "torsional_rigidity_Nm_per_arcmin": (
+        "series",
+        "whole drive: 1 / (1/K2 + 1/K1), the second stage's catalogue rigidity (smallest) "
+        "in series with the first stage's mesh stiffness (ISO 6336-1) times (z + 1)^2",
+    ),
+    "efficiency": (
+        "product",
+        "whole drive, forward: the second stage's smallest efficiency over the map times "
+        "the first stage's eta1 (ISO/TR 14179-2 sliding loss)",
+    ),
+}
+
+
+def first_stage_mesh_of(ctx: RunContext):
+    """The first stage's :class:`~corr_cad.mechanics.first_stage_mesh.FirstStageMesh`
+    (``[friction] mu_mesh``; 0 without ``[friction]``: no loss figure is read then)."""
+    from corr_cad.mechanics.first_stage_mesh import first_stage_mesh
+
+    s = ctx.scene
+    mu = s.friction.get("mu_mesh", 0.0) if s.friction else 0.0
+    return first_stage_mesh(s.first_stage, s.design.roller_count, mu)
+
+
+def first_stage_shares(ctx: RunContext, spec=None) -> dict[str, float]:
+    """The first stage's part of each whole-drive check metric that this run has
+    (``spec``: the datasheet's :class:`DatasheetSpec`, default the run's datasheet's)."""
+    from corr_cad.tolerance.checks import ARCMIN_PER_RAD
+
+    m = first_stage_mesh_of(ctx)
+    out = {"backlash_arcmin": m.output_backlash * ARCMIN_PER_RAD}
+    ds = ctx.results.datasheet
+    if spec is None and ds is not None:
+        spec = ds.spec
+    if spec is not None:
+        sp = spec
+        out["lost_motion_arcmin"] = (
+            m.lost_motion(sp.rated_torque, sp.lost_motion_band) * ARCMIN_PER_RAD
+        )
+        out["torsional_rigidity_Nm_per_arcmin"] = m.output_stiffness / ARCMIN_PER_RAD / 1000.0
+    if ctx.results.friction is not None:
+        out["efficiency"] = m.efficiency
+    return out
+
+
+def whole_drive_values(values: dict[str, float], shares: dict[str, float]) -> dict[str, dict]:
+    """Each whole-drive metric with its parts: ``{metric: {value, second_stage,
+    first_stage, combined}}``, for the metrics both ``values`` and ``shares`` have."""
+    out = {}
+    for k, first in shares.items():
+        if k not in values:
+            continue
+        second = float(values[k])
+        how, figure = WHOLE_DRIVE_METRICS[k]
+        if how == "add":
+            total = second + first
+        elif how == "series":
+            total = 1.0 / (1.0 / second + 1.0 / first)
+        else:
+            total = second * first
+        out[k] = {"value": total, "second_stage": second, "first_stage": first, "figure": figure}
+    return out
+
+
+def second_stage_limits(ctx: RunContext, checks, spec=None):
+    """The limits the second stage's Monte Carlo samples must meet for the whole drive
+    to meet ``checks``: ``(Checks, {check: {limit, second_stage_limit, first_stage}})``.
+
+    The first stage's share is the nominal gears' (no tolerance of its own):
+    a sum's limit less it; a rigidity in series ``1 / (1/L - 1/K1)`` (infinite
+    where ``K1`` alone is below ``L``).
+    """
+    from dataclasses import replace
+
+    from corr_cad.tolerance.checks import CHECK_METRICS
+
+    shares = first_stage_shares(ctx, spec)
+    new, record = {}, {}
+    for name, limit in checks.active().items():
+        metric = CHECK_METRICS[name][0]
+        if metric not in shares or metric == "efficiency":
+            continue
+        first = shares[metric]
+        if WHOLE_DRIVE_METRICS[metric][0] == "add":
+            second = limit - first
+        else:
+            rest = 1.0 / limit - 1.0 / first if limit > 0.0 else float("inf")
+            second = 1.0 / rest if rest > 0.0 else float("inf")
+        new[name] = second
+        record[name] = {"limit": limit, "second_stage_limit": second, "first_stage": first}
+    return replace(checks, **new), record

@@ -127,7 +127,14 @@ def _montecarlo(ctx: RunContext) -> None:
         bar.close()
         if not res.success:
             raise SolverError("Monte Carlo: the force solver did not converge for some samples")
-    summary = res.summary(s.checks)
+    checks = s.checks
+    if s.first_stage is not None:  # the whole drive's limits, on the second stage's samples
+        from corr_cad.run.stages.stages_first_stage import second_stage_limits
+
+        checks, whole = second_stage_limits(ctx, s.checks, sheet.spec if sheet else None)
+    summary = res.summary(checks)
+    if s.first_stage is not None and whole:
+        summary["whole_drive_limits"] = whole
     summary.update({"seed": mc_cfg["seed"], "positions": mc_cfg["positions"]})
     summary["tolerances"] = {k: d.__dict__ for k, d in s.tolerances.items()}
     nominal = nominal_of()
@@ -148,7 +155,7 @@ def _montecarlo(ctx: RunContext) -> None:
 
     plots_tolerance.montecarlo_png(  # every metric the sensitivity ranks (binds: a probability)
         {k: v for k, v in res.metrics.items() if k in plots_tolerance.ORDER},
-        s.checks,
+        checks,
         ctx.out / "montecarlo.png",
         summary,
         nominal,
