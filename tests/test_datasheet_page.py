@@ -32,7 +32,7 @@ backlash_allowance = 0.03
 [load]
 input_torque_Nm = 22.0
 [export]
-formats = ['datasheet', 'interference']
+formats = ['datasheet', 'interference', 'report']
 interference_method = 'exact'
 interference_positions = 360
 [solver]
@@ -126,6 +126,14 @@ def test_the_whole_drives_play_adds_the_first_stage_and_is_labelled(drive):
     assert f"backlash {figure(w['backlash_arcmin'])} arcmin" in line
     assert f"lost motion {figure(w['lost_motion_arcmin'])} arcmin" in line
     assert "(second stage, crank locked)" in r.stdout
+    report = (out / "report.html").read_text()
+    assert report.index("backlash, whole drive (pinion held)") < report.index(
+        "backlash, second stage (crank locked)"
+    )
+    from corr_cad.export.report_tables import fmt
+
+    for key in ("backlash_arcmin", "lost_motion_arcmin"):
+        assert f'<td class="num">{fmt(w[key])}</td>' in report
 
 
 @pytest.mark.slow
