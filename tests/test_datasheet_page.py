@@ -169,6 +169,12 @@ def test_row_a_share_by_direction(drive):
     assert both["min"] == min(by["positive"]["min"], by["negative"]["min"])
     assert both["max"] == max(by["positive"]["max"], by["negative"]["max"])
     assert "of the crank moment at +T_R" in html and "at -T_R" in html
+    from corr_cad.figure_text import figure
+
+    line = next(ln for ln in drive[3].stdout.splitlines() if ln.startswith("  row A share"))
+    p, n = by["positive"], by["negative"]
+    assert f"{figure(p['min'], 4)}-{figure(p['max'], 4)} at +T_R" in line
+    assert f"{figure(n['min'], 4)}-{figure(n['max'], 4)} at -T_R" in line
 
 
 MC = """[load]
