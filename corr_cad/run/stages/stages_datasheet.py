@@ -455,7 +455,13 @@ def _datasheet_files(ctx: RunContext) -> None:
     hysteresis_png(
         ds, ctx.out / "hysteresis.png", s.design, note, width, loop, whole.get("whole_drive")
     )
-    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
+    te_note = note
+    if ring["profile"] == "nominal" and not ring.get("errors_applied"):
+        te_note = (
+            "the exact nominal geometry, no manufacturing error: a perfect drive's "
+            "transmission error, not an as-built one's"
+        )
+    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, te_note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     if whole:  # the console's block gives the whole drive's play beside the second stage's
