@@ -29,8 +29,9 @@ from corr_cad.geometry.bearing_parts import (
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.bearing import EccentricBearing
 
-BEARING = EccentricBearing(needles=40, needle_diameter=6.0, needle_length=12.0,
-                           diametral_clearance=0.005)
+BEARING = EccentricBearing(
+    needles=40, needle_diameter=6.0, needle_length=12.0, diametral_clearance=0.005
+)
 
 #: The prototype's second stage on the drive model, both cams on 40 x 6 x 12 needles.
 SCENE = """[design]
@@ -139,8 +140,9 @@ def test_the_needles_do_not_interfere_with_the_cam_or_the_eccentric(clearance):
     big = mesh.stacked_solid(thick)
     asm = mesh.assembly(d, solids, 0.0, floating=True)
     p = bearing_placements(d, [fat, fat], 0.0)[1]
-    _, overlaps = mesh.solid_overlaps({"cam_a": asm.parts["cam_a"], p.name: mesh.place(big, p)},
-                                      contacts=contacts)
+    _, overlaps = mesh.solid_overlaps(
+        {"cam_a": asm.parts["cam_a"], p.name: mesh.place(big, p)}, contacts=contacts
+    )
     assert overlaps and overlaps[0]["volume_mm3"] > contacts[("needle_a_", "cam_a")]
 
 
@@ -160,8 +162,10 @@ def test_the_input_inertia_with_floating_cams_against_a_hand_sum():
     scene = load_scene(Path(__file__).resolve().parents[1] / "templates" / "compound.toml")
     d, fs = scene.design, scene.first_stage
     rows = needle_rows(d, BEARING)
-    verts = {k: approximate_gear(getattr(fs, k), 1e-3).vertices
-             for k in ("pinion", "wheel", "crank_gear")}
+    verts = {
+        k: approximate_gear(getattr(fs, k), 1e-3).vertices
+        for k in ("pinion", "wheel", "crank_gear")
+    }
     outlines = part_outlines(d, working_profile(d, undercut_analysis(d)), 1e-3, floating=True)
     got = drive_mass_inertia(d, fs, first_stage_profiles(d, fs, verts, rows), outlines, rows)
     i1, z, e, w = fs.ratio, d.tooth_count, d.eccentricity, d.face_width
@@ -209,7 +213,9 @@ def test_the_console_and_datasheet_say_the_cams_float(tmp_path):
     (tmp_path / "s.toml").write_text(text)
     r = subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out"],
-        cwd=tmp_path, capture_output=True, text=True,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
     )
     assert r.returncode == 0, r.stderr[-3000:]
     ds = json.loads((tmp_path / "out" / "datasheet.json").read_text())
@@ -223,12 +229,16 @@ def test_the_console_and_datasheet_say_the_cams_float(tmp_path):
 def test_a_bearing_that_cannot_be_drawn_is_refused_in_one_line(tmp_path):
     """Needles longer than the cam is wide: exit 2, one line naming the key, nothing written."""
     (tmp_path / "s.toml").write_text(
-        SCENE.replace('formats = ["dxf", "stl", "3mf", "glb", "ply", "step", "interference"]',
-                      'formats = ["dxf"]').replace("needle_length = 12.0", "needle_length = 13.0")
+        SCENE.replace(
+            'formats = ["dxf", "stl", "3mf", "glb", "ply", "step", "interference"]',
+            'formats = ["dxf"]',
+        ).replace("needle_length = 12.0", "needle_length = 13.0")
     )
     r = subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
-        cwd=tmp_path, capture_output=True, text=True,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
     )
     assert r.returncode == 2, r.stderr
     errors = [x for x in r.stderr.splitlines() if "error" in x]
@@ -271,7 +281,9 @@ def test_a_drive_with_bearings_writes_its_parts_in_every_format(tmp_path):
     (tmp_path / "s.toml").write_text(SCENE)
     r = subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
-        cwd=tmp_path, capture_output=True, text=True,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
     )
     assert r.returncode == 0, r.stderr[-3000:]
     out = tmp_path / "out"
@@ -290,11 +302,17 @@ def test_a_drive_with_bearings_writes_its_parts_in_every_format(tmp_path):
     # the cam's bore concentric with its disc, in STEP and DXF
     bores = [c for c in _circles(out / "disk_cam.step") if abs(c[0] - 47.2) < 1e-9]
     assert bores and all(abs(x) < 1e-12 and abs(y) < 1e-12 for _, x, y, _ in bores)
-    dxf_bore = [c for c in ezdxf.readfile(out / "disk_cam.dxf").modelspace().query("CIRCLE")
-                if abs(c.dxf.radius - 47.2) < 1e-12]
+    dxf_bore = [
+        c
+        for c in ezdxf.readfile(out / "disk_cam.dxf").modelspace().query("CIRCLE")
+        if abs(c.dxf.radius - 47.2) < 1e-12
+    ]
     assert tuple(dxf_bore[0].dxf.center)[:2] == (0.0, 0.0)
-    dxf_journals = [c for c in ezdxf.readfile(out / "crankshaft.dxf").modelspace().query("CIRCLE")
-                    if abs(c.dxf.radius - rj) < 1e-12]
+    dxf_journals = [
+        c
+        for c in ezdxf.readfile(out / "crankshaft.dxf").modelspace().query("CIRCLE")
+        if abs(c.dxf.radius - rj) < 1e-12
+    ]
     assert sorted(c.dxf.center[1] for c in dxf_journals) == [-e, e]
     # the assemblies: the same instance names in STEP and the meshes
     from corr_cad.export import step
@@ -314,9 +332,10 @@ def test_a_drive_with_bearings_writes_its_parts_in_every_format(tmp_path):
     inter = manifest["interference"]
     assert inter["ok"] and inter["other_pairs"]["overlaps"] == 0
     assert "needle_a_*/cam_a" in inter["other_pairs"]["needle_contact_allowance_mm3"]
-    np.testing.assert_equal(sorted(manifest["step"]["assembly_000deg.step"]["instance_counts"]),
-                            sorted(["inner_gear", "disk_cam", "roller", "teeth_frame",
-                                    "needle", "crankshaft"]))
+    np.testing.assert_equal(
+        sorted(manifest["step"]["assembly_000deg.step"]["instance_counts"]),
+        sorted(["inner_gear", "disk_cam", "roller", "teeth_frame", "needle", "crankshaft"]),
+    )
 
 
 def test_scenes_without_bearings_draw_no_bearing_parts():

@@ -32,7 +32,7 @@ backlash_allowance = 0.03
 [load]
 input_torque_Nm = 22.0
 [export]
-formats = ['datasheet', 'interference']
+formats = ['datasheet', 'interference', 'report']
 interference_method = 'exact'
 interference_positions = 360
 [solver]
@@ -129,6 +129,14 @@ def test_the_whole_drives_play_adds_the_first_stage_and_is_labelled(drive):
     assert f"backlash {figure(back)} arcmin" in line
     assert f"lost motion {figure(lost)} arcmin" in line
     assert "(second stage, crank locked)" in r.stdout
+    report = (out / "report.html").read_text()
+    assert report.index("backlash, whole drive (pinion held)") < report.index(
+        "backlash, second stage (crank locked)"
+    )
+    from corr_cad.export.report_tables import fmt
+
+    for key in ("backlash_arcmin", "lost_motion_arcmin"):
+        assert f'<td class="num">{fmt(w[key])}</td>' in report
 
 
 @pytest.mark.slow
@@ -164,6 +172,12 @@ def test_row_a_share_by_direction(drive):
     assert both["min"] == min(by["positive"]["min"], by["negative"]["min"])
     assert both["max"] == max(by["positive"]["max"], by["negative"]["max"])
     assert "of the crank moment at +T_R" in html and "at -T_R" in html
+    from corr_cad.figure_text import figure
+
+    line = next(ln for ln in drive[3].stdout.splitlines() if ln.startswith("  row A share"))
+    p, n = by["positive"], by["negative"]
+    assert f"{figure(p['min'], 4)}-{figure(p['max'], 4)} at +T_R" in line
+    assert f"{figure(n['min'], 4)}-{figure(n['max'], 4)} at -T_R" in line
 
 
 MC = """[load]
@@ -230,3 +244,92 @@ def test_the_drives_clearance_agrees_with_the_datasheets_backlash(drive):
     line = next(ln for ln in r.stdout.splitlines() if "eccentric bearings (not in" in ln)
     assert "each cam moves 1 um" in line
     assert f"{figure(sheet['backlash_arcmin']['max'])} arcmin at the output" in line
+
+
+def test_a_sheet_with_every_kind_of_figure_renders_every_number_fast(tmp_path):
+    """Without a run: a datasheet of the prototype (the mechanics API) with friction, life,
+    whole-drive and as-built figures added, and one more figure the page has never heard of
+    (``future_figure``): every number is a cell, every number in a sentence is the file's,
+    the short-life note and the as-built table are there."""
+    import base64
+
+    from corr_cad import GearDesign
+    from corr_cad.export.datasheet_html import render_datasheet_html
+    from corr_cad.export.datasheet_sheet import as_built
+    from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
+
+    d = GearDesign()
+    spec = DatasheetSpec(
+        rated_torque=2.86e6, positions_per_mesh=2, transmission_error_positions_per_turn=4
+    )
+    sheet = {
+        "rated_torque_source": "(z + 1) * [load] input_torque",
+        "ring": {"profile": "nominal", "errors_applied": [], "other_parts": "nominal"},
+        "conventions": {"windup": "output rotation under output torque T"},
+        "load_share": 0.55,
+        "total_ratio": -130.0,
+        "mass_kg": 29.78,
+        "input_inertia_kg_m2": 0.00442,
+        "first_stage": {
+            "backlash_arcmin": 0.2351,
+            "lost_motion_arcmin": 0.2356,
+            "backlash_at_crank_arcmin": 6.112,
+        },
+        **datasheet(d, spec).figures(),
+    }
+    stats = {"min": 0.87, "mean": 0.874, "max": 0.88}
+    sheet.update(
+        efficiency_forward=stats,
+        efficiency_backdriving={**stats, "self_locking": False},
+        starting_torque_Nm={"min": 1.0, "mean": 1.5, "max": 2.0},
+        backdriving_torque_Nm={"min": 26.0, "mean": 39.0, "max": 52.0},
+        hysteresis_width_at_rated_arcmin={"min": 0.01, "mean": 0.012, "max": 0.015},
+        life_h={
+            "at_torque_Nm": 2860.0,
+            "at_output_speed_rpm": 15.0,
+            "bearing_row1": 3546.0,
+            "cam_row1": 5.3e6,
+            "ring_row1": None,
+            "system": 1912.0,
+            "definition": "L10 (90 % reliability)",
+        },
+        rated_torque_from_life_Nm={
+            "value": 2030.0,
+            "rated_life_h": 6000.0,
+            "rated_speed_rpm": 15.0,
+            "bearing_rating_N": 65223.0,
+            "bearing_rating_source": "ISO 281",
+        },
+        future_figure={"value": 12.5, "per_row": [1.25, 2.5]},
+    )
+    from corr_cad.run.stages.stages_first_stage import whole_drive_values
+
+    second = {k: sheet[k]["max"] for k in ("backlash_arcmin", "lost_motion_arcmin")}
+    shares = {"backlash_arcmin": 0.2351, "lost_motion_arcmin": 0.2356}
+    sheet["whole_drive"] = whole_drive_values(second, shares)
+    pct = {"p5": 0.3, "p50": 0.38, "p95": 0.47, "p99": 0.49}
+    metrics = (
+        "lost_motion_arcmin",
+        "transmission_error_arcsec",
+        "torsional_rigidity_Nm_per_arcmin",
+    )
+    mc = {"samples": 40, "percentiles": dict.fromkeys(metrics, pct)}
+    sheet.update(as_built(mc))
+    png = base64.b64decode(
+        "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAQAAAC1HAwCAAAAC0lEQVR42mNkYAAAAAYAAjCB0C8AAAAASUVORK5CYII="
+    )
+    for name in ("hysteresis.png", "transmission_error.png"):
+        (tmp_path / name).write_bytes(png)
+    import html as h
+
+    text = h.unescape(render_datasheet_html(sheet, d, tmp_path, "t", "", "0"))
+    page = Page(text)
+    keys = check_cells(page, sheet)
+    check_every_number_is_a_cell(page, sheet)
+    assert {"future_figure.value", "future_figure.per_row.1", "life_h.system"} <= keys
+    assert "life_h.ring_row1" not in keys  # None: no number
+    check_sentence_numbers(page, sheet, DESIGN + (0.55,), FORMULAS)
+    assert "Short life: the system L10 at the rated torque 2,860 N*m is 1,912 h" in text
+    assert "the rated torque from life is 2,030 N*m" in text
+    assert 'id="as-built"' in text and "Backlash, whole drive" in text
+    assert "a perfect drive's" in text

@@ -456,3 +456,19 @@ def test_montecarlo_roller_counts_are_whole_in_the_summary_and_the_plot(figures,
     (fig,) = figures
     labels = [ln.get_label() for ln in fig.axes[3].get_lines() if ln.get_label()[:1] == "p"]
     assert labels == [f"p{q} = {pct[f'p{q}']:g}" for q in (5, 50, 95, 99)]
+
+
+@pytest.mark.parametrize(("allowed", "colour"), [(0.05, "C2"), (0.001, "C3"), (None, "C3")])
+def test_montecarlo_png_colours_p_fail_by_the_gate(figures, tmp_path, allowed, colour):
+    """P(fail) = 0.5 % is green when the 5 % gate passes, red when a 0.1 % gate fails, and
+    red without a gate (a failing sample, nothing allows it)."""
+    from matplotlib.colors import to_rgba
+
+    rng = np.random.default_rng(3)
+    metrics = {"peak_gear_force": rng.normal(5000, 500, 200)}
+    checks = Checks(max_gear_force=5500.0, max_failure_probability=allowed)
+    summary = {"failure_probability": {"max_gear_force": 0.005}, "sensitivity": []}
+    plots_tolerance.montecarlo_png(metrics, checks, tmp_path / "m.png", summary, None, None, 1.0)
+    title = figures[0].axes[0].title
+    assert title.get_text() == "P(fail) = 0.5 %"
+    assert to_rgba(title.get_color()) == to_rgba(colour)

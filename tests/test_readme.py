@@ -23,7 +23,7 @@ def test_two_setup_commands_on_the_first_screen():
     ci = (ROOT / ".ci" / "run").read_text()
     assert "setup-commands" in ci
     # CI runs the slow set after the README's quick suite: every test runs there.
-    assert 'python -m pytest -n auto -m slow' in ci
+    assert "python -m pytest -n auto -m slow" in ci
 
 
 def _names(requirements: list[str]) -> set[str]:

@@ -107,7 +107,7 @@ def datasheet_rows(sheet: dict) -> list[dict]:
                     "arcmin",
                     "the second stage's lost motion below plus the first stage's at the output "
                     f"({n(sheet['first_stage']['lost_motion_arcmin'])} arcmin: its backlash and "
-                    "its meshes' windup, ISO 6336-1); pinion held",
+                    "its meshes' windup); pinion held",
                 ),
             ]
             if whole
@@ -222,8 +222,11 @@ def datasheet_rows(sheet: dict) -> list[dict]:
     rows += losses_rows(sheet)
     out = []
     for name, key, unit, convention in rows:
-        v = _get(sheet, key)
-        if v is None:  # a life without end (no load on the part): said, not a number
+        try:
+            v = _get(sheet, key)
+        except (KeyError, TypeError, IndexError):  # a figure this sheet does not hold
+            continue
+        if v is None or isinstance(v, bool):  # a life without end: said, not a number
             continue
         v = float(v)
         out.append(
@@ -287,12 +290,15 @@ def life_short(d: dict) -> str:
     (``datasheet.json`` ``life_h``, ``rated_torque_from_life_Nm``); ``""`` otherwise."""
     life, rt = d.get("life_h") or {}, d.get("rated_torque_from_life_Nm") or {}
     system, rated = life.get("system"), rt.get("rated_life_h")
-    if system is None or rated is None or system >= rated:
+    if not isinstance(system, (int, float)) or not isinstance(rated, (int, float)):
+        return ""
+    if system >= rated or "at_torque_Nm" not in life or "value" not in rt:
         return ""
     return (
         f"life: the system L10 at the rated torque {figure(life['at_torque_Nm'], 5)} N*m is "
         f"{figure(system, 4)} h, short of the rated {figure(rated)} h at "
-        f"{figure(rt['rated_speed_rpm'])} rpm; the rated torque from life is "
+        f"{figure(rt.get('rated_speed_rpm', life.get('at_output_speed_rpm', 0.0)))} rpm; the "
+        "rated torque from life is "
         f"{figure(rt['value'], 4)} N*m"
     )
 
@@ -306,86 +312,108 @@ def nominal_note(sheet: dict) -> str:
 
 def friction_rows(sheet: dict) -> list[tuple]:
     """Efficiency, starting and backdriving torque, hysteresis and life (with ``[friction]``
-    or ``[life]``): ``(name, key, unit, convention)`` rows of the catalogue table."""
+    or ``[life]``): ``(name, key, unit, convention)`` rows of the catalogue table.
+
+    A row whose figures ``datasheet.json`` does not hold is left out (the page's last
+    table still lists every number the file holds)."""
     if "efficiency_forward" not in sheet:
         return []
     n = catalogue_number
-    fw, bk = sheet["efficiency_forward"], sheet["efficiency_backdriving"]
     at_input = (
         "at the crank, the second stage's input (the first stage's own friction is not in "
         "it; at the pinion: divide by the first stage's ratio)"
         if sheet.get("total_ratio") is not None
         else "at the crank (the input)"
     )
-    rows = [
+
+    def eff(key: str, text: str) -> str:
+        e = sheet[key]
+        return f"{text} (mean {n(e['mean'])}, largest {n(e['max'])})" + (
+            "; SELF-LOCKING at some torques" if e.get("self_locking") else ""
+        )
+
+    def life_text() -> str:
+        life = sheet["life_h"]
+        parts = {k: v for k, v in life.items() if k.split("_")[0] in ("bearing", "cam", "ring")}
+        kept = [(k, v) for k, v in parts.items() if isinstance(v, (int, float))]
+        shortest = min(kept, key=lambda kv: kv[1], default=None)
+        return (
+            f"90 % reliability, at {n(life['at_torque_Nm'])} N*m and "
+            f"{n(life['at_output_speed_rpm'])} rpm at the output; every bearing and raceway "
+            "combined" + (f"; the shortest: {shortest[0]}, {n(shortest[1])} h" if shortest else "")
+        )
+
+    def rated_text() -> str:
+        rt = sheet["rated_torque_from_life_Nm"]
+        return (
+            f"the output torque at which the L10 is {n(rt['rated_life_h'])} h at "
+            f"{n(rt['rated_speed_rpm'])} rpm at the output; bearing rating C_r "
+            f"{n(rt['bearing_rating_N'])} N ({rt['bearing_rating_source']})"
+        )
+
+    wanted = [
         (
             "Efficiency, forward",
             "efficiency_forward.min",
             "",
-            f"1 - losses / input power over one cycle, the input driving; smallest over the "
-            f"map of speeds and torques (mean {n(fw['mean'])}, largest {n(fw['max'])})",
+            lambda: eff(
+                "efficiency_forward",
+                "1 - losses / input power over one cycle, the input driving; smallest over "
+                "the map of speeds and torques",
+            ),
         ),
         (
             "Efficiency, backdriving",
             "efficiency_backdriving.min",
             "",
-            f"1 - losses / output power, the output driving; smallest over the map (mean "
-            f"{n(bk['mean'])}, largest {n(bk['max'])})"
-            + ("; SELF-LOCKING at some torques" if bk.get("self_locking") else ""),
+            lambda: eff(
+                "efficiency_backdriving",
+                "1 - losses / output power, the output driving; smallest over the map",
+            ),
         ),
         (
             "Starting torque",
             "starting_torque_Nm.max",
             "N*m",
-            f"input torque to turn the drive at no output load, {at_input}; largest over "
-            "the positions (preload and friction; no seal model)",
+            lambda: (
+                f"input torque to turn the drive at no output load, {at_input}; largest "
+                "over the positions (preload and friction; no seal model)"
+            ),
         ),
         (
             "Backdriving torque",
             "backdriving_torque_Nm.max",
             "N*m",
-            "output torque to turn the drive from the output at no input load; largest "
-            "over the positions",
+            lambda: (
+                "output torque to turn the drive from the output at no input load; "
+                "largest over the positions"
+            ),
         ),
         (
             "Hysteresis loss",
             "hysteresis_loss_arcmin",
             "arcmin",
-            "the loop's width at zero torque beyond the backlash (friction); largest over "
-            "the positions",
+            lambda: (
+                "the loop's width at zero torque beyond the backlash (friction); largest "
+                "over the positions"
+            ),
         ),
         (
             "Hysteresis width at T_R",
             "hysteresis_width_at_rated_arcmin.max",
             "arcmin",
-            "loading minus unloading branch at +-T_R; largest over the positions",
+            lambda: "loading minus unloading branch at +-T_R; largest over the positions",
         ),
+        ("Life L10 at T_R", "life_h.system", "h", life_text),
+        ("Rated torque from life", "rated_torque_from_life_Nm.value", "N*m", rated_text),
     ]
-    life, rt = sheet.get("life_h"), sheet.get("rated_torque_from_life_Nm")
-    if life and rt:
-        parts = {k: v for k, v in life.items() if k.split("_")[0] in ("bearing", "cam", "ring")}
-        shortest = min(
-            ((k, v) for k, v in parts.items() if v is not None), key=lambda kv: kv[1], default=None
-        )
-        rows += [
-            (
-                "Life L10 at T_R",
-                "life_h.system",
-                "h",
-                f"90 % reliability, at {n(life['at_torque_Nm'])} N*m and "
-                f"{n(life['at_output_speed_rpm'])} rpm at the output; every bearing and "
-                "raceway combined"
-                + (f"; the shortest: {shortest[0]}, {n(shortest[1])} h" if shortest else ""),
-            ),
-            (
-                "Rated torque from life",
-                "rated_torque_from_life_Nm.value",
-                "N*m",
-                f"the output torque at which the L10 is {n(rt['rated_life_h'])} h at "
-                f"{n(rt['rated_speed_rpm'])} rpm at the output; bearing rating C_r "
-                f"{n(rt['bearing_rating_N'])} N ({rt['bearing_rating_source']})",
-            ),
-        ]
+    rows = []
+    for name, key, unit, text in wanted:
+        try:
+            _get(sheet, key)
+            rows.append((name, key, unit, text()))
+        except (KeyError, TypeError, IndexError):
+            continue
     return rows
 
 

@@ -237,8 +237,12 @@ def montecarlo_png(
             ax.axvline(limit, color="C3", lw=2.0, label=f"limit = {figure(limit)}")
             pf = (summary or {}).get("failure_probability", {}).get(lim_key)
             if pf is not None:
+                # Red when the gate fails (max_failure_probability), or without a gate when
+                # any sample fails; green otherwise.
+                allowed = checks.max_failure_probability
+                bad = pf > allowed if allowed is not None else pf > 0
                 ax.set_title(
-                    f"P(fail) = {100 * pf:.1f} %", fontsize=10, color="C3" if pf > 0 else "C2"
+                    f"P(fail) = {100 * pf:.1f} %", fontsize=10, color="C3" if bad else "C2"
                 )
         elif name == "binding_pressure_MPa":
             if binding_pressure_MPa is not None:

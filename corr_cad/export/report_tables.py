@@ -116,15 +116,36 @@ def datasheet_rows(d: dict) -> dict:
         }
 
     span = f"{fmt(rig['from_torque_Nm'])}-{fmt(rig['to_torque_Nm'])} N*m"
+    whole = d.get("whole_drive")
+    stage = ", second stage (crank locked)" if whole else ""
     rows = [
-        row("backlash", d["backlash_arcmin"], "arcmin", "theta(0+) - theta(0-); catalogue: max"),
         row(
-            "lost motion",
+            f"backlash{stage}",
+            d["backlash_arcmin"],
+            "arcmin",
+            "theta(0+) - theta(0-); catalogue: max",
+        ),
+        row(
+            f"lost motion{stage}",
             lm,
             "arcmin",
             f"at +-{fmt(100 * lm['band'])} % T_R ({fmt(lm['torque_Nm'])} N*m); catalogue: max",
         ),
     ]
+    if whole:  # the whole drive, pinion held: one value each (the largest plus the first stage)
+        first = fmt(d["first_stage"]["lost_motion_arcmin"])
+        for label, key in (("lost motion", "lost_motion_arcmin"), ("backlash", "backlash_arcmin")):
+            rows.insert(  # backlash first, as the page and the console give them
+                0,
+                {
+                    "label": f"{label}, whole drive (pinion held)",
+                    "min": "",
+                    "mean": "",
+                    "max": fmt(whole[key]),
+                    "unit": "arcmin",
+                    "note": f"the second stage's largest plus the first stage's {first} arcmin",
+                },
+            )
     if rig["with_series"] is not None:
         rows.append(
             row(

@@ -123,6 +123,16 @@ def datasheet_lines(d: dict | None) -> list[str]:
     )
     if d.get("model") != "drive":
         out.append(f"  {PAPER_RIGIDITY_NOTE}")
+    by = d.get("row_a_share_by_direction")
+    if by:  # each direction: the asymmetry a mean over both would hide
+        out.append(
+            "  row A share         "
+            + ", ".join(
+                f"{figure(by[k]['min'], 4)}-{figure(by[k]['max'], 4)} at {s}T_R"
+                for k, s in (("positive", "+"), ("negative", "-"))
+            )
+            + " (row B carries the rest)"
+        )
     out.extend(budget_lines(d.get("compliance_budget")))
     k = d["stiffness_Nm_per_arcmin"]
     out.append(

@@ -17,7 +17,6 @@ import numpy as np
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.windup import ARCMIN_PER_RAD, NMM_PER_NM
-from corr_cad.run.stages.as_built import as_built
 from corr_cad.run.stages.context import (
     RunContext,
     elastic_bodies,
@@ -373,6 +372,7 @@ def add_as_built(ctx: RunContext) -> None:
     (when the datasheet ran first; otherwise the datasheet stage takes them itself)."""
     import json
 
+    from corr_cad.export.datasheet_sheet import as_built
     from corr_cad.export.files import write_json
 
     extra = as_built(ctx.manifest.get("montecarlo"))
@@ -434,6 +434,8 @@ def _datasheet_files(ctx: RunContext) -> None:
     ds = ctx.results.datasheet
     s = ctx.scene
     meta = _meta(ctx)
+    from corr_cad.export.datasheet_sheet import as_built
+
     whole = {"whole_drive": meta["whole_drive"]} if "whole_drive" in meta else {}
     meta.update(as_built(ctx.manifest.get("montecarlo")))  # the Monte Carlo ran first
     names = write_datasheet_files(ds, ctx.out, meta)
@@ -459,7 +461,13 @@ def _datasheet_files(ctx: RunContext) -> None:
         whole.get("whole_drive"),
         elastic,
     )
-    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, note)
+    te_note = note
+    if ring["profile"] == "nominal" and not ring.get("errors_applied"):
+        te_note = (
+            "the exact nominal geometry, no manufacturing error: a perfect drive's "
+            "transmission error, not an as-built one's"
+        )
+    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, te_note)
     ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
     if ds.compliance_budget is not None:  # with [crankshaft] / [bearings.crank]
         from corr_cad.export.compliance_plot import compliance_png

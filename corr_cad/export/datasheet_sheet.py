@@ -1,10 +1,15 @@
-"""The datasheet's as-built figures: the Monte Carlo's percentiles of its metrics."""
+"""Figures of ``datasheet.json`` made from the Monte Carlo's.
+
+* ``as_built``: the Monte Carlo's percentiles of the catalogue figures (with
+  ``[tolerances]`` and the ``montecarlo`` format), which the page gives beside the nominal.
+"""
 
 from __future__ import annotations
 
 __all__ = ["AS_BUILT_METRICS", "as_built"]
 
-#: The datasheet metrics the Monte Carlo gives as built (``montecarlo_summary.json``).
+
+#: The Monte Carlo's metrics the page gives as built (``datasheet.json`` ``as_built``).
 AS_BUILT_METRICS = (
     "lost_motion_arcmin",
     "transmission_error_arcsec",
