@@ -1,7 +1,9 @@
 """The command's lines on stderr: one line per error, warning, interrupt or bug.
 
-Every refusal and failure of ``corr-cad`` is one line of at most
-:data:`MAX_LINE` characters; numerical warnings are shown as bounded notes;
+Every refusal and failure of ``corr-cad`` is one line, never cut: what it
+quotes of the user's values or of a library's message is bounded where it is
+quoted (:func:`corr_cad.bounds.show`); numerical warnings from libraries are
+shown as notes of at most :data:`MAX_LINE` characters;
 an interrupt and an unexpected exception say what happened to the output
 folder (docs/output-folder.md).
 """
@@ -27,17 +29,19 @@ __all__ = [
 MAX_LINE = 300
 
 
-def one_line(text: str, limit: int = MAX_LINE) -> str:
-    """``text`` on one line of at most ``limit`` characters (the middle cut out)."""
+def one_line(text: str, limit: int | None = MAX_LINE) -> str:
+    """``text`` on one line; of at most ``limit`` characters (the middle cut out), for a
+    message from a library (None: whole, for the tool's own refusals)."""
     text = " ".join(str(text).split())
-    if len(text) <= limit:
+    if limit is None or len(text) <= limit:
         return text
     tail = limit // 3
     return f"{text[: limit - tail - 5]} ... {text[-tail:]}"
 
 
 def error(msg: str) -> None:
-    print(one_line(f"corr-cad: error: {msg}"), file=sys.stderr)
+    """A refusal's one line, whole: a suggested fix at its end is never cut off."""
+    print(one_line(f"corr-cad: error: {msg}", None), file=sys.stderr)
 
 
 def show_warnings(caught: list) -> None:
