@@ -11,6 +11,7 @@ and nothing of it is shown.
 from __future__ import annotations
 
 import math
+import re
 import resource
 import subprocess
 import sys
@@ -38,10 +39,10 @@ def _capped() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (CAP_BYTES, CAP_BYTES))
 
 
-def run_capped(folder: Path, scene: str) -> subprocess.CompletedProcess:
+def run_capped(folder: Path, scene: str, *extra: str) -> subprocess.CompletedProcess:
     (folder / "s.toml").write_text(scene)
     return subprocess.run(
-        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out"],
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", *extra],
         capture_output=True,
         text=True,
         cwd=folder,
@@ -85,6 +86,16 @@ def test_a_bulge_bomb_is_refused_before_it_is_flattened(folder):
     assert line.startswith("corr-cad: error: [errors] measured_profile: 'ring.dxf': ")
     assert "its 2000 bulged vertices would flatten to 7.0" in line, line  # 7.0e+06 points
     assert "(chords within 0.1 um, about 322 MB of memory); at most 4000000 are read" in line
+
+
+def test_the_memory_budget_lowers_the_points_a_contour_may_flatten_to(folder):
+    bulge_bomb(folder / "ring.dxf", radius=2.5e8)  # 3.5e6 points: below the fixed limit
+    r = run_capped(folder, _scene("ring.dxf"), "--max-memory", "0.25")
+    line = refused(folder, r, "ring.dxf")
+    allowed = int(re.search(r"at most (\d+) are read", line).group(1))
+    # what 0.25 GB leaves beside the process (over 100 MB), at 48 bytes a point
+    assert allowed < (0.25 * 2**30 - 100 * 2**20) / 48 < 4_000_000, line
+    assert "its 2000 bulged vertices would flatten to 3.5" in line, line
 
 
 @pytest.mark.slow

@@ -183,15 +183,16 @@ def _flat_points(ctx: RunContext) -> int:
     """Most points a measured DXF contour may flatten to: what the memory budget has
     left beside this process's present size, at most ``MAX_FLATTENED_POINTS``."""
     from corr_cad.export.measured_io import FLAT_BYTES_PER_POINT, MAX_FLATTENED_POINTS
-    from corr_cad.run.budget.resources import Budget
 
-    budget = ctx.budget if ctx.budget is not None else Budget()
+    budget = getattr(ctx.budget, "memory_bytes", None)
+    if budget is None:  # run_scene always sets it; a bare context has no budget
+        return MAX_FLATTENED_POINTS
     try:
         with open("/proc/self/statm") as fh:
             used = int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
     except (OSError, ValueError, IndexError):
         used = 0
-    free = max(0.0, budget.memory_bytes - used)
+    free = max(0.0, budget - used)
     return int(min(MAX_FLATTENED_POINTS, free // FLAT_BYTES_PER_POINT))
 
 
