@@ -532,8 +532,12 @@ def test_row_b_measured_ring_is_estimated_and_refused_beside_harmonics():
 @pytest.mark.parametrize(
     "content,message",
     [
-        (None, "measured profile 'b.csv' does not exist"),
-        ("x,y\n0,1\n1,0\n", "b.csv: 2 points are too few; need at least 500 (20 per tooth)"),
+        (None, "[errors.row_b] measured_profile: measured profile 'b.csv' does not exist"),
+        (
+            "x,y\n0,1\n1,0\n",
+            "[errors.row_b] measured_profile: b.csv: 2 points are too few; need at least 500 "
+            "(20 per tooth)",
+        ),
     ],
 )
 def test_a_bad_row_b_measured_ring_is_refused_as_row_a_s(tmp_path, content, message):

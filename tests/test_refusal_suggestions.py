@@ -133,3 +133,67 @@ def test_a_failed_check_never_prints_hundreds_of_digits():
         }
     )[0]
     assert line == "max_first_stage_bending_MPa (value 1.096e+300, limit 300)", line
+
+
+def _drive(tmp_path: Path, scene: str) -> subprocess.CompletedProcess:
+    (tmp_path / "s.toml").write_text(scene)
+    return subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=600,
+    )
+
+
+def _harmonics(amplitude: float, rows: int = 100) -> str:
+    return "[" + ", ".join(f"[{k}, {amplitude!r}, 0.0]" for k in range(1, rows + 1)) + "]"
+
+
+def _row_b_harmonics(amplitude: float) -> str:
+    from tests.test_redteam_drive import DRIVE
+
+    old = "[errors.row_b]\nroller_radius_error = -0.001\n"
+    assert old in DRIVE
+    return DRIVE.replace(old, old + f"profile_deviation_harmonics = {_harmonics(amplitude)}\n")
+
+
+@pytest.mark.parametrize(
+    "old,new,says",
+    [
+        ("needle_length = 10.0", "needle_length = 1e-300", "allowed range is [0.5, 1000], e.g. 12"),
+        ("needle_diameter = 4.0", "needle_diameter = 0.001", "allowed range is [0.5, 100], e.g. 6"),
+    ],
+)
+def test_needles_the_drive_cannot_solve_are_refused_naming_the_key(tmp_path, old, new, says):
+    """A needle of 1e-300 mm ended in "equilibrium not reached ... residual nan", naming
+    no key; the floor is half of ISO 3096's smallest needle."""
+    from tests.test_redteam_drive import DRIVE
+
+    r = _drive(tmp_path, DRIVE.replace(old, new))
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip().splitlines() == [f"corr-cad: error: [bearings.eccentric] {new}: {says}"]
+
+
+def test_row_b_harmonics_that_add_up_past_half_the_roller_are_refused_with_a_scale():
+    import tomllib
+
+    from corr_cad.run.scene.scene import parse_scene
+
+    data = tomllib.loads(_row_b_harmonics(1.9))  # 100 rows: 190 mm on a 4 mm roller
+    with pytest.raises(Exception) as exc:
+        parse_scene(data)
+    line = str(exc.value)
+    assert line.startswith(
+        "[errors.row_b] profile_deviation_harmonics: the amplitudes' magnitudes sum to 190 mm"
+    ), line
+    scale = float(re.search(r"every amplitude times (\S+) ", line).group(1))
+    assert scale == 0.0105
+    parse_scene(tomllib.loads(_row_b_harmonics(1.9 * scale)))  # the value given passes
+
+
+@pytest.mark.slow
+def test_the_suggested_harmonics_run_through_the_drive_solver(tmp_path):
+    """The scale the refusal gives: 100 rows summing to just below r/2 solve (~25 s)."""
+    r = _drive(tmp_path, _row_b_harmonics(1.9 * 0.0105))
+    assert r.returncode == 0, r.stderr

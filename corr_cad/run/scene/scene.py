@@ -367,6 +367,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         _check(f"{where} amplitude", amplitude, -half_r, half_r, high_open=True)
         _check(f"{where} phase", phase, -MAX_ANGLE_DEG, MAX_ANGLE_DEG, low_open=False)
     harmonics = er["profile_deviation_harmonics"]
+    drv.check_harmonic_sum(_where("errors", "profile_deviation_harmonics"), harmonics, half_r)
     errors = ErrorSpec(
         er["cam_radius_error"],
         er["eccentricity_error"],
