@@ -153,3 +153,15 @@ def test_a_broken_binary_dxf_is_refused_without_its_bytes(folder):
     line = refused(folder, r, "ring.dxf")
     assert "'ring.dxf': not a readable DXF file" in line, line
     assert not any(s in r.stderr for s in SECRETS) and "\\x" not in r.stderr, line
+
+
+def test_a_broken_ascii_stl_of_secrets_is_refused_without_them(folder):
+    """A mesh goes to trimesh (binary STL holds any byte): its complaint is bounded and
+    left out where it would quote control bytes."""
+    (folder / "ring.stl").write_bytes(
+        b"solid x\nfacet normal 0 0 1\n outer loop\n  vertex API_TOKEN=sk-live\x00\x1b[2J 0 0\n"
+    )
+    r = run_capped(folder, _scene("ring.stl"))
+    line = refused(folder, r, "ring.stl")
+    assert "ring.stl: " in line, line
+    assert not any(s in r.stderr for s in SECRETS) and "\\x" not in r.stderr, line
