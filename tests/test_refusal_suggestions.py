@@ -197,3 +197,68 @@ def test_the_suggested_harmonics_run_through_the_drive_solver(tmp_path):
     """The scale the refusal gives: 100 rows summing to just below r/2 solve (~25 s)."""
     r = _drive(tmp_path, _row_b_harmonics(1.9 * 0.0105))
     assert r.returncode == 0, r.stderr
+
+
+def _bases() -> list[dict]:
+    """Scenes that set most sections: the compound template, the drive with its bearings and
+    row B, the friction and life scene."""
+    import tomllib
+
+    from tests.test_redteam_drive import DRIVE, FRICTION
+
+    root = Path(__file__).parents[1]
+    return [
+        tomllib.loads((root / "templates" / "compound.toml").read_text()),
+        tomllib.loads(DRIVE),
+        tomllib.loads(FRICTION),
+    ]
+
+
+def _bounded_keys() -> list[tuple[int, str, str]]:
+    from corr_cad.run.scene.scene_schema import SCHEMA
+
+    out = []
+    for i, base in enumerate(_bases()):
+        for section, keys in SCHEMA.items():
+            table = base
+            for part in section.split("."):
+                table = table.get(part, {}) if isinstance(table, dict) else {}
+            if not table and section not in base:
+                continue
+            for key, spec in keys.items():
+                if spec.kind in ("int", "float") and spec.low is not None:
+                    out.append((i, section, key))
+    return out
+
+
+@pytest.mark.parametrize("base,section,key", _bounded_keys())
+def test_a_range_refusal_s_example_fed_back_passes_its_check(base, section, key):
+    """Below its floor every bounded key is refused naming ``e.g. V``; ``key = V`` then
+    passes the same loader (whatever else the scene still lacks, never this key)."""
+    import copy
+
+    from corr_cad.errors import CorrCadError
+    from corr_cad.run.scene.scene import parse_scene
+    from corr_cad.run.scene.scene_schema import SCHEMA
+
+    spec = SCHEMA[section][key]
+    data = copy.deepcopy(_bases()[base])
+    table = data
+    for part in section.split("."):
+        table = table.setdefault(part, {})
+    table[key] = spec.low - 1 if spec.kind == "int" else spec.low - max(1.0, abs(spec.low))
+    with pytest.raises(CorrCadError) as exc:
+        parse_scene(data, base_dir=Path("."))
+    line = str(exc.value)
+    assert line.startswith(f"[{section}] {key} = "), line
+    if "no value of it passes in this scene: " in line:
+        return  # the scene refuses the key whatever its value, and says why
+    m = re.search(r"e\.g\. (\S+)$", line)
+    assert m is not None, line
+    table[key] = int(m.group(1)) if spec.kind == "int" else float(m.group(1))
+    try:
+        parse_scene(data, base_dir=Path("."))
+    except CorrCadError as again:  # another key may still be wrong, never this one
+        text = str(again)
+        assert not text.startswith(f"[{section}] {key} = "), (line, text)
+        assert f" {key} = " not in text, (line, text)  # nor named in another's fix

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -29,11 +30,26 @@ __all__ = [
 MAX_LINE = 300
 
 
+#: Longest quoted value or unbroken token kept whole in a refusal (a path, a pasted value).
+MAX_QUOTED = 120
+
+
+def _bounded_value(m) -> str:
+    v = m.group(0)
+    keep = MAX_QUOTED // 2
+    return f"{v[:keep]}...{v[-keep:]}"
+
+
 def one_line(text: str, limit: int | None = MAX_LINE) -> str:
     """``text`` on one line; of at most ``limit`` characters (the middle cut out), for a
-    message from a library (None: whole, for the tool's own refusals)."""
+    message from a library. ``None``, for the tool's own refusals: the words are kept
+    whole and only a quoted value or an unbroken token longer than :data:`MAX_QUOTED`
+    (a user's path or value) is shortened in its middle."""
     text = " ".join(str(text).split())
-    if limit is None or len(text) <= limit:
+    if limit is None:
+        n = MAX_QUOTED
+        return re.sub(rf"'[^']{{{n},}}'|\"[^\"]{{{n},}}\"|[^\s'\"]{{{n},}}", _bounded_value, text)
+    if len(text) <= limit:
         return text
     tail = limit // 3
     return f"{text[: limit - tail - 5]} ... {text[-tail:]}"
