@@ -262,3 +262,30 @@ def test_a_range_refusal_s_example_fed_back_passes_its_check(base, section, key)
         text = str(again)
         assert not text.startswith(f"[{section}] {key} = "), (line, text)
         assert f" {key} = " not in text, (line, text)  # nor named in another's fix
+
+
+def _paper_law_drive(phase: str) -> str:
+    from tests.test_redteam_drive import DRIVE
+
+    scene = DRIVE.replace('contact_law = "palmgren"\n', "")
+    old = "[errors]\nroller_radius_error = -0.002\n"
+    assert old in scene
+    return scene.replace(old, old + f"cam_phase_error_deg = {phase}\n")
+
+
+@pytest.mark.parametrize("phase", ["180", "-179.999", "120"])
+def test_a_cam_phase_error_past_a_quarter_turn_is_refused_naming_the_key(tmp_path, phase):
+    """The drive's solver found no equilibrium (residual inf) from about 110 deg on."""
+    r = _drive(tmp_path, _paper_law_drive(phase))
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip().splitlines() == [
+        f"corr-cad: error: [errors] cam_phase_error_deg = {float(phase):g}: allowed range is "
+        "[-90, 90], e.g. 0"
+    ]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("phase", ["90", "-90"])
+def test_the_ends_of_the_cam_phase_range_solve(tmp_path, phase):
+    r = _drive(tmp_path, _paper_law_drive(phase))
+    assert r.returncode == 0, r.stderr
