@@ -18,7 +18,10 @@ import numpy as np
 import pytest
 
 FREECAD = shutil.which("freecadcmd")
-pytestmark = pytest.mark.skipif(FREECAD is None, reason="FreeCAD (freecadcmd) not installed")
+pytestmark = [
+    pytest.mark.skipif(FREECAD is None, reason="FreeCAD (freecadcmd) not installed"),
+    pytest.mark.slow,
+]
 
 OPEN = """
 import sys, FreeCAD, Import
