@@ -365,7 +365,8 @@ def test_allocation_on_the_drive_through_the_cli_settles_preloaded_samples(tmp_p
 def test_the_datasheet_estimate_follows_row_b_s_span_and_the_drive_s_cost():
     """Row B's own rollers make the drive's datasheet span a tooth pitch: the estimate counts
     those positions, at the drive's cost per cell (DRIVE_CELLS times the row's)."""
-    from corr_cad.run.budget.costs import DRIVE_CELLS, ESTIMATORS, _datasheet_size
+    from corr_cad.run.budget.costs import DRIVE_CELLS, ESTIMATORS
+    from corr_cad.run.budget.costs_datasheet import datasheet_size as _datasheet_size
 
     rr = [0.001 * math.sin(k) for k in range(26)]
     base = {
@@ -532,8 +533,12 @@ def test_row_b_measured_ring_is_estimated_and_refused_beside_harmonics():
 @pytest.mark.parametrize(
     "content,message",
     [
-        (None, "measured profile 'b.csv' does not exist"),
-        ("x,y\n0,1\n1,0\n", "b.csv: 2 points are too few; need at least 500 (20 per tooth)"),
+        (None, "[errors.row_b] measured_profile: measured profile 'b.csv' does not exist"),
+        (
+            "x,y\n0,1\n1,0\n",
+            "[errors.row_b] measured_profile: b.csv: 2 points are too few; need at least 500 "
+            "(20 per tooth)",
+        ),
     ],
 )
 def test_a_bad_row_b_measured_ring_is_refused_as_row_a_s(tmp_path, content, message):

@@ -124,7 +124,7 @@ def test_inspecting_a_nine_decimal_cmm_file_in_either_row_of_the_drive(tmp_path,
         # each refusal names the key, its value, the range and a value that works
         ("slot_clearance = 0.004", "slot_clearance = nan", "in [-1, 1], e.g. 0"),
         ("slot_clearance = 0.004", 'slot_clearance = "0.004"', "must be a number, e.g. 0"),
-        ("needle_diameter = 4.0", "needle_diameter = inf", "in (0, 100], e.g. "),
+        ("needle_diameter = 4.0", "needle_diameter = inf", "in [0.5, 100], e.g. "),
         ('contact_law = "palmgren"', 'contact_law = "hertz"', 'paper, palmgren, e.g. "paper"'),
         ('contact_law = "palmgren"', "contact_law = 1", 'must be a string, e.g. "paper"'),
         (

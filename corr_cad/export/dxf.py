@@ -17,12 +17,17 @@ import numpy as np
 
 from corr_cad._version import __version__
 from corr_cad.errors import ExportError
+from corr_cad.export.dxf_flatten import (
+    FlatteningTooLarge,
+    flatten_bulge_polygon,
+    flatten_spline,
+    spline_chord_counts,
+)
 from corr_cad.export.files import writing
 from corr_cad.geometry.design import SLOT_END_CLEARANCE, GearDesign
 from corr_cad.geometry.parts import frame_slot_outline
 from corr_cad.geometry.sampling import (
     ProfileApproximation,
-    bulge_arc_points,
     spline_tooth_pieces,
 )
 
@@ -266,23 +271,32 @@ def write_all(
 
 # --- reading back -----------------------------------------------------------
 def read_closed_contour(
-    path: Path, layer: str, flatten_distance: float = 1e-5
+    path: Path,
+    layer: str,
+    flatten_distance: float = 1e-5,
+    max_points: int | None = None,
+    doc: ezdxf.document.Drawing | None = None,
 ) -> tuple[np.ndarray, str]:
     """Read the single closed contour on ``layer`` as dense points (n, 2).
 
     Accepts a closed LWPOLYLINE (bulges honoured), a closed POLYLINE, a
     SPLINE whose ends meet, or SPLINEs (one per tooth) that join into a
     closed chain. Raises :class:`ExportError` if the layer holds
-    none, more than one, or an open contour. Returns ``(points, dxftype)``.
+    none, more than one, or an open contour, and
+    :class:`~corr_cad.export.dxf_flatten.FlatteningTooLarge` before flattening
+    a contour to more than ``max_points`` points (counted first:
+    :mod:`corr_cad.export.dxf_flatten`). ``doc``: the file already read.
+    Returns ``(points, dxftype)``.
     """
-    try:
-        doc = ezdxf.readfile(str(path))
-    except Exception as exc:  # ezdxf raises StopIteration etc. on truncated files
-        reason = str(exc) or type(exc).__name__
-        raise ExportError(f"{path}: not a readable DXF file ({reason})") from exc
+    if doc is None:
+        try:
+            doc = ezdxf.readfile(str(path))
+        except Exception as exc:  # ezdxf raises StopIteration etc. on truncated files
+            reason = str(exc) or type(exc).__name__
+            raise ExportError(f"{path}: not a readable DXF file ({reason})") from exc
     ents = [e for e in doc.modelspace() if e.dxf.layer == layer]
     if len(ents) > 1 and all(e.dxftype() == "SPLINE" for e in ents):
-        return _chain_splines(ents, path, layer, flatten_distance), "SPLINE"
+        return _chain_splines(ents, path, layer, flatten_distance, max_points), "SPLINE"
     if len(ents) != 1:
         raise ExportError(
             f"{path}: layer {layer!r} must hold exactly one contour, found {len(ents)}"
@@ -292,67 +306,48 @@ def read_closed_contour(
     if kind == "LWPOLYLINE":
         if not ent.closed:
             raise ExportError(f"{path}: the LWPOLYLINE on layer {layer!r} is not closed")
-        data = np.array(ent.get_points("xyb"), dtype=float)
-        return flatten_bulge_polygon(data[:, :2], data[:, 2], flatten_distance), kind
+        data = np.array(ent.get_points("xyb"), dtype=float).reshape(-1, 3)
+        return flatten_bulge_polygon(data[:, :2], data[:, 2], flatten_distance, max_points), kind
     if kind == "POLYLINE":
         if not ent.is_closed:
             raise ExportError(f"{path}: the POLYLINE on layer {layer!r} is not closed")
         pts = np.array([(v.dxf.location.x, v.dxf.location.y) for v in ent.vertices], dtype=float)
         return pts, kind
     if kind == "SPLINE":
-        pts = np.array([(p.x, p.y) for p in ent.construction_tool().flattening(flatten_distance)])
+        pts = flatten_spline(ent.construction_tool(), flatten_distance, max_points)
         gap = float(np.linalg.norm(pts[0] - pts[-1]))
-        if gap > 1e-6:
+        if not gap <= 1e-6:
             raise ExportError(f"{path}: the SPLINE on layer {layer!r} is open (gap {gap:.3g} mm)")
         return pts[:-1], kind
     raise ExportError(f"{path}: layer {layer!r} holds a {kind}, expected LWPOLYLINE or SPLINE")
 
 
-def _chain_splines(ents, path: Path, layer: str, flatten_distance: float) -> np.ndarray:
+def _chain_splines(
+    ents, path: Path, layer: str, flatten_distance: float, max_points: int | None
+) -> np.ndarray:
     """Dense points of SPLINE entities that join end to start into one closed contour."""
-    pieces = [
-        np.array([(p.x, p.y) for p in e.construction_tool().flattening(flatten_distance)])
-        for e in ents
-    ]
+    tools = [e.construction_tool() for e in ents]
+    if max_points is not None:  # all of them counted before any is flattened
+        total = sum(float(spline_chord_counts(t, flatten_distance)[0].sum()) + 1 for t in tools)
+        if total > max_points:
+            raise FlatteningTooLarge(
+                f"its {len(tools)} splines would flatten to {total:.3g} points", total, max_points
+            )
+    pieces = [flatten_spline(t, flatten_distance) for t in tools]
     out = [pieces.pop(0)]
     while pieces:
         gaps = [float(np.linalg.norm(q[0] - out[-1][-1])) for q in pieces]
         k = int(np.argmin(gaps))
-        if gaps[k] > 1e-6:
+        if not gaps[k] <= 1e-6:
             raise ExportError(
                 f"{path}: the SPLINEs on layer {layer!r} do not join (gap {gaps[k]:.3g} mm)"
             )
         out.append(pieces.pop(k)[1:])
     pts = np.concatenate(out)
     gap = float(np.linalg.norm(pts[0] - pts[-1]))
-    if gap > 1e-6:
+    if not gap <= 1e-6:
         raise ExportError(f"{path}: the SPLINEs on layer {layer!r} are open (gap {gap:.3g} mm)")
     return pts[:-1]
-
-
-def flatten_bulge_polygon(vertices: np.ndarray, bulges: np.ndarray, sagitta: float) -> np.ndarray:
-    """Closed bulge polygon to dense points with chord error below ``sagitta``."""
-    a = vertices
-    b = np.roll(vertices, -1, axis=0)
-    theta = np.abs(4.0 * np.arctan(bulges))
-    chord = np.linalg.norm(b - a, axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        radius = np.where(theta > 1e-12, chord / (2 * np.sin(theta / 2)), np.inf)
-        step = np.where(
-            np.isfinite(radius), 2 * np.arccos(np.clip(1 - sagitta / radius, -1, 1)), np.inf
-        )
-    counts = np.where(theta > 1e-12, np.ceil(theta / np.maximum(step, 1e-12)), 1).astype(int)
-    counts = np.clip(counts, 1, 10000)
-    out = []
-    for n in np.unique(counts):
-        sel = np.flatnonzero(counts == n)
-        u = np.arange(n) / n
-        out.append((sel, bulge_arc_points(a[sel], b[sel], bulges[sel], u)))
-    pieces = [None] * len(a)
-    for sel, pts in out:
-        for j, i in enumerate(sel):
-            pieces[i] = pts[j]
-    return np.concatenate(pieces)
 
 
 def contour_area(points: np.ndarray) -> float:

@@ -7,13 +7,43 @@ line naming the file and why.
 from __future__ import annotations
 
 import os
+import re
 import stat
 from pathlib import Path
 
 from corr_cad.bounds import show
 from corr_cad.errors import SceneError
 
-__all__ = ["read_regular_file", "check_regular_file"]
+__all__ = ["read_regular_file", "check_regular_file", "first_control_byte", "quotable"]
+
+#: Bytes no text file holds: C0 controls but tab, line feed and carriage return; DEL.
+_CONTROL = re.compile(rb"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+
+
+def first_control_byte(path: Path, block: int = 4 << 20) -> tuple[int, int] | None:
+    """``(byte offset, line)`` of the first control or NUL byte of a text file, or None.
+
+    Read ``block`` bytes at a time (about 0.1 s for 100 MB): a file of environment
+    variables (NUL-separated), terminal escapes or a binary file is named by where
+    it goes wrong, and nothing of it is quoted.
+    """
+    offset, line = 0, 1
+    with open(path, "rb") as fh:
+        while chunk := fh.read(block):
+            m = _CONTROL.search(chunk)
+            if m:
+                return offset + m.start(), line + chunk.count(b"\n", 0, m.start())
+            line += chunk.count(b"\n")
+            offset += len(chunk)
+    return None
+
+
+def quotable(text: str) -> bool:
+    """Whether a message (a library's, which may quote the file it read) may be shown:
+    printable, and no escaped bytes (``\\x1b``, ``\\u0000``) in it."""
+    return text.isprintable() and not re.search(
+        r"\\(x[0-9a-fA-F]{2}|u[0-9a-fA-F]{4}|[0abefnrtv])", text
+    )
 
 
 def check_regular_file(path: Path, what: str, max_bytes: int, error=SceneError) -> int:

@@ -56,6 +56,16 @@ INSUNITS_MM = {
 #: k = ceil(rows / MAX_MEASURED_POINTS): still 200 points a tooth at z = 1000,
 #: ten times the 20 a tooth the registration needs (``POINTS_PER_TOOTH``).
 MAX_MEASURED_POINTS = 200_000
+#: Chord error of a DXF contour's arcs and splines flattened to points, mm.
+FLATTEN_MM = 1e-4
+#: Most points a DXF contour is flattened to (64 MB of coordinates), whatever
+#: the budget: its arcs and splines are counted before any point is made
+#: (:mod:`corr_cad.export.dxf_flatten`). A straight polyline of more vertices
+#: is read as it is.
+MAX_FLATTENED_POINTS = 4_000_000
+#: Memory a flattened point holds while the contour is read, bytes: its
+#: coordinates, their copy in mm and the kept points' check.
+FLAT_BYTES_PER_POINT = 48
 #: Bytes of a CSV read and parsed at a time.
 _BLOCK_BYTES = 4 << 20
 #: Longest header line read, bytes.
@@ -98,13 +108,18 @@ def read_measured_points(
 
 
 def read_measured(
-    path: Path, max_points: int | None = MAX_MEASURED_POINTS, design=None
+    path: Path,
+    max_points: int | None = MAX_MEASURED_POINTS,
+    design=None,
+    max_flat_points: int | None = MAX_FLATTENED_POINTS,
 ) -> MeasuredRead:
     """:func:`read_measured_points` with the file's row count and the stride kept.
 
     A CSV is streamed: read ``_BLOCK_BYTES`` at a time (every value is parsed
     and checked), only every k-th row kept, so memory does not grow with the
-    file. A DXF is read by ezdxf (whole, its size bounded by the estimate).
+    file. A DXF is read by ezdxf (whole, its size bounded by the estimate); its
+    contour's arcs and splines are flattened to at most ``max_flat_points``
+    points, counted before any is made.
     """
     from corr_cad.export.inputfiles import check_regular_file
 
@@ -122,11 +137,13 @@ def read_measured(
         stride = _stride(rows, max_points)
         pts = pts[::stride]
     elif path.suffix.lower() == ".dxf":
-        pts = _read_dxf(path)
+        _refuse_control_bytes(path, "DXF")
+        pts = _read_dxf(path, max_flat_points)
         rows = len(pts)
         stride = _stride(rows, max_points)
         pts = pts[::stride]
     else:
+        _refuse_control_bytes(path, "CSV")
         pts, rows, stride = _read_csv(path, size, max_points)
     if len(pts) >= 4 and np.all(np.isfinite(pts)):
         _refuse_outliers(pts, path)
@@ -166,8 +183,10 @@ def _stride(rows: int, max_points: int | None) -> int:
     return 1 if not max_points or rows <= max_points else -(-rows // max_points)
 
 
-def _read_dxf(path: Path) -> np.ndarray:
+def _read_dxf(path: Path, max_points: int | None = MAX_FLATTENED_POINTS) -> np.ndarray:
     import ezdxf
+
+    from corr_cad.export.dxf_flatten import FlatteningTooLarge
 
     try:
         doc = ezdxf.readfile(str(path))
@@ -175,7 +194,6 @@ def _read_dxf(path: Path) -> np.ndarray:
         units = int(doc.header.get("$INSUNITS", 0))
     except Exception as exc:
         raise ProfileError(f"{_shown(path)}: not a readable DXF file ({_brief(exc)})") from exc
-    del doc
     if units not in INSUNITS_MM:
         raise ProfileError(
             f"{_shown(path)}: $INSUNITS = {units} is not a length unit corr_cad reads; "
@@ -183,7 +201,21 @@ def _read_dxf(path: Path) -> np.ndarray:
         )
     layer = "MEASURED_PROFILE" if "MEASURED_PROFILE" in layers else "WORKING_PROFILE"
     try:
-        pts, _ = dxf.read_closed_contour(path, layer, flatten_distance=1e-4)
+        pts, _ = dxf.read_closed_contour(
+            path,
+            layer,
+            flatten_distance=FLATTEN_MM / INSUNITS_MM[units],
+            max_points=max_points,
+            doc=doc,
+        )
+    except FlatteningTooLarge as exc:
+        need = exc.points * FLAT_BYTES_PER_POINT
+        size = f"{need / 2**20:.3g} MB" if need < 2**30 else f"{need / 2**30:.3g} GB"
+        raise ProfileError(
+            f"{_shown(path)}: layer {layer}: {exc} (chords within {FLATTEN_MM * 1e3:g} um, "
+            f"about {size} of memory); at most {exc.allowed} are read: is the file in mm "
+            "about the gear axis?"
+        ) from exc
     except Exception as exc:
         raise ProfileError(f"{_shown(path)}: {_brief(exc)}") from exc
     return pts * INSUNITS_MM[units]
@@ -217,9 +249,50 @@ def _shown(path: Path) -> str:
     return show(str(path), 120)
 
 
+#: The first bytes of a binary DXF (AutoCAD's "DXB"-less binary DXF), which ezdxf reads.
+BINARY_DXF = b"AutoCAD Binary DXF\r\n\x1a\x00"
+
+
+def _refuse_control_bytes(path: Path, kind: str) -> None:
+    """Refuse a text file holding control or NUL bytes, naming where, quoting nothing
+    (a binary DXF, which ezdxf reads, aside)."""
+    from corr_cad.export.inputfiles import first_control_byte
+
+    try:
+        with open(path, "rb") as fh:
+            if kind == "DXF" and fh.read(len(BINARY_DXF)) == BINARY_DXF:
+                return
+        found = first_control_byte(path)
+    except OSError as exc:
+        raise ProfileError(
+            f"measured profile {_shown(path)} cannot be read: {show(exc.strerror or str(exc), 100)}"
+        ) from exc
+    if found is not None:
+        offset, line = found
+        raise ProfileError(
+            f"{_shown(path)}: line {line} (byte {offset}) holds a control or NUL character: "
+            f"not a text {kind} file (is it the right file?); nothing of it is shown; "
+            + ("write x,y rows in mm" if kind == "CSV" else "export the contour as ASCII DXF")
+        )
+
+
+def _quote(value: object, limit: int) -> str:
+    """``value`` for an error line (cut to ``limit``), unless it holds non-printable text."""
+    from corr_cad.export.inputfiles import quotable
+
+    text = show(value, limit)
+    return text if quotable(text) else "(not shown: non-printable characters)"
+
+
 def _brief(exc: BaseException, limit: int = 100) -> str:
-    """An exception's message cut short: it may quote the file it failed on."""
-    return show(str(exc) or type(exc).__name__, limit)
+    """An exception's message cut short: it may quote the file it failed on, and is
+    left out where it holds control characters or escaped bytes (only its kind shown)."""
+    from corr_cad.export.inputfiles import quotable
+
+    text = str(exc)
+    if not text or not quotable(text):
+        return type(exc).__name__
+    return show(text, limit)
 
 
 def _head(fh) -> tuple[bytes, int]:
@@ -270,7 +343,7 @@ def _read_csv(path: Path, size: int, max_points: int | None) -> tuple[np.ndarray
             if "x" not in header or "y" not in header:
                 raise ProfileError(
                     f"{shown}: expected a CSV with columns x,y (mm); the header is "
-                    f"{show(header[:4], 60)}"
+                    f"{_quote(header[:4], 60)}"
                 )
             ix, iy = header.index("x"), header.index("y")
             stride = _stride(_count_lines(fh), max_points)
@@ -333,7 +406,7 @@ def _raise_bad_row(text: str, first_line: int, ix: int, iy: int, shown: str) -> 
                     " (a stray quote joins the lines after it into one)" if "\n" in cells else ""
                 )
                 raise ProfileError(
-                    f"{shown}: line {start}: x,y = {show(cells, 40)}: a value is not a number"
+                    f"{shown}: line {start}: x,y = {_quote(cells, 40)}: a value is not a number"
                     + quote
                 ) from exc
     except csv.Error as exc:

@@ -97,9 +97,12 @@ def _load(raw: bytes, kind: str, src: str):
     try:
         mesh = trimesh.load(io.BytesIO(raw), file_type=kind, force="mesh", process=True)
     except Exception as exc:  # trimesh raises many kinds on a broken file
-        raise ProfileError(
-            f"{src}: not a readable {kind.upper()} mesh ({exc or type(exc).__name__})"
-        ) from exc
+        from corr_cad.bounds import show
+        from corr_cad.export.inputfiles import quotable
+
+        # its message may quote the file: bounded, and left out if it holds control bytes
+        why = show(str(exc), 100) if str(exc) and quotable(str(exc)) else type(exc).__name__
+        raise ProfileError(f"{src}: not a readable {kind.upper()} mesh ({why})") from exc
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise ProfileError(f"{src}: the file holds no triangles")
     return mesh

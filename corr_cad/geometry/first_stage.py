@@ -39,6 +39,7 @@ __all__ = [
     "first_stage_geometry",
     "zero_backlash_pressure_angle",
     "MIN_CONTACT_RATIO",
+    "MIN_MODULE",
 ]
 
 #: Smallest transverse contact ratio accepted for either mesh.
@@ -48,6 +49,12 @@ MIN_CONTACT_RATIO = 1.2
 MAX_CENTRE_MISMATCH = 0.1
 #: Thinnest tooth tip accepted, in modules.
 MIN_TIP_THICKNESS = 0.2
+#: Smallest module, mm (a micrometre, the roller radius's floor): the teeth's
+#: fillets and tips are a few tenths of it, and at 1e-300 the gear's radii
+#: underflow (the stage divided by zero). A module this small is refused anyway
+#: where the crank gear must hold the crankshaft; the floor keeps every refusal
+#: a one-line one.
+MIN_MODULE = 1e-3
 
 
 @dataclass(frozen=True)
@@ -190,7 +197,7 @@ def zero_backlash_pressure_angle(z1: int, z2: int, x_sum: float, alpha: float) -
     if value <= 0:
         raise DesignError(
             f"shift_wheel and shift_pinion/shift_crank_gear sum to {x_sum:g}: the mesh has "
-            "no working pressure angle; allowed is a sum that leaves inv(a_w) > 0 (e.g. all 0)"
+            "no working pressure angle; allowed is a sum that leaves inv(a_w) > 0"
         )
     return inv_inverse(value)
 
@@ -199,20 +206,95 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
 
+#: Whether the refusals being built are a suggestion's own check (then no suggestion is
+#: looked for: a candidate is only accepted or rejected).
+_CHECKING: list[bool] = []
+
+
+def _passes(s: FirstStage, change: dict) -> bool:
+    """Whether the stage with ``change`` passes every check of :func:`first_stage_geometry`."""
+    try:
+        candidate = replace(s, **change)
+    except (DesignError, ValueError, TypeError):
+        return False
+    _CHECKING.append(True)
+    try:
+        first_stage_geometry(candidate)
+    except (DesignError, ValueError, ArithmeticError):
+        return False
+    finally:
+        _CHECKING.pop()
+    return True
+
+
+def _shown(change: dict) -> dict:
+    """``change`` as it will be printed (floats to 6 significant digits): what is verified."""
+    return {k: v if isinstance(v, int) else float(f"{v:.6g}") for k, v in change.items()}
+
+
+def _shown_change(change: dict) -> str:
+    return " with ".join(
+        f"{k} = {v}" if isinstance(v, int) else f"{k} = {v:.6g}" for k, v in change.items()
+    )
+
+
+def _suggest(s: FirstStage, candidates) -> str:
+    """``"a value that works: key = v"`` for the first candidate change (a dict) that
+    passes every check, verified here before it is printed; else what to do without one."""
+    if _CHECKING:
+        return "a value that works: (not looked for)"
+    for change in candidates:
+        if change and _passes(s, _shown(change)):
+            return f"a value that works: {_shown_change(_shown(change))}"
+    return (
+        "no single change of one key passes every check here; the compound template's "
+        "first stage works: pinion_teeth = 18, wheel_teeth = 36, crank_gear_teeth = 90, "
+        "shift_pinion = 0.5, shift_wheel = 0, shift_crank_gear = 0.5"
+    )
+
+
+def _shifts(s: FirstStage, key: str) -> list[dict]:
+    """Candidate values of a shift key, from its present value towards 0 and beyond."""
+    now = getattr(s, key)
+    steps = [round(now - 0.05 * k * math.copysign(1, now or 1), 2) for k in range(1, 101)]
+    return [{key: x} for x in steps if -2 <= x <= 3] + [{key: 0.0}]
+
+
 def _check_spacing(s: FirstStage) -> None:
     total = s.pinion_teeth + s.crank_gear_teeth
     if total % 3:
         up = s.crank_gear_teeth + (3 - total % 3)
+        near = sorted(range(up - 30, up + 31, 3), key=lambda c: abs(c - s.crank_gear_teeth))
+        teeth = [{"crank_gear_teeth": c} for c in near if 4 <= c <= 3000]
+        fitted = []
+        for c in near[:4]:
+            x = _fitting_crank_shift(replace(s, crank_gear_teeth=c), _centre(s)) if c > 4 else None
+            if x is not None:
+                fitted.append({"crank_gear_teeth": c, "shift_crank_gear": x})
         raise DesignError(
             f"crank_gear_teeth = {s.crank_gear_teeth}: three wheels cannot be spaced equally, "
-            f"(pinion_teeth + crank_gear_teeth) / 3 = {total}/3 is not whole; "
-            f"a value that works: crank_gear_teeth = {up} (or {up - 3})"
+            f"(pinion_teeth + crank_gear_teeth) / 3 = {total}/3 is not whole (crank_gear_teeth "
+            f"= ..., {up - 3}, {up}, {up + 3}, ... make it whole); {_suggest(s, teeth + fitted)}"
         )
     if s.crank_gear_teeth <= s.wheel_teeth + 2:
         raise DesignError(
             f"crank_gear_teeth = {s.crank_gear_teeth}: the internal gear needs more teeth than "
             f"the wheel ({s.wheel_teeth}) plus 2; allowed range is > {s.wheel_teeth + 2}"
         )
+
+
+def _centre(s: FirstStage) -> float:
+    """The pinion mesh's zero-backlash centre distance, mm (the wheels' axes)."""
+    aw1 = zero_backlash_pressure_angle(
+        s.pinion_teeth, s.wheel_teeth, s.shift_pinion + s.shift_wheel, s.pressure_angle
+    )
+    return (
+        0.5
+        * s.module
+        * (s.pinion_teeth + s.wheel_teeth)
+        * math.cos(s.pressure_angle)
+        / (math.cos(aw1))
+    )
 
 
 def _check_undercut(s: FirstStage) -> None:
@@ -227,10 +309,10 @@ def _check_undercut(s: FirstStage) -> None:
                 - 0.5 * g.teeth * math.sin(a) ** 2
             )
             ok = math.ceil(100 * x_min) / 100
+            ups = [{key: round(ok + 0.05 * k, 2)} for k in range(0, 61) if ok + 0.05 * k <= 3]
             raise DesignError(
                 f"{key} = {g.shift:g}: the {part} ({g.teeth} teeth) is undercut by the "
-                f"generating rack; allowed range is {key} >= {x_min:.3f}, "
-                f"a value that works: {key} = {ok:.2f}"
+                f"generating rack; allowed range is {key} >= {x_min:.3f}; {_suggest(s, ups)}"
             )
 
 
@@ -249,18 +331,19 @@ def _tip_thickness(s: FirstStage, g: GearTeeth, part: str) -> None:
         while hi - lo > 1e-4:
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if _tip(g, mid) >= limit else (lo, mid)
+        ok = math.floor(lo * 1000) / 1000
         raise DesignError(
             f"backlash_allowance = {g.thinning:g}: the {part}'s tooth tip is {_fmt(t)} mm "
             f"thick; allowed is >= {MIN_TIP_THICKNESS:g} module = {_fmt(limit)} mm, "
-            f"i.e. backlash_allowance <= {math.floor(lo * 1000) / 1000:g} mm, "
-            f"a value that works: backlash_allowance = {math.floor(lo * 1000) / 1000:g}"
+            f"i.e. backlash_allowance <= {ok:g} mm; "
+            + _suggest(s, [{"backlash_allowance": ok}, {"backlash_allowance": 0.0}])
         )
     if t < limit:
         key = {"pinion": "shift_pinion", "wheel": "shift_wheel"}.get(part, "shift_crank_gear")
         raise DesignError(
             f"{key} = {g.shift:g}: the {part}'s tooth tip is {_fmt(t)} mm thick; allowed is "
             f">= {MIN_TIP_THICKNESS:g} module = {_fmt(MIN_TIP_THICKNESS * s.module)} mm "
-            f"(reduce the shift or the addendum)"
+            f"(reduce the shift or the addendum); {_suggest(s, _shifts(s, key))}"
         )
 
 
@@ -301,17 +384,25 @@ def _check_centre_distances(s: FirstStage, a: float, a2: float, a02: float) -> N
     if abs(a - a2) <= MAX_CENTRE_MISMATCH * s.module:
         return
     x = _fitting_crank_shift(s, a)
-    fix = f"shift_crank_gear = {x:.4f}" if x is not None else ""
-    if s.shift_crank_gear - s.shift_wheel == s.shift_pinion + s.shift_wheel or not fix:
-        fix = (
-            f"crank_gear_teeth = pinion_teeth + 2 wheel_teeth = "
-            f"{s.pinion_teeth + 2 * s.wheel_teeth} with shift_crank_gear - shift_wheel = "
-            f"shift_pinion + shift_wheel" + (f", or {fix}" if fix else "")
-        )
+    standard = s.pinion_teeth + 2 * s.wheel_teeth
+    candidates = [
+        {"shift_crank_gear": x} if x is not None else {},
+        # x_p + x_w = x_c - x_w: both meshes at the standard centre distance
+        {"shift_pinion": round(s.shift_crank_gear - 2 * s.shift_wheel, 4)},
+        {"shift_crank_gear": round(s.shift_pinion + 2 * s.shift_wheel, 4)},
+        {"crank_gear_teeth": standard},
+        {
+            "crank_gear_teeth": standard,
+            "shift_crank_gear": round(s.shift_pinion + 2 * s.shift_wheel, 4),
+        },
+    ]
     raise DesignError(
         f"crank_gear_teeth = {s.crank_gear_teeth}: the pinion mesh puts the wheel axes "
         f"{_fmt(a)} mm from the axis, the internal mesh wants {_fmt(a2)} mm; allowed is a "
-        f"difference of at most {MAX_CENTRE_MISMATCH:g} module; a design that works: {fix}"
+        f"difference of at most {MAX_CENTRE_MISMATCH:g} module (at crank_gear_teeth = "
+        f"pinion_teeth + 2 wheel_teeth = {standard} the shifts must satisfy "
+        f"shift_crank_gear - shift_wheel = shift_pinion + shift_wheel); "
+        f"{_suggest(s, candidates)}"
     )
 
 
@@ -328,8 +419,13 @@ def first_stage_geometry(s: FirstStage) -> FirstStageGeometry:
     _check_undercut(s)
     m, alpha = s.module, s.pressure_angle
     zp, zw, zc = s.pinion_teeth, s.wheel_teeth, s.crank_gear_teeth
-    aw1 = zero_backlash_pressure_angle(zp, zw, s.shift_pinion + s.shift_wheel, alpha)
-    aw2 = zero_backlash_pressure_angle(-zw, zc, s.shift_crank_gear - s.shift_wheel, alpha)
+    try:
+        aw1 = zero_backlash_pressure_angle(zp, zw, s.shift_pinion + s.shift_wheel, alpha)
+        aw2 = zero_backlash_pressure_angle(-zw, zc, s.shift_crank_gear - s.shift_wheel, alpha)
+    except DesignError as exc:
+        zeros = [{k: 0.0} for k in ("shift_wheel", "shift_pinion", "shift_crank_gear")]
+        both = {"shift_pinion": 0.5, "shift_wheel": 0.0, "shift_crank_gear": 0.5}
+        raise DesignError(f"{exc}; {_suggest(s, [*zeros, both])}") from exc
     a01, a02 = 0.5 * m * (zp + zw), 0.5 * m * (zc - zw)
     a = a01 * math.cos(alpha) / math.cos(aw1)
     a2_zero = a02 * math.cos(alpha) / math.cos(aw2)
@@ -413,7 +509,7 @@ def first_stage_geometry(s: FirstStage) -> FirstStageGeometry:
             f"shift_crank_gear = {s.shift_crank_gear:g}: at the wheels' centre distance "
             f"{_fmt(a)} mm (set by the pinion mesh) the internal mesh jams (backlash "
             f"{_fmt(j2)} mm, its own zero-backlash distance {_fmt(a2_zero)} mm); "
-            f"a value that works: shift_crank_gear = {x:.4f}"
+            + _suggest(s, [{"shift_crank_gear": x} if x is not None else {}])
         )
     gap = a * math.sqrt(3.0) - 2.0 * whl.tip
     if gap <= 0:

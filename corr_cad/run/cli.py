@@ -63,7 +63,7 @@ class _OneLineParser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         hint = f"; '{self.prog} --help' lists the flags"
-        self.exit(2, msg.one_line(f"corr-cad: error: {self.prog}: {message}{hint}") + "\n")
+        self.exit(2, msg.one_line(f"corr-cad: error: {self.prog}: {message}{hint}", 1000) + "\n")
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -1,7 +1,9 @@
 """The command's lines on stderr: one line per error, warning, interrupt or bug.
 
-Every refusal and failure of ``corr-cad`` is one line of at most
-:data:`MAX_LINE` characters; numerical warnings are shown as bounded notes;
+Every refusal and failure of ``corr-cad`` is one line, never cut: what it
+quotes of the user's values or of a library's message is bounded where it is
+quoted (:func:`corr_cad.bounds.show`); numerical warnings from libraries are
+shown as notes of at most :data:`MAX_LINE` characters;
 an interrupt and an unexpected exception say what happened to the output
 folder (docs/output-folder.md).
 """
@@ -10,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -27,9 +30,25 @@ __all__ = [
 MAX_LINE = 300
 
 
-def one_line(text: str, limit: int = MAX_LINE) -> str:
-    """``text`` on one line of at most ``limit`` characters (the middle cut out)."""
+#: Longest quoted value or unbroken token kept whole in a refusal (a path, a pasted value).
+MAX_QUOTED = 120
+
+
+def _bounded_value(m) -> str:
+    v = m.group(0)
+    keep = MAX_QUOTED // 2
+    return f"{v[:keep]}...{v[-keep:]}"
+
+
+def one_line(text: str, limit: int | None = MAX_LINE) -> str:
+    """``text`` on one line; of at most ``limit`` characters (the middle cut out), for a
+    message from a library. ``None``, for the tool's own refusals: the words are kept
+    whole and only a quoted value or an unbroken token longer than :data:`MAX_QUOTED`
+    (a user's path or value) is shortened in its middle."""
     text = " ".join(str(text).split())
+    if limit is None:
+        n = MAX_QUOTED
+        return re.sub(rf"'[^']{{{n},}}'|\"[^\"]{{{n},}}\"|[^\s'\"]{{{n},}}", _bounded_value, text)
     if len(text) <= limit:
         return text
     tail = limit // 3
@@ -37,7 +56,8 @@ def one_line(text: str, limit: int = MAX_LINE) -> str:
 
 
 def error(msg: str) -> None:
-    print(one_line(f"corr-cad: error: {msg}"), file=sys.stderr)
+    """A refusal's one line, whole: a suggested fix at its end is never cut off."""
+    print(one_line(f"corr-cad: error: {msg}", None), file=sys.stderr)
 
 
 def show_warnings(caught: list) -> None:

@@ -226,6 +226,18 @@ def passes_with_text(remedies: list[dict]) -> str:
     )
 
 
+def _bounded(v) -> str:
+    """A check's figure, positional (:func:`figure`) between 1e-6 and 1e12, else as
+    ``1.096e+300``: a failed check never prints hundreds of digits."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    if x != 0 and math.isfinite(x) and not 1e-6 <= abs(x) < 1e12:
+        return f"{x:.4g}"
+    return figure(x)
+
+
 def failed_checks(manifest: dict) -> list[str]:
     """Names of the failing checks: ``limit`` (nominal) or ``montecarlo <limit> (p = ..)``."""
     out = []
@@ -238,7 +250,7 @@ def failed_checks(manifest: dict) -> list[str]:
                         f"allowed {figure(g['allowed'])})"
                     )
         elif not r["passed"]:
-            line = f"{name} (value {figure(r['value'])}, limit {figure(r['limit'])}{_parts(r)})"
+            line = f"{name} (value {_bounded(r['value'])}, limit {_bounded(r['limit'])}{_parts(r)})"
             if "passes_with" in r:
                 line += "; " + passes_with_text(r["passes_with"])
             out.append(line)

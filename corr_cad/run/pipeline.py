@@ -225,6 +225,7 @@ def run_scene(
         estimate = check_scene(scene, budget=budget, executor=_executor_kind(executor))
     ctx.progress(estimate.line(budget))
     ctx.estimate = estimate
+    ctx.budget = budget
     timings = _run_stages(ctx, stages, concurrent_stages)
     try:
         return _write_manifest(ctx, scene, timings)

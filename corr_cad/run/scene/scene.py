@@ -53,6 +53,7 @@ from corr_cad.run.scene.scene_schema import (  # noqa: F401  (re-exported: the s
     key_range,
 )
 from corr_cad.run.scene.scene_schema_friction import friction_sections
+from corr_cad.run.scene.scene_suggest import verified_examples
 from corr_cad.run.scene.scene_text import (  # noqa: F401
     bounds_table,
     no_effect_warnings,
@@ -247,6 +248,7 @@ def _check(where: str, v: float, low: float, high: float, **kw: bool) -> None:
         raise SceneError(f"{where} = {v:g}: allowed range is {range_text(low, high, **kw)}{hint}")
 
 
+@verified_examples
 def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -> Scene:
     """Validate a scene given as a dictionary (as read from TOML)."""
     if not isinstance(data, dict):
@@ -375,6 +377,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         _check(f"{where} amplitude", amplitude, -half_r, half_r, high_open=True)
         _check(f"{where} phase", phase, -MAX_ANGLE_DEG, MAX_ANGLE_DEG, low_open=False)
     harmonics = er["profile_deviation_harmonics"]
+    drv.check_harmonic_sum(_where("errors", "profile_deviation_harmonics"), harmonics, half_r)
     errors = ErrorSpec(
         er["cam_radius_error"],
         er["eccentricity_error"],

@@ -316,7 +316,13 @@ SCHEMA: dict[str, dict[str, Key]] = {
             note="each within a quarter slot pitch, (-90/(z+1), 90/(z+1))",
         ),
         "cam_phase_error_deg": Key(
-            "float", 0.0, "cam phase error against the other cam, deg", low=-180.0, high=180.0
+            "float",
+            0.0,
+            "cam phase error against the other cam, deg (a quarter turn at most: at 180 the "
+            "cams stand in phase and the drive's solver finds no equilibrium)",
+            low=-90.0,
+            low_open=False,
+            high=90.0,
         ),
         "measured_profile": Key(
             "str",

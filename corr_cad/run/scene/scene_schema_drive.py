@@ -11,6 +11,11 @@ from __future__ import annotations
 from corr_cad.run.scene.scene_key import Key
 from corr_cad.run.scene.scene_schema_crank import CRANK_SECTIONS
 
+#: Smallest needle diameter and length, mm: half of ISO 3096's smallest needle
+#: roller (1 mm by 5.8 mm). At 1e-3 mm the needles' Palmgren stiffness leaves
+#: the drive's solver at an infinite residual, at 1e-300 a NaN.
+MIN_NEEDLE_MM = 0.5
+
 
 def _bearing(override: bool) -> dict[str, Key]:
     what = "cam B's bearing (default: [bearings.eccentric])" if override else "each cam's bearing"
@@ -19,10 +24,22 @@ def _bearing(override: bool) -> dict[str, Key]:
             "int", None, f"needles of {what}", low=3, low_open=False, high=1000, example=40
         ),
         "needle_diameter": Key(
-            "float", None, f"needle diameter of {what}, mm", low=0, high=100, example=6.0
+            "float",
+            None,
+            f"needle diameter of {what}, mm",
+            low=MIN_NEEDLE_MM,
+            low_open=False,
+            high=100,
+            example=6.0,
         ),
         "needle_length": Key(
-            "float", None, f"needle contact length of {what}, mm", low=0, high=1000, example=12.0
+            "float",
+            None,
+            f"needle contact length of {what}, mm",
+            low=MIN_NEEDLE_MM,
+            low_open=False,
+            high=1000,
+            example=12.0,
         ),
         "diametral_clearance": Key(
             "float",

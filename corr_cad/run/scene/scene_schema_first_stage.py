@@ -3,6 +3,8 @@ crankshaft (part of :data:`corr_cad.run.scene.scene_schema.SCHEMA`)."""
 
 from __future__ import annotations
 
+from corr_cad.geometry.design import MIN_AXIAL_LENGTH
+from corr_cad.geometry.first_stage import MIN_MODULE
 from corr_cad.run.scene.scene_key import Key
 
 #: Keys a ``[first_stage]`` section must give (the rest have defaults).
@@ -32,7 +34,15 @@ SECTIONS: dict[str, dict[str, Key]] = {
             example=90,
             note="(pinion_teeth + crank_gear_teeth) / 3 whole",
         ),
-        "module": Key("float", None, "module, mm (required)", low=0, high=100.0, example=1.5),
+        "module": Key(
+            "float",
+            None,
+            "module, mm (required)",
+            low=MIN_MODULE,
+            low_open=False,
+            high=100.0,
+            example=1.5,
+        ),
         "pressure_angle_deg": Key(
             "float", 20.0, "pressure angle of the basic rack, deg", low=10.0, high=35.0
         ),
@@ -45,7 +55,13 @@ SECTIONS: dict[str, dict[str, Key]] = {
             **_SHIFT,
         ),
         "face_width": Key(
-            "float", None, "face width of the gears, mm (required)", low=0, high=1e4, example=15.0
+            "float",
+            None,
+            "face width of the gears, mm (required)",
+            low=MIN_AXIAL_LENGTH,
+            low_open=False,
+            high=1e4,
+            example=15.0,
         ),
         "addendum": Key("float", 1.0, "addendum factor of the basic rack", low=0, high=2.0),
         "dedendum": Key(

@@ -7,6 +7,7 @@ from __future__ import annotations
 from corr_cad.errors import SceneError
 from corr_cad.mechanics.friction import MOUNTINGS
 from corr_cad.run.scene.scene_key import Key, key_range
+from corr_cad.run.scene.scene_schema_drive import MIN_NEEDLE_MM
 
 #: Efficiency map defaults: output torques as shares of T_R, input speeds.
 EFFICIENCY_TORQUES = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]
@@ -144,14 +145,16 @@ SECTIONS: dict[str, dict[str, Key]] = {
             "float",
             6.0,
             "needle diameter D_we, mm (with [bearings.eccentric]: its value)",
-            low=0,
+            low=MIN_NEEDLE_MM,
+            low_open=False,
             high=1000,
         ),
         "needle_length": Key(
             "float",
             12.0,
             "needle effective length L_we, mm (with [bearings.eccentric]: its value)",
-            low=0,
+            low=MIN_NEEDLE_MM,
+            low_open=False,
             high=1000,
         ),
     },

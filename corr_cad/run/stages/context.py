@@ -105,6 +105,8 @@ class RunContext:
     executor: object = None
     #: The run's :class:`~corr_cad.run.budget.resources.Estimate` (expected stage times).
     estimate: object = None
+    #: The run's :class:`~corr_cad.run.budget.resources.Budget` (None: the default).
+    budget: object = None
 
 
 @dataclass(frozen=True)

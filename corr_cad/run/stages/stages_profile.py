@@ -5,6 +5,9 @@ Registered in :data:`corr_cad.run.stages.stages.STAGES`.
 
 from __future__ import annotations
 
+import os
+
+from corr_cad.errors import ProfileError
 from corr_cad.geometry.profile import theoretical_profile, undercut_analysis, working_profile
 from corr_cad.geometry.sampling import approximate
 from corr_cad.run.stages.context import RunContext, expected_seconds, modified_curve
@@ -183,6 +186,23 @@ def _sha256(path) -> str:
     return h.hexdigest()
 
 
+def _flat_points(ctx: RunContext) -> int:
+    """Most points a measured DXF contour may flatten to: what the memory budget has
+    left beside this process's present size, at most ``MAX_FLATTENED_POINTS``."""
+    from corr_cad.export.measured_io import FLAT_BYTES_PER_POINT, MAX_FLATTENED_POINTS
+
+    budget = getattr(ctx.budget, "memory_bytes", None)
+    if budget is None:  # run_scene always sets it; a bare context has no budget
+        return MAX_FLATTENED_POINTS
+    try:
+        with open("/proc/self/statm") as fh:
+            used = int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        used = 0
+    free = max(0.0, budget - used)
+    return int(min(MAX_FLATTENED_POINTS, free // FLAT_BYTES_PER_POINT))
+
+
 def _register(ctx: RunContext, path, key: str):
     """Read, check and register one measured ring; its manifest entry under ``key``."""
     from corr_cad.export.measured_io import MAX_MEASURED_POINTS, read_measured
@@ -190,16 +210,23 @@ def _register(ctx: RunContext, path, key: str):
 
     s, w = ctx.scene, ctx.results.working
     src = str(path)
-    got = read_measured(path, design=s.design)
+    knob = "[errors.row_b] measured_profile" if key.endswith("_b") else "[errors] measured_profile"
+    try:
+        got = read_measured(path, design=s.design, max_flat_points=_flat_points(ctx))
+    except ProfileError as exc:
+        raise ProfileError(f"{knob}: {exc}") from exc
     if got.stride > 1:
         ctx.progress(
             f"      measured profile: {got.rows} points read, 1 in {got.stride} kept "
             f"({len(got.points)} points, at most {MAX_MEASURED_POINTS}: "
             f"{len(got.points) // s.design.tooth_count} a tooth)"
         )
-    pts = validate_points(got.points, w, src)
-    reg = register(w, pts)
-    check_fit(reg, s.design.eccentricity, src)
+    try:
+        pts = validate_points(got.points, w, src)
+        reg = register(w, pts)
+        check_fit(reg, s.design.eccentricity, src)
+    except ProfileError as exc:
+        raise ProfileError(f"{knob}: {exc}") from exc
     ctx.manifest[key] = {
         "source": path.name,
         "sha256": _sha256(path),
