@@ -265,9 +265,11 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     bad = manifest.get("inspection", {}).get("failed")
     if bad:
         print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
-    asm = manifest.get("assembly", {}).get("failed", []) + manifest.get(
-        "modification_design", {}
-    ).get("failed", [])
+    asm = [
+        *manifest.get("assembly", {}).get("failed", []),
+        *manifest.get("modification_design", {}).get("failed", []),
+        *manifest.get("sizing", {}).get("failed", []),
+    ]
     if asm:
         print(f"corr-cad: {'; '.join(asm)}", file=sys.stderr)
     if failed or bad or asm:
@@ -408,7 +410,7 @@ def _executor(
     """
     from corr_cad.errors import SceneError
 
-    needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
+    needs = {"montecarlo", "allocation", "sweeps", "sizing"} & set(scene.formats)
     if args.executor == "dask":
         if not args.scheduler:
             raise SceneError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")
