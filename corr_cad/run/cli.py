@@ -110,6 +110,8 @@ def _parser() -> argparse.ArgumentParser:
     dask.add_argument("--dask-connect-timeout", type=float, metavar="S", help="default 5")
     dask.add_argument("--dask-no-workers-timeout", type=float, metavar="S", help="default 30")
     dask.add_argument("--dask-stall-timeout", type=float, metavar="S", help="default 120")
+    help_ = 'run only a scene\'s [sizing] design search (formats = ["sizing"])'
+    sub.add_parser("size", parents=[run], add_help=False, help=help_)
     bench = sub.add_parser("bench", help="measure what accuracy costs in time (tables, CSV, PNG)")
     bench.add_argument(
         "--out", type=_out_arg, default=Path("outputs") / "bench", help="default outputs/bench"
@@ -208,6 +210,8 @@ def _run(args: argparse.Namespace, state: dict) -> int:
         from corr_cad.run.dask_exec import check_address
 
         check_address(args.scheduler)  # a malformed one is refused before anything starts
+    if args.command == "size":
+        from corr_cad.run.scene.scene_sizing import load_sizing_scene as load_scene
     scene = load_scene(args.scene)
     # Refused here, with one line, before any folder or worker exists.
     budget = budget_for(scene, args.max_memory, args.max_output, args.warn_time)
@@ -519,7 +523,7 @@ def _schema(args: argparse.Namespace) -> int:
 #: Longest error or warning line printed (a message quoting a file is cut).
 def _dispatch(args: argparse.Namespace, state: dict) -> int:
     _refuse_empty(args)
-    if args.command == "run":
+    if args.command in ("run", "size"):
         return _run(args, state)
     if args.command == "bench":
         from corr_cad.run.bench.bench import STUDIES, run

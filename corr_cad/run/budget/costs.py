@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
 from corr_cad.run.budget.costs_montecarlo import datasheet_pass
+from corr_cad.run.budget.costs_sizing import sizing_work
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
 
@@ -441,6 +442,9 @@ def _montecarlo(scene, env):
         task_seconds=task,
         **{**work, "libraries": work["libraries"] + ("matplotlib",)},
     )
+
+
+ESTIMATORS["sizing"] = lambda s, env: Cost(**sizing_work(s, env.workers, env.local_workers))
 
 
 @stage_cost("allocation")

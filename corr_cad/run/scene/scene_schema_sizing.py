@@ -219,8 +219,8 @@ def variable_levels(name: str, lo: float, hi: float) -> tuple[float, ...]:
     return tuple(round(lo + k * step, 10) for k in range(n + 1))
 
 
-def _refuse(key: str, value, why: str, works: str) -> None:
-    raise SceneError(f"[sizing.{key}] = {show(value)}: {why}, e.g. {works}")
+def _refuse(where: str, value, why: str, works: str) -> None:
+    raise SceneError(f"{where} = {show(value)}: {why}, e.g. {works}")
 
 
 def parse_sizing(values: dict, data: dict, formats: tuple, first_stage, bearing) -> dict:
@@ -237,7 +237,7 @@ def parse_sizing(values: dict, data: dict, formats: tuple, first_stage, bearing)
     objectives = sz["objectives"]
     if not 2 <= len(objectives) <= 3 or len(set(objectives)) != len(objectives):
         _refuse(
-            "objectives",
+            "[sizing] objectives",
             objectives,
             "give two or three different objectives",
             'objectives = ["mass", "rigidity"]',
@@ -259,7 +259,7 @@ def parse_sizing(values: dict, data: dict, formats: tuple, first_stage, bearing)
     ratio = req["total_ratio"]
     if ratio is not None and not (len(ratio) == 1 or (len(ratio) == 2 and ratio[0] <= ratio[1])):
         _refuse(
-            "requirements] total_ratio",
+            "[sizing.requirements] total_ratio",
             ratio,
             "give [exact] or [min, max] with min <= max",
             "total_ratio = [120.0, 140.0]",
@@ -274,9 +274,9 @@ def parse_sizing(values: dict, data: dict, formats: tuple, first_stage, bearing)
         section, kind, _, _ = VARIABLES[name]
         works = f"{name} = {show(SECTIONS['sizing.variables'][name].example)}"
         if len(rng) != 2 or not rng[0] <= rng[1]:
-            _refuse(f"variables] {name}", rng, "give [min, max] with min <= max", works)
+            _refuse(f"[sizing.variables] {name}", rng, "give [min, max] with min <= max", works)
         if kind == "int" and any(v != int(v) for v in rng):
-            _refuse(f"variables] {name}", rng, "the ends must be whole numbers", works)
+            _refuse(f"[sizing.variables] {name}", rng, "the ends must be whole numbers", works)
         if section == "first_stage" and first_stage is None:
             raise SceneError(
                 f"[sizing.variables] {name} varies the first stage but the scene has no "
@@ -291,7 +291,7 @@ def parse_sizing(values: dict, data: dict, formats: tuple, first_stage, bearing)
         levels[name] = variable_levels(name, rng[0], rng[1])
         if not levels[name]:
             _refuse(
-                f"variables] {name}",
+                f"[sizing.variables] {name}",
                 rng,
                 "no standard size lies in the range ("
                 + ", ".join(f"{v:g}" for v in VARIABLES[name][2])

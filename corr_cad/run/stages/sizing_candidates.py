@@ -39,8 +39,10 @@ SCREENING = {
     ("solver", "positions"): 360,
     ("datasheet", "positions_per_mesh"): 4,
     ("datasheet", "transmission_error_positions_per_turn"): 36,
-    ("friction", "positions_per_mesh"): 2,
+    ("friction", "positions_per_mesh"): 1,
 }
+#: Screening's efficiency map when no objective or requirement reads the efficiency.
+SCREENING_EFFICIENCY_TORQUES = [1.0]
 
 #: Figure columns of a candidate (``sizing.csv``, ``pareto.csv``), in order.
 FIGURES = (
@@ -79,8 +81,14 @@ _OWN = {
 _LOAD_KEYS = ("input_torque", "pinion_torque", "input_torque_Nm", "first_stage_ratio")
 
 
-def candidate_data(base: dict, values: dict, req: dict, screening: bool = False) -> dict:
-    """The scene (as TOML data) of the candidate with ``values`` of the variables."""
+def candidate_data(
+    base: dict, values: dict, req: dict, screening: bool = False, efficiency: bool = True
+) -> dict:
+    """The scene (as TOML data) of the candidate with ``values`` of the variables.
+
+    ``screening``: at the resolution of :data:`SCREENING` (and, unless
+    ``efficiency`` is wanted, the efficiency map at T_R alone).
+    """
     data = copy.deepcopy(base)
     bearing = "bearings.eccentric" if "bearings.eccentric" in data else "life"
     for name, v in values.items():
@@ -117,6 +125,8 @@ def candidate_data(base: dict, values: dict, req: dict, screening: bool = False)
             if section in data or section != "friction":
                 sec = data.setdefault(section, {})
                 sec[key] = min(int(sec.get(key, v)), v)
+        if "friction" in data and not efficiency:
+            data["friction"]["efficiency_torques"] = SCREENING_EFFICIENCY_TORQUES
     return data
 
 
@@ -304,6 +314,13 @@ def _with_cached_gears(ctx, drive) -> None:
     if len(_GEARS) > 64:
         _GEARS.clear()
     _GEARS[key] = ctx.results.gear_outlines
+
+
+def needs_efficiency(sizing: dict) -> bool:
+    """Does the search read the efficiency (an objective or ``min_efficiency``)?"""
+    return (
+        "efficiency" in sizing["objectives"] or sizing["requirements"]["min_efficiency"] is not None
+    )
 
 
 def evaluate_chunk(items: list, req: dict) -> list[dict]:

@@ -23,6 +23,7 @@ from corr_cad.run.stages.sizing_candidates import (
     OBJECTIVE_FIGURE,
     candidate_data,
     evaluate_chunk,
+    needs_efficiency,
 )
 from corr_cad.run.stages.sizing_search import non_dominated, objective_matrix, search
 
@@ -77,7 +78,8 @@ class _Batches:
 
     def __call__(self, values: list[dict], screening: bool = True) -> list[dict]:
         req, base = self.sz["requirements"], self.sz["base"]
-        items = [(i, candidate_data(base, v, req, screening)) for i, v in enumerate(values)]
+        eff = needs_efficiency(self.sz)
+        items = [(i, candidate_data(base, v, req, screening, eff)) for i, v in enumerate(values)]
         size = max(1, math.ceil(len(items) / self.window))
         tasks = [
             self.executor.submit(evaluate_chunk, items[a : a + size], req)
