@@ -194,9 +194,10 @@ def test_the_front_agrees_with_a_brute_force_grid(tmp_path):
         for rj in np.arange(130.0, 135.0 + 1e-9, 0.5):
             row = evaluate(candidate_data(sz["base"], {"eccentricity": e, "cam_radius": rj},
                                           sz["requirements"]), sz["requirements"])  # fmt: skip
-            assert row["feasible"]
-            grid.append([row["mass_kg"], -row["torsional_rigidity_Nm_per_arcmin"]])
+            if row["feasible"]:  # a large eccentricity on the small cam undercuts
+                grid.append([row["mass_kg"], -row["torsional_rigidity_Nm_per_arcmin"]])
     grid = np.array(grid)
+    assert len(grid) > 150
     best = grid[non_dominated(grid)]
     span = grid.max(axis=0) - grid.min(axis=0)
     for p in best:
@@ -308,9 +309,9 @@ def test_infeasible_requirements_name_the_binding_one(tmp_path):
 [design]
 tooth_count = 25
 cam_radius = 70.0
-roller_radius = 5.0
+roller_radius = 4.0
 roller_length = 12.0
-eccentricity = 2.0
+eccentricity = 1.5
 
 [life]
 needles = 30
@@ -329,7 +330,7 @@ max_outer_diameter_mm = 200.0
 
 [sizing.variables]
 cam_radius = [60.0, 75.0]
-eccentricity = [1.5, 2.5]
+eccentricity = [1.0, 1.8]
 
 [export]
 formats = ["sizing"]

@@ -135,6 +135,7 @@ def _parser() -> argparse.ArgumentParser:
             "drive",
             "progress",
             "compound",
+            "sizing",
         ),
         help="run only this study (repeatable); default all",
     )
