@@ -24,6 +24,7 @@ TEMPLATES = {
     "montecarlo_gate": 1,
     "lost_motion_grade": 0,
     "compound": 0,
+    "sizing": 0,
 }
 
 

@@ -215,7 +215,6 @@ def reference_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("ref")
     text = (ROOT / "templates" / "sizing.toml").read_text()
     text = text.replace("rated_torque_Nm = 2000.0", "rated_torque_Nm = 1800.0")
-    text = text.replace("evaluations = 100", "evaluations = 60")
     (tmp / "s.toml").write_text(text)
     r = _cli("size", "s.toml", "--out", "out", "--workers", "2", cwd=tmp)
     assert r.returncode == 0, r.stderr

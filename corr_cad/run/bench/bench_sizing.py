@@ -56,7 +56,7 @@ def sizing_speed(out: Path, quick: bool = False) -> list:
     with tempfile.TemporaryDirectory() as tmp:
         scene = Path(tmp) / "s.toml"
         scene.write_text(
-            TEMPLATE.read_text().replace("evaluations = 100", f"evaluations = {n}"),
+            TEMPLATE.read_text().replace("evaluations = 60 ", f"evaluations = {n} "),
             encoding="utf-8",
         )
         cmd = [sys.executable, "-m", "corr_cad", "size", str(scene), "--out",

@@ -118,7 +118,9 @@ def candidate_data(
             checks[check] = float(req[key])
     if not checks:
         data.pop("checks")
-    export = {k: v for k, v in data.get("export", {}).items() if k == "tolerance"}
+    # the tolerance of the gear outlines (the first stage's mass); else it would act on nothing
+    keep = ("tolerance",) if "first_stage" in data else ()
+    export = {k: v for k, v in data.get("export", {}).items() if k in keep}
     data["export"] = {"formats": ["datasheet"], **export}
     if screening:
         for (section, key), v in SCREENING.items():

@@ -107,8 +107,10 @@ def search(
     sizes = [len(levels[n]) for n in names]
     rng = np.random.default_rng(seed)
     x0 = np.column_stack([rng.integers(0, s, size=population) for s in sizes])
-    if start is not None:
-        x0[0] = [int(np.argmin(np.abs(np.asarray(levels[n]) - start[n]))) for n in names]
+    if start is not None:  # a variable the scene leaves unset starts at random
+        for j, n in enumerate(names):
+            if n in start:
+                x0[0, j] = int(np.argmin(np.abs(np.asarray(levels[n]) - start[n])))
     problem = _problem(sizes, len(objectives))
     algorithm = NSGA2(
         pop_size=population,

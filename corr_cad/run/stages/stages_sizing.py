@@ -48,7 +48,7 @@ def scene_values(scene, names) -> dict:
         elif scene.bearing is not None:
             out[name] = getattr(scene.bearing, name)
         else:
-            out[name] = scene.life[name]
+            out[name] = scene.life.get(name)
     return out
 
 
@@ -114,7 +114,7 @@ def sizing(ctx: RunContext) -> None:
         sz["evaluations"],
         sz["population"],
         sz["seed"],
-        start=own,
+        start={n: v for n, v in own.items() if v is not None},
     )
     bar.close()
     rows = []
@@ -135,7 +135,7 @@ def _full_front(ctx: RunContext, rows: list[dict], objectives, names, own) -> di
         picked = [feasible[i] for i in non_dominated(F)]
     else:  # nothing fits: the candidates that miss least, for the verdict
         picked = sorted(rows, key=lambda r: r["violation"])[: max(sz["designs"], 5)]
-    again = batch([{n: r[n] for n in names} for r in picked] + [own], screening=False)
+    again = batch([{n: r[n] for n in names} for r in picked] + [{}], screening=False)
     full = []
     for r, row in zip(picked, again[:-1], strict=True):
         full.append({"candidate": r["candidate"], "generation": r["generation"],
