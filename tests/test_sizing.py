@@ -332,7 +332,7 @@ cam_radius = [60.0, 75.0]
 eccentricity = [1.0, 1.8]
 
 [export]
-formats = ["sizing"]
+formats = ["sizing", "report"]
 """
     (tmp_path / "s.toml").write_text(text)
     r = _cli("run", "s.toml", "--out", "out", cwd=tmp_path)
@@ -347,3 +347,5 @@ formats = ["sizing"]
     for f in ("sizing.csv", "pareto.csv", "pareto.png", "manifest.json"):
         assert (tmp_path / "out" / f).is_file()
     assert _rows(tmp_path / "out" / "pareto.csv") == []
+    html = (tmp_path / "out" / "report.html").read_text()  # the report's section says it too
+    assert "Design from requirements" in html and "no design fits: the best design" in html

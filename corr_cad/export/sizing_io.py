@@ -15,7 +15,7 @@ from corr_cad.export import plots
 from corr_cad.export.files import write_csv, write_new_text
 from corr_cad.figure_text import figure
 
-__all__ = ["write_rows", "pareto_png", "design_toml"]
+__all__ = ["write_rows", "pareto_png", "design_toml", "report_table"]
 
 plt = plots.plt
 
@@ -112,3 +112,43 @@ def design_toml(path: Path, data: dict, comment: list[str]) -> Path:
 
     head = "".join(f"# {line}\n" for line in comment)
     return write_new_text(path, head + "\n" + tomli_w.dumps(_nested(data)))
+
+
+#: ``pareto.csv`` columns the report shows, with their headings.
+_REPORT_COLUMNS = {
+    "design": "design",
+    "mass_kg": "mass [kg]",
+    "torsional_rigidity_Nm_per_arcmin": "rigidity [N*m/arcmin]",
+    "lost_motion_arcmin": "lost motion [arcmin]",
+    "efficiency": "efficiency",
+    "life_h": "life L10 [h]",
+    "outer_diameter_mm": "outer diameter [mm]",
+    "length_mm": "length [mm]",
+    "total_ratio": "ratio",
+}
+
+
+def report_table(summary: dict, pareto_csv: Path) -> dict:
+    """The report's section of the design search: a line, the verdict, the front's table."""
+    import csv
+
+    rows = []
+    if Path(pareto_csv).is_file():
+        with open(pareto_csv, newline="") as f:
+            rows = list(csv.DictReader(f))
+    cols = [c for c in _REPORT_COLUMNS if any(r.get(c) for r in rows)] or ["design"]
+
+    def cell(c: str, v: str) -> str:
+        return v if c == "design" or v == "" else figure(float(v))
+
+    return {
+        "summary": (
+            f"{summary['evaluations']} candidates for the objectives "
+            f"{', '.join(summary['objectives'])} (seed {summary['seed']}), "
+            f"{summary['feasible']} feasible at screening; the front at full resolution holds "
+            f"{summary['front']}, written as {', '.join(summary['designs']) or 'none'}."
+        ),
+        "failed": "; ".join(summary.get("failed", [])),
+        "header": [_REPORT_COLUMNS[c] for c in cols],
+        "rows": [[cell(c, r.get(c, "")) for c in cols] for r in rows],
+    }
