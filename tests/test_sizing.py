@@ -349,3 +349,12 @@ formats = ["sizing", "report"]
     assert _rows(tmp_path / "out" / "pareto.csv") == []
     html = (tmp_path / "out" / "report.html").read_text()  # the report's section says it too
     assert "Design from requirements" in html and "no design fits: the best design" in html
+
+
+def test_the_budget_refuses_a_search_whose_files_would_not_fit(tmp_path):
+    """The estimate counts sizing.csv's rows: 100,000 evaluations pass a 1 MB output budget."""
+    (tmp_path / "s.toml").write_text(TWO.format(evaluations=100_000, seed=1))
+    r = _cli("run", "s.toml", "--out", "out", "--max-output", "0.001", cwd=tmp_path)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert r.stderr.startswith("corr-cad: error: [sizing] evaluations = 100000: ")
+    assert "would fit" in r.stderr and not (tmp_path / "out").exists()

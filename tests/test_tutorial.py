@@ -154,6 +154,27 @@ def test_the_numbers_the_page_states(tutorial):
     assert (folder / "step6" / "inner_gear_nominal.csv").is_file()
     m = json.loads((folder / "step6" / "manifest.json").read_text())
     assert m["modification"]["shift_mm"] == 0.02
+    # Step 7: the front, its lightest design, and that design's own run.
+    import csv
+
+    with open(folder / "step7" / "pareto.csv", newline="") as f:
+        front = list(csv.DictReader(f))
+    first, last = front[0], front[-1]
+    assert len(front) == 6 and first["design"] == "design_01.toml"
+    assert (first["cam_radius"], first["eccentricity"], first["needles"]) == (
+        "129.5",
+        "3.4",
+        "44.0",
+    )
+    assert (
+        f"{float(first['mass_kg']):.2f}" == "21.45" and f"{float(last['mass_kg']):.2f}" == "23.74"
+    )
+    assert f"{float(first['life_margin']):.2f}" == "1.19"
+    assert f"{float(last['life_margin']):.2f}" == "1.80"
+    ref = json.loads((folder / "step7" / "manifest.json").read_text())["sizing"]["reference"]
+    assert f"{ref['mass_kg']:.2f}" == "22.58" and f"{ref['life_margin']:.2f}" == "1.01"
+    life = json.loads((folder / "step7a" / "datasheet.json").read_text())["life_h"]["system"]
+    assert life == float(first["life_h"]) and f"{life:,.0f}" == "7,141"
 
 
 @pytest.mark.slow

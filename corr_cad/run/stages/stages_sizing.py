@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from corr_cad.run.scene.scene_schema import SCHEMA
 from corr_cad.run.scene.scene_schema_sizing import OBJECTIVES, VARIABLES
 from corr_cad.run.stages.context import RunContext, expected_seconds
 from corr_cad.run.stages.sizing_candidates import (
@@ -176,6 +177,7 @@ def _write(ctx: RunContext, rows, full: dict, objectives, names) -> None:
     for k, r in enumerate(picks, 1):
         r["design"] = f"design_{k:02d}.toml"
         data = candidate_data(sz["base"], {n: r[n] for n in names}, sz["requirements"])
+        data = {k: data[k] for k in SCHEMA if k in data}  # the sections in the schema's order
         design_toml(
             ctx.out / r["design"],
             data,
