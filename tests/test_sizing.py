@@ -122,6 +122,23 @@ def test_front_and_hypervolume_by_hand():
     assert hypervolume_2d(F, np.array([5.0, 5.0])) == pytest.approx(11.0)
 
 
+def test_a_small_space_is_searched_whole_each_candidate_once():
+    """Six designs, a population of eight, 100 evaluations allowed: six evaluated, once each,
+    the scene's own design first."""
+    from corr_cad.run.stages.sizing_search import search
+
+    levels = {"a": (1.0, 2.0), "b": (1.0, 2.0, 3.0)}
+
+    def batch(values):
+        return [{"feasible": True, "violation": 0.0, "x": v["a"], "y": v["a"] - v["b"]}
+                for v in values]  # fmt: skip
+
+    out = search(levels, ["mass", "rigidity"], {"mass": "x", "rigidity": "y"}, batch, 100, 8, 1,
+                 start={"a": 2.0, "b": 2.9})  # fmt: skip
+    seen = [(v["a"], v["b"]) for _, v, _ in out]
+    assert len(seen) == 6 and len(set(seen)) == 6 and seen[0] == (2.0, 3.0)
+
+
 def test_a_candidate_carries_the_rated_torque_to_the_output():
     """T_R = M0 (z + 1) without a first stage; with one, M0 = T_in z_c / z_p."""
     import tomllib

@@ -125,6 +125,8 @@ def search(
     generation, idle = 0, 0
     while len(seen) < evaluations and idle < STALL_GENERATIONS:
         pop = algorithm.ask()
+        if pop is None or len(pop) == 0:  # no new offspring: the space is spent
+            break
         X = np.rint(pop.get("X")).astype(int)
         keys = [tuple(int(i) for i in x) for x in X]
         new = list(dict.fromkeys(k for k in keys if k not in seen))
