@@ -71,6 +71,7 @@ REFUSALS = {
     ),
     "pinion_teeth = [16.0, 20.0]": ("varies the first stage but the scene has no", "variables"),
     "needle_diameter = [6.5, 7.0]": ("no standard size lies in the range", "variables"),
+    "tooth_count = [24.5, 26.0]": ("the ends must be whole numbers", "variables"),
     "evaluations = 3": ("[sizing] evaluations = 3: allowed range is at least population", "sizing"),
 }
 
@@ -261,9 +262,10 @@ def test_every_design_scene_runs_and_reproduces_its_figures(reference_run, tmp_p
     from corr_cad.run.scene.scene import load_scene
     from corr_cad.run.stages.sizing_candidates import second_stage_mass_inertia
 
-    front = {p["design"]: p for p in _rows(reference_run / "pareto.csv") if p["design"]}
+    rows = _rows(reference_run / "pareto.csv")
+    front = {p["design"]: p for p in rows if p["design"]}
     assert sorted(front) == sorted(p.name for p in reference_run.glob("design_*.toml"))
-    assert front
+    assert rows[0]["design"] == "design_01.toml" and rows[-1]["design"] == max(front)  # both ends
     for name, p in sorted(front.items()):
         r = _cli("run", str(reference_run / name), "--out", name, cwd=tmp_path)
         assert r.returncode == 0, r.stderr
