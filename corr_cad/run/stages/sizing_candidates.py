@@ -123,11 +123,12 @@ def candidate_data(
     export = {k: v for k, v in data.get("export", {}).items() if k in keep}
     data["export"] = {"formats": ["datasheet"], **export}
     if screening:
+        friction = "friction" in data or "life" in data  # either computes the friction figures
         for (section, key), v in SCREENING.items():
-            if section in data or section != "friction":
+            if section != "friction" or friction:
                 sec = data.setdefault(section, {})
                 sec[key] = min(int(sec.get(key, v)), v)
-        if "friction" in data and not efficiency:
+        if friction and not efficiency:
             data["friction"]["efficiency_torques"] = SCREENING_EFFICIENCY_TORQUES
     return data
 
