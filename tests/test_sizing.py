@@ -377,3 +377,37 @@ def test_the_budget_refuses_a_search_whose_files_would_not_fit(tmp_path):
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
     assert r.stderr.startswith("corr-cad: error: [sizing] evaluations = 100000: ")
     assert "would fit" in r.stderr and not (tmp_path / "out").exists()
+
+
+def test_the_values_that_would_fit_are_rounded_towards_fitting():
+    """A limit relaxed to three digits, never past what the design reaches."""
+    from corr_cad.run.stages.sizing_report import relaxations
+
+    row = {
+        "violations": {"rated_life_h": 0.5, "max_outer_diameter_mm": 0.07, "max_mass_kg": 0.0},
+        "life_h": 2999.7,
+        "outer_diameter_mm": 341.2,
+        "rated_torque_from_life_Nm": 2604.9,
+    }
+    assert relaxations(row, {}) == [
+        "rated_life_h 2,990",  # the life reached, rounded down
+        "rated_torque_Nm 2,600",  # the torque at which it reaches the rated life, down
+        "max_outer_diameter_mm 342",  # the diameter reached, rounded up
+    ]
+
+
+def test_screening_lowers_the_resolution_and_keeps_the_model():
+    """[life] alone computes the friction figures: screening takes one position per mesh
+    and the efficiency at T_R alone (unless the efficiency is wanted); the model stays."""
+    from corr_cad.run.stages.sizing_candidates import candidate_data
+
+    req = {"rated_torque_Nm": 2000.0, "rated_life_h": 6000.0, "rated_speed_rpm": 15.0}
+    base = {"life": {"needles": 40}, "solver": {"model": "drive"}}
+    full = candidate_data(base, {}, req)
+    scr = candidate_data(base, {}, req, screening=True, efficiency=False)
+    assert "friction" not in full and full["solver"] == {"model": "drive"}
+    assert scr["friction"] == {"positions_per_mesh": 1, "efficiency_torques": [1.0]}
+    assert scr["solver"] == {"model": "drive", "positions": 360}
+    assert scr["datasheet"]["positions_per_mesh"] == 4
+    kept = candidate_data(base, {}, req, screening=True, efficiency=True)
+    assert kept["friction"] == {"positions_per_mesh": 1}
