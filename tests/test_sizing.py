@@ -411,3 +411,13 @@ def test_screening_lowers_the_resolution_and_keeps_the_model():
     assert scr["datasheet"]["positions_per_mesh"] == 4
     kept = candidate_data(base, {}, req, screening=True, efficiency=True)
     assert kept["friction"] == {"positions_per_mesh": 1}
+
+
+def test_a_knife_edge_tooth_is_refused_with_the_run_s_own_warning():
+    """e = 3.85 mm on a 129 mm cam: a tooth tip of 0.039 mm, which `corr-cad run` warns of."""
+    from corr_cad.run.stages.sizing_candidates import candidate_data, evaluate
+
+    req = {"rated_torque_Nm": 2000.0, "rated_life_h": None, "rated_speed_rpm": 15.0}
+    row = evaluate(candidate_data({}, {"cam_radius": 129.0, "eccentricity": 3.85}, req), req)
+    assert (row["feasible"], row["refused_by"]) == (False, "geometry")
+    assert row["reason"].startswith("tooth tip radius 0.0386 mm is below 0.1 mm (a knife edge")

@@ -5,7 +5,8 @@ out) with the variables set, the rated point of ``[sizing.requirements]`` in
 ``[datasheet]``, ``[life]`` and ``[load]``, and the requirements the tool
 checks as ``[checks]`` limits. :func:`evaluate` loads it with the scene
 loader (a refusal there, an undercut or a first-stage refusal, makes the
-candidate infeasible with the loader's line as its reason) and runs the
+candidate infeasible with the loader's line as its reason; so does a tooth
+tip the run would warn of, a knife edge below 0.1 mm) and runs the
 stages a ``corr-cad run`` of it runs: ``undercut``, ``profiles``, ``drive``
 (with ``[first_stage]``), ``datasheet`` and ``forces``, then the checks on
 their figures (:func:`corr_cad.tolerance.checks.evaluate_checks`). The same
@@ -195,6 +196,7 @@ def evaluate(data: dict, req: dict) -> dict:
     **figures}``; a candidate the loader or a stage refuses has no figures
     and ``refused_by`` names where (``scene``, the stage).
     """
+    from corr_cad.run.console import warnings as console_warnings
     from corr_cad.run.scene.scene import parse_scene
     from corr_cad.run.stages.context import RunContext
     from corr_cad.run.stages.stages_datasheet import _datasheet
@@ -212,6 +214,9 @@ def evaluate(data: dict, req: dict) -> dict:
     stage = "undercut"
     try:
         _undercut(ctx)
+        doubts = console_warnings({"undercut": ctx.manifest["undercut"]})
+        if doubts:  # a knife-edge or trimmed tooth tip: `corr-cad run` would warn of it
+            return _refused("geometry", doubts[0].removeprefix("geometry: "))
         stage = "profiles"
         _profiles(ctx)
         if scene.first_stage is not None:
