@@ -149,14 +149,15 @@ def _full_front(ctx: RunContext, rows: list[dict], objectives, names, own) -> di
         front = [pool[i] for i in non_dominated(F)]
         first = OBJECTIVE_FIGURE[objectives[0]]
         front.sort(key=lambda r: (r[first], str(r["candidate"])))
-    ranks = {}
+    ranks, gaps = {}, {}
     for name in objectives:
         col = OBJECTIVE_FIGURE[name]
         pairs = [(p.get(col), f.get(col)) for p, f in zip(picked, full, strict=True)]
-        pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
+        pairs = [(a, b) for a, b in pairs if a is not None and b is not None and b != 0]
         ranks[name] = spearman([a for a, _ in pairs], [b for _, b in pairs])
+        gaps[name] = max((abs(a / b - 1.0) for a, b in pairs), default=math.nan)
     return {"screened": picked, "full": full, "reference": reference, "front": front,
-            "ranks": ranks}  # fmt: skip
+            "ranks": ranks, "gaps": gaps}  # fmt: skip
 
 
 def _picks(front: list[dict], n: int) -> list[dict]:
@@ -205,6 +206,7 @@ def _write(ctx: RunContext, rows, full: dict, objectives, names) -> None:
         "designs": [r["design"] for r in picks],
         "seed": sz["seed"],
         "screening_rank_correlation": full["ranks"],
+        "screening_max_relative_difference": full["gaps"],
         "reference": {k: reference.get(k) for k in (*FIGURES, "feasible", "refused_by")},
     }
     if not front:
