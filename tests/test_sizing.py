@@ -251,8 +251,8 @@ def test_the_front_holds_the_prototype_or_a_design_at_least_as_good(reference_ru
     ]  # fmt: skip
     assert as_good or any(p["candidate"] == "reference" for p in front)
     assert all(p["feasible"] == "true" and p["fidelity"] == "full" for p in front)
-    # screening's figures of the front's designs within 1 % of the full resolution's
-    assert all(v <= 0.01 for v in m["screening_max_relative_difference"].values())
+    # screening's figures of the front's designs within 3 % of the full resolution's
+    assert all(v <= 0.03 for v in m["screening_max_relative_difference"].values())
 
 
 @pytest.mark.slow
