@@ -4,9 +4,10 @@
 evaluations) of the second stage with its needle bearing within 10 minutes
 on 2 cores. Measured two ways, never asserted: a fresh ``python -m corr_cad
 size`` of the template on a 2-worker pool (wall time and the candidates per
-second it reached, which a shared machine's load slows), and the CPU time of
+second it reached, with the stage's fixed costs: the workers' start and the front
+evaluated again; which a shared machine's load slows), and the CPU time of
 one screened candidate in this process (which load does not inflate: two
-idle cores evaluate about ``2 / CPU time`` candidates per second). From both,
+idle cores evaluate about ``2 / CPU time`` candidates per second), from which
 the time 2,000 evaluations take.
 """
 
@@ -69,8 +70,8 @@ def sizing_speed(out: Path, quick: bool = False) -> list:
     load = os.getloadavg()[0]
     rate = m["sizing"]["evaluations"] / stage
     rows = [
-        ["pool of 2, measured (whole stage, front included)", n, wall, stage, rate,
-         2000 / rate / 60, load],
+        ["pool of 2, measured (whole stage: workers' start and the front's second pass)", n,
+         wall, stage, rate, "", load],
         ["2 idle cores, from the CPU time of a candidate", n, "", cpu, 2 / cpu,
          2000 * cpu / 2 / 60, load],
     ]  # fmt: skip
