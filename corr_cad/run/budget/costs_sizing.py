@@ -21,7 +21,7 @@ EVAL_SECONDS = {
     ("paper", False): 0.12,
     ("paper", True): 0.35,
     ("drive", False): 0.6,
-    ("drive", True): 2.0,
+    ("drive", True): 1.5,
 }
 #: A full-resolution candidate over a screened one (more positions).
 FULL_FACTOR = 1.5
