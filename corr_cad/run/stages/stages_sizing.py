@@ -128,12 +128,15 @@ def sizing(ctx: RunContext) -> None:
 def _full_front(ctx: RunContext, rows: list[dict], objectives, names, own) -> dict:
     """The screened front (or the nearest misses) at full resolution; the reference."""
     sz = ctx.scene.sizing
-    ctx.progress("      sizing: the front again at the scene's own resolution, and its design")
+    ctx.progress("      sizing: the front again at the scene's own resolution, and its own design")
     batch = _Batches(ctx)
     feasible = [r for r in rows if r["feasible"]]
     if feasible:
         F = objective_matrix(feasible, objectives, OBJECTIVE_FIGURE)
         picked = [feasible[i] for i in non_dominated(F)]
+        first = OBJECTIVE_FIGURE[objectives[0]]
+        picked.sort(key=lambda r: (r[first], r["candidate"]))
+        picked = _picks(picked, 2 * sz["population"])  # the estimate's bound on the second pass
     else:  # nothing fits: the candidates that miss least, for the verdict
         picked = sorted(rows, key=lambda r: r["violation"])[: max(sz["designs"], 5)]
     again = batch([{n: r[n] for n in names} for r in picked] + [{}], screening=False)
