@@ -87,8 +87,10 @@ def candidate_data(
 ) -> dict:
     """The scene (as TOML data) of the candidate with ``values`` of the variables.
 
-    ``screening``: at the resolution of :data:`SCREENING` (and, unless
-    ``efficiency`` is wanted, the efficiency map at T_R alone).
+    ``screening``: at the resolution of :data:`SCREENING`; the friction figures
+    at one position per mesh period and the efficiency at T_R alone only where
+    the ``efficiency`` is not wanted (it varies less across designs than that
+    resolution's error).
     """
     data = copy.deepcopy(base)
     bearing = "bearings.eccentric" if "bearings.eccentric" in data else "life"
@@ -124,12 +126,14 @@ def candidate_data(
     export = {k: v for k, v in data.get("export", {}).items() if k in keep}
     data["export"] = {"formats": ["datasheet"], **export}
     if screening:
-        friction = "friction" in data or "life" in data  # either computes the friction figures
+        # [friction] or [life] computes the friction figures; the efficiency, flat across
+        # designs, keeps the scene's resolution where it is wanted
+        friction = ("friction" in data or "life" in data) and not efficiency
         for (section, key), v in SCREENING.items():
             if section != "friction" or friction:
                 sec = data.setdefault(section, {})
                 sec[key] = min(int(sec.get(key, v)), v)
-        if friction and not efficiency:
+        if friction:
             data["friction"]["efficiency_torques"] = SCREENING_EFFICIENCY_TORQUES
     return data
 
