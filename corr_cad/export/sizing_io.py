@@ -48,7 +48,7 @@ def pareto_png(
     ``axes``: ``(column, label)`` of each objective (a third one colours the
     front's points); screened feasible candidates grey, infeasible ones as
     light crosses, the front (full model) joined in order of the first
-    objective with each design file's number, the reference a star.
+    objective (two objectives) with each design file's number, the reference a star.
     """
     (cx, lx), (cy, ly) = axes[0], axes[1]
 
@@ -66,8 +66,9 @@ def pareto_png(
         ax.plot(good[:, 0], good[:, 1], ".", color="0.6", ms=5, label="feasible (screening)")
     if front:
         pts = xy(front)
-        order = np.argsort(pts[:, 0], kind="stable")
-        ax.plot(pts[order, 0], pts[order, 1], "-", color="C0", lw=1.2)
+        if len(axes) == 2:  # a third objective's front is no curve in this plane
+            order = np.argsort(pts[:, 0], kind="stable")
+            ax.plot(pts[order, 0], pts[order, 1], "-", color="C0", lw=1.2)
         colour = None
         if len(axes) > 2:
             colour = [r.get(axes[2][0]) for r in front]
