@@ -25,6 +25,7 @@ TEMPLATES = {
     "lost_motion_grade": 0,
     "compound": 0,
     "no_load_temperature": 0,
+    "sizing": 0,
 }
 
 

@@ -94,9 +94,10 @@ def test_all_formats_leave_out_what_the_scene_cannot_make():
     s = parse_scene({"export": {"formats": ["all"]}})
     left = dict(s.formats_left_out)
     need_load = {"forces", "montecarlo", "allocation", "sweeps"}
-    assert set(left) == need_load | {"datasheet", "inspection", "modification"} | (
+    assert set(left) == need_load | {"datasheet", "inspection", "modification", "sizing"} | (
         set() if _has_ocp() else {"step"}
     )
+    assert left["sizing"] == "no [sizing.requirements] rated_torque_Nm"
     assert all(left[f] == "no [load] torque" for f in need_load)
     assert left["datasheet"] == "no [load] torque and no [datasheet] rated_torque_Nm"
     assert left["inspection"] == "no [errors] measured_profile"

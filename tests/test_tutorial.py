@@ -35,6 +35,7 @@ PICTURES = [
     ("step4/modification_tradeoff.png", "tutorial_4_tradeoff.png", 640),
     ("step5b/hysteresis.png", "tutorial_5_assembled.png", 760),
     ("step6/modification.png", "tutorial_6_modification.png", 640),
+    ("step7/pareto.png", "tutorial_7_pareto.png", 640),
 ]
 
 
@@ -81,11 +82,11 @@ def tutorial(tmp_path_factory):
     return folder, run_page(folder)
 
 
-def test_the_page_has_six_steps_of_commands_files_and_pictures():
+def test_the_page_has_seven_steps_of_commands_files_and_pictures():
     text = PAGE.read_text()
     runs = [w for k, w, _ in steps(text) if k == "run"]
     files = [w for k, w, _ in steps(text) if k == "file"]
-    assert runs[0] == "corr-cad new my_drive.toml" and len(runs) == 8
+    assert runs[0] == "corr-cad new my_drive.toml" and len(runs) == 10
     assert files == [
         "datasheet.toml",
         "tolerances.toml",
@@ -93,6 +94,7 @@ def test_the_page_has_six_steps_of_commands_files_and_pictures():
         "assembly.toml",
         "assembled.toml",
         "shop.toml",
+        "size.toml",
     ]
     for _, picture, _ in PICTURES:
         assert f"(images/{picture})" in text
@@ -102,7 +104,7 @@ def test_the_page_has_six_steps_of_commands_files_and_pictures():
 @pytest.mark.slow
 def test_every_command_runs_and_exits_0(tutorial):
     folder, results = tutorial
-    assert len(results) == 8
+    assert len(results) == 10
     for key, r in results.items():
         assert r.returncode == 0, (key, r.stderr[-2000:])
     for made, _, _ in PICTURES:
@@ -152,6 +154,23 @@ def test_the_numbers_the_page_states(tutorial):
     assert (folder / "step6" / "inner_gear_nominal.csv").is_file()
     m = json.loads((folder / "step6" / "manifest.json").read_text())
     assert m["modification"]["shift_mm"] == 0.02
+    # Step 7: the front, its lightest design, and that design's own run.
+    import csv
+
+    with open(folder / "step7" / "pareto.csv", newline="") as f:
+        front = list(csv.DictReader(f))
+    first, last = front[0], front[-1]
+    assert len(front) == 4 and first["design"] == "design_01.toml"
+    chosen = (first["cam_radius"], first["eccentricity"], first["needles"])
+    assert chosen == ("130.0", "3.45", "44.0")
+    assert f"{float(first['mass_kg']):.2f}" == "21.46"
+    assert f"{float(last['mass_kg']):.2f}" == "21.51"
+    assert f"{float(first['life_margin']):.2f}" == "1.25"
+    assert f"{float(last['life_margin']):.2f}" == "1.72"
+    ref = json.loads((folder / "step7" / "manifest.json").read_text())["sizing"]["reference"]
+    assert f"{ref['mass_kg']:.2f}" == "22.58" and f"{ref['life_margin']:.2f}" == "1.01"
+    life = json.loads((folder / "step7a" / "datasheet.json").read_text())["life_h"]["system"]
+    assert life == float(first["life_h"]) and f"{life:,.0f}" == "7,475"
 
 
 @pytest.mark.slow

@@ -60,6 +60,7 @@ _PLOT_CAPTIONS = {
     "forces.png": "Forces over the cycle: envelope over all rollers, roller 1, contact pressure",
     "load_distribution.png": "Forces on every roller where the gear force peaks",
     "interference.png": "Interference check against the tessellation allowance",
+    "pareto.png": "Design search: the candidates and the front, the scene's own design starred",
     "montecarlo.png": "Monte Carlo: distributions, limits, failure probability, sensitivity",
     "hysteresis.png": "Hysteresis curve: output torque against windup, input locked",
     "transmission_error.png": "Transmission error over one output revolution, both directions",
@@ -354,6 +355,10 @@ def report_context(scene, manifest: dict, forces, files: list[str], out: Path) -
         ctx["modification"] = _flat(mod)
     if manifest.get("assembly"):
         ctx["assembly"] = assembly_rows(Path(out) / "assembly.json")
+    if manifest.get("sizing"):
+        from corr_cad.export.sizing_io import report_table
+
+        ctx["sizing"] = report_table(manifest["sizing"], Path(out) / "pareto.csv")
     ctx["files"] = [{"name": n, "accuracy": _accuracy_of(n, manifest)} for n in sorted(files)]
     ctx["plots"] = [
         {

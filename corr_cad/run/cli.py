@@ -25,28 +25,6 @@ from corr_cad.run import cli_messages as msg
 __all__ = ["main"]
 
 
-def _out_arg(text: str) -> Path | str:
-    """A path argument; an empty one stays ``""`` and is refused in :func:`main`.
-
-    ``Path("")`` is ``Path(".")``, the working folder; an empty argument is
-    almost always an unset shell variable, never a request to write there.
-    """
-    return text if text == "" else Path(text)
-
-
-def _worker_list(text: str) -> list[int]:
-    """``bench --workers 1,2,16``: worker counts, each a whole number from 1 to 1024."""
-    try:
-        counts = [int(x) for x in text.split(",")]
-    except ValueError:
-        counts = []
-    if not counts or any(not 1 <= n <= 1024 for n in counts):
-        raise argparse.ArgumentTypeError(
-            f"{text!r}: worker counts from 1 to 1024, comma-separated (e.g. 1,2,4)"
-        )
-    return counts
-
-
 def _refuse_empty(args: argparse.Namespace) -> None:
     from corr_cad.errors import OutputError
 
@@ -81,7 +59,7 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="build what a scene file asks for")
     run.add_argument("scene", type=Path, help="scene file (TOML)")
     run.add_argument(
-        "--out", type=_out_arg, default=None, help="output folder (default outputs/<scene name>)"
+        "--out", type=msg.out_arg, default=None, help="output folder (default outputs/<scene name>)"
     )
     run.add_argument("--quiet", action="store_true", help="print nothing but errors")
     run.add_argument(
@@ -110,9 +88,11 @@ def _parser() -> argparse.ArgumentParser:
     dask.add_argument("--dask-connect-timeout", type=float, metavar="S", help="default 5")
     dask.add_argument("--dask-no-workers-timeout", type=float, metavar="S", help="default 30")
     dask.add_argument("--dask-stall-timeout", type=float, metavar="S", help="default 120")
+    help_ = 'run only a scene\'s [sizing] design search (formats = ["sizing"])'
+    sub.add_parser("size", parents=[run], add_help=False, help=help_)
     bench = sub.add_parser("bench", help="measure what accuracy costs in time (tables, CSV, PNG)")
     bench.add_argument(
-        "--out", type=_out_arg, default=Path("outputs") / "bench", help="default outputs/bench"
+        "--out", type=msg.out_arg, default=Path("outputs") / "bench", help="default outputs/bench"
     )
     bench.add_argument(
         "--study",
@@ -134,13 +114,14 @@ def _parser() -> argparse.ArgumentParser:
             "progress",
             "compound",
             "bodies",
+            "sizing",
         ),
         help="run only this study (repeatable); default all",
     )
     bench.add_argument("--quick", action="store_true", help="fewer settings and repeats")
     bench.add_argument(
         "--workers",
-        type=_worker_list,
+        type=msg.worker_list,
         metavar="N,N,...",
         help="worker counts of the montecarlo study's sweep (default 1,2,4,... up to the cores)",
     )
@@ -149,13 +130,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     schema.add_argument(
         "--out",
-        type=_out_arg,
+        type=msg.out_arg,
         default=None,
         help="write it to this new file instead of printing (refuses to overwrite)",
     )
     sub.add_parser("warm-up", help="compile the numerical kernels now (once after install)")
     new = sub.add_parser("new", help="write a commented scene template")
-    new.add_argument("scene", type=_out_arg, help="file to create (refuses to overwrite)")
+    new.add_argument("scene", type=msg.out_arg, help="file to create (refuses to overwrite)")
     return p
 
 
@@ -210,6 +191,8 @@ def _run(args: argparse.Namespace, state: dict) -> int:
         from corr_cad.run.dask_exec import check_address
 
         check_address(args.scheduler)  # a malformed one is refused before anything starts
+    if args.command == "size":
+        from corr_cad.run.scene.scene_sizing import load_sizing_scene as load_scene
     scene = load_scene(args.scene)
     # Refused here, with one line, before any folder or worker exists.
     budget = budget_for(scene, args.max_memory, args.max_output, args.warn_time)
@@ -270,9 +253,11 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     bad = manifest.get("inspection", {}).get("failed")
     if bad:
         print(f"corr-cad: inspection failed: {'; '.join(bad)}", file=sys.stderr)
-    asm = manifest.get("assembly", {}).get("failed", []) + manifest.get(
-        "modification_design", {}
-    ).get("failed", [])
+    asm = [
+        *manifest.get("assembly", {}).get("failed", []),
+        *manifest.get("modification_design", {}).get("failed", []),
+        *manifest.get("sizing", {}).get("failed", []),
+    ]
     if asm:
         print(f"corr-cad: {'; '.join(asm)}", file=sys.stderr)
     if failed or bad or asm:
@@ -413,7 +398,7 @@ def _executor(
     """
     from corr_cad.errors import SceneError
 
-    needs = {"montecarlo", "allocation", "sweeps"} & set(scene.formats)
+    needs = {"montecarlo", "allocation", "sweeps", "sizing"} & set(scene.formats)
     if args.executor == "dask":
         if not args.scheduler:
             raise SceneError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")
@@ -522,7 +507,7 @@ def _schema(args: argparse.Namespace) -> int:
 #: Longest error or warning line printed (a message quoting a file is cut).
 def _dispatch(args: argparse.Namespace, state: dict) -> int:
     _refuse_empty(args)
-    if args.command == "run":
+    if args.command in ("run", "size"):
         return _run(args, state)
     if args.command == "bench":
         from corr_cad.run.bench.bench import STUDIES, run

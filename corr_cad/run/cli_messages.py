@@ -17,6 +17,8 @@ import sys
 from pathlib import Path
 
 __all__ = [
+    "out_arg",
+    "worker_list",
     "INTERNAL_ERROR",
     "MAX_LINE",
     "error",
@@ -142,3 +144,25 @@ def shown_path(name: object) -> str:
     """A file name for an error line: the path as given, its start cut if very long."""
     text = os.fsdecode(name) if isinstance(name, (str, bytes)) else str(name)
     return text if len(text) <= 160 else "..." + text[-157:]
+
+
+def out_arg(text: str) -> Path | str:
+    """A path argument; an empty one stays ``""`` and is refused in :func:`main`.
+
+    ``Path("")`` is ``Path(".")``, the working folder; an empty argument is
+    almost always an unset shell variable, never a request to write there.
+    """
+    return text if text == "" else Path(text)
+
+
+def worker_list(text: str) -> list[int]:
+    """``bench --workers 1,2,16``: worker counts, each a whole number from 1 to 1024."""
+    try:
+        counts = [int(x) for x in text.split(",")]
+    except ValueError:
+        counts = []
+    if not counts or any(not 1 <= n <= 1024 for n in counts):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: worker counts from 1 to 1024, comma-separated (e.g. 1,2,4)"
+        )
+    return counts

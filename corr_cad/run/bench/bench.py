@@ -21,6 +21,7 @@ from corr_cad.run.bench.bench_drive import drive_speed
 from corr_cad.run.bench.bench_friction import friction_speed
 from corr_cad.run.bench.bench_progress import progress_study
 from corr_cad.run.bench.bench_resources import resources
+from corr_cad.run.bench.bench_sizing import sizing_speed
 from corr_cad.run.bench.bench_speed import (
     cold_start,
     kernel_crossover,
@@ -49,6 +50,7 @@ STUDIES = {
     "progress": progress_study,
     "compound": compound_speed,
     "bodies": bodies_speed,
+    "sizing": sizing_speed,
 }
 
 

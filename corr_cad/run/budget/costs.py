@@ -23,6 +23,7 @@ from corr_cad.run.budget.costs_datasheet import datasheet_size
 from corr_cad.run.budget.costs_friction import friction_seconds
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
 from corr_cad.run.budget.costs_montecarlo import DRIVE_FORCE_SECONDS, datasheet_pass, drive_seconds
+from corr_cad.run.budget.costs_sizing import sizing_work
 
 __all__ = ["Cost", "Env", "ESTIMATORS", "LIBRARY_BYTES", "stage_cost", "MB"]
 
@@ -429,6 +430,9 @@ def _montecarlo(scene, env):
         task_seconds=task,
         **{**work, "libraries": work["libraries"] + ("matplotlib",)},
     )
+
+
+ESTIMATORS["sizing"] = lambda s, env: Cost(**sizing_work(s, env.workers, env.local_workers))
 
 
 @stage_cost("allocation")

@@ -409,6 +409,7 @@ KNOBS = {
             ("sweeps", "positions"),
             ("datasheet", "positions_per_mesh"),
             ("datasheet", "transmission_error_positions_per_turn"),
+            ("sizing", "evaluations"),
         )
     },
     **{

@@ -95,6 +95,7 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
         r"modified\.toml",
         r"modified_normal\.csv",
     ),
+    "sizing": (r"sizing\.csv", r"pareto\.(?:csv|png)", r"design_\d\d\.toml"),
     "report": (r"report\.html",),
 }
 

@@ -53,6 +53,7 @@ from corr_cad.run.scene.scene_schema import (  # noqa: F401  (re-exported: the s
     key_range,
 )
 from corr_cad.run.scene.scene_schema_friction import friction_sections
+from corr_cad.run.scene.scene_schema_sizing import parse_sizing, split_sizing_tables
 from corr_cad.run.scene.scene_suggest import verified_examples
 from corr_cad.run.scene.scene_text import (  # noqa: F401
     bounds_table,
@@ -137,6 +138,8 @@ class Scene:
     modification_design: dict = field(default_factory=dict)
     #: ``[first_stage]``: :class:`~corr_cad.geometry.first_stage.FirstStageGeometry` or None.
     first_stage: Any = None
+    #: ``[sizing]`` with its requirements, variables' levels and the scene it varies ({}: none).
+    sizing: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     #: ``[budget]``: memory_gb, output_gb, time_warning_s (None: the defaults).
     budget: dict = field(default_factory=dict)
@@ -258,7 +261,9 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
             f"the scene {show(name)} is empty; give at least one section ({', '.join(SCHEMA)}); "
             "'corr-cad new FILE' writes a template"
         )
-    data = lub.split_thermal_test(drv.split_drive_tables(split_design_table(data)))
+    data = split_sizing_tables(
+        lub.split_thermal_test(drv.split_drive_tables(split_design_table(data)))
+    )
     unknown = [s for s in data if s not in SCHEMA]
     if unknown:
         raise SceneError(
@@ -520,6 +525,7 @@ def parse_scene(data: dict, name: str = "scene", base_dir: Path | None = None) -
         assembly=assembly,
         modification_design=search,
         first_stage=first_stage,
+        sizing=parse_sizing(values, data, formats, first_stage, drive["bearing"]),
         budget=values["budget"],
         dask=values["dask"],
         source={

@@ -80,7 +80,17 @@ def split_drive_tables(data: dict) -> dict:
 
 
 # Sections recorded in the run's inputs only where the scene gives them.
-OPTIONAL_SECTIONS = ("friction", "life", "first_stage", "lubrication", "thermal", "thermal.test")
+OPTIONAL_SECTIONS = (
+    "friction",
+    "life",
+    "first_stage",
+    "lubrication",
+    "thermal",
+    "thermal.test",
+    "sizing",
+    "sizing.requirements",
+    "sizing.variables",
+)
 
 
 def recorded(section: str, key: str, data: dict) -> bool:

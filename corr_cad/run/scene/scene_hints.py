@@ -121,6 +121,8 @@ def every_format(
             ),
         ),
     }
+    sized = values.get("sizing.requirements", {}).get("rated_torque_Nm") is not None
+    needs["sizing"] = ((sized, "no [sizing.requirements] rated_torque_Nm"),)
     why = {f: next((w for ok, w in needs.get(f, ()) if not ok), None) for f in FORMATS}
     made = tuple(f for f in FORMATS if why.get(f) is None)
     return made, tuple((f, why[f]) for f in FORMATS if why.get(f) is not None)

@@ -18,6 +18,7 @@ from corr_cad.run.scene import (
     scene_schema_modification,
     scene_schema_run,
     scene_schema_shop,
+    scene_schema_sizing,
     scene_schema_tolerance,
 )
 from corr_cad.run.scene.scene_key import (  # noqa: F401  (re-exported)
@@ -49,6 +50,7 @@ FORMATS = (
     "cmm",
     "inspection",
     "modification",
+    "sizing",
     "report",
 )
 
@@ -460,5 +462,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
     **scene_schema_shop.SECTIONS,
     **scene_schema_modification.SECTIONS,
     **scene_schema_first_stage.SECTIONS,
+    **scene_schema_sizing.SECTIONS,
     **scene_schema_run.SECTIONS,
 }

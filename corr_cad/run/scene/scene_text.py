@@ -28,6 +28,8 @@ _MESH = {"stl", "3mf", "glb", "ply"}
 def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tuple[str, ...]:
     """One line for each given section or key that does nothing in this scene."""
     f = set(formats)
+    if "sizing" in f:  # each candidate is a datasheet and forces run of a scene like this
+        f |= {"datasheet", "forces"}
     forces = "forces" in f or checks  # the checks run the force solver
     sheet = "datasheet" in f or bool(set(_DATASHEET_CHECKS) & set(data.get("checks", {})))
     mc = bool({"montecarlo", "allocation"} & f)
@@ -53,6 +55,11 @@ def no_effect_warnings(data: dict, formats: tuple[str, ...], checks: bool) -> tu
         warn("[tolerances]", 'formats lists neither "montecarlo" nor "allocation"')
     if "sweeps" in data and "sweeps" not in f:
         warn("[sweeps]", 'formats does not list "sweeps"')
+    sz = data.get("sizing") if isinstance(data.get("sizing"), dict) else {}
+    for sec in ("sizing", "sizing.requirements", "sizing.variables"):
+        given = sec in data or sec.removeprefix("sizing.") in sz
+        if given and "sizing" not in f:
+            warn(f"[{sec}]", 'formats does not list "sizing"')
     if "load" in data and not solver and "first_stage" not in data:  # its loads use it
         warn(
             "[load]",

@@ -41,6 +41,12 @@ def _drive(ctx: RunContext) -> None:
     drive(ctx)
 
 
+def _sizing(ctx: RunContext) -> None:
+    from corr_cad.run.stages.stages_sizing import sizing
+
+    sizing(ctx)
+
+
 def _report(ctx: RunContext) -> None:
     from corr_cad.export.report import write_report
 
@@ -97,6 +103,7 @@ STAGES: dict[str, Stage] = {
             _drive,
             "the whole drive: ratio, mass, inertia, first-stage loads",
         ),
+        Stage("sizing", (), _sizing, "design search: candidates, front, design scenes"),
         Stage("report", (), _report, "report.html (runs last, reads what the run made)"),
     )
 }
@@ -115,6 +122,7 @@ FORMAT_TARGETS = {
     "sweeps": "sweeps",
     **{"edm": "edm_files", "cmm": "cmm_points", "inspection": "inspection"},
     "modification": "modification_design",
+    "sizing": "sizing",
     "report": "report",
 }
 
