@@ -76,3 +76,15 @@ def test_the_seeds_hold_held_preloaded_rows_of_both_laws():
             v = solver._row_centre(c, idx, v0)
             count[law] += int(np.sum(_row_force(solver, c, idx, v) > 1e-9))
     assert min(count.values()) >= 20, count
+
+
+def test_the_drive_kernels_hold_one_specialisation_for_both_laws():
+    """The warm-up's drive runs (both contact laws, with and without a clearance) leave each
+    top-level drive kernel with one compiled type signature: numba compiles it once (a
+    read-only broadcast view among the arguments made a second)."""
+    from corr_cad.mechanics import drive_centre, drive_kernel
+    from corr_cad.run import warmup
+
+    warmup._drive_kernels()
+    for kernel in (drive_kernel.bearing_newton, drive_centre._centres):
+        assert len(kernel.signatures) == 1, kernel.signatures

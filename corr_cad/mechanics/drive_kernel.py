@@ -495,7 +495,8 @@ def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int,
         law = 0
         T = CompiledInverse(comp, (P, N)).table.reshape(11, P, N)
         K = np.zeros((1, 1))
-        slope0 = np.ascontiguousarray(np.broadcast_to(comp.slope0, (P, N)), dtype=float)
+        # A copy: a broadcast view is read-only, a second type numba would compile for.
+        slope0 = np.array(np.broadcast_to(comp.slope0, (P, N)), dtype=float, order="C")
     bearings = solver.bearings
     dirs = np.ascontiguousarray(np.stack([b.directions() for b in bearings]))
     bear = np.array(

@@ -43,7 +43,7 @@ GROUPS = (
     (
         "drive kernels",
         ("drive_laws", "drive_kernel", "drive_centre"),
-        40,
+        15,
         "the drive's Monte Carlo, allocation, design",
     ),
 )
