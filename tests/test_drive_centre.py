@@ -88,3 +88,24 @@ def test_the_drive_kernels_hold_one_specialisation_for_both_laws():
     warmup._drive_kernels()
     for kernel in (drive_kernel.bearing_newton, drive_centre._centres):
         assert len(kernel.signatures) == 1, kernel.signatures
+
+
+def test_the_free_play_kernels_compile_once(tmp_path):
+    """From an empty cache (a fresh process: kernels loaded from a cache list no callees),
+    the free interval's kernels are each compiled for one type signature (the counters
+    typed as int64 from the start; a literal 0 made numba compile every callee twice)."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "from corr_cad.run import warmup; warmup._free_play()\n"
+        "from corr_cad.mechanics import free_play as fp\n"
+        "ks = (fp._width, fp._golden_centre, fp._feasible_y, fp._envelope_max, fp._free_rows)\n"
+        "print([len(k.signatures) for k in ks])\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "[1, 1, 1, 1, 1]", out.stdout
