@@ -326,3 +326,28 @@ def test_wire_contour_is_tangent_continuous(edm_run):
     # a 1e-4 mm number format turns a tangent by ~1e-4 / radius; 0.6 deg is 1e-2 rad
     assert max(kinks) < 1e-3, math.degrees(max(kinks))
     assert sum(m["kind"] != 1 for m in contour) > 0.9 * len(contour)  # arcs, not chords
+
+
+def test_all_moves_at_once_are_each_moves_points_bit_for_bit():
+    """The measurement's points of all moves at once equal :meth:`Move.points` move by move."""
+    from corr_cad.shop.edm import Move, _moves_at
+
+    rng = np.random.default_rng(7)
+    moves = []
+    for i in range(60):
+        a = tuple(np.round(rng.uniform(-50, 50, 2), 4))
+        b = tuple(np.round(rng.uniform(-50, 50, 2), 4))
+        if i % 3 == 0:
+            moves.append(Move("line", a, b))
+        else:
+            c = tuple(np.round(0.5 * (np.add(a, b)) + rng.uniform(-5, 5, 2), 4))
+            moves.append(Move("arc", a, b, c, bool(i % 2)))
+    moves = tuple(moves)
+    u = np.linspace(0.0, 1.0, 17)
+    uu = rng.uniform(0.0, 1.0, len(moves))
+    for ra in (0.0, 1.0, 0.3):
+        at = _moves_at(moves, ra)
+        ref = np.concatenate([m.points(u, ra) for m in moves])
+        assert np.array_equal(at(np.broadcast_to(u, (len(moves), 17))), ref)
+        one = np.concatenate([m.points(np.array([x]), ra) for m, x in zip(moves, uu, strict=True)])
+        assert np.array_equal(at(uu[:, None]), one)

@@ -22,35 +22,10 @@ import math
 import numpy as np
 
 from corr_cad.mechanics.drive import DRIVE_RTOL, DriveSolver
-from corr_cad.mechanics.mc_kernel import _approach, _jit
+from corr_cad.mechanics.drive_laws import _invert_one, _palmgren
+from corr_cad.mechanics.mc_kernel import _jit
 
 __all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
-
-# Rows of the per-roller table: cam, gear and slot contacts (b^2 per unit force,
-# weight, curvatures, knee).
-CJ, K1, KC, UKJ, CN, WN, KG, UKN, CS, WS, UKS = range(11)
-
-
-@_jit
-def _invert_one(hi, f, T, i):
-    """``(F, dF/dh)`` of roller ``i`` at overlap ``hi > 0`` by Newton from ``f``
-    (``T``: the contacts' table, a column per roller)."""
-    cj, k1, kc, ukj = T[CJ, i], T[K1, i], T[KC, i], T[UKJ, i]
-    cn, wn, kg, ukn = T[CN, i], T[WN, i], T[KG, i], T[UKN, i]
-    cs, ws, uks = T[CS, i], T[WS, i], T[UKS, i]
-    dg = 1.0
-    for _ in range(60):
-        vj, sj = _approach(cj * f, ukj, k1, kc)
-        vn, sn = _approach(cn * f, ukn, k1, kg)
-        vs, ss = _approach(cs * f, uks, k1, 0.0)
-        g = vj + wn * vn + ws * vs
-        dg = cj * sj + wn * cn * sn + ws * cs * ss
-        step = (g - hi) / dg
-        f = max(f - step, 0.0)
-        if abs(step) <= 1e-15 * f + 1e-300:
-            break
-    # G' of the last iterate: within 1e-15 of the force's own (the step was below it).
-    return f, (1.0 / dg if f > 0.0 else 0.0)
 
 
 @_jit
@@ -108,18 +83,8 @@ class CompiledInverse:
 
 # ---------------------------------------------------------------- the bearing Newton
 
-_EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
 _IDLE = 1e-9  # drive._IDLE_FORCE
 _MAX_STEP = 1e-2  # drive._MAX_TAU_STEP, drive._MAX_U_STEP
-
-
-@_jit
-def _palmgren(d, c):
-    """``(Q, dQ/d delta)`` of ``delta = c Q^0.9`` (both 0 for ``delta <= 0``)."""
-    if not d > 0.0:
-        return 0.0, 0.0
-    q = (d / c) ** (1.0 / _EXP)
-    return q, q / (_EXP * d)
 
 
 @_jit
@@ -530,7 +495,8 @@ def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int,
         law = 0
         T = CompiledInverse(comp, (P, N)).table.reshape(11, P, N)
         K = np.zeros((1, 1))
-        slope0 = np.ascontiguousarray(np.broadcast_to(comp.slope0, (P, N)), dtype=float)
+        # A copy: a broadcast view is read-only, a second type numba would compile for.
+        slope0 = np.array(np.broadcast_to(comp.slope0, (P, N)), dtype=float, order="C")
     bearings = solver.bearings
     dirs = np.ascontiguousarray(np.stack([b.directions() for b in bearings]))
     bear = np.array(
@@ -568,10 +534,21 @@ def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int,
 
 
 class CompiledDriveSolver(DriveSolver):
-    """:class:`~corr_cad.mechanics.drive.DriveSolver` whose bearing Newton runs compiled
-    (:func:`bearing_newton`; the linear contact law keeps the numpy Newton)."""
+    """:class:`~corr_cad.mechanics.drive.DriveSolver` whose bearing Newton and preloaded
+    row's cam centre run compiled (:func:`bearing_newton`,
+    :func:`corr_cad.mechanics.drive_centre.row_centres`; the linear contact law keeps the
+    numpy ones)."""
 
     def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
         if getattr(self.comp, "linear", False):
             return super()._with_bearings(target, tau, F, iterations, max_iter)
         return bearing_solve(self, target, tau, F, iterations, max_iter, DRIVE_RTOL)
+
+    def _row_centre(self, c, idx, v):
+        if getattr(self.comp, "linear", False):
+            return super()._row_centre(c, idx, v)
+        from corr_cad.mechanics.drive_centre import row_centres
+
+        explicit = getattr(self.comp, "explicit", False)
+        table = None if explicit else CompiledInverse(self.comp, self.geo_joined.gap.shape).table
+        return row_centres(self, c, idx, v, DRIVE_RTOL, table)

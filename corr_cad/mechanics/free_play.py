@@ -162,7 +162,7 @@ def _free_rows(g, n, c, e, want_centre, rev, fwd, centre):
     nB, nN = np.empty(R), np.empty(R)
     fg, fy = np.empty(R), np.empty(R)
     for p in range(P):
-        nr = nl = nf = 0
+        nr, nl, nf = np.int64(0), np.int64(0), np.int64(0)
         big = 0.0
         for k in range(R):
             gg, nx, ny = g[p, k], n[p, k, 0], n[p, k, 1]

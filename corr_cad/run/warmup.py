@@ -40,7 +40,12 @@ GROUPS = (
     ("Monte Carlo kernel", ("mc_kernel",), 12, "the paper's row, large Monte Carlos"),
     ("datasheet windup kernel", ("mc_windup_kernel",), 8, "datasheet metrics in a Monte Carlo"),
     ("free-play kernel", ("free_play",), 4, "the drive's backlash with a bearing clearance"),
-    ("drive kernels", ("drive_kernel",), 40, "the drive's Monte Carlo, allocation, design"),
+    (
+        "drive kernels",
+        ("drive_laws", "drive_kernel", "drive_centre"),
+        15,
+        "the drive's Monte Carlo, allocation, design",
+    ),
 )
 
 _JIT = re.compile(r"^@_jit\s*\ndef (\w+)", re.M)
@@ -97,9 +102,13 @@ def _paper_kernels(datasheet: bool) -> None:
 
 
 def _drive_kernels() -> None:
+    import numpy as np
+
     from corr_cad.geometry.design import GearDesign
     from corr_cad.mechanics.bearing import EccentricBearing
     from corr_cad.mechanics.datasheet import DatasheetSpec
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.solver_geometry import cycle_angles
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
     from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 
@@ -111,6 +120,9 @@ def _drive_kernels() -> None:
             bearing = EccentricBearing(40, 6.0, 12.0, diametral_clearance=clearance)
             drive = {"bearing": bearing, "contact_model": law}
             monte_carlo(design, 1.1e5, tol, 1, 1, 4, drive=drive, datasheet=sheet)
+        # A preloaded row's cam centre (the samples above may hold none).
+        solver = CompiledDriveSolver(design, cycle_angles(2), bearing=bearing, contact_model=law)
+        solver._row_centre(0, np.arange(1), np.zeros((1, 2)))
 
 
 def _free_play() -> None:

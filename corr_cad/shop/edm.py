@@ -362,9 +362,38 @@ def _measure(curve: ProfileCurve, moves: tuple[Move, ...], samples: int = 17) ->
     return max(_measure_at(curve, moves, samples, ra) for ra in (0.0, 1.0))
 
 
+def _moves_at(moves: tuple[Move, ...], ra: float):
+    """Points of every move at its own fractions: ``f(uu)``, ``uu`` (n, k) -> (n * k, 2).
+
+    The same arithmetic as :meth:`Move.points` element for element (the same
+    bits), over all moves at once; each move's radius and start angle are
+    computed once, by the same calls.
+    """
+    n = len(moves)
+    a = np.array([m.start for m in moves], dtype=float)
+    d = np.array([m.end for m in moves], dtype=float) - a
+    arc = np.array([m.kind != "line" for m in moves])
+    c, a0, sweep, rad = np.zeros((n, 2)), np.zeros(n), np.zeros(n), np.zeros(n)
+    for i in np.flatnonzero(arc):
+        m = moves[i]
+        ci, ai, bi = np.asarray(m.centre), np.asarray(m.start), np.asarray(m.end)
+        r0, r1 = np.linalg.norm(ai - ci), np.linalg.norm(bi - ci)
+        c[i], a0[i], sweep[i] = ci, math.atan2(ai[1] - ci[1], ai[0] - ci[0]), m.sweep_rad
+        rad[i] = r0 + ra * (r1 - r0)
+
+    def at(uu: np.ndarray) -> np.ndarray:
+        line = a[:, None, :] + uu[:, :, None] * d[:, None, :]
+        ang = a0[:, None] + uu * sweep[:, None]
+        circ = c[:, None, :] + rad[:, None, None] * np.stack([np.cos(ang), np.sin(ang)], axis=2)
+        return np.where(arc[:, None, None], circ, line).reshape(-1, 2)
+
+    return at
+
+
 def _measure_at(curve: ProfileCurve, moves: tuple[Move, ...], samples: int, ra: float) -> float:
     u = np.linspace(0.0, 1.0, samples)
-    pts = np.concatenate([m.points(u, ra) for m in moves])
+    at = _moves_at(moves, ra)
+    pts = at(np.broadcast_to(u, (len(moves), samples)))
     d, t = signed_normal_distance(curve, pts)
     d = np.abs(d).reshape(len(moves), samples)
     t = t.reshape(len(moves), samples)
@@ -375,7 +404,7 @@ def _measure_at(curve: ProfileCurve, moves: tuple[Move, ...], samples: int, ra: 
     g = 0.5 * (math.sqrt(5.0) - 1.0)
 
     def dist_at(uu):
-        p = np.concatenate([m.points(np.array([x]), ra) for m, x in zip(moves, uu, strict=True)])
+        p = at(np.asarray(uu, dtype=float)[:, None])
         return np.abs(signed_normal_distance(curve, p, seed)[0])
 
     x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)

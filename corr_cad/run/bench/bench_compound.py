@@ -8,7 +8,9 @@ see the same machine load. Reported per run: the wall time, the CPU time
 (user + system of the child processes: the STEP pool worker's too), the
 STEP stage's seconds (it runs in a pool worker beside the others on two
 cores or more) and the sum of the other stages' seconds, from
-``manifest.json``. Measured, never asserted.
+``manifest.json``. A fourth row runs ``templates/compound.toml`` with
+``formats = ["all"]`` where the source tree holds it (its own folder
+beside the scene, as a user runs it). Measured, never asserted.
 """
 
 from __future__ import annotations
@@ -49,6 +51,19 @@ FIRST_STAGE_SCENE = _FIRST_STAGE + PROTOTYPE_SCENE.replace(
 ).replace("input_torque = 1.1e5", "input_torque_Nm = 22.0")
 
 
+#: The bundled compound template, in the source tree (absent from an installed wheel).
+COMPOUND_TEMPLATE = Path(__file__).resolve().parents[3] / "templates" / "compound.toml"
+
+
+def compound_all_scene() -> str | None:
+    """``templates/compound.toml`` with ``formats = ["all"]``, or None where it is not here."""
+    if not COMPOUND_TEMPLATE.is_file():
+        return None
+    lines = COMPOUND_TEMPLATE.read_text(encoding="utf-8").splitlines()
+    lines = ['formats = ["all"]' if ln.startswith("formats =") else ln for ln in lines]
+    return "\n".join(lines) + "\n"
+
+
 def _run_once(scene: Path, out: Path, serial: bool) -> list[float]:
     """``[wall s, CPU s, step_files s, other stages s]`` of one fresh run."""
     import resource
@@ -83,6 +98,9 @@ def compound_speed(out: Path, quick: bool = False) -> list:
             True,
         ),
     }
+    every = compound_all_scene()
+    if every is not None:
+        cases['templates/compound.toml, formats = ["all"]'] = (every, False)
     runs: dict[str, list[list[float]]] = {label: [] for label in cases}
     with tempfile.TemporaryDirectory() as tmp:
         for _ in range(repeat):  # interleaved: each case sees the same load
