@@ -4,7 +4,9 @@ The reproducer of ``docs/outputs.md`` ("Opening the assembly in FreeCAD"):
 two placed instances written by :func:`corr_cad.export.step.write_assembly_step`
 open headless with FreeCAD's import preference ``UseLinkGroup`` off, each a
 solid of the part's volume; with it on (FreeCAD's default) its importer
-crashes, on FreeCAD's own export as well.
+crashes, on FreeCAD's own export as well. The same two instances written by
+:func:`corr_cad.export.step.write_compound_step` (one compound, the file a
+run writes as ``assembly_<angle>deg_freecad.step``) open with its defaults.
 """
 
 from __future__ import annotations
@@ -76,3 +78,30 @@ def test_freecad_s_default_importer_crashes_on_two_instances(tmp_path):
     if r.returncode != 0:  # FreeCAD's handler prints the signal and a backtrace
         out = r.stdout + r.stderr
         assert "SIGSEGV" in out or "Segmentation fault" in out or r.returncode == -11, out[-2000:]
+
+
+def test_the_freecad_variant_opens_with_freecad_s_defaults(tmp_path):
+    pytest.importorskip("OCP")
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+
+    from corr_cad.export.step import write_compound_step
+    from corr_cad.geometry.placement import Placement
+
+    box = BRepPrimAPI_MakeBox(10.0, 10.0, 10.0).Shape()
+    placements = [
+        Placement("b1", "box", 0.0, np.zeros(3), np.zeros(2)),
+        Placement("b2", "box", 0.3, np.array([20.0, 0.0, 0.0]), np.zeros(2)),
+    ]
+    step = write_compound_step({"box": box}, placements, tmp_path / "c.step", "asm")
+    script = tmp_path / "default.py"  # no preference set: FreeCAD's defaults
+    script.write_text(
+        OPEN.split("FreeCAD.ParamGet")[0] + OPEN.split("{link_group})")[1].format(path=str(step))
+    )
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(home)}
+    r = subprocess.run([FREECAD, str(script)], capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    line = next(ln for ln in r.stdout.splitlines() if ln.startswith("PARTS"))
+    # Each instance its own solid (FreeCAD names them Solid, Solid001), and the compound.
+    assert line == "PARTS ['Solid', 'Solid001'] [1000.0, 1000.0]"

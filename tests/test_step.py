@@ -12,6 +12,7 @@ import builtins
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -327,6 +328,59 @@ def test_assembly_step_has_named_parts_where_the_mesh_assembly_has_them(run):
     expected = 2 * vols["inner_gear"][0] + 2 * vols["disk_cam"][0] + 3 * vols["teeth_frame"][0]
     assert total == pytest.approx(expected + 2 * (z + 1) * vols["roller"][0], rel=1e-5)
     assert manifest["step"][f"assembly_{tag}.step"]["instances"] == len(parts)
+
+
+@pytest.mark.slow
+def test_assembly_freecad_variant_is_every_instance_as_a_named_solid(run):
+    """``assembly_<angle>deg_freecad.step``: one product, one compound, a solid
+    an instance where the assembly puts it, of the part's exact volume."""
+    name, d, out, manifest = run
+    tag = f"{int(ANGLE[name]):03d}deg"
+    _, parts = step.read_step(out / f"assembly_{tag}.step", heal=False)
+    path = out / f"assembly_{tag}_freecad.step"
+    top, whole = step.read_step(path, heal=False)
+    assert top == f"assembly_{tag}" and len(whole) == 1  # no assembly structure
+    solids = step.read_solids(path, heal=False)
+    assert len(solids) == len(parts)
+    for solid, p in zip(solids, parts, strict=True):  # in the placements' order
+        np.testing.assert_allclose(
+            step.bounding_box(solid, optimal=False),
+            step.bounding_box(p.shape, optimal=False),
+            atol=1e-9,
+        )
+    # Each solid carries its instance's name in the file.
+    names = re.findall(r"MANIFOLD_SOLID_BREP\('([^']*)'", path.read_text())
+    assert names == _expected_names(d["tooth_count"])
+    z, vols = d["tooth_count"], exact_solids(d)
+    expected = 2 * vols["inner_gear"][0] + 2 * vols["disk_cam"][0] + 3 * vols["teeth_frame"][0]
+    expected += 2 * (z + 1) * vols["roller"][0]
+    total = sum(step.mass_properties(s)[0] for s in solids)
+    assert total == pytest.approx(expected, rel=1e-5)
+    facts = manifest["step"][f"assembly_{tag}_freecad.step"]
+    assert facts["solids"] == len(parts)
+    assert abs(facts["volume_relative_error"]) <= 1e-9
+    assert f"assembly_{tag}_freecad.step" in manifest["files"]
+
+
+def test_compound_writer_names_each_placed_solid(tmp_path):
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+
+    from corr_cad.geometry.placement import Placement
+
+    box = BRepPrimAPI_MakeBox(10.0, 10.0, 10.0).Shape()
+    placements = [
+        Placement("b1", "box", 0.0, np.zeros(3), np.zeros(2)),
+        Placement("b2", "box", math.pi / 2, np.array([20.0, 0.0, 0.0]), np.zeros(2)),
+    ]
+    path = step.write_compound_step({"box": box}, placements, tmp_path / "c.step", "asm")
+    assert step.read_step(path)[0] == "asm"
+    solids = step.read_solids(path)
+    assert [step.mass_properties(s)[0] for s in solids] == pytest.approx([1000.0, 1000.0])
+    # b2 turned by -90 deg about z (polar angles clockwise), then moved 20 mm in x.
+    np.testing.assert_allclose(
+        step.bounding_box(solids[1]), [[20.0, -10.0, 0.0], [30.0, 0.0, 10.0]], atol=1e-7
+    )
+    assert re.findall(r"MANIFOLD_SOLID_BREP\('([^']*)'", path.read_text()) == ["b1", "b2"]
 
 
 @pytest.mark.slow

@@ -128,6 +128,11 @@ def _accuracy_of(name: str, manifest: dict) -> str:
                 f"read back: {s['instances']} named instances, placement error "
                 f"{_fmt(s.get('max_placement_error_mm'), 3)} mm"
             )
+        if "solids" in s:  # FreeCAD's variant of the assembly: one compound
+            return (
+                f"the assembly as one compound for FreeCAD: {s['solids']} solids, "
+                f"volume relative error {_fmt(s['volume_relative_error'], 3)}"
+            )
         text = f"read back: volume error {_fmt(s['volume_error_mm3'], 3)} mm^3"
         if s.get("profile_spline_deviation_mm") is not None:
             text += f", profile spline {_fmt(s['profile_spline_deviation_mm'], 3)} mm"

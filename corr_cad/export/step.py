@@ -42,6 +42,8 @@ __all__ = [
     "part_shapes",
     "write_step",
     "write_assembly_step",
+    "write_compound_step",
+    "read_solids",
     "read_step",
     "StepPart",
     "mass_properties",
@@ -269,8 +271,9 @@ def _set_name(label, name: str) -> None:
     _static(TDataStd_Name, "Set")(label, TCollection_ExtendedString(name))
 
 
-def _write_document(doc, path: Path, what: str) -> Path:
-    """Write an XCAF document as STEP AP214 (mm) via a temporary file."""
+def _write_document(doc, path: Path, what: str, subshape_names: bool = False) -> Path:
+    """Write an XCAF document as STEP AP214 (mm) via a temporary file;
+    ``subshape_names`` writes the names of sub-shape labels (on their solids)."""
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.Interface import Interface_Static
     from OCP.STEPCAFControl import STEPCAFControl_Writer
@@ -286,6 +289,7 @@ def _write_document(doc, path: Path, what: str) -> Path:
     # reader without them must rebuild them by shape healing, and an unhealed
     # read of such a file gives Open CASCADE's GProp a third of the volume.
     _static(Interface_Static, "SetIVal")("write.surfacecurve.mode", 1)
+    _static(Interface_Static, "SetIVal")("write.stepcaf.subshapes.name", int(subshape_names))
     writer.SetNameMode(True)
     writer.SetColorMode(False)
     writer.SetLayerMode(False)
@@ -345,6 +349,42 @@ def write_assembly_step(
         _set_name(comp, p.name)
     tool.UpdateAssemblies()
     return _write_document(doc, path, name)
+
+
+def write_compound_step(shapes: dict, placements: list[Placement], path: Path, name: str) -> Path:
+    """Write every placed instance as its own solid of one compound, the
+    file's only product ``name``, without an assembly structure; each solid
+    carries its instance's name (``MANIFOLD_SOLID_BREP``). FreeCAD 0.20's
+    headless importer opens this with its default preferences, where it
+    crashes on any file of two or more shapes."""
+    require_ocp()
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound
+
+    builder, compound = BRep_Builder(), TopoDS_Compound()
+    builder.MakeCompound(compound)
+    moved = [shapes[p.part].Moved(_location(p)) for p in placements]
+    for shape in moved:
+        builder.Add(compound, shape)
+    doc, tool = _new_document()
+    top = tool.AddShape(compound, False, False)
+    _set_name(top, name)
+    for p, shape in zip(placements, moved, strict=True):
+        _set_name(tool.AddSubShape(top, shape), p.name)
+    return _write_document(doc, path, name, subshape_names=True)
+
+
+def read_solids(path: Path, heal: bool = True) -> list:
+    """The solids of a STEP file, in file order (Open CASCADE's own reader)."""
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+
+    explorer = TopExp_Explorer(_read_one_shape(path, heal), TopAbs_SOLID)
+    solids = []
+    while explorer.More():
+        solids.append(explorer.Current())
+        explorer.Next()
+    return solids
 
 
 # --- reading back -------------------------------------------------------------

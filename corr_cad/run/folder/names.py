@@ -63,7 +63,8 @@ OUTPUT_PATTERNS: dict[str, tuple[str, ...]] = {
     **{
         fmt: (
             rf"{_PARTS}\.{fmt}",
-            rf"assembly_{ANGLE_TAG_PATTERN}\.{fmt}",
+            # FreeCAD's variant of each assembly (one compound) comes with `step`.
+            rf"assembly_{ANGLE_TAG_PATTERN}{'(?:_freecad)?' if fmt == 'step' else ''}\.{fmt}",
             rf"{_any(FIRST_STAGE_FILE_STEMS)}\.{fmt}",
             rf"{_any(BEARING_FILE_STEMS)}\.{fmt}",
         )

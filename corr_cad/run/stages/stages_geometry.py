@@ -213,7 +213,35 @@ def _step_files(ctx: RunContext) -> None:
             "max_placement_error_mm": offset,
         }
         ctx.files.append(fname)
+        _freecad_step_file(ctx, shapes, placements, parts, tag, report)
     ctx.manifest["step"] = report
+
+
+def _freecad_step_file(ctx: RunContext, shapes, placements, parts, tag: str, report) -> None:
+    """The assembly as one compound of its placed solids (FreeCAD 0.20's default
+    importer opens it): read back, as many solids as instances, of the
+    assembly's total volume."""
+    from corr_cad.export import step
+
+    fname = f"assembly_{tag}_freecad.step"
+    path = step.write_compound_step(shapes, placements, ctx.out / fname, f"assembly_{tag}")
+    product_volume: dict[str, float] = {}
+    for p in parts:
+        if p.product not in product_volume:
+            product_volume[p.product] = step.mass_properties(p.shape)[0]
+    want = sum(product_volume[p.product] for p in parts)
+    solids = step.read_solids(path, heal=False)
+    volume = sum(step.mass_properties(s)[0] for s in solids)
+    facts = {
+        "solids": len(solids),
+        "readback_volume_mm3": volume,
+        "assembly_volume_mm3": want,
+        "volume_relative_error": (volume - want) / want,
+    }
+    if len(solids) != len(placements) or not abs(volume - want) <= 1e-9 * want:
+        raise ExportError(f"{fname}: read-back check failed ({facts})")
+    report[fname] = facts
+    ctx.files.append(fname)
 
 
 def _profile_edge_count(spline) -> int:
