@@ -18,6 +18,7 @@ from corr_cad.mechanics.bearing_drag import DragBearing, LoadIndependent, palmgr
 from corr_cad.mechanics.life_modified import (
     a_iso_roller,
     fatigue_load_limit,
+    modified_life,
     reference_viscosity,
     static_rating_roller,
 )
@@ -129,6 +130,26 @@ def test_reference_viscosity_and_ratings_by_hand():
     assert c0 == pytest.approx(44.0 * (1 - 6.0 / 88.4) * 40 * 12.0 * 6.0)
     assert fatigue_load_limit(c0, 88.4) == pytest.approx(c0 / 8.2)
     assert fatigue_load_limit(c0, 200.0) == pytest.approx(c0 / 8.2 * 0.5**0.3)
+
+
+def test_support_bearing_modified_life_by_hand():
+    """A tapered pair (Z = 18 per row, D = L = 12 mm, d_m = 87 mm, alpha 15 deg) at the
+    crank's 390 r/min in ISO VG 68 at 40 C (68 mm^2/s), P = 40 kN, e_C = 0.5."""
+    from corr_cad.mechanics.support_bearing import SupportBearing
+
+    b = SupportBearing("tapered_pair", 18, 12.0, 12.0, 87.0, contact_angle_deg=15.0)
+    ca = math.cos(math.radians(15.0))
+    c0 = 44.0 * (1.0 - 12.0 * ca / 87.0) * 2 * 18 * 12.0 * 12.0 * ca  # ISO 76, 6.1.1
+    assert static_rating_roller(2, 18, 12.0, 12.0, 87.0, b.cos_alpha) == pytest.approx(c0)
+    nu1 = 45000.0 * 390.0**-0.83 * 87.0**-0.5  # n < 1000 r/min
+    kappa = 68.0 / nu1  # 1.99: the piece 1 <= kappa <= 4
+    x = 0.5 * (c0 / 8.2) / 40000.0
+    a = 0.1 * (1.0 - (1.5859 - 1.2348 / kappa**0.071739) ** 0.83 * x**0.4) ** -9.185
+    l10_h = (b.rating / 40000.0) ** (10.0 / 3.0) * 1e6 / (60.0 * 390.0)
+    m = modified_life(l10_h, 68.0, 390.0, 87.0, c0, 40000.0, 0.5)
+    assert m["kappa"] == pytest.approx(kappa, rel=1e-12)
+    assert 1.0 < a < 50.0 and m["a_ISO"] == pytest.approx(a, rel=1e-12)
+    assert m["L10m_h"] == pytest.approx(a * l10_h, rel=1e-12)
 
 
 # --- Thermal ---------------------------------------------------------------------------------
