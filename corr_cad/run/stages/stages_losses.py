@@ -95,8 +95,26 @@ def load_independent(scene, life, bearing_per_crank: float | None) -> LoadIndepe
                 "the crankshaft's two placeholder bearings (shaft and outer radius of the layout)",
             )
         )
+    churning = ()
+    if fs is not None and lub["immersion_depth_mm"] > 0.0:
+        from corr_cad.mechanics.churning import ChurningGear
+
+        churning = (
+            ChurningGear(
+                "first_stage_churning",
+                1,
+                0.5 * fs.stage.module * zw,
+                fs.stage.face_width,
+                lub["immersion_depth_mm"],
+                lub["sump_volume_l"],
+                i1 * zp / zw,
+                OIL_DENSITY,
+                "one of the first stage's wheels dips (reference pitch radius, face width)",
+            ),
+        )
     return LoadIndependent(
         lubricant=lubricant(lub),
+        churning=churning,
         bearings=tuple(bearings),
         input_seal=lub["input_seal_moment_Nmm"],
         output_seal=lub["output_seal_moment_Nmm"],
