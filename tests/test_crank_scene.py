@@ -210,3 +210,39 @@ def test_all_formats_leave_out_the_studies_that_keep_the_crank_rigid(section):
         assert f not in scene.formats
         assert left[f].startswith("its solves keep the crankshaft rigid")
     assert "datasheet" in scene.formats and "forces" in scene.formats
+
+
+@pytest.mark.slow
+def test_support_bearings_modified_life_beside_the_needles(tmp_path):
+    """[lubrication] with [bearings.crank]: each support bearing's ISO 281 L10m at the
+    crank speed, by hand from the datasheet's own geometry and load, on console and page."""
+    import math
+
+    text = DRIVE + "[bearings.crank]\ntype = 'tapered_pair'\nclearance = -0.002\n[life]\n"
+    text += "[friction]\npositions_per_mesh = 2\nefficiency_torques = [0.5, 1.0]\n"
+    text += "efficiency_speeds_rpm = [500]\n[lubrication]\niso_vg = 68\n"
+    r, out = run(tmp_path, text)
+    assert r.returncode == 0, r.stderr
+    sheet = json.loads((out / "datasheet.json").read_text())
+    ml = sheet["modified_life"]
+    assert {"bearing_row1", "support_bearing_1", "support_bearing_2"} <= set(ml)
+    for i in (1, 2):
+        b = sheet["crank"]["support_bearings"][i - 1]
+        row = sheet["compliance_budget"]["support_bearings"][i - 1]
+        m = ml[f"support_bearing_{i}"]
+        n = 15.0 * 26  # [life] rated_speed_rpm 15 at the output, z + 1 = 26 crank turns
+        assert m["speed_rpm"] == pytest.approx(n)
+        d, dm, ca = b["roller_diameter_mm"], b["pitch_diameter_mm"], math.cos(math.radians(15))
+        c0 = 44.0 * (1 - d * ca / dm) * 2 * 18 * b["roller_length_mm"] * d * ca
+        nu1 = 45000.0 * n**-0.83 * dm**-0.5
+        kappa = 68.0 / nu1
+        x = 0.5 * c0 / 8.2 / row["equivalent_load_N"]
+        base = 1.0 - (1.5859 - 1.2348 / kappa**0.071739) ** 0.83 * x**0.4
+        a = 50.0 if base <= 0 else min(0.1 * base**-9.185, 50.0)
+        assert m["static_rating_N"] == pytest.approx(c0, rel=1e-12)
+        assert m["kappa"] == pytest.approx(kappa, rel=1e-12)
+        assert m["a_ISO"] == pytest.approx(a, rel=1e-12)
+        assert m["L10m_h"] == pytest.approx(a * row["L10_h"], rel=1e-12)
+        assert f"life L10m support_bearing_{i} " in r.stdout
+        assert f"Modified life L10m, support bearing {i}" in (out / "datasheet.html").read_text()
+    assert "support bearings ([bearings.crank])" in ml["definition"]

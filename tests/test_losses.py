@@ -18,6 +18,7 @@ from corr_cad.mechanics.bearing_drag import DragBearing, LoadIndependent, palmgr
 from corr_cad.mechanics.life_modified import (
     a_iso_roller,
     fatigue_load_limit,
+    modified_life,
     reference_viscosity,
     static_rating_roller,
 )
@@ -103,6 +104,50 @@ def test_lubricant_refuses_impossible_oils():
         Lubricant(8.0, 9.0)
 
 
+# --- Churning (Changenet & Velex) ------------------------------------------------------------
+def _churning_by_hand(n_rpm, nu_mm2s, rp=27.0, b=15.0, h=10.0, v0_l=1.0, rho=870.0):
+    """Changenet & Velex (2007) written out in SI: T = 0.5 rho w^2 S_m R^3 C_m, N*mm."""
+    w = n_rpm * 2.0 * math.pi / 60.0
+    r, bb, hh, nu, v0 = rp / 1e3, b / 1e3, h / 1e3, nu_mm2s / 1e6, v0_l / 1e3
+    theta = math.acos(1.0 - h / rp)
+    s_m = r**2 * (2.0 * theta - math.sin(2.0 * theta)) + 2.0 * r * bb * theta
+    fr, re, re_c = w**2 * r / 9.80665, w * r**2 / nu, w * r * bb / nu
+    d = 2.0 * r
+    c1 = 1.366 * (hh / d) ** 0.45 * (v0 / d**3) ** 0.1 * fr**-0.6 * re**-0.21
+    c2 = 3.644 * (hh / d) ** 0.1 * (v0 / d**3) ** -0.35 * fr**-0.88 * (bb / d) ** 0.85
+    return 1e3 * 0.5 * rho * w**2 * s_m * r**3, c1, c2, re_c
+
+
+def test_churning_by_hand_at_two_speeds_and_viscosities():
+    from corr_cad.mechanics.churning import ChurningGear
+
+    g = ChurningGear("wheel", 1, 27.0, 15.0, 10.0, 1.0, 1.0)
+    # 500 r/min in ISO VG 68 at 40 C: Re_c = 52.4 x 0.027 x 0.015 / 68e-6 = 312, first law
+    base, c1, _, re_c = _churning_by_hand(500.0, 68.0)
+    assert re_c < 6000.0
+    assert g.moment(500.0, 68.0) == pytest.approx(base * c1, rel=1e-12)
+    # 3000 r/min in a thin oil (5 mm^2/s): Re_c = 25,400, second law
+    base, _, c2, re_c = _churning_by_hand(3000.0, 5.0)
+    assert re_c > 9000.0
+    assert g.moment(3000.0, 5.0) == pytest.approx(base * c2, rel=1e-12)
+    # the band 6000-9000: linear in Re_c; standstill: no churning
+    n_mid = 7500.0 * 20.0e-6 / (0.027 * 0.015) * 60.0 / (2.0 * math.pi)
+    base, c1, c2, re_c = _churning_by_hand(n_mid, 20.0)
+    assert re_c == pytest.approx(7500.0)
+    assert g.moment(n_mid, 20.0) == pytest.approx(base * 0.5 * (c1 + c2), rel=1e-12)
+    assert g.moment(0.0, 68.0) == 0.0
+    # into the crank's drag: count x speed ratio x the wheel's torque at its own speed
+    lub = Lubricant.iso_vg(68)
+    li = LoadIndependent(
+        lubricant=lub, churning=(ChurningGear("c", 1, 27.0, 15.0, 10.0, 1.0, 4.0),)
+    )
+    nu = lub.viscosity(40.0)
+    assert li.moments(100.0, 40.0)["c"] == pytest.approx(4.0 * g.moment(400.0, nu), rel=1e-12)
+    assert li.crank_moment(0.0, 40.0) == 0.0  # nothing at standstill: starting torque unchanged
+    with pytest.raises(SolverError, match="immersion_depth_mm = 60"):
+        ChurningGear("wheel", 1, 27.0, 15.0, 60.0, 1.0, 1.0)
+
+
 # --- a_ISO -----------------------------------------------------------------------------------
 def test_a_iso_by_hand_and_its_limits():
     # kappa = 1, e_C C_u / P = 0.5: 0.1 [1 - (1.5859 - 1.2348)^0.83 0.5^0.4]^-9.185
@@ -129,6 +174,26 @@ def test_reference_viscosity_and_ratings_by_hand():
     assert c0 == pytest.approx(44.0 * (1 - 6.0 / 88.4) * 40 * 12.0 * 6.0)
     assert fatigue_load_limit(c0, 88.4) == pytest.approx(c0 / 8.2)
     assert fatigue_load_limit(c0, 200.0) == pytest.approx(c0 / 8.2 * 0.5**0.3)
+
+
+def test_support_bearing_modified_life_by_hand():
+    """A tapered pair (Z = 18 per row, D = L = 12 mm, d_m = 87 mm, alpha 15 deg) at the
+    crank's 390 r/min in ISO VG 68 at 40 C (68 mm^2/s), P = 40 kN, e_C = 0.5."""
+    from corr_cad.mechanics.support_bearing import SupportBearing
+
+    b = SupportBearing("tapered_pair", 18, 12.0, 12.0, 87.0, contact_angle_deg=15.0)
+    ca = math.cos(math.radians(15.0))
+    c0 = 44.0 * (1.0 - 12.0 * ca / 87.0) * 2 * 18 * 12.0 * 12.0 * ca  # ISO 76, 6.1.1
+    assert static_rating_roller(2, 18, 12.0, 12.0, 87.0, b.cos_alpha) == pytest.approx(c0)
+    nu1 = 45000.0 * 390.0**-0.83 * 87.0**-0.5  # n < 1000 r/min
+    kappa = 68.0 / nu1  # 1.99: the piece 1 <= kappa <= 4
+    x = 0.5 * (c0 / 8.2) / 40000.0
+    a = 0.1 * (1.0 - (1.5859 - 1.2348 / kappa**0.071739) ** 0.83 * x**0.4) ** -9.185
+    l10_h = (b.rating / 40000.0) ** (10.0 / 3.0) * 1e6 / (60.0 * 390.0)
+    m = modified_life(l10_h, 68.0, 390.0, 87.0, c0, 40000.0, 0.5)
+    assert m["kappa"] == pytest.approx(kappa, rel=1e-12)
+    assert 1.0 < a < 50.0 and m["a_ISO"] == pytest.approx(a, rel=1e-12)
+    assert m["L10m_h"] == pytest.approx(a * l10_h, rel=1e-12)
 
 
 # --- Thermal ---------------------------------------------------------------------------------

@@ -251,6 +251,56 @@ def test_no_load_template_with_first_stage(tmp_path):
     assert float(rows[-1][4]) == pytest.approx(_hand_loss_W(li["bearings"], 400.0, t_end), rel=1e-5)
 
 
+@pytest.mark.slow
+def test_first_stage_churning_by_hand_in_the_drag_and_the_efficiency(tmp_path):
+    """[lubrication] immersion_depth_mm: one wheel of the first stage churns (Changenet &
+    Velex, first regime here), its torque by hand at each speed; it lowers the total
+    efficiency and leaves the starting torque (no churning at standstill)."""
+    text = (ROOT / "templates" / "no_load_temperature.toml").read_text()
+    outs = {}
+    for h in (0.0, 10.0):
+        scene = tmp_path / f"h{h:g}.toml"
+        scene.write_text(
+            text.replace(
+                "temperature_C = 40.0\n", f"temperature_C = 40.0\nimmersion_depth_mm = {h}\n", 1
+            )
+        )
+        r = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "corr_cad",
+                "run",
+                str(scene),
+                "--out",
+                str(tmp_path / f"o{h:g}"),
+                "--quiet",
+            ],
+            capture_output=True,
+            text=True,
+        )
+        assert r.returncode == 0, r.stderr
+        outs[h] = json.loads((tmp_path / f"o{h:g}" / "datasheet.json").read_text())
+    li = outs[10.0]["load_independent_losses"]
+    assert "churning" not in outs[0.0]["load_independent_losses"]
+    g = li["churning"][0]
+    assert g["speed_per_crank"] == pytest.approx(5 * 18 / 36) and g["pitch_radius_mm"] == 27.0
+    nu, r, b, h, v0 = _walther(40.0) * 1e-6, 0.027, 0.015, 0.010, 1e-3
+    theta = math.acos(1 - h / r)
+    s_m = r * r * (2 * theta - math.sin(2 * theta)) + 2 * r * b * theta
+    for k, n in enumerate(li["input_speed_rpm"]):
+        w = 2.5 * n * math.pi / 30  # the wheel's speed
+        assert w * r * b / nu < 6000  # Changenet & Velex's first regime
+        fr, re = w * w * r / 9.80665, w * r * r / nu
+        cm = 1.366 * (h / (2 * r)) ** 0.45 * (v0 / (2 * r) ** 3) ** 0.1 * fr**-0.6 * re**-0.21
+        t = 0.5 * 870.0 * w * w * s_m * r**3 * cm  # N*m at the wheel
+        got = li["by_element_torque_at_crank_Nm"]["first_stage_churning"][k]
+        assert got == pytest.approx(2.5 * t, rel=1e-9)
+    a, c = outs[0.0], outs[10.0]
+    assert c["efficiency_total"]["forward_min"] < a["efficiency_total"]["forward_min"]
+    assert c["starting_torque_total_Nm"] == a["starting_torque_total_Nm"]
+
+
 def test_sections_without_the_datasheet_warn(tmp_path):
     text = DESIGN.replace('formats = ["datasheet", "report"]', 'formats = ["dxf"]')
     text = text.split("[load]")[0]

@@ -21,7 +21,8 @@ def losses_rows(sheet: dict) -> list[tuple]:
             "Efficiency, total (lowest of the map)",
             "efficiency_total.forward_min",
             "",
-            f"output over input power with Coulomb friction, Palmgren bearing drag and seals, "
+            "output over input power with Coulomb friction, Palmgren bearing drag, seals"
+            f"{', churning' if 'churning' in sheet['load_independent_losses'] else ''}, "
             f"over {n(min(e['temperatures_C']))}-{n(max(e['temperatures_C']))} C oil, "
             f"{n(min(e['input_speed_rpm']))}-{n(max(e['input_speed_rpm']))} rpm at the crank "
             f"and the map's torques ({lub['source']})",

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from corr_cad.errors import SolverError
+from corr_cad.mechanics.churning import ChurningGear
 from corr_cad.mechanics.lubrication import Lubricant
 
 __all__ = ["palmgren_m0", "DragBearing", "LoadIndependent", "PALMGREN_KNEE"]
@@ -95,6 +96,8 @@ class LoadIndependent:
     output_seal: float = 0.0
     input_per_crank: float = 1.0
     output_per_crank: float = 1.0
+    #: Dip-lubricated gears' churning (:mod:`corr_cad.mechanics.churning`); none by default.
+    churning: tuple[ChurningGear, ...] = field(default_factory=tuple)
 
     def moments(self, crank_rpm, temperature_C) -> dict[str, np.ndarray]:
         """Each element's moment reflected to the crank (``k_i M_i``), N*mm, by name."""
@@ -105,6 +108,9 @@ class LoadIndependent:
             k = abs(b.speed_per_crank)
             m = palmgren_m0(b.f0, nu, k * n, b.dm) if k > 0 else 0.0 * n
             out[b.name] = b.count * k * np.asarray(m) + 0.0 * n
+        for g in self.churning:
+            k = abs(g.speed_per_crank)
+            out[g.name] = g.count * k * np.asarray(g.moment(k * n, nu)) + 0.0 * n
         if self.input_seal:
             out["input_seal"] = self.input_seal * abs(self.input_per_crank) + 0.0 * n
         if self.output_seal:
@@ -123,7 +129,7 @@ class LoadIndependent:
         return 1e-3 * self.crank_moment(crank_rpm, temperature_C) * w
 
     def as_dict(self) -> dict:
-        return {
+        out = {
             "lubricant": self.lubricant.as_dict(),
             "bearings": [
                 {
@@ -142,3 +148,11 @@ class LoadIndependent:
             "160e-7 f0 dm^3 below (Harris & Kotzalas)",
             "seal_model": "Coulomb lip friction: a constant moment per seal",
         }
+        if self.churning:
+            out["churning"] = [g.as_dict() for g in self.churning]
+            out["churning_model"] = (
+                "Changenet & Velex (ASME J. Mech. Des. 2007): T = 0.5 rho omega^2 S_m R_p^3 "
+                "C_m, C_m of Fr, Re, h/D_p, V_0/D_p^3 (and b/D_p above Re_c = 9000; linear "
+                "in Re_c between 6000 and 9000)"
+            )
+        return out

@@ -19,8 +19,8 @@ catalogue writes them; ``n`` r/min, ``dm`` mm)::
 
 The fatigue load limit of a roller bearing (ISO 281:2007, Annex B):
 ``C_u = C_0r / 8.2`` for ``dm <= 100`` mm, times ``(100 / dm)^0.3`` above;
-the basic static rating of a radial roller bearing (ISO 76:2006):
-``C_0r = 44 (1 - D_we / D_pw) i Z L_we D_we`` (contact angle 0).
+the basic static rating of a radial roller bearing (ISO 76:2006, 6.1.1):
+``C_0r = 44 (1 - D_we cos(alpha) / D_pw) i Z L_we D_we cos(alpha)``.
 
 ``e_C`` is the contamination factor of ISO 281:2007 Table 13 (for ``dm <
 100`` mm: 1 extreme cleanliness, 0.8-0.6 high, 0.6-0.5 normal, 0.5-0.3
@@ -58,10 +58,11 @@ def reference_viscosity(n_rpm: float, dm: float) -> float:
 
 
 def static_rating_roller(
-    rows: int, rollers: int, length: float, diameter: float, dm: float
+    rows: int, rollers: int, length: float, diameter: float, dm: float, cos_alpha: float = 1.0
 ) -> float:
-    """ISO 76 ``C_0r`` of a radial roller bearing with contact angle 0, N."""
-    return 44.0 * (1.0 - diameter / dm) * rows * rollers * length * diameter
+    """ISO 76 ``C_0r = 44 (1 - D cos(alpha) / d_m) i Z L D cos(alpha)`` of a radial roller
+    bearing, N (contact angle 0 unless ``cos_alpha`` is given)."""
+    return 44.0 * (1.0 - diameter * cos_alpha / dm) * rows * rollers * length * diameter * cos_alpha
 
 
 def fatigue_load_limit(c0: float, dm: float) -> float:

@@ -215,7 +215,7 @@ def losses_lines(d: dict) -> list[str]:
     out = [
         f"  efficiency, total   {figure(e['forward_min'], 4)}-{figure(e['forward_max'], 4)} over "
         f"{span(e['temperatures_C'])} C oil, {span(e['input_speed_rpm'])} rpm at the crank "
-        "(Coulomb friction + Palmgren drag + seals)",
+        f"(Coulomb friction + Palmgren drag + seals{' + churning' if 'churning' in li else ''})",
         f"  drag at {figure(li['at_temperature_C'])} C oil   {each(li['torque_at_crank_Nm'])} "
         f"N*m at the crank at {speeds} rpm ({d['lubrication']['source']})",
         f"  starting torque, total {figure(st['at_input'], 4)} N*m at the input (drag at "

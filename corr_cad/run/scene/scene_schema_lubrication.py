@@ -94,6 +94,22 @@ SECTIONS: dict[str, dict[str, Key]] = {
             high=1e8,
             low_open=False,
         ),
+        "immersion_depth_mm": Key(
+            "float",
+            0.0,
+            "depth one first stage wheel dips into the oil, mm, for its churning "
+            "(Changenet & Velex; 0: no gear dips, no churning)",
+            low=0,
+            high=1e4,
+            low_open=False,
+        ),
+        "sump_volume_l": Key(
+            "float",
+            1.0,
+            "oil volume in the sump, litres (Changenet & Velex's V_0 of the churning)",
+            low=0,
+            high=1e4,
+        ),
         "contamination_factor": Key(
             "float",
             0.5,

@@ -95,8 +95,26 @@ def load_independent(scene, life, bearing_per_crank: float | None) -> LoadIndepe
                 "the crankshaft's two placeholder bearings (shaft and outer radius of the layout)",
             )
         )
+    churning = ()
+    if fs is not None and lub["immersion_depth_mm"] > 0.0:
+        from corr_cad.mechanics.churning import ChurningGear
+
+        churning = (
+            ChurningGear(
+                "first_stage_churning",
+                1,
+                0.5 * fs.stage.module * zw,
+                fs.stage.face_width,
+                lub["immersion_depth_mm"],
+                lub["sump_volume_l"],
+                i1 * zp / zw,
+                OIL_DENSITY,
+                "one of the first stage's wheels dips (reference pitch radius, face width)",
+            ),
+        )
     return LoadIndependent(
         lubricant=lubricant(lub),
+        churning=churning,
         bearings=tuple(bearings),
         input_seal=lub["input_seal_moment_Nmm"],
         output_seal=lub["output_seal_moment_Nmm"],
@@ -277,8 +295,22 @@ def losses_figures(ctx, ff, life) -> dict:
             "the first stage's ratio; backdriving: the drag times z + 1 plus the preload's",
         },
     }
+    lives = {}
     if life is not None and ff.lives is not None and ff.bearing is not None:
-        out["modified_life"] = _modified_lives(ff, life, nu, lub, temp)
+        lives = _modified_lives(ff, life, nu, lub, temp)
+    support = _support_lives(ctx, nu, lub, temp)
+    if support:
+        lives = lives or {
+            "temperature_C": temp,
+            "contamination_factor_eC": lub["contamination_factor"],
+            "definition": "",
+        }
+        lives.update(support)
+        lives["definition"] = (lives["definition"] + "; " if lives["definition"] else "") + (
+            SUPPORT_DEFINITION
+        )
+    if lives:
+        out["modified_life"] = lives
     if s.losses["thermal"]:
         out.update(_thermal(ctx, li, ff, ratio, speeds))
     return out
@@ -311,6 +343,49 @@ def _modified_lives(ff, life, nu: float, lub: dict, temp: float) -> dict:
         "bearings at T_R and rated_speed_rpm: kappa = nu / nu1 at the oil temperature, "
         "C_u = C_0r / 8.2 (ISO 281 Annex B), C_0r by ISO 76",
     }
+
+
+#: ``modified_life``'s definition of the crankshaft's support bearings.
+SUPPORT_DEFINITION = (
+    "support bearings ([bearings.crank]): ISO 281:2007 L10m = a_ISO L10 at the crank speed "
+    "(z + 1) rated_speed_rpm and the equivalent radial load of compliance_budget, "
+    "C_u = C_0r / 8.2, C_0r = 44 (1 - D cos(alpha) / d_m) i Z L D cos(alpha) (ISO 76)"
+)
+
+
+def _support_lives(ctx, nu: float, lub: dict, temp: float) -> dict:
+    """``modified_life`` rows of the crankshaft's support bearings (none without
+    ``[bearings.crank]`` or without ``[life]``'s L10 in ``compliance_budget``)."""
+    from corr_cad.mechanics.life_modified import modified_life, static_rating_roller
+
+    crank = getattr(ctx.scene, "crank", None)
+    ds = ctx.results.datasheet
+    budget = getattr(ds, "compliance_budget", None) if ds is not None else None
+    if crank is None or not budget:
+        return {}
+    rows = {}
+    for i, (b, row) in enumerate(
+        zip(crank.supports, budget.get("support_bearings", []), strict=True), 1
+    ):
+        if b is None or row.get("L10_h") is None:
+            continue
+        n = row["output_speed_rpm"] * ctx.scene.design.roller_count
+        c0 = static_rating_roller(
+            b.rows, b.rollers, b.roller_length, b.roller_diameter, b.pitch_diameter, b.cos_alpha
+        )
+        rows[f"support_bearing_{i}"] = {
+            **modified_life(
+                row["L10_h"],
+                nu,
+                n,
+                b.pitch_diameter,
+                c0,
+                row["equivalent_load_N"],
+                lub["contamination_factor"],
+            ),
+            "speed_rpm": n,
+        }
+    return rows
 
 
 def _thermal(ctx, li: LoadIndependent, ff, ratio: float, speeds) -> dict:
