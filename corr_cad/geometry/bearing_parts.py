@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 from corr_cad.errors import DesignError
 from corr_cad.geometry.design import GearDesign
-from corr_cad.geometry.kinematics import unit_radial
+from corr_cad.geometry.kinematics import floating_cam_spin, unit_radial
 from corr_cad.geometry.placement import Placement
 
 __all__ = [
@@ -197,8 +197,9 @@ def bearing_placements(
     """The crankshaft (``crankshaft``, when drawn here) and every needle at a crank angle.
 
     As :func:`corr_cad.geometry.placement.assembly_placements`: the crankshaft turns by
-    ``phi = crank + crank / z``; each cam turns with the output (``crank / z``: the
-    inertia's convention, see :mod:`corr_cad.mechanics.first_stage_loads`), its centre
+    ``phi = crank + crank / z``; each cam turns by the rolling kinematics' spin
+    (:func:`~corr_cad.geometry.kinematics.floating_cam_spin` times the output's
+    ``crank / z``, as the lives and the input inertia), its centre
     at ``e`` along ``phi`` (row B's half a turn on); the needle set by
     :func:`cage_angle`, needle ``j`` of row A named ``needle_a_01``... at the pitch
     radius from its eccentric's centre.
@@ -207,13 +208,14 @@ def bearing_placements(
     e = design.eccentricity
     theta0 = crank_angle_rad / z
     phi = crank_angle_rad + theta0
+    cam = theta0 * floating_cam_spin(design)
     out = []
     if crankshaft:
         out.append(Placement("crankshaft", "crankshaft", phi))
     parts = {r.row: p for p, r in needle_part_names(rows).items()}
     for row, dphi in zip(rows, (0.0, math.pi), strict=True):
         centre = e * unit_radial(phi + dphi)
-        cage = cage_angle(row, phi, theta0) + dphi
+        cage = cage_angle(row, phi, cam) + dphi
         part = parts.get(row.row, "needle")
         for j in range(row.needles):
             a = cage + 2.0 * math.pi * j / row.needles
