@@ -380,3 +380,46 @@ def test_the_assembly_turns_a_floating_cam_by_the_lives_spin():
         [math.sin(cage), math.cos(cage)]
     )
     assert n1.offset[:2] == pytest.approx((x, y), abs=1e-9)
+
+
+@pytest.mark.slow
+def test_the_crankshaft_drawn_is_the_crank_model_s(tmp_path):
+    """[crankshaft] shaft_diameter = 50 on the prototype: crankshaft.step's core reads back
+    50 mm, its journals sit at the crank model's eccentric_positions (w / 2 and
+    w + t + w / 2, 12 mm long) and its support seats at its support_positions with
+    its bearing's width (the defaults: B = round(1.8 round(0.2 d)) = 18 mm at
+    -2 t - B / 2 = -25 and 2 w + 3 t + B / 2 = 57); the assembly does not interfere."""
+    pytest.importorskip("OCP")
+    import trimesh
+
+    (tmp_path / "s.toml").write_text(
+        SCENE.replace(
+            '"step", "interference"]', '"step", "interference"]\nassembly_angles_deg = [0.0]'
+        )
+        + "[crankshaft]\nshaft_diameter = 50\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = tmp_path / "out"
+    circles = _circles(out / "crankshaft.step")
+    core = {round(z, 9) for rad, x, y, z in circles if abs(rad - 25.0) < 1e-9 and x == y == 0}
+    assert core and all(abs(x) < 1e-9 and abs(y) < 1e-9 for rad, x, y, _ in circles if rad == 25)
+    rj = 0.5 * (2 * 47.2 - 2 * 6.0 - 0.005)  # the model's journal less the clearance
+    journals = sorted(
+        (round(z, 9), round(y, 9)) for rad, x, y, z in circles if abs(rad - rj) < 1e-9
+    )
+    w, t, e = 12.0, 8.0, 3.5
+    ja, jb = 0.5 * w, 1.5 * w + t
+    assert sorted(set(journals)) == [(ja - 6, e), (ja + 6, e), (jb - 6, -e), (jb + 6, -e)]
+    B = 18.0
+    s1, s2 = -2 * t - B / 2, 2 * w + 3 * t + B / 2
+    assert {s1 - B / 2, s1 + B / 2, s2 - B / 2, s2 + B / 2} <= core
+    lo, hi = trimesh.load(out / "crankshaft.stl").bounds[:, 2]
+    assert (lo, hi) == pytest.approx((s1 - B / 2, s2 + B / 2), abs=1e-9)
+    inter = json.loads((out / "manifest.json").read_text())["interference"]
+    assert inter["ok"] and inter["other_pairs"]["overlaps"] == 0
