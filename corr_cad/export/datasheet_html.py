@@ -211,8 +211,8 @@ def datasheet_rows(sheet: dict) -> list[dict]:
                 "kg m^2",
                 "every moving part reflected to the pinion by its speed ratio squared"
                 + (
-                    "; the cams float on their needle bearings, spinning with the output "
-                    "(inertia_convention)"
+                    "; the cams float on their needle bearings, spinning at 2 L / R_j times "
+                    "the output (rolling kinematics, as the lives) (inertia_convention)"
                     if "inertia_convention" in sheet
                     else ""
                 ),

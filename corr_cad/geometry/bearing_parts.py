@@ -30,6 +30,16 @@ The crankshaft (z along the shaft as the assembly's, mm; ``w`` face width,
 * support seat 2: ``[2 w + 2 t + g, 2 w + 2 t + g + L_s]``, radius ``r_s = 0.9 r_c``
   rounded down to 0.5 mm, where the support bearings (``[bearings.crank]``)
   sit against the core's shoulders.
+
+With the scene's crank model (``[crankshaft]`` or ``[bearings.crank]``: rows
+carried as :class:`BearingRows` with a :class:`CrankDrawing`) the crankshaft is
+the shaft that model bends: a uniform shaft of its ``shaft_diameter`` from the
+lower support's outer face to the upper's, the support seats of its bearing
+``width`` centred at its ``support_positions`` (seat radius the shaft's), and
+the eccentric journals of its ``eccentric_length`` centred at its
+``eccentric_positions``, each of diameter ``eccentric_diameter`` less its needle
+bearing's diametral clearance ``Pd`` (the model's journal is the needle set's
+bore; the drawn one leaves the running clearance, as without the model).
 """
 
 from __future__ import annotations
@@ -39,12 +49,14 @@ from dataclasses import dataclass
 
 from corr_cad.errors import DesignError
 from corr_cad.geometry.design import GearDesign
-from corr_cad.geometry.kinematics import unit_radial
+from corr_cad.geometry.kinematics import floating_cam_spin, unit_radial
 from corr_cad.geometry.placement import Placement
 
 __all__ = [
     "AXIAL_GAP",
     "OffsetCircle",
+    "CrankDrawing",
+    "BearingRows",
     "NeedleRow",
     "needle_rows",
     "core_radius",
@@ -86,6 +98,25 @@ class NeedleRow:
         return "needle" if self.row == "a" else "needle_b"
 
 
+@dataclass(frozen=True)
+class CrankDrawing:
+    """The crank model's shaft as the files draw it (mm, the assembly's z)."""
+
+    shaft_diameter: float
+    eccentric_diameter: float
+    eccentric_length: float
+    eccentric_positions: tuple[float, float]
+    support_positions: tuple[float, float]
+    support_width: float
+
+
+class BearingRows(list):
+    """Rows A and B (:class:`NeedleRow`) and, with the scene's crank model, ``crank``
+    (:class:`CrankDrawing`): the shaft :func:`crankshaft_pieces` draws."""
+
+    crank: CrankDrawing | None = None
+
+
 def needle_rows(design: GearDesign, bearing_a, bearing_b=None) -> list[NeedleRow]:
     """Rows A and B's bearings as drawn; one line naming the key when they cannot be."""
     w, t = design.face_width, design.frame_thickness
@@ -121,13 +152,21 @@ def needle_rows(design: GearDesign, bearing_a, bearing_b=None) -> list[NeedleRow
 
 
 def core_radius(design: GearDesign, rows: list[NeedleRow]) -> float:
-    """``r_c``: half-millimetre steps, at least 0.25 mm inside both eccentrics' projections."""
+    """``r_c``: half-millimetre steps, at least 0.25 mm inside both eccentrics' projections
+    (the crank model's shaft radius with one, :class:`BearingRows`)."""
+    crank = getattr(rows, "crank", None)
+    if crank is not None:
+        return 0.5 * crank.shaft_diameter
     inner = min(r.journal_radius for r in rows) - design.eccentricity - 0.25
     return 0.5 * math.floor(2.0 * inner)
 
 
 def seat_radius(design: GearDesign, rows: list[NeedleRow]) -> float:
-    """``r_s``: a support bearing's seat, ``0.9 r_c`` rounded down to 0.5 mm (at least 0.5)."""
+    """``r_s``: a support bearing's seat, ``0.9 r_c`` rounded down to 0.5 mm (at least 0.5);
+    the crank model's shaft radius with one (:class:`BearingRows`)."""
+    crank = getattr(rows, "crank", None)
+    if crank is not None:
+        return 0.5 * crank.shaft_diameter
     return max(0.5, 0.5 * math.floor(1.8 * core_radius(design, rows)))
 
 
@@ -137,8 +176,13 @@ def crankshaft_pieces(
     """The crankshaft as ``[(outer, holes, height, z0), ...]`` in the assembly's z.
 
     ``outer`` a radius (centred) or an :class:`OffsetCircle` (an eccentric).
-    ``z_bottom`` the bottom of the lower seat (default ``-t - g - seat_width``).
+    ``z_bottom`` the bottom of the lower seat (default ``-t - g - seat_width``). With
+    the crank model (:class:`BearingRows`) its shaft (module docstring); ``seat_width``
+    is then unused and ``z_bottom`` (the first stage's flange) extends the lower seat.
     """
+    crank = getattr(rows, "crank", None)
+    if crank is not None:
+        return _model_pieces(design, rows, crank, z_bottom)
     w, t, g, e = design.face_width, design.frame_thickness, AXIAL_GAP, design.eccentricity
     rc, rs = core_radius(design, rows), seat_radius(design, rows)
     lo = -t - g - seat_width if z_bottom is None else z_bottom
@@ -152,6 +196,30 @@ def crankshaft_pieces(
         (OffsetCircle(rb, (0.0, -e)), [], w, w + t),
         (rc, [], t + g, 2 * w + t),
         (rs, [], seat_width, top),
+    ]
+
+
+def _model_pieces(design: GearDesign, rows, c: CrankDrawing, z_bottom) -> list:
+    """:func:`crankshaft_pieces` from the crank model: seat, core, journal A, core,
+    journal B, core, seat, bottom to top (empty cores left out)."""
+    e, rs, half = design.eccentricity, 0.5 * c.shaft_diameter, 0.5 * c.eccentric_length
+    (s1, s2), hb = sorted(c.support_positions), 0.5 * c.support_width
+    ja, jb = c.eccentric_positions
+    lo = s1 - hb if z_bottom is None else min(z_bottom, s1 - hb)
+    cuts = [lo, s1 + hb, ja - half, ja + half, jb - half, jb + half, s2 - hb, s2 + hb]
+    if any(b < a - 1e-9 for a, b in zip(cuts, cuts[1:], strict=False)):
+        raise DesignError(
+            f"[crankshaft] eccentric_positions = {[ja, jb]!r}: the journals "
+            f"({c.eccentric_length:g} mm long) must lie in order between the supports "
+            f"(support_positions {[s1, s2]!r}, width {c.support_width:g} mm) to be drawn"
+        )
+    rja = 0.5 * (c.eccentric_diameter - rows[0].diametral_clearance)
+    rjb = 0.5 * (c.eccentric_diameter - rows[1].diametral_clearance)
+    outers = [rs, rs, OffsetCircle(rja, (0.0, e)), rs, OffsetCircle(rjb, (0.0, -e)), rs, rs]
+    return [
+        (o, [], b - a, a)
+        for o, a, b in zip(outers, cuts, cuts[1:], strict=False)
+        if b - a > 1e-9
     ]
 
 
@@ -197,8 +265,9 @@ def bearing_placements(
     """The crankshaft (``crankshaft``, when drawn here) and every needle at a crank angle.
 
     As :func:`corr_cad.geometry.placement.assembly_placements`: the crankshaft turns by
-    ``phi = crank + crank / z``; each cam turns with the output (``crank / z``: the
-    inertia's convention, see :mod:`corr_cad.mechanics.first_stage_loads`), its centre
+    ``phi = crank + crank / z``; each cam turns by the rolling kinematics' spin
+    (:func:`~corr_cad.geometry.kinematics.floating_cam_spin` times the output's
+    ``crank / z``, as the lives and the input inertia), its centre
     at ``e`` along ``phi`` (row B's half a turn on); the needle set by
     :func:`cage_angle`, needle ``j`` of row A named ``needle_a_01``... at the pitch
     radius from its eccentric's centre.
@@ -207,13 +276,14 @@ def bearing_placements(
     e = design.eccentricity
     theta0 = crank_angle_rad / z
     phi = crank_angle_rad + theta0
+    cam = theta0 * floating_cam_spin(design)
     out = []
     if crankshaft:
         out.append(Placement("crankshaft", "crankshaft", phi))
     parts = {r.row: p for p, r in needle_part_names(rows).items()}
     for row, dphi in zip(rows, (0.0, math.pi), strict=True):
         centre = e * unit_radial(phi + dphi)
-        cage = cage_angle(row, phi, theta0) + dphi
+        cage = cage_angle(row, phi, cam) + dphi
         part = parts.get(row.row, "needle")
         for j in range(row.needles):
             a = cage + 2.0 * math.pi * j / row.needles

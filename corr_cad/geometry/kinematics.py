@@ -25,6 +25,7 @@ __all__ = [
     "locus_normals",
     "locus_curvature",
     "profile_speed_factor",
+    "floating_cam_spin",
 ]
 
 
@@ -130,3 +131,18 @@ def profile_speed_factor(psi: np.ndarray, z: int, e: float, L: float, offset: fl
     (undercut). The working profile's curvature is ``k / (1 + r k)``.
     """
     return 1.0 + offset * locus_curvature(psi, z, e, L)
+
+
+def floating_cam_spin(design) -> float:
+    """A cam floating on its bearing: its absolute spin per turn of the output, ``2 L / R_j``.
+
+    The rollers about the cam are a roller bearing whose cage is the output frame
+    (speed 1), whose outer race is the fixed ring and whose inner race is the cam;
+    rolling at both races turns the cage at ``omega_i (1 - gamma) / 2 + omega_o (1 +
+    gamma) / 2``, ``gamma = r / L`` (Harris & Kotzalas, *Rolling Bearing Analysis*, the
+    rolling element and cage speeds), so the cam spins at ``2 / (1 - gamma) = 2 L / R_j``
+    times the output, whatever the friction coefficients. Per absolute crank turn it
+    is that over ``z + 1``. The one statement of the cam's spin: the lives, the
+    friction's speeds, the input inertia and the assembly's cam angle all take it here.
+    """
+    return 2.0 * design.link_length / design.cam_radius

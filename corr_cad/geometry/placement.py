@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 
 from corr_cad.geometry.design import GearDesign
-from corr_cad.geometry.kinematics import centre_distance, unit_radial
+from corr_cad.geometry.kinematics import centre_distance, floating_cam_spin, unit_radial
 from corr_cad.geometry.parts import roller_z_range
 
 __all__ = ["Placement", "assembly_placements"]
@@ -54,8 +54,10 @@ def assembly_placements(
     pitch; each roller sits at its crank-slider radius in its slot. Three
     frame plates: ``[-t, 0]``, ``[w, w + t]``, ``[2 w + t, 2 w + 2 t]``; the rollers
     at :func:`corr_cad.geometry.parts.roller_z_range`. With ``floating`` (the cams on
-    their needle bearings, bores concentric) each cam turns with the output
-    (``crank / z``) about its centre, ``e`` from the axis along the eccentric's direction.
+    their needle bearings, bores concentric) each cam turns about its centre, ``e`` from
+    the axis along the eccentric's direction, by the rolling kinematics' spin
+    (:func:`~corr_cad.geometry.kinematics.floating_cam_spin`: ``2 L / R_j`` times the
+    output's ``crank / z``), the spin the lives and the input inertia use.
     """
     z = design.tooth_count
     w, t = design.face_width, design.frame_thickness
@@ -68,9 +70,10 @@ def assembly_placements(
     ]
     if floating:
         (xa, ya) = e * unit_radial(phi)
+        cam = theta0 * floating_cam_spin(design)
         out += [
-            Placement("cam_a", "cam", theta0, (float(xa), float(ya), 0.0)),
-            Placement("cam_b", "cam", theta0, (-float(xa), -float(ya), w + t)),
+            Placement("cam_a", "cam", cam, (float(xa), float(ya), 0.0)),
+            Placement("cam_b", "cam", cam, (-float(xa), -float(ya), w + t)),
         ]
     else:
         out += [

@@ -37,6 +37,7 @@ import numpy as np
 
 from corr_cad.geometry.bearing_parts import OffsetCircle
 from corr_cad.geometry.first_stage import FirstStageGeometry
+from corr_cad.geometry.kinematics import floating_cam_spin
 
 __all__ = [
     "STEEL_DENSITY",
@@ -47,6 +48,7 @@ __all__ = [
     "lewis_form_factor",
     "drive_mass_inertia",
     "FLOATING_CONVENTION",
+    "cam_spin_per_crank",
 ]
 
 #: Density of steel, kg/mm^3 (7850 kg/m^3).
@@ -187,22 +189,31 @@ def _outline_pieces(o) -> list:
 #: ``drive`` ``inertia_convention`` where the cams float on their needle bearings.
 FLOATING_CONVENTION = (
     "cams on their needle bearings: each cam's centre orbits at e with the crank (m e^2 "
-    "at the crank's speed) and the cam spins with the output, 1/(z + 1) of the crank's "
-    "absolute speed (I_c about its centre, reflected by (1/i)^2); each needle is carried "
+    "at the crank's speed) and the cam spins as the rolling kinematics gives it, the "
+    "rollers about the cam a roller bearing with the frame as its cage: 2 L / R_j times "
+    "the output's speed, (2 L / R_j) / (z + 1) of the crank's absolute speed (I_c about "
+    "its centre; the same spin as the lives'); each needle is carried "
     "round the axis by its eccentric (m e^2), round the eccentric's centre at the "
     "bearing's cage speed [omega_i (1 - gamma) + omega_o (1 + gamma)] / 2 (m r_p^2) and "
-    "spins rolling on both races (m D^2 / 8; Harris & Kotzalas, Rolling Bearing Analysis, "
-    "5th ed., Vol. 1, Ch. 8); "
+    "spins rolling on both races (m D^2 / 8), omega_o the cam's spin; Harris & "
+    "Kotzalas, Rolling Bearing Analysis, 5th ed., Vol. 1, Ch. 8; "
     "input_inertia_cams_fixed_kg_m2: the cams turning with the crank, an upper bound"
 )
 
 
+def cam_spin_per_crank(design) -> float:
+    """A floating cam's absolute spin per absolute crank turn: the rolling kinematics'
+    ``2 L / R_j`` per output turn (:func:`~corr_cad.geometry.kinematics.floating_cam_spin`)
+    over ``z + 1``."""
+    return floating_cam_spin(design) / design.roller_count
+
+
 def _needle_parts(design, rows) -> tuple[dict, float]:
     """Each needle part's (mass, equivalent inertia at the crank's speed, count) and the
-    cam's spin per crank turn (the output's); see :data:`FLOATING_CONVENTION`."""
+    cam's spin per crank turn (:func:`cam_spin_per_crank`); see :data:`FLOATING_CONVENTION`."""
     from corr_cad.geometry.bearing_parts import cage_angle, needle_part_names, needle_spin
 
-    cam = 1.0 / (design.tooth_count + 1)  # the output's turn per absolute crank turn
+    cam = cam_spin_per_crank(design)
     e = design.eccentricity
     out = {}
     names = needle_part_names(rows)
@@ -246,7 +257,7 @@ def drive_mass_inertia(
     if rows is None:
         # the cam about the crank axis: its bore centre (0, -e) moved to the origin
         m, i = extrusion_mass_inertia(_outline_pieces(outlines["cam"]), shift=(0.0, e))
-    else:  # about its own centre (its bore concentric): it spins with the output
+    else:  # about its own centre (its bore concentric): it spins as the kinematics says
         m, i = extrusion_mass_inertia(_outline_pieces(outlines["cam"]))
         cam_mass, cam_own = m, i
     parts["disk_cam"] = (m, i, 2)
@@ -279,10 +290,10 @@ def drive_mass_inertia(
                 "cage_speed_per_crank": speeds["cage_per_crank"],
                 "spin_per_crank": speeds["spin_per_crank"],
             }
-        reflect["disk_cam"] = 1.0 / total**2
+        reflect["disk_cam"] = (cam_speed / i1) ** 2
         orbit = cam_mass * e * e
         extra["disk_cam"] = {
-            "inertia_is": "about its own centre, spinning with the output",
+            "inertia_is": "about its own centre, spinning at 2 L / R_j times the output",
             "spin_per_crank": cam_speed,
             "orbit_inertia_kg_m2": orbit * kg_m2,
             "orbit_reflected_by": 1.0 / i1**2,

@@ -54,6 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from corr_cad.errors import SolverError
+from corr_cad.geometry.kinematics import floating_cam_spin
 
 __all__ = [
     "BEARING_EXPONENT",
@@ -201,7 +202,7 @@ def rolling_speeds(design, mounting: str) -> dict[str, float]:
     ``ring``: the ring's (1).
     """
     crank = float(design.roller_count)
-    cam = 2.0 * design.link_length / design.cam_radius if mounting == "bearing" else crank
+    cam = floating_cam_spin(design) if mounting == "bearing" else crank
     return {"bearing": abs(crank - cam), "cam": abs(cam - 1.0), "ring": 1.0}
 
 

@@ -279,7 +279,8 @@ def whole_drive_lines(d: dict | None) -> list[str]:
         f"whole drive: total ratio {d['total_ratio']:.6g}, mass {d['mass_kg']:.4g} kg "
         f"(steel), inertia at the input {d['input_inertia_kg_m2']:.4g} kg m^2"
         + (
-            f" (cams floating on their needle bearings, spinning with the output; "
+            " (cams floating on their needle bearings, spinning at 2 L / R_j times the "
+            "output by the rolling kinematics; "
             f"{d['input_inertia_cams_fixed_kg_m2']:.4g} kg m^2 were they fixed to the crank)"
             if "input_inertia_cams_fixed_kg_m2" in d
             else ""

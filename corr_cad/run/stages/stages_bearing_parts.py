@@ -26,14 +26,35 @@ __all__ = [
 
 
 def needle_rows_of(ctx_or_scene):
-    """The drawn rows (:func:`~corr_cad.geometry.bearing_parts.needle_rows`), or None."""
+    """The drawn rows (:func:`~corr_cad.geometry.bearing_parts.needle_rows`, as
+    :class:`~corr_cad.geometry.bearing_parts.BearingRows` carrying the scene's crank model
+    where it has one), or None."""
     s = getattr(ctx_or_scene, "scene", ctx_or_scene)
     solver = getattr(s, "solver", None)
     if solver is None or not solver.drive or getattr(s, "bearing", None) is None:
         return None
-    from corr_cad.geometry.bearing_parts import needle_rows
+    from corr_cad.geometry.bearing_parts import BearingRows, CrankDrawing, needle_rows
 
-    return needle_rows(s.design, s.bearing, s.bearing_b)
+    rows = BearingRows(needle_rows(s.design, s.bearing, s.bearing_b))
+    crank = getattr(s, "crank", None)
+    # the part drawn is the part the crank model bends; with [first_stage] the crankshaft
+    # stays the first stage's (its flange carries the crank gear where that stage is laid)
+    if crank is not None and getattr(s, "first_stage", None) is None:
+        sh = crank.shaft
+        width = next((b.width for b in crank.supports if b is not None), None)
+        if width is None:  # rigid supports: the width a designer would draw
+            from corr_cad.run.scene.scene_crank import default_layout
+
+            width = default_layout(s.design, s.bearing.needle_diameter, sh.shaft_diameter)["width"]
+        rows.crank = CrankDrawing(
+            sh.shaft_diameter,
+            sh.eccentric_diameter,
+            sh.eccentric_length,
+            tuple(sh.eccentric_positions),
+            tuple(sh.support_positions),
+            float(width),
+        )
+    return rows
 
 
 def profiles(ctx: RunContext, rows) -> dict:
