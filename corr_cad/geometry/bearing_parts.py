@@ -217,9 +217,7 @@ def _model_pieces(design: GearDesign, rows, c: CrankDrawing, z_bottom) -> list:
     rjb = 0.5 * (c.eccentric_diameter - rows[1].diametral_clearance)
     outers = [rs, rs, OffsetCircle(rja, (0.0, e)), rs, OffsetCircle(rjb, (0.0, -e)), rs, rs]
     return [
-        (o, [], b - a, a)
-        for o, a, b in zip(outers, cuts, cuts[1:], strict=False)
-        if b - a > 1e-9
+        (o, [], b - a, a) for o, a, b in zip(outers, cuts, cuts[1:], strict=False) if b - a > 1e-9
     ]
 
 
