@@ -211,7 +211,8 @@ def scene_text(name: str) -> str:
 def test_without_the_sections_the_files_are_the_bytes_they_were(tmp_path, name):
     """The drive and the paper's row without [crankshaft] / [bearings.crank]: every file
     the hashes recorded before the sections existed (``tests/data/crank_bytes_golden.json``,
-    written by the commit before them)."""
+    written by the commit before them; written again, with a CHANGELOG line, when a
+    deliberate change of the datasheet's or the forces' files lands)."""
     text = scene_text(name)
     r, out = run(tmp_path, text, name)
     assert r.returncode == 0, r.stderr
