@@ -1,7 +1,7 @@
 """The bodies in the drive's solve: influence matrices and the coupled equilibrium.
 
 At each crank position the bodies add to roller ``k``'s overlap (along its
-cam line, :mod:`corr_cad.mechanics.drive`) the approach
+cam line, :mod:`corr_cad.mechanics.drive`) the approach::
 
     d_k = sum_j C_kj F_j,
     C_kj = rho_n,k rho_n,j G_ring(k, j) + G_cam(k, j)   (k and j in one row)
