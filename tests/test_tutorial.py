@@ -219,6 +219,14 @@ def test_the_numbers_the_page_states(tutorial):
     assert f"{whole['lost_motion_arcmin']['value']:.4f}" == "0.2428"
     ratio = whole["lost_motion_arcmin"]["value"] / whole["lost_motion_arcmin"]["second_stage"]
     assert round(ratio) == 33 and "0.2428 arcmin, 33 times" in " ".join(text.split())
+    page10 = (folder / "step10" / "datasheet.html").read_text()
+    rows = re.findall(r"<tr><td>([^<]*)</td>", page10)
+    assert rows[1:5] == [
+        "Backlash, whole drive",
+        "Lost motion, whole drive",
+        "Backlash, second stage",
+        "Lost motion, second stage",
+    ]
     assert "backlash 61 um" in results["step10"].stdout and "(61 um on each mesh)" in text
     template = tomllib.loads((ROOT / "templates" / "compound.toml").read_text())
     scene = tomllib.loads((folder / "first_stage.toml").read_text())
