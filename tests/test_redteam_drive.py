@@ -187,7 +187,8 @@ def test_a_tip_thinned_by_the_backlash_allowance_names_the_allowance(tmp_path, a
 )
 def test_a_torque_too_small_for_the_datasheet_names_the_key_given(tmp_path, given, key):
     # It named "[load] input_torque = 0" for a scene that set input_torque_Nm.
-    scene = COMPOUND.replace('formats = ["dxf",', 'formats = ["datasheet", "dxf",')
+    scene = COMPOUND
+    assert '"datasheet"]' in scene  # the template makes the datasheet
     line = _refused(tmp_path, _run(tmp_path, scene.replace("input_torque_Nm = 22.0", given)))
     assert line.split(": error: ")[1].startswith(f"[load] {key} = ")
     assert f"e.g. {key} = 22" in line

@@ -7,7 +7,8 @@ run, in page order, in one empty folder, through this checkout
 read back from the files the steps wrote.
 
 ``python tests/test_tutorial.py`` runs the page the same way and writes its
-pictures into ``docs/images/tutorial_*.png`` (downscaled, 64 colours).
+pictures into ``docs/images/tutorial_*.png`` (downscaled, 64 colours), the
+customer page's through headless Chromium where ``chromium`` is installed.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ PICTURES = [
     ("step6/modification.png", "tutorial_6_modification.png", 640),
     ("step7/pareto.png", "tutorial_7_pareto.png", 640),
 ]
+#: The page's screenshots of HTML pages: (page a step writes, picture, width, height kept).
+SCREENSHOTS = [("step9/datasheet.html", "tutorial_9_datasheet_page.png", 760, 912)]
 
 
 def steps(text: str) -> list[tuple[str, str, str]]:
@@ -82,11 +85,11 @@ def tutorial(tmp_path_factory):
     return folder, run_page(folder)
 
 
-def test_the_page_has_seven_steps_of_commands_files_and_pictures():
+def test_the_page_has_ten_steps_of_commands_files_and_pictures():
     text = PAGE.read_text()
     runs = [w for k, w, _ in steps(text) if k == "run"]
     files = [w for k, w, _ in steps(text) if k == "file"]
-    assert runs[0] == "corr-cad new my_drive.toml" and len(runs) == 10
+    assert runs[0] == "corr-cad new my_drive.toml" and len(runs) == 13
     assert files == [
         "datasheet.toml",
         "tolerances.toml",
@@ -95,16 +98,20 @@ def test_the_page_has_seven_steps_of_commands_files_and_pictures():
         "assembled.toml",
         "shop.toml",
         "size.toml",
+        "drive.toml",
+        "life.toml",
+        "first_stage.toml",
     ]
-    for _, picture, _ in PICTURES:
-        assert f"(images/{picture})" in text
+    assert "Ten steps" in text and len(re.findall(r"^## \d+\. ", text, re.M)) == 10
+    for picture in [p for _, p, _ in PICTURES] + [p for _, p, _, _ in SCREENSHOTS]:
+        assert f"(images/{picture})" in text, picture
         assert (ROOT / "docs" / "images" / picture).stat().st_size < 150_000  # kept small
 
 
 @pytest.mark.slow
 def test_every_command_runs_and_exits_0(tutorial):
     folder, results = tutorial
-    assert len(results) == 10
+    assert len(results) == 13
     for key, r in results.items():
         assert r.returncode == 0, (key, r.stderr[-2000:])
     for made, _, _ in PICTURES:
@@ -113,7 +120,7 @@ def test_every_command_runs_and_exits_0(tutorial):
 
 @pytest.mark.slow
 def test_the_numbers_the_page_states(tutorial):
-    folder, _ = tutorial
+    folder, results = tutorial
     text = PAGE.read_text()
     # Step 1: the commented scene and its four profiles.
     assert "[design]" in (folder / "my_drive.toml").read_text()
@@ -160,17 +167,85 @@ def test_the_numbers_the_page_states(tutorial):
     with open(folder / "step7" / "pareto.csv", newline="") as f:
         front = list(csv.DictReader(f))
     first, last = front[0], front[-1]
-    assert len(front) == 4 and first["design"] == "design_01.toml"
+    assert len(front) == 7 and first["design"] == "design_01.toml"
+    assert len([row for row in front if row["design"]]) == 5
     chosen = (first["cam_radius"], first["eccentricity"], first["needles"])
-    assert chosen == ("130.0", "3.45", "44.0")
-    assert f"{float(first['mass_kg']):.2f}" == "21.46"
-    assert f"{float(last['mass_kg']):.2f}" == "21.51"
-    assert f"{float(first['life_margin']):.2f}" == "1.25"
-    assert f"{float(last['life_margin']):.2f}" == "1.72"
+    assert chosen == ("130.0", "3.3", "42.0")
+    assert f"{float(first['mass_kg']):.2f}" == "21.11"
+    assert f"{float(last['mass_kg']):.2f}" == "22.25"
+    assert f"{float(first['life_margin']):.2f}" == "1.05"
+    assert f"{float(last['life_margin']):.2f}" == "1.93"
     ref = json.loads((folder / "step7" / "manifest.json").read_text())["sizing"]["reference"]
-    assert f"{ref['mass_kg']:.2f}" == "22.58" and f"{ref['life_margin']:.2f}" == "1.01"
+    assert f"{ref['mass_kg']:.2f}" == "22.24" and f"{ref['life_margin']:.2f}" == "1.10"
     life = json.loads((folder / "step7a" / "datasheet.json").read_text())["life_h"]["system"]
-    assert life == float(first["life_h"]) and f"{life:,.0f}" == "7,475"
+    assert life == float(first["life_h"]) and f"{life:,.0f}" == "6,297"
+    # Step 4's p95 contact pressure, as the page quotes it.
+    p = mod["chosen"]["peak_pressure_MPa"]
+    assert f"{p['p95']['value']:,.0f}" == "2,708" and f"{p['p50']['value']:,.0f}" == "2,291"
+    # Step 8: the drive on needles with a clearance: the play is the needles'.
+    d8 = json.loads((folder / "step8" / "datasheet.json").read_text())
+    assert (d8["model"], d8["contact_law"], d8["bearing"]["diametral_clearance_mm"]) == (
+        "drive",
+        "palmgren",
+        0.005,
+    )
+    assert f"{d8['backlash_arcmin']['max']:.4f}" == "0.1889"
+    assert f"{d8['lost_motion_arcmin']['max']:.4f}" == "0.2855"
+    rig8 = d8["torsional_rigidity_Nm_per_arcmin"]
+    assert f"{rig8['contact_only']['min']:,.0f}" == "3,477"
+    for side in ("positive", "negative"):
+        share = d8["row_a_share_by_direction"][side]
+        assert f"{share['min']:.3f}" == f"{share['max']:.3f}" == "0.500", side
+    # Step 9: efficiency, torques and lives, and the page that shows them.
+    d9 = json.loads((folder / "step9" / "datasheet.json").read_text())
+    assert f"{d9['efficiency_forward']['min']:.4f}" == "0.8748"
+    assert f"{d9['efficiency_backdriving']['min']:.4f}" == "0.8687"
+    assert not d9["efficiency_backdriving"]["self_locking"]
+    assert d9["starting_torque_Nm"]["max"] == 0.0 and d9["backdriving_torque_Nm"]["max"] == 0.0
+    lives = d9["life_h"]
+    assert f"{lives['bearing_row1']:,.0f}" == f"{lives['bearing_row2']:,.0f}" == "5,346"
+    assert min(lives[k] for k in ("cam_row1", "cam_row2", "ring_row1", "ring_row2")) > 1e6
+    assert f"{lives['system']:,.0f}" == "2,882"
+    assert f"{d9['rated_torque_from_life_Nm']['value']:,.0f}" == "2,295"
+    page = (folder / "step9" / "datasheet.html").read_text()
+    assert "Short life" in page and "Rated torque from life" in page
+    # Step 10: the whole drive's play, the first stage's included.
+    d10 = json.loads((folder / "step10" / "datasheet.json").read_text())
+    whole = d10["whole_drive"]
+    assert d10["backlash_arcmin"]["max"] == 0.0
+    assert f"{d10['lost_motion_arcmin']['max']:.6f}" == "0.007258"
+    assert f"{whole['backlash_arcmin']['value']:.4f}" == "0.2351"
+    assert f"{whole['backlash_arcmin']['first_stage']:.4f}" == "0.2351"
+    assert f"{whole['lost_motion_arcmin']['value']:.4f}" == "0.2428"
+    ratio = whole["lost_motion_arcmin"]["value"] / whole["lost_motion_arcmin"]["second_stage"]
+    assert round(ratio) == 33 and "0.2428 arcmin, 33 times" in " ".join(text.split())
+    page10 = (folder / "step10" / "datasheet.html").read_text()
+    rows = re.findall(r"<tr><td>([^<]*)</td>", page10)
+    assert rows[1:5] == [
+        "Backlash, whole drive",
+        "Lost motion, whole drive",
+        "Backlash, second stage",
+        "Lost motion, second stage",
+    ]
+    assert "backlash 61 um" in results["step10"].stdout and "(61 um on each mesh)" in text
+    template = tomllib.loads((ROOT / "templates" / "compound.toml").read_text())
+    scene = tomllib.loads((folder / "first_stage.toml").read_text())
+    assert all(template["first_stage"][k] == v for k, v in scene["first_stage"].items())
+    assert "datasheet" in template["export"]["formats"]
+
+
+@pytest.mark.slow
+def test_every_warning_a_step_prints_is_on_the_page(tutorial):
+    """Each step's warning lines stand in the page word for word (and are explained there)."""
+    _, results = tutorial
+    text = " ".join(PAGE.read_text().split())
+    warned = {}
+    for key, r in results.items():
+        for line in (r.stdout + r.stderr).splitlines():
+            if "warning" in line.lower():
+                warned[key] = line.strip()
+                assert " ".join(line.split()) in text, (key, line)
+    assert sorted(warned) == ["step4", "step9"]
 
 
 @pytest.mark.slow
@@ -199,6 +274,23 @@ def _pictures(folder: Path) -> None:
         im = Image.open(folder / made).convert("RGB")
         im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
         im.quantize(colors=64).save(ROOT / "docs" / "images" / picture, optimize=True)
+    import shutil
+    import tempfile
+
+    chromium = shutil.which("chromium")
+    for page, picture, width, height in SCREENSHOTS if chromium else []:
+        with tempfile.TemporaryDirectory() as tmp:
+            shot = Path(tmp) / "shot.png"
+            subprocess.run(
+                [chromium, "--headless", "--no-sandbox", "--hide-scrollbars",
+                 f"--screenshot={shot}", "--window-size=1200,2000", str(folder / page)],
+                capture_output=True, check=True, timeout=120,
+            )  # fmt: skip
+            im = Image.open(shot).convert("RGB")
+        im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
+        im = im.crop((0, 0, width, min(height, im.height)))  # the figures and the first curve
+        im = im.quantize(colors=64, method=Image.Quantize.FASTOCTREE)  # keeps the red curves
+        im.save(ROOT / "docs" / "images" / picture, optimize=True)
 
 
 if __name__ == "__main__":
