@@ -102,6 +102,8 @@ LOCAL = {
         k
         for k in SCHEMA["checks"]
         if k not in ("max_failure_probability", "max_binding_probability")
+        # The first stage's checks need a [first_stage] section (another key).
+        and k not in ("max_first_stage_bending_MPa", "max_first_stage_contact_MPa")
     },
     # Not "tolerances": their upper bounds depend on the design (r/2, 90/(z+1) deg).
     "friction": None,
