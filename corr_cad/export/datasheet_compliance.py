@@ -25,6 +25,11 @@ def rigidity_scope(sheet: dict, series) -> str:
             "the contacts and the elastic rings, frame and cams (no series rigidity given: "
             "crank, bearings and housing rigid)"
         )
+    if sheet.get("model") == "drive" and isinstance(sheet.get("bearing"), dict):
+        return (
+            "the contacts of both rows and the cams' needle bearings (no series rigidity "
+            "given: crank, its bearings, ring, frame and housing rigid)"
+        )
     return "the contacts alone (no series rigidity given: far stiffer than a reducer)"
 
 
