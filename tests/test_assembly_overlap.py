@@ -42,6 +42,18 @@ def _assembly_solids(scene) -> tuple[dict, object]:
     return solids, first, ctx
 
 
+def _gear_contacts(scene) -> dict:
+    """The first stage's meshing teeth: both outlines within the chord tolerance, so a
+    tangent contact may show the lens of a 2 tol penetration over the face width."""
+    if scene.first_stage is None:
+        return {}
+    dpen = 2.0 * scene.chord_tolerance
+    fs = scene.first_stage
+    lens = 4.0 / 3.0 * dpen * math.sqrt(2.0 * fs.crank_gear.root_radius * dpen)
+    lens *= fs.stage.face_width
+    return {("crank_gear", "wheel_"): lens, ("pinion", "wheel_"): lens}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("template", TEMPLATES)
 def test_no_two_solids_intersect(template):
@@ -60,7 +72,9 @@ def test_no_two_solids_intersect(template):
         # sliver at most chord_tolerance deep over the bore's face.
         d = scene.design
         fit = scene.chord_tolerance * 2 * math.pi * d.cam_bore_radius * d.face_width
-        checked, overlaps = mesh.solid_overlaps(placed, fit_allowance_mm3=fit)
+        checked, overlaps = mesh.solid_overlaps(
+            placed, fit_allowance_mm3=fit, contacts=_gear_contacts(scene)
+        )
         n = len(placed)
         contacts = sum(1 for a in placed for b in placed if a < b and mesh._is_contact(a, b))
         assert checked == n * (n - 1) // 2 - contacts
@@ -137,14 +151,7 @@ def test_no_two_solids_intersect_with_the_cams_on_needle_bearings(template, tmp_
     extra.update(stages_bearing_parts.solids(ctx, rows, {}))
     ctx.results.first_stage_solids = extra
     contacts = stages_bearing_parts.contact_allowances(d, rows, tol)
-    if scene.first_stage is not None:
-        # The first stage's meshing teeth: both outlines within the chord tolerance, a
-        # tangent contact may show the lens of a 2 tol penetration over the face width.
-        dpen = 2.0 * tol
-        fs = scene.first_stage
-        lens = 4.0 / 3.0 * dpen * math.sqrt(2.0 * fs.crank_gear.root_radius * dpen)
-        lens *= fs.stage.face_width
-        contacts = {**contacts, ("crank_gear", "wheel_"): lens, ("pinion", "wheel_"): lens}
+    contacts = {**contacts, **_gear_contacts(scene)}
     stack = mesh.frame_stack(d, solids["frame"])
     for k in range(10):
         angle = 36.0 * k + 3.7

@@ -136,7 +136,7 @@ def test_the_whole_drives_play_adds_the_first_stage_and_is_labelled(drive):
     from corr_cad.export.report_tables import fmt
 
     for key in ("backlash_arcmin", "lost_motion_arcmin"):
-        assert f'<td class="num">{fmt(w[key])}</td>' in report
+        assert f'<td class="num">{fmt(w[key]["value"])}</td>' in report
 
 
 @pytest.mark.slow

@@ -201,7 +201,9 @@ def test_all_formats_with_every_section_on_the_design_s_ring(tmp_path):
     r = _cli(tmp_path, NOMINAL)
     m = _check_run(tmp_path, r)
     left = dict(m.get("formats_left_out", {}))
-    assert set(left) <= {"inspection"}, left  # no measured ring here
+    # no measured ring here; no [sizing.requirements]: "all" sizes nothing, saying why
+    assert set(left) <= {"inspection", "sizing"}, left
+    assert left.get("sizing", "no [sizing.requirements]").startswith("no [sizing.requirements]")
     expected = {
         "roller.dxf", "preview.png", "forces.csv", "roller.stl", "roller.3mf", "roller.glb",
         "roller.ply", "montecarlo.csv", "allocation.csv", "sweeps.json", "datasheet.json",
@@ -234,7 +236,7 @@ def test_all_formats_with_every_section_under_the_drive_model(tmp_path):
     r = _cli(tmp_path, DRIVE)
     m = _check_run(tmp_path, r, drive=True)
     left = dict(m.get("formats_left_out", {}))
-    assert set(left) == {"inspection"}, left
+    assert set(left) == {"inspection", "sizing"}, left  # sizing: no requirements given
     assert left["inspection"] == "no [errors] measured_profile"  # no measured ring here
     expected = {
         "roller.dxf", "preview.png", "forces.csv", "forces_summary.json", "roller.stl",

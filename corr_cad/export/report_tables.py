@@ -133,15 +133,15 @@ def datasheet_rows(d: dict) -> dict:
         ),
     ]
     if whole:  # the whole drive, pinion held: one value each (the largest plus the first stage)
-        first = fmt(d["first_stage"]["lost_motion_arcmin"])
         for label, key in (("lost motion", "lost_motion_arcmin"), ("backlash", "backlash_arcmin")):
+            first = fmt(d["first_stage"][key])
             rows.insert(  # backlash first, as the page and the console give them
                 0,
                 {
                     "label": f"{label}, whole drive (pinion held)",
                     "min": "",
                     "mean": "",
-                    "max": fmt(whole[key]),
+                    "max": fmt(whole[key]["value"]),
                     "unit": "arcmin",
                     "note": f"the second stage's largest plus the first stage's {first} arcmin",
                 },
