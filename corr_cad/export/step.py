@@ -48,6 +48,7 @@ __all__ = [
     "StepPart",
     "mass_properties",
     "bounding_box",
+    "readback_facts",
     "unplaced",
     "transform_points",
     "read_step_curves",
@@ -579,3 +580,26 @@ def read_step_curves(path: Path, samples_per_edge: int = 200) -> list[np.ndarray
             u = np.linspace(curve.FirstParameter(), curve.LastParameter(), samples_per_edge)
             out.append(np.array([_xyz(curve.Value(float(x))) for x in u]))
     return out
+
+
+def readback_facts(
+    fname: str, product: str, expected: str, shape, exact: float, bound: float, **extra
+) -> dict:
+    """The read-back check of one part file: its product name, Open CASCADE's volume
+    and area, the exact volume with the allowed error ``bound`` and the box, then
+    ``extra``; raises :class:`ExportError` when the name or the volume is off."""
+    volume, area = mass_properties(shape)
+    facts = {
+        "product_name": product,
+        "readback_volume_mm3": volume,
+        "readback_area_mm2": area,
+        "exact_volume_mm3": exact,
+        "volume_error_mm3": volume - exact,
+        "volume_relative_error": (volume - exact) / exact,
+        "volume_error_bound_mm3": bound,
+        "bbox_mm": bounding_box(shape).tolist(),
+        **extra,
+    }
+    if product != expected or not abs(facts["volume_error_mm3"]) <= bound:
+        raise ExportError(f"{fname}: read-back check failed ({facts})")
+    return facts

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 
-from corr_cad.errors import ExportError
 from corr_cad.run.stages.context import RunContext
 
 __all__ = [
@@ -121,21 +120,8 @@ def step_parts(ctx: RunContext, rows, report: dict, quick_boxes: dict) -> dict:
         fname = f"{part}.step"
         path = step.write_step(shape, ctx.out / fname, part)
         product, parts = step.read_step(path, heal=False)
-        volume, area = step.mass_properties(parts[0].shape)
         exact = exact_volume(pieces)
-        bound = 1e-9 * exact
-        facts = {
-            "product_name": product,
-            "readback_volume_mm3": volume,
-            "readback_area_mm2": area,
-            "exact_volume_mm3": exact,
-            "volume_error_mm3": volume - exact,
-            "volume_relative_error": (volume - exact) / exact,
-            "volume_error_bound_mm3": bound,
-            "bbox_mm": step.bounding_box(parts[0].shape).tolist(),
-        }
-        if product != part or not abs(facts["volume_error_mm3"]) <= bound:
-            raise ExportError(f"{fname}: read-back check failed ({facts})")
+        facts = step.readback_facts(fname, product, part, parts[0].shape, exact, 1e-9 * exact)
         report[fname] = facts
         quick_boxes[part] = step.bounding_box(parts[0].shape, optimal=False)
         ctx.files.append(fname)

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 
-from corr_cad.errors import ExportError
 from corr_cad.geometry.first_stage_parts import (
     exact_volume,
     first_stage_outlines,
@@ -142,28 +141,16 @@ def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:
         fname = f"{part}.step"
         path = step.write_step(shape, ctx.out / fname, part)
         product, parts = step.read_step(path, heal=False)
-        volume, area = step.mass_properties(parts[0].shape)
         # the exact volume: circles exact, the gear outline by its polyline, whose
         # measured deviation (and the splines') bound the difference
         exact = exact_volume(exact_profiles[part])
         bound = 1e-9 * exact
+        extra = {}
         if part in splines:
             dev = splines[part].max_deviation + gear_outlines(ctx, tol)[part].max_deviation
             bound += dev * lengths[part]
-        facts = {
-            "product_name": product,
-            "readback_volume_mm3": volume,
-            "readback_area_mm2": area,
-            "exact_volume_mm3": exact,
-            "volume_error_mm3": volume - exact,
-            "volume_relative_error": (volume - exact) / exact,
-            "volume_error_bound_mm3": bound,
-            "bbox_mm": step.bounding_box(parts[0].shape).tolist(),
-        }
-        if product != part or not abs(facts["volume_error_mm3"]) <= bound:
-            raise ExportError(f"{fname}: read-back check failed ({facts})")
-        if part in splines:
-            facts["profile_spline_deviation_mm"] = splines[part].max_deviation
+            extra["profile_spline_deviation_mm"] = splines[part].max_deviation
+        facts = step.readback_facts(fname, product, part, parts[0].shape, exact, bound, **extra)
         report[fname] = facts
         quick_boxes[part] = step.bounding_box(parts[0].shape, optimal=False)
         ctx.files.append(fname)
