@@ -338,12 +338,6 @@ def test_cli_elastic_drive_states_its_bodies_and_caches_outside_the_output(tmp_p
             '[solver] bodies = "elastic": the elastic ring and frame act under model = '
             '"drive" only; set model = "drive" or bodies = "rigid"',
         ),
-        (
-            {"formats": '["montecarlo"]'},
-            "[export] formats lists 'montecarlo', which solves the drive with rigid [solver] "
-            'bodies only; remove it or set bodies = "rigid" (the elastic bodies reach forces '
-            "and datasheet)",
-        ),
     ],
 )
 def test_elastic_bodies_where_they_do_not_reach_are_refused(tmp_path, kw, message):

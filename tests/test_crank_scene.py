@@ -128,14 +128,6 @@ def test_crank_scene_reports_its_compliances_and_budget(tmp_path):
             _drive(crankshaft={"support_positions": [50.0, -20.0]}),
             r"^\[crankshaft\] support_positions = \[50.0, -20.0\]: the second must lie beyond",
         ),
-        (
-            _drive(
-                crankshaft={"shaft_diameter": 60.0},
-                export={"formats": ["montecarlo"]},
-                tolerances={"cam_radius": {"normal": 0.001}},
-            ),
-            r"^\[export\] formats lists 'montecarlo', whose solves keep the crankshaft rigid",
-        ),
     ],
 )
 def test_refusals_are_one_line(data, pattern):
@@ -223,15 +215,14 @@ def test_without_the_sections_the_files_are_the_bytes_they_were(tmp_path, name):
 @pytest.mark.parametrize(
     "section", [{"crankshaft": {"shaft_diameter": 60.0}}, {"bearings": {"crank": {}}}]
 )
-def test_all_formats_leave_out_the_studies_that_keep_the_crank_rigid(section):
+def test_all_formats_keep_the_studies_on_samples_with_the_crank(section):
+    """The studies on samples solve on the crankshaft too: ``all`` keeps them."""
     data = _drive(export={"formats": ["all"]}, tolerances={"cam_radius": {"normal": 0.001}})
     data.update(section)
     scene = parse_scene(data)
-    left = dict(scene.formats_left_out)
-    for f in ("montecarlo", "sweeps", "modification"):
-        assert f not in scene.formats
-        assert left[f].startswith("its solves keep the crankshaft rigid")
-    assert "datasheet" in scene.formats and "forces" in scene.formats
+    assert scene.crank is not None
+    for f in ("montecarlo", "sweeps", "datasheet", "forces"):
+        assert f in scene.formats, f
 
 
 @pytest.mark.slow

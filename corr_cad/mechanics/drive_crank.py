@@ -150,6 +150,15 @@ class _State:
         phase = float(getattr(solver.errors[1], "cam_phase_error", 0.0) or 0.0)
         #: Eccentric c's frame -> eccentric A's frame.
         self.rot = (np.eye(2), _rotation(math.pi + phase))
+        #: Cam B's phase error at each position where a solver stacks samples of their
+        #: own (``cam_phases`` (P,), the Monte Carlo's blocks): eccentric B's rotation
+        #: (P, 2, 2) per position.
+        phases = getattr(solver, "cam_phases", None)
+        self.rot_b = None
+        if phases is not None:
+            t = math.pi + np.asarray(phases, dtype=float)
+            c, s = np.cos(t), np.sin(t)
+            self.rot_b = np.stack([np.stack([c, s], -1), np.stack([-s, c], -1)], 1)
 
     def loads_and_moments(self, F: np.ndarray):
         """Eccentric loads ``P`` (P, 2, 2) in A's frame and row moments (P, 2)."""
@@ -158,12 +167,17 @@ class _State:
         M = np.empty((F.shape[0], 2))
         for c, sl in enumerate((slice(0, R), slice(R, 2 * R))):
             f = np.einsum("pk,pkx->px", F[:, sl], self.n[:, sl])
-            P[:, c] = -(f @ self.rot[c].T)
+            if c == 1 and self.rot_b is not None:
+                P[:, c] = -np.einsum("pyx,px->py", self.rot_b, f)
+            else:
+                P[:, c] = -(f @ self.rot[c].T)
             M[:, c] = np.sum(self.a_m[:, sl] * F[:, sl], axis=1)
         return P, M
 
     def own(self, w: np.ndarray) -> np.ndarray:
         """(P, 2, 2) vectors from A's frame into each eccentric's own."""
+        if self.rot_b is not None:
+            return np.stack([w[:, 0], np.einsum("py,pyx->px", w[:, 1], self.rot_b)], axis=1)
         return np.stack([w[:, c] @ self.rot[c] for c in (0, 1)], axis=1)
 
     def offsets(self, x: np.ndarray) -> np.ndarray:

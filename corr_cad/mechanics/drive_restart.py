@@ -64,8 +64,10 @@ def _contact_model(comp) -> str:
     return "linear" if getattr(comp, "linear", False) else "nonlinear"
 
 
-def subset_solver(solver, idx: np.ndarray):
-    """The drive solver (same class) of the positions ``idx``: its geometry's rows."""
+def subset_solver(solver, idx: np.ndarray, chain: bool = False):
+    """The drive solver (same class) of the positions ``idx``: its geometry's rows;
+    ``chain``: with the solver's crankshaft and elastic bodies (their influence at
+    those positions), else the contacts and bearings only."""
     P = len(solver.crank_angles)
 
     def take(g):
@@ -76,7 +78,7 @@ def subset_solver(solver, idx: np.ndarray):
                 kw[f.name] = v[idx]
         return replace(g, **kw)
 
-    return type(solver)(
+    sub = type(solver)(
         solver.design,
         solver.crank_angles[idx],
         geometry=tuple(take(g) for g in solver.geo),
@@ -84,4 +86,10 @@ def subset_solver(solver, idx: np.ndarray):
         bearing_b=solver.bearings[1],
         contact_model=_contact_model(solver.comp),
         rtol=solver.rtol,
+        crank=solver.crank if chain else None,
+        bodies=solver.bodies.tables if chain and solver.bodies is not None else None,
     )
+    phases = getattr(solver, "cam_phases", None)
+    if chain and phases is not None:  # stacked samples' own cam B phases (drive_crank)
+        sub.cam_phases = phases[idx]
+    return sub

@@ -47,7 +47,7 @@ import numpy as np
 from corr_cad.mechanics.datasheet import span_errors
 from corr_cad.mechanics.windup import crank_angles_of
 from corr_cad.tolerance.mc_datasheet import DatasheetMC, grid_positions, windup_metrics
-from corr_cad.tolerance.montecarlo_drive import drive_chunk, row_b_tolerances, stacked_geometry
+from corr_cad.tolerance.montecarlo_drive import chain_solver, drive_chunk, row_b_tolerances
 
 __all__ = [
     "BINDING_DEFINITION",
@@ -95,14 +95,7 @@ def drive_datasheet_samples(
     for lo in range(0, len(pairs), block):
         part = pairs[lo : lo + block]
         n = len(part)
-        solver = solver_class(
-            design,
-            np.tile(phi, n),
-            geometry=stacked_geometry(design, phi, part, psi_limit),
-            bearing=drive.get("bearing"),
-            bearing_b=drive.get("bearing_b"),
-            contact_model=drive.get("contact_model", "nonlinear"),
-        )
+        solver = chain_solver(solver_class, design, phi, part, psi_limit, drive)
         ends = None
         moments = {}
         for j, T in enumerate(torques):
@@ -137,6 +130,8 @@ def _linear_start_solver():
             comp = self.comp
             if (
                 self.bearings[0] is None
+                or self.crank is not None  # the chain's own solve (drive_crank, bodies)
+                or self.bodies is not None
                 or getattr(comp, "explicit", False)
                 or getattr(comp, "linear", False)
             ):
@@ -177,7 +172,7 @@ def _preload_pressure(solver, sols: dict, moments: dict) -> tuple[np.ndarray, bo
     idx = np.flatnonzero(~(fwd > rev))
     if idx.size == 0:
         return out, True
-    sub = subset_solver(solver, idx)
+    sub = subset_solver(solver, idx, chain=True)
     near = sorted(sols, key=lambda k: abs(moments[k]))
     starts = [_take(sols[k], idx) for k in near]
     zero = restart_missed(sub, 0.0, sub.solve(0.0), starts)
@@ -210,6 +205,7 @@ def _solve_all(solver, moments: dict) -> tuple[dict, bool]:
 
     limit = max(solver.rtol, 1e-9)
     warm = solver.bearings[0] is not None and not getattr(solver.comp, "linear", False)
+    warm &= solver.crank is None and solver.bodies is None  # the chain's own solve: no warm start
     first: dict = {}
     prev = None
     for k in sorted(moments, key=lambda k: (np.sign(moments[k]), abs(moments[k]))):

@@ -156,6 +156,8 @@ def _drive_life_samples(
             contact_model=drive.get("contact_model", "nonlinear"),
             variants=variants,
             psi_contact_limit=psi_contact_limit,
+            crank=drive.get("crank"),
+            bodies=drive.get("bodies"),
         )
         rows = rows_from_drive(design, dw.forces(-rated_torque))
         lives = drive_life(

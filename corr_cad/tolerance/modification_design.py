@@ -278,7 +278,9 @@ def _datasheet_drive(drive: dict | None, gap) -> dict:
     d = _modified_drive(drive, gap)
     return {
         "contact_model": d.get("contact_model", "nonlinear"),
-        "drive": {k: d.get(k) for k in ("errors_b", "bearing", "bearing_b")},
+        "drive": {
+            k: d.get(k) for k in ("errors_b", "bearing", "bearing_b", "crank", "bodies") if k in d
+        },
     }
 
 

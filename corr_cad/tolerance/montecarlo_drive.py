@@ -15,6 +15,16 @@ solved by one :class:`DriveSolver`. Every position's solve (the rigid
 Newton-bisection, the bearing Newton and its line search, the free interval)
 is its own, so a sample's metrics are those of solving it alone
 (``tests/test_montecarlo_drive.py``); the block only shares numpy's overhead.
+
+The load path beyond the contacts (:func:`chain_solver`): ``drive``'s ``crank``
+(the crankshaft on its support bearings) and ``bodies`` (the elastic ring, frame
+and cams' influence tables) are the nominal drive's objects, handed to each
+chunk as built once per design; every sample is solved on them. The bodies'
+tables are the nominal design's (a sample's errors move its gaps by micrometres,
+not the bodies' shape: a small-perturbation choice, ``docs/physics.md``), and a
+sample's influence matrices are those of the nominal positions (its geometry
+differs in the gaps and curvatures only), made once a block and repeated for
+each sample (``tests/test_elastic_tolerance.py``).
 """
 
 from __future__ import annotations
@@ -30,6 +40,7 @@ __all__ = [
     "ROW_B_KINDS",
     "ROW_B_STREAM",
     "row_b_tolerances",
+    "chain_solver",
     "drive_chunk",
     "drive_metrics",
     "stacked_geometry",
@@ -114,6 +125,33 @@ def stacked_geometry(
     return stack(nominal[0], parts[0]), stack(nominal[1], parts[1])
 
 
+def chain_solver(solver_class, design, angles: np.ndarray, pairs: list, psi_limit: float, drive):
+    """The stacked drive solver of the samples ``pairs`` (:func:`stacked_geometry`) on the
+    nominal drive's chain: ``drive``'s bearings, contact law, ``crank`` and ``bodies``
+    (absent or None: the eccentrics fixed, the bodies rigid)."""
+    angles = np.asarray(angles, dtype=float).reshape(-1)
+    n = len(pairs)
+    geometry = stacked_geometry(design, angles, pairs, psi_limit)
+    solver = solver_class(
+        design,
+        np.tile(angles, n),
+        geometry=geometry,
+        bearing=drive.get("bearing"),
+        bearing_b=drive.get("bearing_b"),
+        contact_model=drive.get("contact_model", "nonlinear"),
+        crank=drive.get("crank"),
+    )
+    if solver.crank is not None:  # each sample's cam B phase turns its eccentric B
+        phases = [row_errors(ea, eb)[1].cam_phase_error for ea, eb in pairs]
+        solver.cam_phases = np.repeat(np.asarray(phases, dtype=float), len(angles))
+    tables = drive.get("bodies")
+    if tables is not None:
+        from corr_cad.mechanics.bodies.coupling import Influence
+
+        solver.bodies = Influence.repeated(tables, design, angles, geometry, n)
+    return solver
+
+
 def _block_metrics(res, interval, ratio: float, n: int, P: int) -> dict:
     """:func:`drive_metrics` of each of the ``n`` stacked samples, arrays (n,)."""
     p = [np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear) for r in res.rows]
@@ -161,14 +199,7 @@ def drive_chunk(
             (errors_for(base, tolerances, draws, k), errors_for(base_b, tol_b, draws_b, k))
             for k in range(lo, hi)
         ]
-        solver = CompiledDriveSolver(
-            design,
-            np.tile(angles, hi - lo),
-            geometry=stacked_geometry(design, angles, pairs, psi_limit),
-            bearing=drive.get("bearing"),
-            bearing_b=drive.get("bearing_b"),
-            contact_model=drive.get("contact_model", "nonlinear"),
-        )
+        solver = chain_solver(CompiledDriveSolver, design, angles, pairs, psi_limit, drive)
         res = solver.result(float(input_torque))
         ok &= bool(res.success)
         # The backlash is the interval's width: 0 where tight, with no zero-moment solve.

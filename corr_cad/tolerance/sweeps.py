@@ -245,9 +245,12 @@ def sweep_point(
 
     ``drive``: the two-row drive model (keyword arguments of
     :func:`~corr_cad.mechanics.drive.solve_drive`: ``bearing``, ``bearing_b``,
-    ``contact_model``); roller 1 is then row A's, and the swept error both
-    rows'. Without it, one row at ``load_share``; ``drive = {"contact_model":
-    ...}`` with ``load_share`` given as None picks only the contact law.
+    ``contact_model``, ``crank``, ``bodies``); roller 1 is then row A's, and the
+    swept error both rows'. An error's sweep solves on the nominal design's body
+    tables; a design's sweep on that design's own (``bodies_for(design)``, where
+    given), the crankshaft as the scene gives it. Without it, one row at
+    ``load_share``; ``drive = {"contact_model": ...}`` with ``load_share`` given as
+    None picks only the contact law.
     """
     where, _, _ = PAPER_SWEEPS[name]
     rec = {"sweep": name, "value": float(value), "status": "ok"}
@@ -263,7 +266,9 @@ def sweep_point(
         if drive is not None and drive.get("model") == "drive":
             from corr_cad.mechanics.drive import solve_drive
 
-            kw = {k: v for k, v in drive.items() if k != "model"}
+            kw = {k: v for k, v in drive.items() if k not in ("model", "bodies_for")}
+            if where == "design" and drive.get("bodies_for") is not None:
+                kw["bodies"] = drive["bodies_for"](d)  # the bodies of the swept design
             res = solve_drive(d, input_torque, positions=positions, errors=errors, **kw).rows[0]
         else:
             law = (drive or {}).get("contact_model", "nonlinear")

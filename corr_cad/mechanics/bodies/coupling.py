@@ -265,6 +265,23 @@ class Influence:
         P = len(self.angles)
         self._all = self._make(np.arange(P)) if P <= self.block else None
 
+    @classmethod
+    def repeated(cls, tables: BodyTables, design: GearDesign, crank_angles, geometry, n: int):
+        """The influence of ``n`` samples stacked sample-major over the crank angles (P,)
+        (``geometry``: their stacked rows, (n P, R) each) whose geometries differ in the
+        gaps and curvatures only: ``C`` depends on neither, so the first sample's matrices
+        serve every sample (made once, not ``n`` times)."""
+        P = len(np.asarray(crank_angles, dtype=float).reshape(-1))
+        out = cls.__new__(cls)
+        out.tables, out.design, out.geometry = tables, design, geometry
+        out.angles = np.tile(np.asarray(crank_angles, dtype=float).reshape(-1), n)
+        N = 2 * design.roller_count
+        out.block = max(1, BLOCK_ENTRIES // (N * N))
+        out._all = None
+        if n * P <= out.block:
+            out._all = np.tile(out._make(np.arange(P)), (n, 1, 1))
+        return out
+
     def _make(self, idx: np.ndarray) -> np.ndarray:
         geo = tuple(_take(g, idx) for g in self.geometry)
         return influence_matrices(self.tables, self.design, self.angles[idx], geo)

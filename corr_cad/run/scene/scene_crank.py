@@ -17,11 +17,9 @@ from corr_cad.mechanics.crankshaft import Crankshaft
 from corr_cad.mechanics.drive_crank import CrankSupport
 from corr_cad.mechanics.support_bearing import SupportBearing
 
-__all__ = ["CRANK_SECTION_NAMES", "default_layout", "parse_crank", "REFUSED_FORMATS"]
+__all__ = ["CRANK_SECTION_NAMES", "default_layout", "parse_crank"]
 
 CRANK_SECTION_NAMES = ("crankshaft", "bearings.crank")
-#: Outputs that solve the drive without the crankshaft: refused with it.
-REFUSED_FORMATS = ("montecarlo", "allocation", "modification", "sweeps")
 
 
 def default_layout(
@@ -70,9 +68,9 @@ def default_layout(
 
 
 def parse_crank(values: dict, data: dict, design, bearing, formats=()) -> CrankSupport | None:
-    """The scene's crankshaft and support bearings (None without either section); the
-    outputs that do not take it refused (:func:`check_crank_formats`), and so is
-    ``[solver] bodies = "elastic"`` beside it (the drive takes one or the other)."""
+    """The scene's crankshaft and support bearings (None without either section);
+    ``[solver] bodies = "elastic"`` beside it refused (the drive takes one or the other).
+    Every output that solves the drive takes it (``formats`` is not consulted)."""
     given = [s for s in CRANK_SECTION_NAMES if s in data]
     if not given:
         return None
@@ -82,9 +80,7 @@ def parse_crank(values: dict, data: dict, design, bearing, formats=()) -> CrankS
             f'bodies or the crankshaft, not both; set bodies = "rigid" (or remove '
             f"{' and '.join(f'[{g}]' for g in given)})"
         )
-    crank = _parse(values, data, design, bearing)
-    check_crank_formats(crank, formats)
-    return crank
+    return _parse(values, data, design, bearing)
 
 
 def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
@@ -163,15 +159,3 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
         bearing_source=brg_src,
         derived=tuple(derived),
     )
-
-
-def check_crank_formats(crank, formats) -> None:
-    """Outputs that do not take the crankshaft yet, refused in one line."""
-    if crank is None:
-        return
-    bad = [f for f in REFUSED_FORMATS if f in formats]
-    if bad:
-        raise SceneError(
-            f"[export] formats lists '{bad[0]}', whose solves keep the crankshaft rigid; with "
-            "[crankshaft] or [bearings.crank] remove it (or remove those sections for it)"
-        )

@@ -194,13 +194,6 @@ def check_drive_tolerances(tolerances: dict, formats: tuple, solver, checks, dat
     )
     if what is None:
         return
-    rigid_only = [f for f in ("montecarlo", "allocation", "sweeps", "modification") if f in formats]
-    if solver.bodies == "elastic" and rigid_only:
-        raise SceneError(
-            f"[export] formats lists {rigid_only[0]!r}, which solves the drive with rigid "
-            '[solver] bodies only; remove it or set bodies = "rigid" (the elastic bodies reach '
-            "forces and datasheet)"
-        )
     if "modification" in formats and not solver.drive:
         raise SceneError(
             "[export] formats lists 'modification', whose design solves the paper's contact "

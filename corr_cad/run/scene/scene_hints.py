@@ -60,9 +60,7 @@ def every_format(
     and the studies built on them, tolerances, a limit for the allocation, a
     measured profile for the inspection), ``step`` without Open CASCADE, and
     the studies on samples (montecarlo, allocation, modification) under
-    Palmgren's law on the paper's row; the studies that keep the crankshaft rigid
-    (montecarlo, allocation, modification, sweeps) where the scene (``data``) gives
-    ``[crankshaft]`` or ``[bearings.crank]``.
+    Palmgren's law on the paper's row.
     """
     import importlib.util
 
@@ -96,22 +94,15 @@ def every_format(
         'its samples solve the paper\'s contact law or the drive: contact_law = "palmgren" '
         'needs model = "drive"',
     )
-    given = data or {}
-    crank = (
-        not any(s in given for s in ("crankshaft", "bearings.crank"))
-        and "crank" not in (given.get("bearings") or {}),
-        "its solves keep the crankshaft rigid: [crankshaft] or [bearings.crank] is given",
-    )
     needs = {
         "forces": (load,),
         "datasheet": (rated,),
-        "montecarlo": (load, tol, paper_law, crank),
-        "allocation": (load, tol, limit, paper_law, crank),
-        "sweeps": (load, crank),
+        "montecarlo": (load, tol, paper_law),
+        "allocation": (load, tol, limit, paper_law),
+        "sweeps": (load,),
         "inspection": (measured,),
         "step": (ocp,),
         "modification": (
-            crank,
             paper_law,
             rated,
             tol,

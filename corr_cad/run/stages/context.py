@@ -34,6 +34,7 @@ __all__ = [
     "modified_curve",
     "psi_contact_limit",
     "elastic_bodies",
+    "chain_kwargs",
     "expected_seconds",
 ]
 
@@ -185,6 +186,23 @@ def drive_kwargs(ctx: RunContext) -> dict:
     }
     if getattr(s, "crank", None) is not None:  # [crankshaft] / [bearings.crank]
         out["crank"] = s.crank
+    return out
+
+
+def chain_kwargs(ctx: RunContext, per_design: bool = False) -> dict:
+    """The load path beyond the contacts as the nominal drive solves it: ``crank`` with
+    ``[crankshaft]`` / ``[bearings.crank]``, ``bodies`` (the influence tables, made once
+    per run) under ``[solver] bodies = "elastic"``; neither key where it is absent.
+    ``per_design``: with ``bodies_for``, the tables of another design (a sweep's)."""
+    out = {**elastic_bodies(ctx)}
+    if getattr(ctx.scene, "crank", None) is not None:
+        out["crank"] = ctx.scene.crank
+    if per_design and "bodies" in out:
+        import functools
+
+        from corr_cad.run.stages.stages_bodies import design_tables
+
+        out["bodies_for"] = functools.partial(design_tables, chord=ctx.scene.chord_tolerance)
     return out
 
 

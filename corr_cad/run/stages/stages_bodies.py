@@ -22,7 +22,14 @@ import numpy as np
 
 from corr_cad.mechanics.bodies.reduction import BodyTables, MeshSpec, reduce_bodies
 
-__all__ = ["cache_dir", "body_key", "cached_tables", "body_tables", "bodies_description"]
+__all__ = [
+    "cache_dir",
+    "body_key",
+    "cached_tables",
+    "body_tables",
+    "design_tables",
+    "bodies_description",
+]
 
 #: Bumped whenever the tables' meaning or the FE model changes (a new key for every design).
 CACHE_VERSION = 2
@@ -120,6 +127,17 @@ def body_tables(ctx) -> BodyTables:
         outlines = part_outlines(s.design, working, s.chord_tolerance)
         ctx.results.bodies, _ = cached_tables(s.design, outlines)
     return ctx.results.bodies
+
+
+def design_tables(design, chord: float) -> BodyTables:
+    """The body tables of another design than the scene's (a sweep's point), from its own
+    outlines, cached as :func:`body_tables` caches the scene's (``chord``: ``[export]
+    chord_tolerance``)."""
+    from corr_cad.geometry.parts import part_outlines
+    from corr_cad.geometry.profile import undercut_analysis, working_profile
+
+    working = working_profile(design, undercut_analysis(design))
+    return cached_tables(design, part_outlines(design, working, chord))[0]
 
 
 def bodies_description(tables: BodyTables | None = None) -> dict:

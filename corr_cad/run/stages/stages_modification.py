@@ -247,9 +247,13 @@ def _final_folder(out):
     return out.parent if _is_stage(out) else out
 
 
-def _design_drive(s) -> dict | None:
+def _design_drive(ctx) -> dict | None:
     """The design's ``drive`` argument under ``model = "drive"`` (None: the paper's row):
-    row B's own errors as given (the design adds each candidate), the bearings, the law."""
+    row B's own errors as given (the design adds each candidate), the bearings, the law,
+    and the nominal drive's crankshaft and elastic bodies where it has them."""
+    from corr_cad.run.stages.context import chain_kwargs
+
+    s = ctx.scene
     if not s.solver.drive:
         return None
     return {
@@ -257,6 +261,7 @@ def _design_drive(s) -> dict | None:
         "bearing": s.bearing,
         "bearing_b": s.bearing_b,
         "contact_model": s.solver.contact_model,
+        **chain_kwargs(ctx),
     }
 
 
@@ -300,7 +305,7 @@ def modification_design(ctx: RunContext) -> None:
         executor=ctx.executor,
         progress=tick,
         datasheet_spec=datasheet_spec(s) if md["objective"] == "transmission_error" else None,
-        drive=_design_drive(s),
+        drive=_design_drive(ctx),
     )
     bar.close()
     write_json(ctx.out / "modification.json", res)
