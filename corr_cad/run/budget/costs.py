@@ -537,9 +537,7 @@ def _sweeps(scene, env):
     return Cost(
         memory=30 * MB + 4e3 * count + (0 if local or env.remote else solve + m),
         workers=local * (WORKER_BYTES + solve + m),
-        seconds=1.0
-        + (count * point + designs * fe) / env.workers
-        + 0.2 * len(PAPER_SWEEPS),
+        seconds=1.0 + (count * point + designs * fe) / env.workers + 0.2 * len(PAPER_SWEEPS),
         output={"sweep_*": len(PAPER_SWEEPS) * (0.12 * MB + 120 * pts) + 3e3 * count},
         libraries=("matplotlib",),
         knobs=("[sweeps] points", "[sweeps] positions"),
