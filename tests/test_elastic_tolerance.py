@@ -179,8 +179,10 @@ def test_chain_1e9_stiffer_gives_the_rigid_monte_carlo(small_tables, chain):
         np.testing.assert_allclose(elastic.metrics[name], v, rtol=1e-9, atol=1e-12, err_msg=name)
 
 
-@pytest.mark.parametrize("clearance", [0.0, 0.005])
-def test_crank_datasheet_metrics_equal_the_sample_alone(clearance):
+@pytest.mark.parametrize(
+    "clearance,law", [(0.0, "palmgren"), (0.005, "palmgren"), (0.005, "nonlinear")]
+)
+def test_crank_datasheet_metrics_equal_the_sample_alone(clearance, law):
     """The datasheet pass on the crank: each sample's windup figures equal a one-sample
     block's (the datasheet pass of that sample alone) to 1e-9, and differ from the
     rigid crank's (softer: lower rigidity). With a needle clearance some positions'
@@ -196,7 +198,7 @@ def test_crank_datasheet_metrics_equal_the_sample_alone(clearance):
     cfg = DatasheetMC(DatasheetSpec(rated_torque=2.86e6), positions_per_mesh=2)
     grid = drive_grid(DESIGN, pairs[0][0], pairs[0][1], ("roller_radius",), 2)[:6]
     bearing = EccentricBearing(40, 6.0, 12.0, clearance)
-    drive = {"bearing": bearing, "contact_model": "palmgren", "crank": crank()}
+    drive = {"bearing": bearing, "contact_model": law, "crank": crank()}
     got, ok = drive_datasheet_samples(DESIGN, pairs, cfg, grid, math.pi, drive)
     assert ok
     rigid, _ = drive_datasheet_samples(DESIGN, pairs, cfg, grid, math.pi, {**drive, "crank": None})
