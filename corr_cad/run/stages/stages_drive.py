@@ -11,7 +11,13 @@ from corr_cad.errors import SolverError
 from corr_cad.mechanics.drive import DriveResult, solve_drive
 from corr_cad.run.stages.context import RunContext, drive_kwargs
 
-__all__ = ["drive_forces", "drive_force_files", "drive_check_values", "model_description"]
+__all__ = [
+    "drive_forces",
+    "drive_force_files",
+    "drive_check_values",
+    "model_description",
+    "samples_chain",
+]
 
 ROWS = ("A", "B")
 
@@ -35,6 +41,29 @@ def model_description(scene, tables=None) -> dict:
 
         out["bodies"] = bodies_description(tables)
     return out
+
+
+def samples_chain(s) -> str | None:
+    """What the samples solve beyond the contacts and bearings, as the files state it
+    (``samples_chain``; None where the chain is the contacts and bearings alone)."""
+    crank = getattr(s, "crank", None) is not None
+    bodies = s.solver.bodies == "elastic"
+    if not (crank or bodies):
+        return None
+    parts = []
+    if crank:
+        parts.append(
+            "the crankshaft on its support bearings as [crankshaft] and [bearings.crank] give "
+            "it (one shaft for every sample)"
+        )
+    if bodies:
+        parts.append(
+            "the elastic ring, frame and cams by the nominal design's influence tables "
+            "(reduced once per design, never per sample), applied to each sample's perturbed "
+            "drive: its errors move the gaps by micrometres, not the bodies' shape (a "
+            "small-perturbation choice; its size measured in the manual's physics)"
+        )
+    return "every sample solved on the nominal drive's chain: " + "; ".join(parts)
 
 
 def compliances(scene) -> dict:

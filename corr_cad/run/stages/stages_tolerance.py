@@ -20,6 +20,7 @@ from corr_cad.run.stages.context import (
     psi_contact_limit,
     scene_errors,
 )
+from corr_cad.run.stages.stages_drive import samples_chain
 
 #: Monte Carlos of one allocation search, typically (a first one at 0, the
 #: doublings, then the bisection to 2 %; ``allocate`` reports the exact count).
@@ -218,29 +219,6 @@ def _drive_model_meta(s, sheet) -> dict:
 
         out["model"]["binding"] = BINDING_DEFINITION
     return out
-
-
-def samples_chain(s) -> str | None:
-    """What the samples solve beyond the contacts and bearings, as the files state it
-    (``samples_chain``; None where the chain is the contacts and bearings alone)."""
-    crank = getattr(s, "crank", None) is not None
-    bodies = s.solver.bodies == "elastic"
-    if not (crank or bodies):
-        return None
-    parts = []
-    if crank:
-        parts.append(
-            "the crankshaft on its support bearings as [crankshaft] and [bearings.crank] give "
-            "it (one shaft for every sample)"
-        )
-    if bodies:
-        parts.append(
-            "the elastic ring, frame and cams by the nominal design's influence tables "
-            "(reduced once per design, never per sample), applied to each sample's perturbed "
-            "drive: its errors move the gaps by micrometres, not the bodies' shape (a "
-            "small-perturbation choice; its size measured in the manual's physics)"
-        )
-    return "every sample solved on the nominal drive's chain: " + "; ".join(parts)
 
 
 def _life_under_tolerances(ctx: RunContext) -> dict:
