@@ -456,3 +456,21 @@ def test_nominal_tables_on_a_perturbed_sample_are_its_own_to_1e_3(small_tables):
         got.append(np.array([res.F_n.max(), np.mean(res.cam_rotation), p]))
     assert np.all(np.abs(got[1] / got[0] - 1) < 1e-3), got[1] / got[0] - 1
     assert np.any(np.abs(got[1] / got[0] - 1) > 1e-7)  # the tables do differ
+
+
+@pytest.mark.parametrize("section", [{"crankshaft": {}}, {"crankshaft": {"shaft_diameter": 30.0}},
+                                     {"bearings": {"crank": {"type": "rigid"}}}])  # fmt: skip
+def test_modified_toml_keeps_the_crank(section):
+    """modified.toml of a scene on the crank keeps its sections (an empty one too: its
+    presence puts the crank in), so a study added to it solves on the same chain."""
+    import tomllib
+
+    from corr_cad.run.scene.scene import parse_scene
+    from corr_cad.run.stages.stages_modification import modified_toml
+
+    data = {"solver": {"model": "drive"}, "load": {"input_torque": M0}, **section}
+    text = modified_toml(parse_scene(data), 0.01, 0.0)
+    again = parse_scene(tomllib.loads(text))
+    assert again.crank is not None and again.crank == parse_scene(data).crank
+    plain = modified_toml(parse_scene({"solver": {"model": "drive"}}), 0.01, 0.0)
+    assert "crank" not in plain

@@ -106,7 +106,12 @@ _DRIVE_CARRIED = (
     ("errors.row_b", ("errors", "row_b")),
     ("bearings.eccentric", ("bearings", "eccentric")),
     ("bearings.eccentric_b", ("bearings", "eccentric_b")),
+    ("crankshaft", ("crankshaft",)),
+    ("bearings.crank", ("bearings", "crank")),
 )
+#: Sections whose presence alone means something (the crankshaft is in the drive with
+#: either, whatever its keys): written where the scene gives them, even with no key.
+_CARRIED_EMPTY = ("crankshaft", "bearings.crank")
 
 
 def _carry_drive(scene, data: dict) -> None:
@@ -124,7 +129,8 @@ def _carry_drive(scene, data: dict) -> None:
         if section == "solver":
             vals = {k: v for k, v in vals.items() if k in ("model", "contact_law")}
         kept = {k: v for k, v in vals.items() if k in keys and v != keys[k].default}
-        if section == "solver" or kept:  # an override without keys of its own is none
+        given = section in _CARRIED_EMPTY and section in scene.source
+        if section == "solver" or kept or given:  # an override without keys is none
             where = data
             for part in path[:-1]:
                 where = where.setdefault(part, {})
