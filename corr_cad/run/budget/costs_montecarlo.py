@@ -79,11 +79,12 @@ DRIVE_DATASHEET_SECONDS = {
 #: a 1 um (1 sigma) roller tolerance, load average 0.7 on 2 cores; the crank as derived
 #: from the design (its default layout), the bodies' tables of the prototype (cached).
 #: Force: 2.44 / 22.9 / 33.1 ms a sample (rigid / crank / bodies) with the cams fixed,
-#: 3.33 / 17.3 / 35.5 ms on needles with 5 um of clearance; with the datasheet pass 16.2
-#: / 256 / 196, 16.7 / 187 / 265 (needles, no clearance), 18.1 / 325 / 281 ms.
+#: 3.13 / 15.6 / 27.3 ms on needles, 3.33 / 17.3 / 35.5 ms on needles with 5 um of
+#: clearance; with the datasheet pass 16.2 / 256 / 196, 16.7 / 187 / 265, 18.1 / 325 /
+#: 281 ms (``benchmarks/bench_chain_samples.py``).
 CHAIN_FACTORS = {
-    "crank": {"force": (9.4, 5.2, 5.2), "datasheet": (15.8, 11.2, 18.0)},
-    "bodies": {"force": (13.6, 10.7, 10.7), "datasheet": (12.1, 15.9, 15.5)},
+    "crank": {"force": (9.4, 5.0, 5.2), "datasheet": (15.8, 11.2, 18.0)},
+    "bodies": {"force": (13.6, 8.7, 10.7), "datasheet": (12.1, 15.9, 15.5)},
 }
 
 
