@@ -243,6 +243,7 @@ def _small_scene(formats='["forces", "montecarlo"]', bodies="rigid", samples=6, 
     return SMALL_SCENE.format(formats=formats, bodies=bodies, samples=samples, extra=extra)
 
 
+@pytest.mark.slow
 def test_body_tables_built_once_a_run(tmp_path, monkeypatch):
     """The FE reduction runs once in a run whose forces, datasheet and Monte Carlo (force
     and datasheet metrics) all solve on the elastic bodies, and the cache is not read
