@@ -297,7 +297,12 @@ def test_cli_monte_carlo_on_the_crank_serial_equals_two_workers(tmp_path):
     """The CLI with montecarlo under [crankshaft]: it runs (no refusal), states the chain
     in montecarlo_summary.json, and writes the same montecarlo.csv on one process and on
     two workers, byte for byte."""
-    text = _small_scene(extra="[crankshaft]\nshaft_diameter = 20.0\n[bearings.crank]\n")
+    text = _small_scene(
+        '["forces", "montecarlo", "modification"]',
+        extra="[crankshaft]\nshaft_diameter = 20.0\n[bearings.crank]\n"
+        "[modification.design]\ntarget_backlash_arcmin = 5.0\nmax_binding_probability = 0.5\n"
+        "steps = 2\nsamples = 10\npositions = 8\nforce_candidates = 1\n",
+    )
     r1, one = _cli(tmp_path, text, "one", "--workers", "1")
     assert r1.returncode == 0, r1.stderr
     r2, two = _cli(tmp_path, text, "two", "--workers", "2")
@@ -306,6 +311,9 @@ def test_cli_monte_carlo_on_the_crank_serial_equals_two_workers(tmp_path):
     s = json.loads((one / "montecarlo_summary.json").read_text())
     assert s["model"]["crank"]["crankshaft"]["shaft_diameter_mm"] == 20.0
     assert "crankshaft" in s["model"]["samples_chain"]
+    mod = json.loads((one / "modification.json").read_text())
+    assert mod["samples_chain"] == s["model"]["samples_chain"]
+    assert "[crankshaft]" in (one / "modified.toml").read_text()
     rigid, out_r = _cli(tmp_path, _small_scene(), "rigid", "--workers", "1")
     assert rigid.returncode == 0, rigid.stderr
     sr = json.loads((out_r / "montecarlo_summary.json").read_text())

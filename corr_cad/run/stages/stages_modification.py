@@ -314,6 +314,11 @@ def modification_design(ctx: RunContext) -> None:
         drive=_design_drive(ctx),
     )
     bar.close()
+    from corr_cad.run.stages.stages_drive import samples_chain
+
+    chain = samples_chain(s) if s.solver.drive else None
+    if chain is not None:  # the key appears with the chain only (other files keep their bytes)
+        res["samples_chain"] = chain
     write_json(ctx.out / "modification.json", res)
     c = res["chosen"]
     edges = range_edges(md, c) if c is not None else []
