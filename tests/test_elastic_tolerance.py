@@ -483,3 +483,36 @@ def test_modified_toml_keeps_the_crank(section):
     assert again.crank is not None and again.crank == parse_scene(data).crank
     plain = modified_toml(parse_scene({"solver": {"model": "drive"}}), 0.01, 0.0)
     assert "crank" not in plain
+
+
+@pytest.mark.parametrize("chain", ["bodies", "stiff crank"])
+def test_datasheet_metrics_on_the_chain(small_tables, chain):
+    """The datasheet pass on the elastic bodies: each sample equals its one-sample block to
+    1e-9 and the bodies lower the rigidity; on a crank 1e9 times stiffer, the rigid
+    chain's datasheet figures to 1e-9."""
+    from corr_cad.mechanics.datasheet import DatasheetSpec
+    from corr_cad.tolerance.mc_datasheet import DatasheetMC
+    from corr_cad.tolerance.mc_drive_datasheet import drive_datasheet_samples, drive_grid
+
+    design = SMALL if chain == "bodies" else DESIGN
+    R = design.roller_count
+    rng = np.random.default_rng(9)
+    pairs = [(_errors(rng, R, math.radians(0.03)), _errors(rng, R)) for _ in range(3)]
+    rated = 2e4 * R if chain == "bodies" else 2.86e6
+    cfg = DatasheetMC(DatasheetSpec(rated_torque=rated), positions_per_mesh=2)
+    grid = drive_grid(design, pairs[0][0], pairs[0][1], ("roller_radius",), 2)[:5]
+    base = {"bearing": NEEDLES, "contact_model": "palmgren"}
+    drive = {**base, "bodies": small_tables} if chain == "bodies" else {**base, "crank": crank(1e9)}
+    got, ok = drive_datasheet_samples(design, pairs, cfg, grid, math.pi, drive)
+    rigid, ok_r = drive_datasheet_samples(design, pairs, cfg, grid, math.pi, base)
+    assert ok and ok_r
+    key = "torsional_rigidity_Nm_per_arcmin"
+    if chain == "bodies":
+        for k, pair in enumerate(pairs):
+            one, _ = drive_datasheet_samples(design, [pair], cfg, grid, math.pi, drive)
+            for name, v in one.items():
+                assert got[name][k] == pytest.approx(v[0], rel=1e-9, abs=1e-12), (name, k)
+        assert np.all(got[key] < rigid[key])
+    else:
+        for name, v in rigid.items():
+            np.testing.assert_allclose(got[name], v, rtol=1e-9, atol=1e-9, err_msg=name)
