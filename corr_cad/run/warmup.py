@@ -105,10 +105,10 @@ def _drive_kernels() -> None:
     import numpy as np
 
     from corr_cad.geometry.design import GearDesign
-    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
     from corr_cad.mechanics.datasheet import DatasheetSpec
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
-    from corr_cad.mechanics.solver_geometry import cycle_angles
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.row.solver_geometry import cycle_angles
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
     from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 
@@ -127,9 +127,9 @@ def _drive_kernels() -> None:
 
 def _free_play() -> None:
     from corr_cad.geometry.design import GearDesign
-    from corr_cad.mechanics.bearing import EccentricBearing
-    from corr_cad.mechanics.drive import DriveSolver
-    from corr_cad.mechanics.solver_geometry import cycle_angles
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
+    from corr_cad.mechanics.drive.drive import DriveSolver
+    from corr_cad.mechanics.row.solver_geometry import cycle_angles
 
     bearing = EccentricBearing(40, 6.0, 12.0, diametral_clearance=0.005)
     DriveSolver(GearDesign(), cycle_angles(4), bearing=bearing).free_interval(solve=False)

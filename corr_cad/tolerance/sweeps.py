@@ -24,7 +24,7 @@ from corr_cad.errors import CorrCadError, DesignError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.geometry.profile import min_speed_factor, undercut_analysis
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 __all__ = [
     "PAPER_SWEEPS",
@@ -244,7 +244,7 @@ def sweep_point(
     """One sweep point: status ``ok``, ``undercut`` or ``invalid``, and roller 1's forces.
 
     ``drive``: the two-row drive model (keyword arguments of
-    :func:`~corr_cad.mechanics.drive.solve_drive`: ``bearing``, ``bearing_b``,
+    :func:`~corr_cad.mechanics.drive.drive.solve_drive`: ``bearing``, ``bearing_b``,
     ``contact_model``); roller 1 is then row A's, and the swept error both
     rows'. Without it, one row at ``load_share``; ``drive = {"contact_model":
     ...}`` with ``load_share`` given as None picks only the contact law.
@@ -261,7 +261,7 @@ def sweep_point(
             return rec
         errors = ManufacturingErrors(**{name: value}) if where == "errors" else None
         if drive is not None and drive.get("model") == "drive":
-            from corr_cad.mechanics.drive import solve_drive
+            from corr_cad.mechanics.drive.drive import solve_drive
 
             kw = {k: v for k, v in drive.items() if k != "model"}
             res = solve_drive(d, input_torque, positions=positions, errors=errors, **kw).rows[0]
