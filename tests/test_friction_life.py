@@ -1,4 +1,4 @@
-"""Friction, efficiency and rated life (corr_cad.mechanics.losses.friction, efficiency, life).
+"""Friction, efficiency and rated life (mechanics.losses.friction, .efficiency, mechanics.life).
 
 Expected values come from formulas written out here: the catalogue bearing
 moment M = 0.5 mu P d, ISO 281's L10 = (C/P)^(10/3), the catalogue life rule

@@ -216,7 +216,8 @@ class DriveWindup:
         return self._solve(T)[1]
 
     def forces(self, output_torque: float):
-        """The :class:`~corr_cad.mechanics.drive.drive.DriveResult` at ``T`` (nonzero), all positions."""
+        """The :class:`~corr_cad.mechanics.drive.drive.DriveResult` at ``T`` (nonzero), all
+        positions."""
         T = float(output_torque)
         if T == 0.0 or not math.isfinite(T):
             raise SolverError(f"forces at output torque {T!r}: give a finite, nonzero torque")

@@ -112,7 +112,8 @@ def rows_from_drive(design, drive) -> list[RowLoads]:
 
 
 def drive_friction(design, rows: list[RowLoads], friction: Friction) -> list[RowFriction]:
-    """:func:`~corr_cad.mechanics.losses.friction.row_friction` of every row (running kinematics)."""
+    """:func:`~corr_cad.mechanics.losses.friction.row_friction` of every row (running
+    kinematics)."""
     out = []
     for row in rows:
         c = row_contacts(

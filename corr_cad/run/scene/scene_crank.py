@@ -1,5 +1,6 @@
 """``[crankshaft]`` and ``[bearings.crank]``: the crankshaft on its support bearings
-(:class:`~corr_cad.mechanics.drive.drive_crank.CrankSupport`), with defaults derived from the design.
+(:class:`~corr_cad.mechanics.drive.drive_crank.CrankSupport`), with defaults derived from the
+design.
 
 Either section puts the crankshaft and its support bearings into the drive's solve; a
 scene with neither keeps the eccentrics rigid (as before the sections existed). What a
