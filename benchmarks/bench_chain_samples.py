@@ -16,7 +16,7 @@ import time
 from corr_cad import GearDesign
 from corr_cad.geometry.parts import part_outlines
 from corr_cad.geometry.profile import undercut_analysis, working_profile
-from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.crank.bearing import EccentricBearing
 from corr_cad.mechanics.datasheet import DatasheetSpec
 from corr_cad.run.scene.scene import parse_scene
 from corr_cad.run.stages.stages_bodies import cached_tables

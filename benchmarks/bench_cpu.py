@@ -14,7 +14,7 @@ import numpy as np
 import corr_cad
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 from corr_cad.tolerance.montecarlo import Distribution, SerialExecutor, monte_carlo
 
 

@@ -19,9 +19,9 @@ from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors as ME
 from corr_cad.geometry.parts import part_outlines
 from corr_cad.geometry.profile import undercut_analysis, working_profile
-from corr_cad.mechanics.bearing import EccentricBearing
 from corr_cad.mechanics.bodies.reduction import MeshSpec, reduce_bodies
-from corr_cad.mechanics.drive import solve_drive
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.drive import solve_drive
 
 
 def outlines(d, chord):

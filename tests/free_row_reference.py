@@ -1,5 +1,5 @@
 """The free interval's numpy search, as the drive solver used it before its compiled
-solution (:mod:`corr_cad.mechanics.free_play`): golden-section searches over the
+solution (:mod:`corr_cad.mechanics.drive.free_play`): golden-section searches over the
 polygon's horizontal slices and bisections for its ends; and a preloaded row's cam
 centre by a Newton that kept every position iterating until the last settled
 (``DriveSolver._row_centre`` before it stopped each at its own convergence). A reference for
@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.drive import DRIVE_RTOL
-from corr_cad.mechanics.drive_numerics import _forces_of
+from corr_cad.mechanics.drive.drive import DRIVE_RTOL
+from corr_cad.mechanics.drive.drive_numerics import _forces_of
 
 _FLAT = 1e-9
 

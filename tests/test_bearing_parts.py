@@ -27,7 +27,7 @@ from corr_cad.geometry.bearing_parts import (
     seat_radius,
 )
 from corr_cad.geometry.design import GearDesign
-from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.crank.bearing import EccentricBearing
 
 BEARING = EccentricBearing(
     needles=40, needle_diameter=6.0, needle_length=12.0, diametral_clearance=0.005
@@ -156,7 +156,7 @@ def test_the_input_inertia_with_floating_cams_against_a_hand_sum():
     from corr_cad.geometry.gear_outline import approximate_gear
     from corr_cad.geometry.parts import part_outlines
     from corr_cad.geometry.profile import undercut_analysis, working_profile
-    from corr_cad.mechanics.first_stage_loads import STEEL_DENSITY, drive_mass_inertia
+    from corr_cad.mechanics.gears.first_stage_loads import STEEL_DENSITY, drive_mass_inertia
     from corr_cad.run.scene.scene import load_scene
 
     scene = load_scene(Path(__file__).resolve().parents[1] / "templates" / "compound.toml")

@@ -12,11 +12,11 @@ from scipy.optimize import root
 from corr_cad import GearDesign
 from corr_cad.geometry.parts import part_outlines
 from corr_cad.geometry.profile import working_profile
-from corr_cad.mechanics.bodies.coupling import BodyTables
 from corr_cad.mechanics.bodies.mesh import mesh_region, min_angle_deg
 from corr_cad.mechanics.bodies.plane import PlaneBody
 from corr_cad.mechanics.bodies.reduction import MeshSpec, reduce_bodies
-from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.drive.coupling import BodyTables
+from corr_cad.mechanics.drive.drive import DriveSolver
 
 E, NU = 2.0e5, 0.3
 SMALL = GearDesign(tooth_count=9, cam_radius=45.0, roller_radius=4.0, eccentricity=1.5)
@@ -351,7 +351,7 @@ def test_table_lookups_equal_a_direct_reading():
     """The vectorised lookups (flattened, padded tables) against a loop that reads the
     tables as the reduction wrote them: the ring by its z-fold symmetry, the frame by
     its R-fold and mirror symmetry, bilinear in (load, offset); on grid points exact."""
-    from corr_cad.mechanics.bodies.coupling import _frame, _ring
+    from corr_cad.mechanics.drive.coupling import _frame, _ring
 
     rng = np.random.default_rng(1)
     M, z = 5, 4
@@ -421,8 +421,8 @@ def test_table_lookups_equal_a_direct_reading():
 
 
 def test_compiled_influence_equals_numpy(small_tables):
-    from corr_cad.mechanics.bodies.coupling import influence_matrices
-    from corr_cad.mechanics.drive import drive_geometry, row_errors
+    from corr_cad.mechanics.drive.coupling import influence_matrices
+    from corr_cad.mechanics.drive.drive import drive_geometry, row_errors
 
     ang = np.radians(np.arange(0.0, 360.0, 7.3))
     geo = drive_geometry(SMALL, ang, *row_errors(None))
@@ -436,7 +436,7 @@ def test_the_coupled_newton_converges_quadratically(small_tables, law):
     """The exact response of the linearised drive (the crank rotation's constraint in
     it) makes the Newton on the body approaches reach round-off in a few steps; a
     response without the constraint still converges, linearly, and needs many more."""
-    from corr_cad.mechanics.bodies.coupling import coupled_solve
+    from corr_cad.mechanics.drive.coupling import coupled_solve
 
     ang = np.radians(np.arange(0.0, 40.0, 4.0))
     solver = DriveSolver(SMALL, ang, contact_model=law, bodies=small_tables)
@@ -447,7 +447,7 @@ def test_the_coupled_newton_converges_quadratically(small_tables, law):
 def test_positions_coupled_a_block_at_a_time_give_the_same_drive(small_tables, monkeypatch):
     """A design of many rollers couples its positions a block at a time (memory); the
     positions are independent, so blocks of 3 give the one-block solve."""
-    from corr_cad.mechanics.bodies import coupling
+    from corr_cad.mechanics.drive import coupling
 
     ang = np.radians(np.arange(0.0, 40.0, 4.0))
     whole = DriveSolver(SMALL, ang, contact_model="palmgren", bodies=small_tables)
@@ -488,7 +488,7 @@ def test_elastic_bodies_of_an_allowed_undercut_are_refused():
 def test_prototype_rigidity_with_elastic_bodies_is_the_manual_s():
     """docs/physics.md: with Palmgren's contacts and 40-needle bearings (5 um) the
     prototype's rigidity at the rated torque falls from 3,477 to 2,671 N*m/arcmin."""
-    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
     from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 
     d = GearDesign()

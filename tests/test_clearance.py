@@ -20,7 +20,7 @@ import pytest
 
 from corr_cad.geometry.clearance import clearance, distance_to_working_profile
 from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
-from corr_cad.mechanics.solver import roller_geometry
+from corr_cad.mechanics.row.solver import roller_geometry
 
 R = 26
 

@@ -14,11 +14,11 @@ from scipy import special
 
 from corr_cad import GearDesign
 from corr_cad.mechanics import palmgren
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.crankshaft import Crankshaft
-from corr_cad.mechanics.drive import DriveSolver
-from corr_cad.mechanics.drive_crank import CrankSupport, budget_terms
-from corr_cad.mechanics.support_bearing import J_R_LINE, SupportBearing
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.crank.crankshaft import Crankshaft
+from corr_cad.mechanics.crank.support_bearing import J_R_LINE, SupportBearing
+from corr_cad.mechanics.drive.drive import DriveSolver
+from corr_cad.mechanics.drive.drive_crank import CrankSupport, budget_terms
 
 E, NU = 2.06e5, 0.3
 M0 = -2.86e6 / 26  # the prototype's crank moment at T_R (solver sign: T > 0)

@@ -10,7 +10,7 @@ import numpy as np
 
 from corr_cad import GearDesign
 from corr_cad.export.files import format_columns
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 
 def _rowwise(columns, specs):

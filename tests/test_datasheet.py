@@ -25,8 +25,8 @@ from corr_cad.geometry.clearance import locus_foot
 from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 from corr_cad.mechanics.reference import locus_frame, reference_position
-from corr_cad.mechanics.solver import solve_forces
-from corr_cad.mechanics.windup import Windup, crank_angles_of, revolution_classes
+from corr_cad.mechanics.row.solver import solve_forces
+from corr_cad.mechanics.row.windup import Windup, crank_angles_of, revolution_classes
 
 ARCMIN = 60.0 * 180.0 / math.pi  # written out: the tests never use the package's conversions
 ARCSEC = 60.0 * ARCMIN
@@ -485,7 +485,7 @@ def test_rated_torque_from_pressure_is_the_weaker_direction(prototype):
 def test_the_windup_repeats_after_the_period_of_its_errors(prototype, errors, variants, period):
     """Mesh period 2 pi / (z (z + 1)) while rollers and slots are alike, a tooth pitch
     2 pi / z once one differs, a revolution with a ring deviation (written out)."""
-    from corr_cad.mechanics.windup import result_period_rad
+    from corr_cad.mechanics.row.windup import result_period_rad
 
     if "profile_harmonics" in errors:
         err = ManufacturingErrors(profile_deviation=harmonic_deviation(errors["profile_harmonics"]))

@@ -8,12 +8,12 @@ from scipy import optimize, special
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors as ME
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.drive import solve_drive
-from corr_cad.mechanics.drive_windup import DriveWindup
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.drive import solve_drive
+from corr_cad.mechanics.drive.drive_windup import DriveWindup
 from corr_cad.mechanics.reference import reference_geometry
-from corr_cad.mechanics.solver import solve_forces
-from corr_cad.mechanics.windup import Windup
+from corr_cad.mechanics.row.solver import solve_forces
+from corr_cad.mechanics.row.windup import Windup
 
 T_R = 2.86e6  # N*mm, the prototype's rated output torque
 M0 = T_R / 26  # its crank moment
@@ -239,7 +239,7 @@ def test_cam_phase_error_moves_the_share_antisymmetrically():
 
 
 def test_row_errors_share_the_slots_and_give_the_phase_to_cam_b():
-    from corr_cad.mechanics.drive import row_errors
+    from corr_cad.mechanics.drive.drive import row_errors
 
     slots = tuple(1e-4 * np.arange(26))
     a, b = row_errors(ME(slot_angle_errors=slots, cam_phase_error=0.01), ME(cam_radius_error=1e-3))
@@ -274,7 +274,7 @@ def test_slot_clearance_frees_the_frame_by_c_over_the_largest_radius():
 def test_slot_fit_puts_an_oversize_roller_into_both_flanks_under_the_drive():
     """Paper convention: an oversize roller is taken up by its slot; the drive's: the flank
     gap is c/2 - dr, an interference |rho_s| dr more in the roller's chain at c = 0."""
-    from corr_cad.mechanics.solver_geometry import roller_geometry
+    from corr_cad.mechanics.row.solver_geometry import roller_geometry
 
     design = GearDesign()
     angles = np.radians([10.0])
@@ -309,7 +309,7 @@ def test_free_rotation_of_a_preloaded_row_on_a_loose_bearing():
 
 
 def test_full_cycle_shortcut_equals_solving_every_angle():
-    from corr_cad.mechanics.solver import cycle_angles
+    from corr_cad.mechanics.row.solver import cycle_angles
 
     b = EccentricBearing(40, 6.0, 12.0, 0.003)
     e = ME(roller_radius_error=-0.001, cam_phase_error=1e-4)
@@ -326,7 +326,7 @@ def _zero_arm_preload(angles_deg, solver_class=None):
     """A Monte Carlo sample of the allocation (palmgren, needles without clearance, a 2 um
     equidistant clearance): at crank angle 0.8 pi row B's one loaded roller sits at zero arm."""
     from corr_cad.geometry.modification import ModificationGap
-    from corr_cad.mechanics.drive import DriveSolver
+    from corr_cad.mechanics.drive.drive import DriveSolver
 
     design = GearDesign(tooth_count=9, cam_radius=45.0, roller_radius=4.0, eccentricity=1.5)
     psi = np.linspace(-np.pi, np.pi, 1025)
@@ -391,7 +391,7 @@ def test_the_compiled_bearing_newton_settles_where_the_numpy_one_does():
     """The Monte Carlo's compiled Newton (drive_kernel) keeps the numpy solver's crank floor,
     moment scale and separate step caps: at zero and small moments past a zero-arm roller it
     settles on the same state."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
 
     for angles, moments in (([144.0, 324.0], (0.0,)), ([144.0], (0.0, 1e-3, 1.0, 10.0))):
         ref = _zero_arm_preload(angles)
@@ -432,7 +432,7 @@ def _row_b_ring_harmonic(solver_class=None, bearing=NEEDLES):
     row B's preload is symmetric about the eccentric: it gives no moment at tau = 0, and
     row A's rollers touch there without load."""
     from corr_cad.geometry.deviations import harmonic_deviation
-    from corr_cad.mechanics.drive import DriveSolver
+    from corr_cad.mechanics.drive.drive import DriveSolver
 
     eb = ME(profile_deviation=harmonic_deviation([(3, 0.002, 0.0)]))
     angles = np.concatenate([2 * np.pi * np.array([1200, 2450]) / 2600, np.radians([100.0])])
@@ -464,7 +464,7 @@ def test_zero_moment_with_an_idle_row_rests_its_cam_centred(compiled):
     held by nothing (its rollers touch without load, its needles have no stiffness at no
     load), so it rests centred and carries nothing; row B's bearing carries its
     rollers' resultant, and the moment is zero, to 1e-9 of the drive's forces."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
 
     solver = _row_b_ring_harmonic(CompiledDriveSolver if compiled else None)
     res = solver.result(0.0)
@@ -492,7 +492,7 @@ def test_small_moments_about_an_idle_row_are_continuous(compiled):
     each bearing in equilibrium; the crank turns monotonically; row A's forces grow from
     nothing with the moment's size either way
     and row B's move by no more than 1e3 N per N*mm."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
 
     solver = _row_b_ring_harmonic(CompiledDriveSolver if compiled else None)
     moments = np.array([-1.0, -1e-3, -1e-6, -1e-9, 0.0, 1e-9, 1e-6, 1e-3, 1.0])
@@ -524,8 +524,8 @@ def _loose_sweep(compiled):
     and at the three positions (100, 166 and 339 degrees) where the crank moments of
     :data:`SWEEP_MOMENTS` once left both cams adrift in their clearances."""
     from corr_cad.geometry.deviations import harmonic_deviation
-    from corr_cad.mechanics.drive import DriveSolver
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive import DriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
 
     eb = ME(profile_deviation=harmonic_deviation([(3, 0.002, 0.0)]))
     angles = np.radians(np.concatenate([np.arange(0.0, 360.0, 10.0), [100.0, 166.0, 339.0]]))
@@ -572,7 +572,7 @@ def test_an_idle_cam_on_a_loose_bearing_rests_within_its_free_play(compiled):
     rollers): it carries nothing (its rollers at most 1e-12 of the drive's forces, its
     needles none) and sits within Pd / 2 of its eccentric's centre; the moment and cam B
     are in equilibrium."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
 
     Pd = 0.004
     solver = _row_b_ring_harmonic(

@@ -1,4 +1,4 @@
-"""The compiled cam centre of a preloaded row (:mod:`corr_cad.mechanics.drive_centre`)
+"""The compiled cam centre of a preloaded row (:mod:`corr_cad.mechanics.drive.drive_centre`)
 against the numpy Newton (:meth:`DriveSolver._row_centre`) on the 20 seeded drives of
 ``tests/test_free_play.py`` (clearances 0-20 um, phase errors, row B's own errors, both
 contact laws): the same centres to 1e-12 mm where the rollers hold the cam, and the
@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
-from corr_cad.mechanics.drive_numerics import _forces_of, free_row
+from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
+from corr_cad.mechanics.drive.drive_numerics import _forces_of, free_row
 
 from . import test_free_play
 from .test_free_play import ARCMIN, DESIGN, R, _drive
@@ -82,7 +82,7 @@ def test_the_drive_kernels_hold_one_specialisation_for_both_laws():
     """The warm-up's drive runs (both contact laws, with and without a clearance) leave each
     top-level drive kernel with one compiled type signature: numba compiles it once (a
     read-only broadcast view among the arguments made a second)."""
-    from corr_cad.mechanics import drive_centre, drive_kernel
+    from corr_cad.mechanics.drive import drive_centre, drive_kernel
     from corr_cad.run import warmup
 
     warmup._drive_kernels()
@@ -100,7 +100,7 @@ def test_the_free_play_kernels_compile_once(tmp_path):
 
     code = (
         "from corr_cad.run import warmup; warmup._free_play()\n"
-        "from corr_cad.mechanics import free_play as fp\n"
+        "from corr_cad.mechanics.drive import free_play as fp\n"
         "ks = (fp._width, fp._golden_centre, fp._feasible_y, fp._envelope_max, fp._free_rows)\n"
         "print([len(k.signatures) for k in ks])\n"
     )

@@ -18,16 +18,16 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.drive_windup import DriveWindup
-from corr_cad.mechanics.efficiency import (
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.drive_windup import DriveWindup
+from corr_cad.mechanics.life import LifeSpec
+from corr_cad.mechanics.losses.efficiency import (
     drive_friction,
     friction_figures,
     rows_from_drive,
 )
-from corr_cad.mechanics.friction import Friction
-from corr_cad.mechanics.life import LifeSpec
-from corr_cad.mechanics.windup import Windup, mesh_period_rad
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad
 
 D = GearDesign()
 T_R = 2.86e6  # N*mm
@@ -181,7 +181,7 @@ def test_the_life_takes_the_needles_of_the_drives_bearing(tmp_path):
 
 def test_drive_hysteresis_of_identical_rigid_rows_is_the_papers_at_share_one_half():
     """Two alike rows on rigid cams: the drive's bench loop is the paper row's at 0.5."""
-    from corr_cad.mechanics.hysteresis import hysteresis_figures
+    from corr_cad.mechanics.losses.hysteresis import hysteresis_figures
 
     drive = hysteresis_figures(D, DriveWindup(D, X), T_R, MU)
     paper = hysteresis_figures(D, Windup(D, X, load_share=0.5), T_R, MU)
@@ -193,7 +193,7 @@ def test_drive_hysteresis_of_identical_rigid_rows_is_the_papers_at_share_one_hal
 
 
 def test_drive_hysteresis_grows_with_mu_slot_and_vanishes_without_friction():
-    from corr_cad.mechanics.hysteresis import hysteresis_figures
+    from corr_cad.mechanics.losses.hysteresis import hysteresis_figures
 
     w = DriveWindup(D, X, bearing=BEARING)
     width = [

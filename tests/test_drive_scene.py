@@ -143,7 +143,7 @@ def test_drive_run_writes_both_rows_and_the_share(tmp_path):
 
 def test_prototype_rigidity_table_of_the_physics_page():
     from corr_cad import GearDesign
-    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
     from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 
     spec = DatasheetSpec(
@@ -168,8 +168,8 @@ def test_drive_monte_carlo_draws_row_b_on_its_own_stream():
     """Row A's draws are the seed's own (as for one row); row B's come from [seed, 1]; each
     sample equals a direct drive solve of the errors rebuilt from the draws by hand."""
     from corr_cad import GearDesign
-    from corr_cad.mechanics.drive import DriveSolver
-    from corr_cad.mechanics.solver import cycle_angles
+    from corr_cad.mechanics.drive.drive import DriveSolver
+    from corr_cad.mechanics.row.solver import cycle_angles
     from corr_cad.tolerance.montecarlo import Distribution, draw_samples, monte_carlo
     from corr_cad.tolerance.montecarlo_drive import drive_metrics
 
@@ -232,8 +232,8 @@ def test_drive_monte_carlo_streams_its_rows_to_the_sink_in_order():
 
 def test_sweeps_run_on_the_drive_and_under_palmgren():
     from corr_cad import GearDesign
-    from corr_cad.mechanics.drive import solve_drive
-    from corr_cad.mechanics.solver import solve_forces
+    from corr_cad.mechanics.drive.drive import solve_drive
+    from corr_cad.mechanics.row.solver import solve_forces
     from corr_cad.tolerance.sweeps import sweep_point
 
     d = GearDesign()

@@ -1,5 +1,5 @@
 """Bounds of the efficiency over the load range, with and without a preload, on the paper's
-row and on the drive (corr_cad.mechanics.operating, efficiency).
+row and on the drive (corr_cad.mechanics.losses.operating, efficiency).
 
 - forward: 0 < eta <= 1 at every torque from 1 % to 100 % of T_R;
 - backdriving: in (0, 1] or self-locking (reported as 0, flagged), never
@@ -21,11 +21,11 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.drive_windup import DriveWindup
-from corr_cad.mechanics.efficiency import friction_figures, rows_from_drive
-from corr_cad.mechanics.friction import Friction
-from corr_cad.mechanics.windup import Windup, mesh_period_rad
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.drive_windup import DriveWindup
+from corr_cad.mechanics.losses.efficiency import friction_figures, rows_from_drive
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad
 
 D = GearDesign()
 T_R = 2.86e6  # N*mm

@@ -16,15 +16,15 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ME
 from corr_cad.geometry.parts import part_outlines
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics import palmgren
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.bodies.coupling import BodyTables
 from corr_cad.mechanics.bodies.reduction import MeshSpec, reduce_bodies
-from corr_cad.mechanics.crankshaft import STEEL_E, Crankshaft
-from corr_cad.mechanics.drive import solve_drive
-from corr_cad.mechanics.drive_crank import CrankSupport
-from corr_cad.mechanics.solver import loaded_mask
-from corr_cad.mechanics.solver_geometry import cycle_angles
-from corr_cad.mechanics.support_bearing import SupportBearing
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.crank.crankshaft import STEEL_E, Crankshaft
+from corr_cad.mechanics.crank.support_bearing import SupportBearing
+from corr_cad.mechanics.drive.coupling import BodyTables
+from corr_cad.mechanics.drive.drive import solve_drive
+from corr_cad.mechanics.drive.drive_crank import CrankSupport
+from corr_cad.mechanics.row.solver import loaded_mask
+from corr_cad.mechanics.row.solver_geometry import cycle_angles
 from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 from corr_cad.tolerance.montecarlo_drive import drive_chunk
 
@@ -135,7 +135,7 @@ def test_elastic_monte_carlo_equals_solve_drive_sample_by_sample(small_tables, b
 def test_influence_is_made_once_a_block_not_once_a_sample(small_tables, monkeypatch):
     """A block's samples share the nominal positions' influence matrices: the FE tables'
     interpolation runs once a block whatever its sample count."""
-    from corr_cad.mechanics.bodies import coupling
+    from corr_cad.mechanics.drive import coupling
 
     calls = []
     real = coupling.influence_matrices

@@ -1,5 +1,5 @@
 """The first stage in the whole drive: mesh losses, mesh stiffness, and the checks that read
-the whole drive's figures (corr_cad.mechanics.first_stage_mesh, the checks stage).
+the whole drive's figures (corr_cad.mechanics.gears.first_stage_mesh, the checks stage).
 
 Expected values: the sliding loss integrated along the path of contact here
 (sliding speed from the gears' angular speeds, load halved where two pairs
@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from corr_cad.geometry.first_stage import FirstStage, first_stage_geometry
-from corr_cad.mechanics.first_stage_mesh import addendum_contact_ratios, first_stage_mesh
+from corr_cad.mechanics.gears.first_stage_mesh import addendum_contact_ratios, first_stage_mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = dict(
@@ -124,7 +124,7 @@ def test_compound_lost_motion_limit_fails_naming_the_first_stages_share(tmp_path
 
 
 def test_loss_factor_is_ohlendorfs_closed_form_where_both_tips_share_at_most_one():
-    from corr_cad.mechanics.first_stage_mesh import gear_loss_factor
+    from corr_cad.mechanics.gears.first_stage_mesh import gear_loss_factor
 
     for e1, e2 in ((0.7, 0.6), (0.9, 0.95), (0.5, 0.99)):
         closed = math.pi * (2 + 1) / (18 * 2) * (1 - e1 - e2 + e1**2 + e2**2)

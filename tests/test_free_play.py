@@ -1,5 +1,5 @@
 """The free interval of a drive with bearing clearance, solved exactly and compiled
-(:mod:`corr_cad.mechanics.free_play`), gives the numpy search's answers
+(:mod:`corr_cad.mechanics.drive.free_play`), gives the numpy search's answers
 (``tests/free_row_reference.py``, golden sections and bisections over the polygon's
 slices): on 20 seeded drives to 1e-9 arcmin, and the Monte Carlo's files as the search
 wrote them (hashes taken from its runs): ``montecarlo.csv`` byte for byte, the summary's
@@ -22,11 +22,11 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors as ME
-from corr_cad.mechanics import drive as drive_module
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.drive import DriveSolver
-from corr_cad.mechanics.drive_numerics import free_row
-from corr_cad.mechanics.solver_geometry import cycle_angles
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive import drive as drive_module
+from corr_cad.mechanics.drive.drive import DriveSolver
+from corr_cad.mechanics.drive.drive_numerics import free_row
+from corr_cad.mechanics.row.solver_geometry import cycle_angles
 
 from . import free_row_reference as reference
 

@@ -1,4 +1,4 @@
-"""Friction, efficiency and rated life (corr_cad.mechanics.friction, efficiency, life).
+"""Friction, efficiency and rated life (mechanics.losses.friction, .efficiency, mechanics.life).
 
 Expected values come from formulas written out here: the catalogue bearing
 moment M = 0.5 mu P d, ISO 281's L10 = (C/P)^(10/3), the catalogue life rule
@@ -15,20 +15,20 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign
-from corr_cad.mechanics.efficiency import (
+from corr_cad.mechanics.life import LifeSpec, iso281_fc, system_life_h
+from corr_cad.mechanics.losses.efficiency import (
     drive_life,
     friction_figures,
     row_loads_from_forces,
 )
-from corr_cad.mechanics.friction import (
+from corr_cad.mechanics.losses.friction import (
     Friction,
     _weighted_median,
     roller_equilibrium,
     row_contacts,
     row_friction,
 )
-from corr_cad.mechanics.life import LifeSpec, iso281_fc, system_life_h
-from corr_cad.mechanics.windup import Windup, mesh_period_rad
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad
 
 D = GearDesign()
 T_R = 2.86e6  # N*mm
@@ -288,7 +288,7 @@ def test_rows_given_by_a_drive_model_are_taken_as_they_are(windup):
     """Two rows, as a drive model gives them (row B at phi + pi): both rows' lives."""
     from types import SimpleNamespace
 
-    from corr_cad.mechanics.efficiency import rows_from_drive
+    from corr_cad.mechanics.losses.efficiency import rows_from_drive
 
     wb = Windup(D, X + np.pi / D.tooth_count)  # crank angle z x + pi: row B
 

@@ -12,8 +12,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from corr_cad.export.friction_io import efficiency_figure  # noqa: E402
-from corr_cad.mechanics.efficiency import FrictionFigures  # noqa: E402
-from corr_cad.mechanics.friction import Friction  # noqa: E402
+from corr_cad.mechanics.losses.efficiency import FrictionFigures  # noqa: E402
+from corr_cad.mechanics.losses.friction import Friction  # noqa: E402
 
 
 def _figures(forward: float) -> FrictionFigures:

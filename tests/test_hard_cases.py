@@ -23,7 +23,7 @@ from corr_cad import (
 )
 from corr_cad.geometry import kinematics as kin
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 
 @st.composite

@@ -1,4 +1,4 @@
-"""Hysteresis loss and starting torque from friction (corr_cad.mechanics.hysteresis).
+"""Hysteresis loss and starting torque from friction (corr_cad.mechanics.losses.hysteresis).
 
 The hand calculation writes the locked-input bench out: each roller carried
 with its slot, moved along it by the change of its cam contact, rolling on
@@ -14,9 +14,9 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.friction import Friction
-from corr_cad.mechanics.hysteresis import hysteresis_figures, hysteresis_loop
-from corr_cad.mechanics.windup import Windup, mesh_period_rad
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.losses.hysteresis import hysteresis_figures, hysteresis_loop
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad
 
 D = GearDesign()
 T_R = 2.86e6

@@ -19,11 +19,11 @@ import pytest
 from corr_cad import GearDesign
 from corr_cad.errors import SolverError
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.drive_windup import DriveWindup
-from corr_cad.mechanics.friction import Friction
-from corr_cad.mechanics.hysteresis import hysteresis_figures, hysteresis_loop
-from corr_cad.mechanics.windup import mesh_period_rad
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.drive_windup import DriveWindup
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.losses.hysteresis import hysteresis_figures, hysteresis_loop
+from corr_cad.mechanics.row.windup import mesh_period_rad
 
 D = GearDesign()
 T_R = 2.86e6  # N*mm

@@ -8,6 +8,7 @@ dodges a cycle at run time still counts). Imports nothing from the package.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -51,6 +52,29 @@ RUN_LAYERS = {
     "pipeline": 4,
     "bench": 5,
     "cli": 6,
+}
+
+#: Inside ``mechanics``: each module at ``mechanics/`` or room (subpackage) of it and its
+#: rank, lowest first, under the same rule as ``run``'s: the contact laws and ratings on
+#: the ground floor, the paper's row, the crankshaft and its bearings, the losses and the
+#: first stage on the next, the drive above them, the elastic bodies (reduced to the
+#: drive's influence tables) and the figures read off a solved drive on top.
+MECHANICS_LAYERS = {
+    "": 0,  # corr_cad/mechanics/__init__.py
+    "contact": 0,
+    "palmgren": 0,
+    "life": 0,
+    "life_modified": 0,
+    "reference": 0,
+    "row": 1,
+    "crank": 1,
+    "losses": 1,
+    "gears": 1,
+    "drive": 2,
+    "binding": 2,
+    "bodies": 3,
+    "compliance_budget": 3,
+    "datasheet": 4,
 }
 
 #: Third-party packages only the exporters may import (file formats, drawing).
@@ -135,12 +159,36 @@ def test_no_upward_import():
     assert not bad, "upward imports:\n" + "\n".join(bad)
 
 
-def _run_part(mod: str) -> str | None:
-    """The module or subpackage of ``run`` that ``mod`` belongs to, or None outside ``run``."""
+def _part(mod: str, pkg: str) -> str | None:
+    """The module or subpackage of ``pkg`` that ``mod`` belongs to, or None outside ``pkg``."""
     parts = mod.split(".")
-    if len(parts) < 2 or parts[1] != "run":
+    if len(parts) < 2 or parts[1] != pkg:
         return None
     return parts[2] if len(parts) > 2 else ""
+
+
+def _run_part(mod: str) -> str | None:
+    """The module or subpackage of ``run`` that ``mod`` belongs to, or None outside ``run``."""
+    return _part(mod, "run")
+
+
+def _against_the_order(pkg: str, layers: dict[str, int]) -> list[str]:
+    """Imports inside ``pkg`` against the order of ``layers``: upward, or between two parts
+    of one rank above 0."""
+    bad = []
+    for a, (deps, _) in GRAPH.items():
+        pa = _part(a, pkg)
+        if pa is None:
+            continue
+        for b in sorted(deps):
+            pb = _part(b, pkg)
+            if pb is None or pb == pa:
+                continue
+            if layers[pb] > layers[pa] or (
+                layers[pb] == layers[pa] and pb != "" and layers[pa] > 0
+            ):
+                bad.append(f"{a} ({pa}, rank {layers[pa]}) imports {b} ({pb}, rank {layers[pb]})")
+    return bad
 
 
 def test_every_module_of_run_has_a_rank():
@@ -149,22 +197,45 @@ def test_every_module_of_run_has_a_rank():
 
 
 def test_run_imports_one_way():
-    bad = []
-    for a, (deps, _) in GRAPH.items():
-        pa = _run_part(a)
-        if pa is None:
-            continue
-        for b in sorted(deps):
-            pb = _run_part(b)
-            if pb is None or pb == pa:
-                continue
-            if RUN_LAYERS[pb] > RUN_LAYERS[pa] or (
-                RUN_LAYERS[pb] == RUN_LAYERS[pa] and pb != "" and RUN_LAYERS[pa] > 0
-            ):
-                bad.append(
-                    f"{a} ({pa}, rank {RUN_LAYERS[pa]}) imports {b} ({pb}, rank {RUN_LAYERS[pb]})"
-                )
+    bad = _against_the_order("run", RUN_LAYERS)
     assert not bad, "imports against the order inside run:\n" + "\n".join(bad)
+
+
+def test_every_module_of_mechanics_has_a_rank():
+    unknown = sorted({_part(m, "mechanics") for m in MODULES} - {None} - set(MECHANICS_LAYERS))
+    assert not unknown, f"modules of mechanics outside any rank: {unknown}"
+
+
+def test_mechanics_imports_one_way():
+    bad = _against_the_order("mechanics", MECHANICS_LAYERS)
+    assert not bad, "imports against the order inside mechanics:\n" + "\n".join(bad)
+
+
+def test_the_manual_states_the_mechanics_order():
+    """docs/development.md's table of the rooms of ``mechanics`` is this file's order."""
+    text = (PKG.parent / "docs" / "development.md").read_text()
+    table = text.split("part of `corr_cad/mechanics/`")[1].split("\n\n")[0]
+    rows = re.findall(r"^\| (\d) \| ([^|]+) \|", table, re.M)
+    stated = {
+        name.removesuffix(".py").rstrip("/"): int(rank)
+        for rank, parts in rows
+        for name in re.findall(r"`([\w./]+)`", parts)
+    }
+    assert stated == {k: v for k, v in MECHANICS_LAYERS.items() if k}
+
+
+def test_the_mechanics_order_sees_an_import_against_it(monkeypatch):
+    """One added edge from the paper's row up to the drive, and one between two rooms of
+    one rank (the losses to the row), each break the order inside mechanics."""
+    a, b = "corr_cad.mechanics.row.solver", "corr_cad.mechanics.drive.drive"
+    monkeypatch.setitem(GRAPH, a, (GRAPH[a][0] | {b}, GRAPH[a][1]))
+    with pytest.raises(AssertionError, match="row, rank 1"):
+        test_mechanics_imports_one_way()
+    monkeypatch.undo()
+    a, b = "corr_cad.mechanics.losses.friction", "corr_cad.mechanics.row.solver"
+    monkeypatch.setitem(GRAPH, a, (GRAPH[a][0] | {b}, GRAPH[a][1]))
+    with pytest.raises(AssertionError, match="losses, rank 1"):
+        test_mechanics_imports_one_way()
 
 
 def _cycle() -> list[str] | None:
@@ -248,7 +319,10 @@ def test_no_module_is_too_long(name):
 def test_each_subpackage_says_what_it_holds_and_may_import():
     subs = ("geometry", "mechanics", "tolerance", "shop", "export", "run")
     subs += tuple(
-        f"run/{s}" for s in RUN_LAYERS if (PKG / "run" / s / "__init__.py").is_file() and s
+        f"{pkg}/{s}"
+        for pkg, layers in (("run", RUN_LAYERS), ("mechanics", MECHANICS_LAYERS))
+        for s in layers
+        if s and (PKG / pkg / s / "__init__.py").is_file()
     )
     for sub in subs:
         doc = ast.get_docstring(ast.parse((PKG / sub / "__init__.py").read_text())) or ""

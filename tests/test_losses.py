@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 
 from corr_cad.errors import SolverError
-from corr_cad.mechanics.bearing_drag import DragBearing, LoadIndependent, palmgren_m0
 from corr_cad.mechanics.life_modified import (
     a_iso_roller,
     fatigue_load_limit,
@@ -22,8 +21,9 @@ from corr_cad.mechanics.life_modified import (
     reference_viscosity,
     static_rating_roller,
 )
-from corr_cad.mechanics.lubrication import ISO_VG_NU100, Lubricant, walther_viscosity
-from corr_cad.mechanics.thermal_network import ThermalNetwork, one_node_closed_form
+from corr_cad.mechanics.losses.bearing_drag import DragBearing, LoadIndependent, palmgren_m0
+from corr_cad.mechanics.losses.lubrication import ISO_VG_NU100, Lubricant, walther_viscosity
+from corr_cad.mechanics.losses.thermal_network import ThermalNetwork, one_node_closed_form
 
 
 # --- Drag ------------------------------------------------------------------------------------
@@ -119,7 +119,7 @@ def _churning_by_hand(n_rpm, nu_mm2s, rp=27.0, b=15.0, h=10.0, v0_l=1.0, rho=870
 
 
 def test_churning_by_hand_at_two_speeds_and_viscosities():
-    from corr_cad.mechanics.churning import ChurningGear
+    from corr_cad.mechanics.losses.churning import ChurningGear
 
     g = ChurningGear("wheel", 1, 27.0, 15.0, 10.0, 1.0, 1.0)
     # 500 r/min in ISO VG 68 at 40 C: Re_c = 52.4 x 0.027 x 0.015 / 68e-6 = 312, first law
@@ -179,7 +179,7 @@ def test_reference_viscosity_and_ratings_by_hand():
 def test_support_bearing_modified_life_by_hand():
     """A tapered pair (Z = 18 per row, D = L = 12 mm, d_m = 87 mm, alpha 15 deg) at the
     crank's 390 r/min in ISO VG 68 at 40 C (68 mm^2/s), P = 40 kN, e_C = 0.5."""
-    from corr_cad.mechanics.support_bearing import SupportBearing
+    from corr_cad.mechanics.crank.support_bearing import SupportBearing
 
     b = SupportBearing("tapered_pair", 18, 12.0, 12.0, 87.0, contact_angle_deg=15.0)
     ca = math.cos(math.radians(15.0))

@@ -2,7 +2,7 @@
 
 Expected values come from hand calculations written out here (gaps, advances,
 the minimax interference, the binomial interval), from the numpy windup
-(:class:`corr_cad.mechanics.windup.Windup`, not the compiled kernel the Monte
+(:class:`corr_cad.mechanics.row.windup.Windup`, not the compiled kernel the Monte
 Carlo uses) or from the real CLI's files.
 """
 
@@ -20,7 +20,7 @@ from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors as E
 from corr_cad.mechanics.binding import binding
 from corr_cad.mechanics.datasheet import DatasheetSpec
-from corr_cad.mechanics.windup import Windup
+from corr_cad.mechanics.row.windup import Windup
 from corr_cad.tolerance.mc_datasheet import DatasheetMC, binding_probability
 from corr_cad.tolerance.montecarlo import Distribution, _sample_errors, draw_samples, monte_carlo
 

@@ -2,7 +2,7 @@
 rigidity, transmission error and binding of both rows together.
 
 Expected values come from the drive's datasheet (:func:`corr_cad.mechanics.datasheet.datasheet`
-with the numpy :class:`~corr_cad.mechanics.drive_windup.DriveWindup`, not the compiled
+with the numpy :class:`~corr_cad.mechanics.drive.drive_windup.DriveWindup`, not the compiled
 solver the Monte Carlo uses), from the paper's compiled kernel at load share 0.5 (the
 limiting case), from Hertz's line-contact pressure written out here, or from the real CLI.
 """
@@ -23,9 +23,9 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors as ME
-from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.crank.bearing import EccentricBearing
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
-from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.drive.drive import DriveSolver
 from corr_cad.tolerance.mc_datasheet import DatasheetMC
 from corr_cad.tolerance.mc_drive_datasheet import drive_datasheet_samples, drive_grid
 from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
@@ -343,7 +343,7 @@ def test_a_cam_that_unloads_on_its_needles_settles(compiled):
     load, so Newton nears u = 0 only linearly and cam A's force balance never met its own
     (vanishing) scale. Measured against the loaded cam's forces it settles: the moment is
     M0 and each cam's needles carry its rollers' resultant."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
 
     grid = drive_grid(DESIGN, ME(), None, ("roller_radius",), 1)
     cls = CompiledDriveSolver if compiled else DriveSolver
@@ -397,8 +397,8 @@ def test_positions_cut_short_are_solved_again_from_another_moment():
     """A Newton cut to one iteration from the rigid start leaves positions unsettled;
     :func:`restart_missed` solves them again from their own solution at another moment,
     which reaches the full solve's equilibrium (unique: the contacts' energy is convex)."""
-    from corr_cad.mechanics.drive_restart import restart_missed
-    from corr_cad.mechanics.solver_numerics import _solve_positions
+    from corr_cad.mechanics.drive.drive_restart import restart_missed
+    from corr_cad.mechanics.row.solver_numerics import _solve_positions
 
     solver, moments, _ = _play_drive()
     m = moments[0]
@@ -418,7 +418,7 @@ def test_the_linear_start_gives_the_rigid_start_s_metrics(monkeypatch, clearance
     """The datasheet pass starts each sign's first bearing Newton from the exact
     linear-contact solution: the samples' metrics are the rigid start's to 1e-9, with and
     without a bearing clearance (where both cams may start adrift in their clearances)."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
     from corr_cad.tolerance import mc_drive_datasheet as mdd
 
     cfg = DatasheetMC(_spec(), positions_per_mesh=2)
@@ -438,7 +438,7 @@ def test_the_linear_start_gives_the_rigid_start_s_metrics(monkeypatch, clearance
 def _play_drive():
     """The compiled drive of four roller-radius samples with play, needles with a 3 um
     clearance, and moments of +-3 % and +-50 % of T_R."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
     from corr_cad.tolerance.montecarlo_drive import stacked_geometry
 
     bearing = replace(NEEDLES, diametral_clearance=0.003)
@@ -457,8 +457,8 @@ def test_the_drive_datasheet_on_needles_settles_every_torque_level():
     shift unloads every roller, and the residual's line search finds no descent from the
     rigid start; the energy's line search settles it there, and every level settles.
     The curve rises with the torque and its rigidity sits below the series rigidity."""
-    from corr_cad.mechanics.drive_windup import DriveWindup
-    from corr_cad.mechanics.windup import crank_angles_of
+    from corr_cad.mechanics.drive.drive_windup import DriveWindup
+    from corr_cad.mechanics.row.windup import crank_angles_of
 
     ea, eb = ME(roller_radius_error=-0.002), ME(roller_radius_error=-0.001)
     x = (2 * math.pi / (25 * 26)) * np.arange(4) / 4

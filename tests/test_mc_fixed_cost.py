@@ -192,7 +192,7 @@ def test_on_a_process_pool_the_plot_imports_beside_the_samples_with_the_same_byt
 _INIT = textwrap.dedent(
     """
     import os, sys
-    import corr_cad.mechanics.mc_kernel as k
+    import corr_cad.mechanics.row.mc_kernel as k
     from corr_cad.run.cli import WARM_MODULES, _worker_init
 
     calls = []

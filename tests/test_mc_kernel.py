@@ -161,8 +161,8 @@ def test_nested_fallback_matches_the_numpy_nested_solver(undersized):
     undersized rollers, at zero rotation where no roller touches (flat
     moment: only bisection can move).
     """
-    from corr_cad.mechanics import mc_kernel
-    from corr_cad.mechanics import solver as S
+    from corr_cad.mechanics.row import mc_kernel
+    from corr_cad.mechanics.row import solver as S
 
     d = GearDesign()
     err = ManufacturingErrors(
@@ -213,8 +213,8 @@ def test_a_roller_at_the_edge_of_the_loaded_zone_is_not_counted():
 
 def test_linear_start_matches_the_numpy_linear_solution():
     """The exact linear-contact rotation (the Newton start) against solver._linear_tau."""
-    from corr_cad.mechanics import mc_kernel as K
-    from corr_cad.mechanics import solver as S
+    from corr_cad.mechanics.row import mc_kernel as K
+    from corr_cad.mechanics.row import solver as S
 
     d = GearDesign()
     err = ManufacturingErrors(
@@ -238,7 +238,7 @@ def test_linear_start_matches_the_numpy_linear_solution():
 
 def test_kernel_compiles_without_a_cache_location():
     """No writable cache anywhere (numba: "no locator available"): compiled in memory."""
-    from corr_cad.mechanics import mc_kernel
+    from corr_cad.mechanics.row import mc_kernel
 
     ns: dict = {}
     exec("def twice(x):\n    return 2.0 * x\n", ns)  # code without a file: numba cannot cache it

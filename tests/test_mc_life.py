@@ -7,10 +7,10 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.efficiency import friction_figures
-from corr_cad.mechanics.friction import Friction
 from corr_cad.mechanics.life import LifeSpec
-from corr_cad.mechanics.windup import Windup
+from corr_cad.mechanics.losses.efficiency import friction_figures
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.row.windup import Windup
 from corr_cad.tolerance.mc_life import life_percentiles, life_samples
 from corr_cad.tolerance.montecarlo import Distribution
 

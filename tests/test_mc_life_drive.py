@@ -23,14 +23,14 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.drive_windup import DriveWindup
-from corr_cad.mechanics.efficiency import (
+from corr_cad.mechanics.drive.drive_windup import DriveWindup
+from corr_cad.mechanics.life import LifeSpec
+from corr_cad.mechanics.losses.efficiency import (
     drive_life,
     friction_figures,
     rows_from_drive,
 )
-from corr_cad.mechanics.friction import Friction
-from corr_cad.mechanics.life import LifeSpec
+from corr_cad.mechanics.losses.friction import Friction
 from corr_cad.tolerance.mc_life import life_percentiles, life_samples
 from corr_cad.tolerance.montecarlo import Distribution
 

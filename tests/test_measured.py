@@ -10,7 +10,7 @@ import pytest
 from corr_cad import GearDesign, ProfileError, working_profile
 from corr_cad.export.measured_io import read_measured_points
 from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 from corr_cad.run.folder.outputs import StagingDir
 from corr_cad.run.pipeline import run_scene
 from corr_cad.run.scene.scene import load_scene

@@ -33,10 +33,10 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign
-from corr_cad.mechanics.efficiency import drive_friction, drive_life, row_loads_from_forces
-from corr_cad.mechanics.friction import Friction
 from corr_cad.mechanics.life import LifeSpec, needle_dynamic_rating, raceway_capacity
-from corr_cad.mechanics.windup import Windup, mesh_period_rad
+from corr_cad.mechanics.losses.efficiency import drive_friction, drive_life, row_loads_from_forces
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad
 
 ROOT = Path(__file__).resolve().parents[1]
 D = GearDesign()
@@ -134,11 +134,11 @@ def test_a_subset_solver_keeps_the_contact_law_bearings_and_tolerance(law):
     """The restart path rebuilds the drive's solver for the positions it solves again
     (drive_restart.subset_solver): the same law, bearings and tolerance, so a position
     solved in the subset equals the position solved with all the others."""
-    from corr_cad.mechanics.bearing import EccentricBearing
-    from corr_cad.mechanics.drive import DriveSolver
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
-    from corr_cad.mechanics.drive_restart import subset_solver
-    from corr_cad.mechanics.solver_geometry import cycle_angles
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
+    from corr_cad.mechanics.drive.drive import DriveSolver
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive.drive_restart import subset_solver
+    from corr_cad.mechanics.row.solver_geometry import cycle_angles
 
     needles = EccentricBearing(40, 6.0, 12.0, 0.002)
     idx = np.array([1, 4, 5])
@@ -162,7 +162,7 @@ def test_the_drives_absolute_windup_adds_t_over_k_to_the_contacts():
     """Drive datasheet with a series rigidity K: at every torque level and position the
     windup is the contacts' windup (the same drive without K) plus T / K, K converted by
     hand (1 N*m/arcmin = 1000 N*mm per pi / 10800 rad); at zero torque nothing added."""
-    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
     from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
 
     K = 1200.0

@@ -295,7 +295,7 @@ def test_a_measured_ring_with_a_designed_clearance_repeats_after_a_revolution():
         modified_profile,
         with_modification,
     )
-    from corr_cad.mechanics.windup import result_period_rad
+    from corr_cad.mechanics.row.windup import result_period_rad
 
     d = GearDesign()
     gap = modification_gap(d, modified_profile(d, Modification(0.01, 0.0, None)))
@@ -342,7 +342,7 @@ def test_backlash_of_an_equidistant_modification_matches_a_hand_calculation():
         modified_profile,
         with_modification,
     )
-    from corr_cad.mechanics.windup import Windup
+    from corr_cad.mechanics.row.windup import Windup
 
     eq = 0.01
     d = GearDesign()

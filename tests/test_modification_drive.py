@@ -202,7 +202,7 @@ def test_rigid_binding_in_interval_form_is_the_crossings_test():
     rising and a falling gap line over both rows) at every position, bound or not."""
     from corr_cad import GearDesign
     from corr_cad.geometry.deviations import ManufacturingErrors
-    from corr_cad.mechanics.solver_geometry import cycle_angles
+    from corr_cad.mechanics.row.solver_geometry import cycle_angles
     from corr_cad.tolerance.modification_design import (
         BINDING_EPS_MM,
         DriveGapMetrics,
@@ -240,7 +240,7 @@ def test_transmission_error_objective_is_the_drive_s_datasheet():
         modified_profile,
         with_modification,
     )
-    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
     from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
     from corr_cad.tolerance.modification_design import design_modification
     from corr_cad.tolerance.montecarlo import Distribution

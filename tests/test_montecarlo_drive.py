@@ -11,9 +11,9 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors as ME
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.drive import DriveSolver
-from corr_cad.mechanics.solver_geometry import cycle_angles
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.drive import DriveSolver
+from corr_cad.mechanics.row.solver_geometry import cycle_angles
 from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 from corr_cad.tolerance.montecarlo_drive import drive_chunk, drive_metrics
 
@@ -72,7 +72,7 @@ def test_block_equals_the_drive_solver_sample_by_sample(law, bearing):
 def test_compiled_inversion_meets_the_contact_law_written_here():
     """G(F) = h with G the three Hertz approaches in series, delta(u) = (1 - sqrt(1 - k^2 u))/k
     per body (u = b^2); zero force at no overlap; dF/dh the inverse of G' by differences."""
-    from corr_cad.mechanics.drive_kernel import CompiledInverse
+    from corr_cad.mechanics.drive.drive_kernel import CompiledInverse
 
     solver = DriveSolver(DESIGN, cycle_angles(7), bearing=NEEDLES)
     comp = solver.comp
@@ -121,7 +121,7 @@ def test_monte_carlo_on_the_drive_is_seeded_and_independent_of_chunking():
 
 
 def test_stacked_geometry_is_each_samples_drive_geometry_bit_for_bit():
-    from corr_cad.mechanics.drive import drive_geometry, row_errors
+    from corr_cad.mechanics.drive.drive import drive_geometry, row_errors
     from corr_cad.tolerance.montecarlo_drive import stacked_geometry
 
     R = DESIGN.roller_count
@@ -150,8 +150,8 @@ def test_numpy_inversion_stops_each_roller_as_the_compiled_one():
     """The drive's numpy inversion of the paper's law iterates each loaded roller on its own
     until its step is below 1e-15 of its force, from the same start as the compiled one:
     both give the same forces and stiffnesses to round-off, and zero where unloaded."""
-    from corr_cad.mechanics.drive_kernel import CompiledInverse
-    from corr_cad.mechanics.drive_numerics import _invert_convex
+    from corr_cad.mechanics.drive.drive_kernel import CompiledInverse
+    from corr_cad.mechanics.drive.drive_numerics import _invert_convex
 
     solver = DriveSolver(DESIGN, cycle_angles(11), bearing=NEEDLES)
     comp = solver.comp

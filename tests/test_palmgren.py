@@ -7,7 +7,7 @@ import pytest
 
 from corr_cad import GearDesign, solve_forces
 from corr_cad.mechanics import palmgren
-from corr_cad.mechanics.windup import Windup
+from corr_cad.mechanics.row.windup import Windup
 
 
 @pytest.mark.parametrize("Q", [250.0, 2500.0, 12000.0])
@@ -80,7 +80,7 @@ def test_palmgren_is_softer_than_the_paper_law():
 def test_nominal_drive_rigidity_against_finite_differences():
     """Tangent rigidity from the solved forces (dF/dh = F / (0.9 h)) against a central
     difference of the drive's windup."""
-    from corr_cad.mechanics.drive_windup import DriveWindup
+    from corr_cad.mechanics.drive.drive_windup import DriveWindup
 
     design = GearDesign()
     z1 = design.roller_count

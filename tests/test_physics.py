@@ -20,7 +20,7 @@ from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.geometry.profile import undercut_analysis
 from corr_cad.mechanics import contact
 from corr_cad.mechanics.reference import reference_geometry, reference_position
-from corr_cad.mechanics.solver import cycle_angles, solve_forces
+from corr_cad.mechanics.row.solver import cycle_angles, solve_forces
 from corr_cad.tolerance.allocation import allocate
 from corr_cad.tolerance.checks import Checks
 from corr_cad.tolerance.montecarlo import Distribution, draw_samples, monte_carlo
@@ -35,7 +35,7 @@ DEG = math.pi / 180.0  # written out: the tests never use the package's conversi
 def test_eccentricity_error_gap_is_plus_de_cos_psi(prototype):
     """docs/physics.md: the eccentricity error's cam-contact gap is about ``+de cos psi``
     (the cam centre moved out to e + de presses on the roller at psi = 0)."""
-    from corr_cad.mechanics.solver_geometry import roller_geometry
+    from corr_cad.mechanics.row.solver_geometry import roller_geometry
 
     de = 0.001
     R = prototype.roller_count

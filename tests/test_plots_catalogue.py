@@ -129,7 +129,7 @@ def sheet():
 def test_hysteresis_png_marks_the_catalogue_figures_where_they_are(figures, sheet, tmp_path):
     from corr_cad.export.datasheet_plots import hysteresis_png
     from corr_cad.figure_text import figure
-    from corr_cad.mechanics.windup import ARCMIN_PER_RAD
+    from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD
 
     hysteresis_png(sheet, tmp_path / "h.png", GearDesign())
     (fig,) = figures
@@ -205,7 +205,7 @@ def test_transmission_error_png_each_direction_about_its_mean_on_its_own_scale(
     figures, sheet, tmp_path
 ):
     from corr_cad.export.datasheet_plots import transmission_error_png
-    from corr_cad.mechanics.windup import ARCSEC_PER_RAD
+    from corr_cad.mechanics.row.windup import ARCSEC_PER_RAD
 
     transmission_error_png(sheet, tmp_path / "t.png", GearDesign())
     (fig,) = figures

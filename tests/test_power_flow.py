@@ -1,6 +1,6 @@
 """The power balance of the running drive with friction, recomputed independently.
 
-For an operating point (:func:`corr_cad.mechanics.operating.operating_point`)
+For an operating point (:func:`corr_cad.mechanics.losses.operating.operating_point`)
 the test takes the contact forces (normal and friction) and the spins the
 model settled on, and computes everything else with its own code: the
 roller centres from the crank-slider ``s = e cos psi + sqrt(L^2 - e^2
@@ -24,10 +24,10 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.efficiency import drive_friction, row_loads_from_forces
-from corr_cad.mechanics.friction import Friction
-from corr_cad.mechanics.operating import operating_point
-from corr_cad.mechanics.windup import Windup, mesh_period_rad
+from corr_cad.mechanics.losses.efficiency import drive_friction, row_loads_from_forces
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.losses.operating import operating_point
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad
 
 D = GearDesign()
 T_R = 2.86e6  # N*mm
@@ -149,9 +149,9 @@ def test_load_independent_drag_enters_the_efficiency_exactly_without_friction():
 def test_power_balance_of_both_rows_of_the_drive(backdriving):
     """The drive with 40-needle bearings and a preload: each row's balance on its own, and
     the output torque of both rows together the load."""
-    from corr_cad.mechanics.bearing import EccentricBearing
-    from corr_cad.mechanics.drive_windup import DriveWindup
-    from corr_cad.mechanics.efficiency import rows_from_drive
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
+    from corr_cad.mechanics.drive.drive_windup import DriveWindup
+    from corr_cad.mechanics.losses.efficiency import rows_from_drive
 
     bearing = EccentricBearing(needles=40, needle_diameter=6.0, needle_length=12.0)
     w = DriveWindup(D, X, errors=PRELOAD, bearing=bearing)

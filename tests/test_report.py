@@ -262,7 +262,7 @@ def test_every_monte_carlo_metric_has_a_label_and_unit():
     """The report names every column the Monte Carlo summarises: the force
     metrics and the datasheet pass's (a missing one once crashed the report)."""
     from corr_cad.export.report import METRIC_LABELS
-    from corr_cad.mechanics.mc_kernel import METRICS
+    from corr_cad.mechanics.row.mc_kernel import METRICS
     from corr_cad.tolerance.mc_datasheet import DATASHEET_MC_METRICS
     from corr_cad.tolerance.montecarlo import FLAG_METRICS
 

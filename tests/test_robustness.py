@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from corr_cad import CorrCadError, ProfileError, SceneError, working_profile
 from corr_cad.export.measured_io import read_measured_points
-from corr_cad.mechanics import solver_geometry
+from corr_cad.mechanics.row import solver_geometry
 from corr_cad.run.folder.outputs import StagingDir
 from corr_cad.run.pipeline import run_scene
 from corr_cad.run.scene.scene import SCHEMA, parse_scene

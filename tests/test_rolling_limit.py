@@ -16,10 +16,14 @@ import numpy as np
 import pytest
 
 from corr_cad import GearDesign
-from corr_cad.mechanics.efficiency import drive_friction, friction_figures, row_loads_from_forces
-from corr_cad.mechanics.friction import Friction
 from corr_cad.mechanics.life import LifeSpec, rolling_speeds
-from corr_cad.mechanics.windup import Windup, mesh_period_rad
+from corr_cad.mechanics.losses.efficiency import (
+    drive_friction,
+    friction_figures,
+    row_loads_from_forces,
+)
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad
 
 D = GearDesign()
 T_R = 2.86e6  # N*mm

@@ -9,7 +9,7 @@ from corr_cad import SolverError, admissible_roller_radius
 from corr_cad.geometry import kinematics as kin
 from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
 from corr_cad.mechanics.reference import reference_position
-from corr_cad.mechanics.solver import VARIANTS, solve_forces
+from corr_cad.mechanics.row.solver import VARIANTS, solve_forces
 
 M0 = 1.1e5  # N*mm
 
@@ -290,7 +290,7 @@ def test_nominal_fast_path_equals_general_path(prototype, monkeypatch, case):
     Same model, other arithmetic: closed-form geometry, a window of rollers,
     the linear start without sorting. Agreement to round-off, every field.
     """
-    from corr_cad.mechanics import solver
+    from corr_cad.mechanics.row import solver
 
     case = dict(case)
     torque = case.pop("input_torque", M0)
@@ -316,7 +316,7 @@ def test_nominal_fast_path_equals_general_path(prototype, monkeypatch, case):
 
 def test_blocks_change_no_bit(prototype, monkeypatch):
     """Blocks are written into outputs allocated once: the same bits as one block."""
-    from corr_cad.mechanics import solver
+    from corr_cad.mechanics.row import solver
 
     err = ManufacturingErrors(eccentricity_error=0.02)
     blocks = solve_forces(prototype, M0, positions=720, errors=err)

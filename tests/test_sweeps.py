@@ -11,7 +11,7 @@ import pytest
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 from corr_cad.tolerance.montecarlo import SerialExecutor
 from corr_cad.tolerance.sweeps import PAPER_SWEEPS, comparison_rows, run_sweeps, sweep_point
 

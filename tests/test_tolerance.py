@@ -94,7 +94,7 @@ def test_monte_carlo_on_a_local_dask_cluster():
 
 def test_monte_carlo_metrics_match_a_direct_solve():
     from corr_cad.geometry.deviations import ManufacturingErrors
-    from corr_cad.mechanics.solver import cycle_angles, solve_forces
+    from corr_cad.mechanics.row.solver import cycle_angles, solve_forces
     from corr_cad.tolerance.montecarlo import draw_samples
 
     mc = _mc(SerialExecutor(), n=8)

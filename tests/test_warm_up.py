@@ -113,7 +113,7 @@ def test_an_index_older_than_its_source_is_missing(tmp_path, monkeypatch):
     from corr_cad.run import warmup
 
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
-    source = warmup._MECHANICS / "free_play.py"
+    source = warmup.source("free_play")
     names = re.findall(r"^@_jit\s*\ndef (\w+)", source.read_text(), re.M)
     group = [g for g in warmup.GROUPS if g[1] == ("free_play",)]
     for name in names:

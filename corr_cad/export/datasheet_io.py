@@ -25,7 +25,7 @@ import numpy as np
 
 from corr_cad.export.files import write_columns, write_json
 from corr_cad.mechanics.datasheet import Datasheet
-from corr_cad.mechanics.windup import ARCMIN_PER_RAD, ARCSEC_PER_RAD, NMM_PER_NM
+from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, ARCSEC_PER_RAD, NMM_PER_NM
 
 __all__ = ["WINDUP_COLUMNS", "TE_COLUMNS", "write_datasheet_files"]
 

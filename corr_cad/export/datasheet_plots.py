@@ -19,7 +19,7 @@ from corr_cad.export.plots import _save, _title, plt
 from corr_cad.figure_text import figure
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.datasheet import Datasheet
-from corr_cad.mechanics.windup import ARCMIN_PER_RAD, ARCSEC_PER_RAD, NMM_PER_NM
+from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, ARCSEC_PER_RAD, NMM_PER_NM
 
 __all__ = [
     "MAX_CURVES",

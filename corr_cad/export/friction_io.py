@@ -21,7 +21,7 @@ import math
 from pathlib import Path
 
 from corr_cad.export.files import write_csv
-from corr_cad.mechanics.efficiency import FrictionFigures
+from corr_cad.mechanics.losses.efficiency import FrictionFigures
 
 __all__ = [
     "EFFICIENCY_COLUMNS",
@@ -110,8 +110,9 @@ def write_friction_files(ff: FrictionFigures, out: Path) -> list[str]:
 
 
 def write_hysteresis_csv(loop: dict, out: Path) -> str:
-    """Write ``hysteresis.csv`` from a loop (:func:`corr_cad.mechanics.hysteresis.hysteresis_loop`
-    at one position, rad and N*mm); returns its name."""
+    """Write ``hysteresis.csv`` from a loop
+    (:func:`corr_cad.mechanics.losses.hysteresis.hysteresis_loop` at one position, rad and
+    N*mm); returns its name."""
     angle = f"{math.degrees(loop['output_angle']):.9g}"
     rows = [
         [

@@ -3,7 +3,7 @@
 Drawn only under ``[solver] model = "drive"`` with ``[bearings.eccentric]`` (the
 parts the model bends are the parts the files draw). Pure numpy; no file formats.
 
-The needle bearing (one per row, :class:`corr_cad.mechanics.bearing.EccentricBearing`):
+The needle bearing (one per row, :class:`corr_cad.mechanics.crank.bearing.EccentricBearing`):
 
 * outer race: the cam's bore, radius ``R_b = cam_bore_radius``, concentric
   with the cam's disc (the cam is a ring on its bearing);

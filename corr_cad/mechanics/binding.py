@@ -9,11 +9,11 @@ Definition
 ----------
 At output position ``x`` (crank locked, ring fixed, zero output torque) each
 loadable roller ``i`` has the chain gap ``g_i`` (interference positive; the
-force solver's gap, :mod:`corr_cad.mechanics.solver_geometry`) and the cam
+force solver's gap, :mod:`corr_cad.mechanics.row.solver_geometry`) and the cam
 advance ``a_i``; turning the cam by ``tau`` (frame held) gives it the overlap
 ``h_i(tau) = g_i + a_i tau``. The **free rotation** is the interval of ``tau``
 over which no roller overlaps, ``[max_{a<0} -g/a, min_{a>0} -g/a]``
-(:meth:`corr_cad.mechanics.windup.Windup.free_ends`), of output length
+(:meth:`corr_cad.mechanics.row.windup.Windup.free_ends`), of output length
 ``(min_{a>0} - max_{a<0}) / (z + 1)``. Where it is **empty** the drive can
 only be assembled by elastic deformation; the **interference** there is the
 smallest largest overlap the cam can reach by turning,
@@ -47,8 +47,8 @@ from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics import contact
-from corr_cad.mechanics.solver_geometry import roller_geometry
-from corr_cad.mechanics.solver_numerics import _Compliance
+from corr_cad.mechanics.row.solver_geometry import roller_geometry
+from corr_cad.mechanics.row.solver_numerics import _Compliance
 
 __all__ = ["Binding", "binding", "evaluation_positions", "DEFAULT_PRESSURE_LIMIT_MPA"]
 
@@ -67,9 +67,9 @@ def evaluation_positions(
     period (alike parts), one tooth pitch (per-roller or per-slot errors:
     the whole output revolution's range) or one output revolution (a ring
     profile deviation), as the datasheet's windup curve
-    (:func:`corr_cad.mechanics.windup.result_period_rad`).
+    (:func:`corr_cad.mechanics.row.windup.result_period_rad`).
     """
-    from corr_cad.mechanics.windup import mesh_period_rad, result_period_rad
+    from corr_cad.mechanics.row.windup import mesh_period_rad, result_period_rad
 
     if isinstance(positions_per_mesh, bool) or not isinstance(positions_per_mesh, int):
         raise SolverError(f"positions_per_mesh = {positions_per_mesh!r}: must be an integer >= 1")
@@ -135,7 +135,7 @@ def binding(
         The full error model (uniform, per-roller, per-slot, cam, profile).
     positions : (P,) float, rad, optional
         Output angles, ring fixed (crank angle ``z x``, as
-        :func:`corr_cad.mechanics.windup.crank_angles_of`). Default:
+        :func:`corr_cad.mechanics.row.windup.crank_angles_of`). Default:
         :func:`evaluation_positions` at ``positions_per_mesh``.
     pressure_limit_MPa : float
         Preload pressure above which a position binds (default 4000 MPa).

@@ -1,7 +1,7 @@
 """The compliance budget of the drive: its windup at the rated torque split by component.
 
 Each component's windup is its elements' work, force times their own deformation at
-the solved state, over the output torque (:func:`corr_cad.mechanics.drive_crank.budget_terms`,
+the solved state, over the output torque (:func:`corr_cad.mechanics.drive.drive_crank.budget_terms`,
 virtual work): the parts add up to the drive's windup ``theta(T_R)`` exactly, whatever
 the contact law, and each is positive. For a linear element it is the series split
 ``T c_i``; for the nonlinear ones (the contacts, the needles and support bearings with
@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from corr_cad.mechanics.drive_crank import _State, budget_terms
-from corr_cad.mechanics.windup import ARCMIN_PER_RAD, NMM_PER_NM, series_rigidity_Nmm_per_rad
+from corr_cad.mechanics.drive.drive_crank import _State, budget_terms
+from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, NMM_PER_NM, series_rigidity_Nmm_per_rad
 
 __all__ = [
     "MODEL_COMPONENTS",

@@ -1,7 +1,7 @@
 """Datasheet figures of the drive: what a precision reducer is bought on.
 
 Every figure is read off the windup ``theta(T, x)`` of
-:mod:`corr_cad.mechanics.windup` (output torque ``T``, crank locked, ring
+:mod:`corr_cad.mechanics.row.windup` (output torque ``T``, crank locked, ring
 fixed, output position ``x``), the way a test bench reads it off the
 hysteresis curve (torque cycled ``0 -> +T_R -> 0 -> -T_R -> 0``):
 
@@ -29,7 +29,7 @@ maximum over the positions evaluated: one mesh period when all rollers and
 slots are alike, one tooth pitch of output when they differ (the result
 repeats after it, so this is the full output revolution's range), one full
 output revolution once the ring has its own profile deviation
-(:func:`~corr_cad.mechanics.windup.result_period_rad`). For lost motion,
+(:func:`~corr_cad.mechanics.row.windup.result_period_rad`). For lost motion,
 backlash and transmission error the catalogue figure is the maximum; for a
 rigidity it is the minimum (the guaranteed value).
 
@@ -48,7 +48,7 @@ import numpy as np
 from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.windup import (
+from corr_cad.mechanics.row.windup import (
     ARCMIN_PER_RAD,
     ARCSEC_PER_RAD,
     NMM_PER_NM,
@@ -419,7 +419,7 @@ def datasheet(
     23600.0
 
     ``drive``: the two-row drive model (``[solver] model = "drive"``) with
-    the keyword arguments of :class:`~corr_cad.mechanics.drive_windup.DriveWindup`
+    the keyword arguments of :class:`~corr_cad.mechanics.drive.drive_windup.DriveWindup`
     (``errors_b``, ``bearing``, ``bearing_b``); ``load_share`` is then unused
     and the datasheet records row A's share at each torque level.
     """
@@ -498,7 +498,7 @@ def _windup_factory(common: dict, drive: dict | None):
     """``make(design, output_angles)``: the one-row windup, or the drive's."""
     if drive is None:
         return lambda design, x: Windup(design, x, **common)
-    from corr_cad.mechanics.drive_windup import DriveWindup
+    from corr_cad.mechanics.drive.drive_windup import DriveWindup
 
     kw = {k: v for k, v in common.items() if k != "load_share"}
     return lambda design, x: DriveWindup(design, x, **kw, **drive)

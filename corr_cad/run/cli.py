@@ -283,7 +283,7 @@ def _flag(args: argparse.Namespace, flag: str):
 #: numba and the compiled kernels' modules, which a pool worker of a Monte
 #: Carlo on the compiled kernel imports at its first task: imported when the
 #: worker starts instead, while the main process runs the stages before.
-WARM_MODULES = ("corr_cad.mechanics.mc_kernel", "corr_cad.mechanics.mc_windup_kernel")
+WARM_MODULES = ("corr_cad.mechanics.row.mc_kernel", "corr_cad.mechanics.row.mc_windup_kernel")
 
 
 def _warm_modules(scene) -> tuple[str, ...]:
@@ -317,7 +317,7 @@ def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
     instant before the ``prctl`` call. Then the modules ``warm`` are imported
     (:data:`WARM_MODULES`), which the tasks would otherwise import, and with
     the kernels numba's CPU target is built
-    (:func:`~corr_cad.mechanics.mc_kernel.load_target`).
+    (:func:`~corr_cad.mechanics.row.mc_kernel.load_target`).
     """
     import signal
     import threading
@@ -357,8 +357,8 @@ def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
 
     for name in warm:
         importlib.import_module(name)
-    if "corr_cad.mechanics.mc_kernel" in warm:
-        from corr_cad.mechanics.mc_kernel import load_target
+    if "corr_cad.mechanics.row.mc_kernel" in warm:
+        from corr_cad.mechanics.row.mc_kernel import load_target
 
         load_target()
 

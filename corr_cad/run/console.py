@@ -1,6 +1,6 @@
 """The console summary of a run, and the drive-wide force peaks it reports.
 
-:func:`force_peaks` condenses a :class:`~corr_cad.mechanics.solver.ForceResult` into
+:func:`force_peaks` condenses a :class:`~corr_cad.mechanics.row.solver.ForceResult` into
 the numbers an engineer signs off on (each peak with the roller and crank
 angle where it occurs); the pipeline stores them in ``manifest.json`` under
 ``forces.peak``. :func:`summary_lines` formats the console summary from the

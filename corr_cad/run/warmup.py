@@ -29,13 +29,15 @@ __all__ = [
     "compile_seconds",
     "missing",
     "scene_groups",
+    "source",
     "warm_up",
 ]
 
 _MECHANICS = Path(__file__).resolve().parents[1] / "mechanics"
 
 #: Kernel groups: (name, modules, about how many seconds they take to compile on one
-#: quiet core, what uses them).
+#: quiet core, what uses them). A module is named by its file's stem, as numba names
+#: its cache files, wherever it sits under ``corr_cad/mechanics/`` (:func:`source`).
 GROUPS = (
     ("Monte Carlo kernel", ("mc_kernel",), 12, "the paper's row, large Monte Carlos"),
     ("datasheet windup kernel", ("mc_windup_kernel",), 8, "datasheet metrics in a Monte Carlo"),
@@ -51,6 +53,15 @@ GROUPS = (
 _JIT = re.compile(r"^@_jit\s*\ndef (\w+)", re.M)
 #: Kernels no stage calls (a test's alone): never compiled by a run, never missed.
 _UNUSED = {"drive_kernel": ("_invert",)}
+
+
+def source(module: str) -> Path:
+    """The source file of the kernel module ``module`` (a file's stem, unique under
+    ``corr_cad/mechanics/``)."""
+    found = sorted(_MECHANICS.rglob(f"{module}.py"))
+    if len(found) != 1:
+        raise LookupError(f"kernel module {module!r}: {len(found)} files under {_MECHANICS}")
+    return found[0]
 
 
 def _cache_dirs(source: Path) -> list[Path]:
@@ -71,10 +82,10 @@ def missing(groups=GROUPS) -> list[str]:
     out = []
     for name, modules, _, _ in groups:
         for module in modules:
-            source = _MECHANICS / f"{module}.py"
-            stamp = source.stat().st_mtime
-            dirs = _cache_dirs(source)
-            kernels = set(_JIT.findall(source.read_text())) - set(_UNUSED.get(module, ()))
+            path = source(module)
+            stamp = path.stat().st_mtime
+            dirs = _cache_dirs(path)
+            kernels = set(_JIT.findall(path.read_text())) - set(_UNUSED.get(module, ()))
             if not all(
                 any(p.stat().st_mtime >= stamp for d in dirs for p in d.glob(f"{module}.{k}-*.nbi"))
                 for k in kernels
@@ -105,10 +116,10 @@ def _drive_kernels() -> None:
     import numpy as np
 
     from corr_cad.geometry.design import GearDesign
-    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
     from corr_cad.mechanics.datasheet import DatasheetSpec
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
-    from corr_cad.mechanics.solver_geometry import cycle_angles
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.row.solver_geometry import cycle_angles
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
     from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 
@@ -127,9 +138,9 @@ def _drive_kernels() -> None:
 
 def _free_play() -> None:
     from corr_cad.geometry.design import GearDesign
-    from corr_cad.mechanics.bearing import EccentricBearing
-    from corr_cad.mechanics.drive import DriveSolver
-    from corr_cad.mechanics.solver_geometry import cycle_angles
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
+    from corr_cad.mechanics.drive.drive import DriveSolver
+    from corr_cad.mechanics.row.solver_geometry import cycle_angles
 
     bearing = EccentricBearing(40, 6.0, 12.0, diametral_clearance=0.005)
     DriveSolver(GearDesign(), cycle_angles(4), bearing=bearing).free_interval(solve=False)

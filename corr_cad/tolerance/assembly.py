@@ -11,7 +11,7 @@ A class **binds** when, at some position, no frame angle fits every roller
 without interference: from the gaps alone (no force solve), the least
 possible largest chain interference is positive (:func:`binding_interference`,
 the same gaps and cam advances as
-:meth:`corr_cad.mechanics.windup.Windup.free_ends`). It is reported in um
+:meth:`corr_cad.mechanics.row.windup.Windup.free_ends`). It is reported in um
 (``interference_um``: > 0 binds, <= 0 the room left on the tightest roller);
 exact contact (the conjugate drive, 0 to round-off) does not bind.
 
@@ -32,8 +32,8 @@ import numpy as np
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
-from corr_cad.mechanics.solver_geometry import roller_geometry
-from corr_cad.mechanics.windup import ARCMIN_PER_RAD, crank_angles_of
+from corr_cad.mechanics.row.solver_geometry import roller_geometry
+from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, crank_angles_of
 
 __all__ = ["binding_interference", "selective_assembly", "BINDING_EPS_MM"]
 
@@ -67,8 +67,8 @@ def binding_interference(
     """
     phi = crank_angles_of(np.asarray(output_angles, dtype=float), design)
     if drive:
-        from corr_cad.mechanics.drive import drive_geometry, row_errors
-        from corr_cad.mechanics.drive_numerics import joined
+        from corr_cad.mechanics.drive.drive import drive_geometry, row_errors
+        from corr_cad.mechanics.drive.drive_numerics import joined
 
         geo = joined(
             *drive_geometry(design, phi, *row_errors(errors, errors_b), variants, psi_contact_limit)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from corr_cad.mechanics.solver import loaded_mask
+from corr_cad.mechanics.row.solver import loaded_mask
 
 __all__ = [
     "ARCMIN_PER_RAD",

@@ -1,7 +1,7 @@
 """Datasheet metrics of Monte Carlo samples: lost motion, rigidity, transmission error, binding.
 
-Each sample's windup ``theta(T, x)`` (:mod:`corr_cad.mechanics.windup`) is
-solved by the compiled kernel (:mod:`corr_cad.mechanics.mc_windup_kernel`)
+Each sample's windup ``theta(T, x)`` (:mod:`corr_cad.mechanics.row.windup`) is
+solved by the compiled kernel (:mod:`corr_cad.mechanics.row.mc_windup_kernel`)
 at the torques the figures need, at every output position of the sample's
 **evaluation grid**: ``[montecarlo] datasheet_positions_per_mesh`` (4) per mesh period over
 one mesh period when the parts are alike, one tooth pitch when the tolerances
@@ -40,8 +40,8 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.binding import DEFAULT_PRESSURE_LIMIT_MPA
 from corr_cad.mechanics.datasheet import DatasheetSpec
-from corr_cad.mechanics.solver import _RTOL, roller_geometry
-from corr_cad.mechanics.windup import (
+from corr_cad.mechanics.row.solver import _RTOL, roller_geometry
+from corr_cad.mechanics.row.windup import (
     ARCMIN_PER_RAD,
     ARCSEC_PER_RAD,
     NMM_PER_NM,
@@ -144,7 +144,7 @@ def datasheet_chunk(
     base: ManufacturingErrors,
 ) -> tuple[dict[str, np.ndarray], bool]:
     """Datasheet metrics of ``n`` samples whose errors are ``(cam, ecc, phase, dr, dl)``."""
-    from corr_cad.mechanics import mc_kernel, mc_windup_kernel
+    from corr_cad.mechanics.row import mc_kernel, mc_windup_kernel
 
     R = design.roller_count
     angles = design.tooth_count * grid

@@ -2,7 +2,7 @@
 
 The same columns, with the same meanings, as the paper's row
 (:mod:`corr_cad.tolerance.mc_datasheet`), read off the windup ``theta(T, x)``
-of the two-row drive (:class:`~corr_cad.mechanics.drive_windup.DriveWindup`'s
+of the two-row drive (:class:`~corr_cad.mechanics.drive.drive_windup.DriveWindup`'s
 definition: the output torque ``T`` is the crank moment ``-T / (z + 1)``
 carried by both rows together, ``theta = -tau / (z + 1)``; at ``T = +-0``
 an end of the drive's free rotation). Each sample's rows are those the
@@ -28,12 +28,12 @@ it binds above ``[montecarlo] binding_pressure_MPa``.
 
 Samples are solved in blocks: their geometries stacked sample-major
 (:func:`~corr_cad.tolerance.montecarlo_drive.stacked_geometry`), one
-:class:`~corr_cad.mechanics.drive_kernel.CompiledDriveSolver` per block for
+:class:`~corr_cad.mechanics.drive.drive_kernel.CompiledDriveSolver` per block for
 the six windup torques and the zero moment (with bearings, each sign's
 smallest torque's bearing Newton starts from the exact linear-contact solution under
 the paper's law, the rigid one otherwise or where it misses from there; the larger
 torques from the smaller one's solution; positions the Newton
-misses are restarted, :mod:`corr_cad.mechanics.drive_restart`). Every
+misses are restarted, :mod:`corr_cad.mechanics.drive.drive_restart`). Every
 position's solve is its own, so a sample's metrics are those of solving it
 alone (``tests/test_mc_drive_datasheet.py``).
 """
@@ -45,7 +45,7 @@ import functools
 import numpy as np
 
 from corr_cad.mechanics.datasheet import span_errors
-from corr_cad.mechanics.windup import crank_angles_of
+from corr_cad.mechanics.row.windup import crank_angles_of
 from corr_cad.tolerance.mc_datasheet import DatasheetMC, grid_positions, windup_metrics
 from corr_cad.tolerance.montecarlo_drive import chain_solver, drive_chunk, row_b_tolerances
 
@@ -121,9 +121,9 @@ def _linear_start_solver():
     solution (``solver_numerics._linear_tau``) instead of the rigid one, with the rigid
     start where a position misses from there (the paper's law on bearings; otherwise the
     rigid start)."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
-    from corr_cad.mechanics.drive_restart import replace_positions, subset_solver
-    from corr_cad.mechanics.solver_numerics import _linear_tau
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver  # numba: only when run
+    from corr_cad.mechanics.drive.drive_restart import replace_positions, subset_solver
+    from corr_cad.mechanics.row.solver_numerics import _linear_tau
 
     class LinearStartDriveSolver(CompiledDriveSolver):
         def solve(self, target):
@@ -159,7 +159,7 @@ def _preload_pressure(solver, sols: dict, moments: dict) -> tuple[np.ndarray, bo
     rows' free intervals intersect) nothing presses: 0 without a solve (the zero-moment
     equilibrium is then force-free, with or without bearings); elsewhere the drive's
     equilibrium at zero moment, restarted where missed from the torques' solutions."""
-    from corr_cad.mechanics.drive_restart import restart_missed, subset_solver
+    from corr_cad.mechanics.drive.drive_restart import restart_missed, subset_solver
 
     geo = solver.geo_joined
     a = np.where(geo.loadable, geo.advance, 0.0)
@@ -198,10 +198,14 @@ def _solve_all(solver, moments: dict) -> tuple[dict, bool]:
     start; the same equilibrium to the solver's tolerance), and its positions that miss
     from there from the rigid start. Positions still unsettled are solved again from
     their own solution at the other moments, nearest first
-    (:func:`~corr_cad.mechanics.drive_restart.restart_missed`). Every step is per
+    (:func:`~corr_cad.mechanics.drive.drive_restart.restart_missed`). Every step is per
     position: a sample in a block equals the sample alone.
     """
-    from corr_cad.mechanics.drive_restart import replace_positions, restart_missed, subset_solver
+    from corr_cad.mechanics.drive.drive_restart import (
+        replace_positions,
+        restart_missed,
+        subset_solver,
+    )
 
     limit = max(solver.rtol, 1e-9)
     warm = solver.bearings[0] is not None and not getattr(solver.comp, "linear", False)

@@ -4,7 +4,7 @@ Each sample is the Monte Carlo's own (same seed, same draws:
 :func:`corr_cad.tolerance.montecarlo.draw_samples`), solved by the windup's
 force solver at the rated torque over one tooth pitch (every roller meets
 every tooth) at ``positions_per_mesh``, as the datasheet rates the nominal
-design (:func:`~corr_cad.mechanics.efficiency.drive_life`): loads without
+design (:func:`~corr_cad.mechanics.losses.efficiency.drive_life`): loads without
 friction (the bearing's the sample's resultant ``|sum F_k n_k|``), speeds
 from the rolling kinematics. The nominal design's draws (all zero)
 reproduce its life exactly.
@@ -13,7 +13,7 @@ Under the drive (``[solver] model = "drive"``, ``drive`` given as the Monte
 Carlo's): each sample's two rows are drawn as the drive's Monte Carlo draws
 them (row A and the frame from the seed's stream, row B's own tolerances
 from :data:`~corr_cad.tolerance.montecarlo_drive.ROW_B_STREAM`) and solved
-together by :class:`~corr_cad.mechanics.drive_windup.DriveWindup` at the
+together by :class:`~corr_cad.mechanics.drive.drive_windup.DriveWindup` at the
 rated torque; each row's raceways are rated on its own forces and each
 cam's bearing on the drive's ``bearing_load`` of that cam, as the drive's
 datasheet rates the design (``friction_figures`` with ``rows_at``).
@@ -25,14 +25,14 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.efficiency import (
+from corr_cad.mechanics.life import LifeSpec
+from corr_cad.mechanics.losses.efficiency import (
     drive_life,
     row_loads_from_forces,
     rows_from_drive,
 )
-from corr_cad.mechanics.friction import Friction
-from corr_cad.mechanics.life import LifeSpec
-from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
+from corr_cad.mechanics.losses.friction import Friction
+from corr_cad.mechanics.row.windup import Windup, mesh_period_rad, result_period_rad
 from corr_cad.tolerance.montecarlo import _errors_for, draw_samples
 
 __all__ = ["DRIVE_LIFE_SOURCE", "life_samples", "life_percentiles"]
@@ -62,7 +62,7 @@ def life_samples(
     ``draws``: the Monte Carlo's sample count (the draws are made for all
     of them, as the Monte Carlo makes them, and the first ``samples``
     used). Returns arrays (samples,) keyed like
-    :func:`~corr_cad.mechanics.efficiency.drive_life`. ``drive``: the drive
+    :func:`~corr_cad.mechanics.losses.efficiency.drive_life`. ``drive``: the drive
     Monte Carlo's argument (``errors_b``, ``bearing``, ``bearing_b``,
     ``contact_model``): both rows solved together (``load_share`` and
     ``rows`` unused); ``life_b`` rates row B's bearing (default ``spec``).
@@ -128,7 +128,7 @@ def _drive_life_samples(
     life_b: LifeSpec | None,
 ) -> dict[str, np.ndarray]:
     """:func:`life_samples` under the drive: both rows of each sample, row B's own draws."""
-    from corr_cad.mechanics.drive_windup import DriveWindup
+    from corr_cad.mechanics.drive.drive_windup import DriveWindup
     from corr_cad.tolerance.montecarlo_drive import ROW_B_STREAM, row_b_tolerances
 
     tol_b = row_b_tolerances(tolerances)

@@ -12,7 +12,7 @@ How, and why it is fast:
 
 1. The tolerance samples are drawn once (the Monte Carlo's seeded draws,
    :func:`~corr_cad.tolerance.montecarlo.draw_samples`) and their chain gaps
-   built once (:class:`~corr_cad.mechanics.batch.BatchSolver`).
+   built once (:class:`~corr_cad.mechanics.row.batch.BatchSolver`).
 2. A modification adds ``-rho_n c(psi)`` to every gap (``c`` the exact flank
    clearance, :func:`~corr_cad.geometry.modification.flank_clearance`), so
    each candidate costs one projection and array arithmetic, no force solve:
@@ -41,7 +41,7 @@ stream), and :class:`DriveGapMetrics` gives per sample:
 
 * **backlash**: the drive's free rotation, the largest over the positions of
   the width of :meth:`DriveSolver.free_interval
-  <corr_cad.mechanics.drive.DriveSolver.free_interval>` (the intersection of
+  <corr_cad.mechanics.drive.drive.DriveSolver.free_interval>` (the intersection of
   both rows' free intervals, each widened by its cam bearing's clearance),
   over ``z + 1``, in arcmin; 0 where none is left;
 * **binding**: a position binds where no crank rotation leaves every roller
@@ -50,7 +50,7 @@ stream), and :class:`DriveGapMetrics` gives per sample:
   without clearance, :func:`chain_interference`'s test over the ``2 (z + 1)``
   rollers, as selective assembly judges the drive; with a bearing clearance
   each cam may also shift within ``Pd / 2`` (each row's free interval of its
-  gaps less that allowance, :func:`~corr_cad.mechanics.drive_numerics.free_row`,
+  gaps less that allowance, :func:`~corr_cad.mechanics.drive.drive_numerics.free_row`,
   and their intersection).
 
 The force candidates are solved by the drive's Monte Carlo (its contact law
@@ -77,11 +77,11 @@ from corr_cad.geometry.modification import (
     modified_profile,
     with_modification,
 )
-from corr_cad.mechanics.batch import BatchSolver
-from corr_cad.mechanics.drive import DriveSolver
-from corr_cad.mechanics.drive_numerics import free_row
-from corr_cad.mechanics.solver_geometry import cycle_angles
-from corr_cad.mechanics.windup import ARCMIN_PER_RAD
+from corr_cad.mechanics.drive.drive import DriveSolver
+from corr_cad.mechanics.drive.drive_numerics import free_row
+from corr_cad.mechanics.row.batch import BatchSolver
+from corr_cad.mechanics.row.solver_geometry import cycle_angles
+from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD
 from corr_cad.tolerance.montecarlo import _errors_for, draw_samples, monte_carlo
 from corr_cad.tolerance.montecarlo_drive import ROW_B_STREAM, row_b_tolerances, stacked_geometry
 

@@ -27,8 +27,8 @@ import numpy as np
 from corr_cad.errors import SceneError, SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.batch import BatchSolver
-from corr_cad.mechanics.solver import _RTOL, cycle_angles, roller_geometry
+from corr_cad.mechanics.row.batch import BatchSolver
+from corr_cad.mechanics.row.solver import _RTOL, cycle_angles, roller_geometry
 from corr_cad.tolerance.checks import ARCMIN_PER_RAD, CHECK_METRICS, Checks, sample_metrics
 from corr_cad.tolerance.mc_chunks import (  # re-exported: the resource model's names
     IN_FLIGHT_PER_WORKER,
@@ -301,9 +301,9 @@ def _force_chunk(
 
 
 def _kernel_chunk(design, input_torque, angles, load_share, base, tolerances, draws, n, psi_limit):
-    """The compiled kernel (:mod:`corr_cad.mechanics.mc_kernel`): each sample at every
+    """The compiled kernel (:mod:`corr_cad.mechanics.row.mc_kernel`): each sample at every
     position from the nominal geometry, keeping only the metrics."""
-    from corr_cad.mechanics import mc_kernel
+    from corr_cad.mechanics.row import mc_kernel
 
     R = design.roller_count
     g = roller_geometry(design, angles, psi_contact_limit=psi_limit)
@@ -444,10 +444,10 @@ def monte_carlo(
 ) -> MonteCarloResult:
     """Seeded Monte Carlo over ``tolerances``; see the module docstring.
 
-    ``psi_contact_limit``: as in :func:`~corr_cad.mechanics.solver.solve_forces` (the
+    ``psi_contact_limit``: as in :func:`~corr_cad.mechanics.row.solver.solve_forces` (the
     trimmed tooth tips of an allowed undercut carry nothing).
 
-    ``kernel``: solve with the compiled kernel (:mod:`corr_cad.mechanics.mc_kernel`,
+    ``kernel``: solve with the compiled kernel (:mod:`corr_cad.mechanics.row.mc_kernel`,
     same results to round-off) or with the numpy solver; by default the
     kernel from :data:`KERNEL_MIN_WORK` samples x positions on.
 

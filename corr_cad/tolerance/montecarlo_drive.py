@@ -5,12 +5,12 @@ A's (and the frame's: slot angles, slot clearance; and cam B's phase against
 cam A): seeded as before, so the same seed gives row A the same errors
 whatever row B draws. Row B's own tolerances (cam radius, eccentricity,
 roller radii) are drawn from a second generator seeded with ``[seed, 1]``.
-Each sample is then solved by :class:`~corr_cad.mechanics.drive.DriveSolver`
+Each sample is then solved by :class:`~corr_cad.mechanics.drive.drive.DriveSolver`
 at the Monte Carlo's crank positions, and keeps the four force metrics over
 both rows (the drive's free rotation for the backlash).
 
 Samples are solved in blocks: a block's geometries are stacked sample-major
-along the positions (as :mod:`corr_cad.mechanics.batch` does for one row) and
+along the positions (as :mod:`corr_cad.mechanics.row.batch` does for one row) and
 solved by one :class:`DriveSolver`. Every position's solve (the rigid
 Newton-bisection, the bearing Newton and its line search, the free interval)
 is its own, so a sample's metrics are those of solving it alone
@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from corr_cad.mechanics.drive import row_errors
-from corr_cad.mechanics.solver import loaded_mask
-from corr_cad.mechanics.solver_geometry import RollerGeometry, _error_gaps, roller_geometry
+from corr_cad.mechanics.drive.drive import row_errors
+from corr_cad.mechanics.row.solver import loaded_mask
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry, _error_gaps, roller_geometry
 from corr_cad.tolerance.checks import ARCMIN_PER_RAD
 
 __all__ = [
@@ -85,9 +85,9 @@ def stacked_geometry(
     """Rows A and B of the samples ``pairs`` (``(errors, errors_b)`` each), stacked
     sample-major: positions ``k P .. (k+1) P - 1`` are sample ``k``'s (``P`` angles).
 
-    Each row is :func:`~corr_cad.mechanics.drive.drive_geometry`'s, bit for bit: the
+    Each row is :func:`~corr_cad.mechanics.drive.drive.drive_geometry`'s, bit for bit: the
     nominal geometry (row B's at ``phi + pi``) is built once and each sample adds its
-    own gaps and curvatures (as :class:`~corr_cad.mechanics.batch.BatchSolver` does
+    own gaps and curvatures (as :class:`~corr_cad.mechanics.row.batch.BatchSolver` does
     for one row); a row's cam curvature becomes a (n P, 1) column.
     """
     phi = np.asarray(angles, dtype=float).reshape(-1)
@@ -146,7 +146,7 @@ def chain_solver(solver_class, design, angles: np.ndarray, pairs: list, psi_limi
         solver.cam_phases = np.repeat(np.asarray(phases, dtype=float), len(angles))
     tables = drive.get("bodies")
     if tables is not None:
-        from corr_cad.mechanics.bodies.coupling import Influence
+        from corr_cad.mechanics.drive.coupling import Influence
 
         solver.bodies = Influence.repeated(tables, design, angles, geometry, n)
     return solver
@@ -185,7 +185,7 @@ def drive_chunk(
     ``errors_for(base, tolerances, draws, k)``: sample ``k``'s errors (the Monte
     Carlo's own mapping of draws to errors).
     """
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver  # numba: only when run
 
     tol_b = row_b_tolerances(tolerances)
     angles = np.asarray(angles, dtype=float).reshape(-1)

@@ -24,7 +24,7 @@ from corr_cad.errors import CorrCadError, DesignError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.geometry.profile import min_speed_factor, undercut_analysis
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 __all__ = [
     "PAPER_SWEEPS",
@@ -244,7 +244,7 @@ def sweep_point(
     """One sweep point: status ``ok``, ``undercut`` or ``invalid``, and roller 1's forces.
 
     ``drive``: the two-row drive model (keyword arguments of
-    :func:`~corr_cad.mechanics.drive.solve_drive`: ``bearing``, ``bearing_b``,
+    :func:`~corr_cad.mechanics.drive.drive.solve_drive`: ``bearing``, ``bearing_b``,
     ``contact_model``, ``crank``, ``bodies``); roller 1 is then row A's, and the
     swept error both rows'. An error's sweep solves on the nominal design's body
     tables; a design's sweep on that design's own (``bodies_for(design)``, where
@@ -264,7 +264,7 @@ def sweep_point(
             return rec
         errors = ManufacturingErrors(**{name: value}) if where == "errors" else None
         if drive is not None and drive.get("model") == "drive":
-            from corr_cad.mechanics.drive import solve_drive
+            from corr_cad.mechanics.drive.drive import solve_drive
 
             kw = {k: v for k, v in drive.items() if k not in ("model", "bodies_for")}
             if where == "design" and drive.get("bodies_for") is not None:

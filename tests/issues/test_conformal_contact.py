@@ -11,7 +11,7 @@ when it leaves the model's validity.
 import numpy as np
 
 from corr_cad import GearDesign
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 
 def test_nearly_conformal_tooth_space():

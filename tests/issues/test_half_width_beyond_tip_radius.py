@@ -9,7 +9,7 @@ prototype) and the roller radius; the approach continues along its tangent
 import numpy as np
 
 from corr_cad import GearDesign
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 
 def test_flagged_not_nan():

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from corr_cad import GearDesign
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 
 def test_rollers_exactly_at_tooth_space_and_tip():

@@ -10,7 +10,7 @@ import numpy as np
 
 from corr_cad import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 
 def test_all_but_one_roller_in_clearance():

@@ -9,7 +9,7 @@ and the per-tooth sampling must still close the contour within tolerance.
 import numpy as np
 
 from corr_cad import GearDesign, approximate, working_profile
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 
 
 def test_tiny_eccentricity():

@@ -41,9 +41,9 @@ from scipy.spatial import cKDTree
 from corr_cad.geometry import kinematics as kin
 from corr_cad.geometry.design import SLOT_END_CLEARANCE, GearDesign
 from corr_cad.geometry.parts import PartOutline
-from corr_cad.mechanics.bodies.coupling import BodyTables
 from corr_cad.mechanics.bodies.mesh import mesh_region
 from corr_cad.mechanics.bodies.plane import PlaneBody, patch_nodes
+from corr_cad.mechanics.drive.coupling import BodyTables
 
 __all__ = [
     "MeshSpec",

@@ -12,7 +12,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.geometry.profile import theoretical_profile, working_profile
 from corr_cad.geometry.sampling import approximate
-from corr_cad.mechanics.solver import cycle_angles, roller_geometry, solve_forces
+from corr_cad.mechanics.row.solver import cycle_angles, roller_geometry, solve_forces
 from corr_cad.run.bench.bench_common import (
     M0,
     _machine,

@@ -25,8 +25,8 @@ def bodies_speed(out: Path, quick: bool = False) -> list:
     """Wall and CPU time of the bodies' reduction, its cache and the elastic drive."""
     from corr_cad.geometry.parts import part_outlines
     from corr_cad.geometry.profile import working_profile
-    from corr_cad.mechanics.bearing import EccentricBearing
-    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
+    from corr_cad.mechanics.drive.drive import solve_drive
     from corr_cad.run.stages import stages_bodies
 
     design = GearDesign()

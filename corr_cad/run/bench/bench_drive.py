@@ -53,7 +53,7 @@ def drive_speed(out: Path, quick: bool = False) -> list:
     """Wall and CPU time of the drive's solve, datasheet and Monte Carlo, per contact law,
     on needles without and with a 5 um diametral clearance; each row with the load
     average it met (``load_avg``, the one-minute figure at its end)."""
-    from corr_cad.mechanics.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
 
     design = GearDesign()
     repeat = 1 if quick else 3
@@ -88,7 +88,7 @@ def _with_crank(design, needles, spec, repeat) -> list:
     """The drive with the crankshaft on its support bearings (the design's defaults,
     ``[bearings.crank]`` cylindrical), Palmgren's law: the solve and the datasheet."""
     from corr_cad.mechanics.datasheet import datasheet
-    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.mechanics.drive.drive import solve_drive
     from corr_cad.run.scene.scene import parse_scene
 
     bearing = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
@@ -120,7 +120,7 @@ def _one_drive(design, needles, law: str, tag: str, samples: int, repeat: int) -
     from concurrent.futures import ProcessPoolExecutor
 
     from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
-    from corr_cad.mechanics.drive import solve_drive
+    from corr_cad.mechanics.drive.drive import solve_drive
     from corr_cad.tolerance.mc_datasheet import DatasheetMC
     from corr_cad.tolerance.montecarlo import Distribution, monte_carlo
 

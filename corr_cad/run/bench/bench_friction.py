@@ -28,11 +28,11 @@ def friction_speed(out: Path, quick: bool = False) -> list:
     """Median wall and CPU time of the datasheet, and of what friction and life add."""
     from corr_cad.export.friction_io import efficiency_png, write_friction_files
     from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
-    from corr_cad.mechanics.efficiency import friction_figures
-    from corr_cad.mechanics.friction import Friction
-    from corr_cad.mechanics.hysteresis import hysteresis_figures
     from corr_cad.mechanics.life import LifeSpec
-    from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
+    from corr_cad.mechanics.losses.efficiency import friction_figures
+    from corr_cad.mechanics.losses.friction import Friction
+    from corr_cad.mechanics.losses.hysteresis import hysteresis_figures
+    from corr_cad.mechanics.row.windup import Windup, mesh_period_rad, result_period_rad
     from corr_cad.run.scene.scene_schema_friction import EFFICIENCY_SPEEDS_RPM, EFFICIENCY_TORQUES
 
     design = GearDesign()

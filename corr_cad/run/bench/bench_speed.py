@@ -13,7 +13,7 @@ import numpy as np
 from corr_cad.export.bench_plots import figure as _figure
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 from corr_cad.run.bench.bench_common import (
     M0,
     _machine,

@@ -17,7 +17,7 @@ def datasheet_size(scene) -> tuple[int, int, int, int]:
     parts, else every one of its ``per_turn (z + 1)`` positions.
     """
     from corr_cad.mechanics.datasheet import TORQUE_LEVELS, span_errors
-    from corr_cad.mechanics.windup import mesh_period_rad, result_period_rad
+    from corr_cad.mechanics.row.windup import mesh_period_rad, result_period_rad
 
     d = scene.design
     z, R = d.tooth_count, d.roller_count

@@ -23,7 +23,7 @@ from corr_cad.geometry.deviations import ManufacturingErrors as ErrorSpec
 from corr_cad.geometry.deviations import harmonic_deviation
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.datasheet import MIN_SHARE
-from corr_cad.mechanics.solver import VARIANTS
+from corr_cad.mechanics.row.solver import VARIANTS
 from corr_cad.run.scene import scene_drive as drv
 from corr_cad.run.scene import scene_schema_lubrication as lub
 from corr_cad.run.scene.limits import unique_angle_tags

@@ -1,5 +1,6 @@
 """``[crankshaft]`` and ``[bearings.crank]``: the crankshaft on its support bearings
-(:class:`~corr_cad.mechanics.drive_crank.CrankSupport`), with defaults derived from the design.
+(:class:`~corr_cad.mechanics.drive.drive_crank.CrankSupport`), with defaults derived from the
+design.
 
 Either section puts the crankshaft and its support bearings into the drive's solve; a
 scene with neither keeps the eccentrics rigid (as before the sections existed). What a
@@ -13,9 +14,9 @@ import math
 from typing import Any
 
 from corr_cad.errors import CorrCadError, SceneError
-from corr_cad.mechanics.crankshaft import Crankshaft
-from corr_cad.mechanics.drive_crank import CrankSupport
-from corr_cad.mechanics.support_bearing import SupportBearing
+from corr_cad.mechanics.crank.crankshaft import Crankshaft
+from corr_cad.mechanics.crank.support_bearing import SupportBearing
+from corr_cad.mechanics.drive.drive_crank import CrankSupport
 
 __all__ = ["CRANK_SECTION_NAMES", "default_layout", "parse_crank"]
 

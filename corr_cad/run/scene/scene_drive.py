@@ -11,7 +11,7 @@ from typing import Any
 from corr_cad.bounds import range_text, show
 from corr_cad.errors import CorrCadError, SceneError
 from corr_cad.geometry.deviations import ManufacturingErrors, harmonic_deviation
-from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.crank.bearing import EccentricBearing
 from corr_cad.run.scene.scene_schema_drive import SECTIONS
 
 __all__ = [

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from corr_cad.geometry.design import BOUNDS as DESIGN_BOUNDS
 from corr_cad.geometry.sampling import REPRESENTATIONS
-from corr_cad.mechanics.solver import VARIANTS
+from corr_cad.mechanics.row.solver import VARIANTS
 from corr_cad.run.scene import (
     scene_schema_drive,
     scene_schema_first_stage,

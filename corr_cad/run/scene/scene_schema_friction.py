@@ -5,7 +5,7 @@ format compute the efficiency map, the hysteresis with friction and the rated li
 from __future__ import annotations
 
 from corr_cad.errors import SceneError
-from corr_cad.mechanics.friction import MOUNTINGS
+from corr_cad.mechanics.losses.friction import MOUNTINGS
 from corr_cad.run.scene.scene_key import Key, key_range
 from corr_cad.run.scene.scene_schema_drive import MIN_NEEDLE_MM
 

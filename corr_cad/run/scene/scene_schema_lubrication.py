@@ -11,7 +11,7 @@ thermal rating; ``[thermal.test]`` runs a speed programme and writes
 from __future__ import annotations
 
 from corr_cad.errors import SceneError
-from corr_cad.mechanics.lubrication import ISO_VG_NU100, LUBRICANT_KINDS
+from corr_cad.mechanics.losses.lubrication import ISO_VG_NU100, LUBRICANT_KINDS
 from corr_cad.run.scene.scene_key import MAX_LIST, Key
 
 __all__ = ["SECTIONS", "lubrication_sections", "split_thermal_test"]

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from corr_cad.geometry.profile import ProfileCurve, UndercutInfo
     from corr_cad.geometry.sampling import ProfileApproximation
     from corr_cad.mechanics.datasheet import Datasheet
-    from corr_cad.mechanics.solver import ForceResult
+    from corr_cad.mechanics.row.solver import ForceResult
     from corr_cad.run.scene.scene import Scene
     from corr_cad.tolerance.measured import Registration
 

@@ -142,11 +142,11 @@ def second_stage_mass_inertia(design, outlines: dict) -> tuple[float, float]:
     """Mass (kg) of the second stage's parts and their inertia at the crank (kg m^2).
 
     Two rings, three frame plates, two cams, ``2 (z + 1)`` rollers, steel, as
-    :func:`corr_cad.mechanics.first_stage_loads.drive_mass_inertia` counts
+    :func:`corr_cad.mechanics.gears.first_stage_loads.drive_mass_inertia` counts
     them; the inertia: the cams about the crank axis, the rollers (on their
     mean orbit) and the plates times ``(1 / (z + 1))^2``; the ring is fixed.
     """
-    from corr_cad.mechanics.first_stage_loads import extrusion_mass_inertia
+    from corr_cad.mechanics.gears.first_stage_loads import extrusion_mass_inertia
 
     def pieces(o) -> list:
         return [(o.outer, list(o.holes), o.thickness, 0.0)]

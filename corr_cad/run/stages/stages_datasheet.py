@@ -16,7 +16,7 @@ import numpy as np
 
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics.datasheet import DatasheetSpec, datasheet
-from corr_cad.mechanics.windup import ARCMIN_PER_RAD, NMM_PER_NM
+from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, NMM_PER_NM
 from corr_cad.run.stages.context import (
     RunContext,
     elastic_bodies,
@@ -188,7 +188,7 @@ def friction_spec(scene):
     ``[bearings.eccentric]``'s where the drive floats the cams on it, else
     ``[life]``'s (the scene refuses both given with different values).
     """
-    from corr_cad.mechanics.friction import Friction
+    from corr_cad.mechanics.losses.friction import Friction
 
     fr, d = scene.friction, scene.design
     life = _life_spec(scene, scene.bearing)
@@ -228,9 +228,13 @@ def _life_spec(scene, bearing):
 
 def _friction_figures(ctx: RunContext):
     from corr_cad.errors import SceneError
-    from corr_cad.mechanics.efficiency import LifeNotBracketed, friction_figures, rows_from_drive
-    from corr_cad.mechanics.hysteresis import hysteresis_figures
-    from corr_cad.mechanics.windup import Windup, mesh_period_rad, result_period_rad
+    from corr_cad.mechanics.losses.efficiency import (
+        LifeNotBracketed,
+        friction_figures,
+        rows_from_drive,
+    )
+    from corr_cad.mechanics.losses.hysteresis import hysteresis_figures
+    from corr_cad.mechanics.row.windup import Windup, mesh_period_rad, result_period_rad
 
     s = ctx.scene
     ds = ctx.results.datasheet
@@ -259,7 +263,7 @@ def _friction_figures(ctx: RunContext):
         """The locked-input bench at the output angles ``xs``: the paper's row or the drive."""
         if not s.solver.drive:
             return row_at(xs)
-        from corr_cad.mechanics.drive_windup import DriveWindup
+        from corr_cad.mechanics.drive.drive_windup import DriveWindup
 
         return DriveWindup(
             s.design,
@@ -320,8 +324,8 @@ def _friction_figures(ctx: RunContext):
 
 def _loop(design, bench, ds, friction) -> dict:
     """The hysteresis loop on a one-position bench (the widest loop at +-T_R), rad and N*mm."""
-    from corr_cad.mechanics.hysteresis import hysteresis_loop
-    from corr_cad.mechanics.windup import series_rigidity_Nmm_per_rad
+    from corr_cad.mechanics.losses.hysteresis import hysteresis_loop
+    from corr_cad.mechanics.row.windup import series_rigidity_Nmm_per_rad
 
     T = np.asarray(ds.torques, dtype=float)
     branches = hysteresis_loop(design, bench, T, ds.spec.rated_torque, friction)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from corr_cad.errors import SolverError
-from corr_cad.mechanics.drive import DriveResult, solve_drive
+from corr_cad.mechanics.drive.drive import DriveResult, solve_drive
 from corr_cad.run.stages.context import RunContext, drive_kwargs
 
 __all__ = [
@@ -116,7 +116,7 @@ def _stats(v: np.ndarray) -> dict:
 
 def drive_check_values(res: DriveResult, check_values) -> dict[str, float]:
     """The check metrics over both rows (names of ``CHECK_METRICS``), ``check_values`` of
-    each row's :class:`~corr_cad.mechanics.solver.ForceResult` combined."""
+    each row's :class:`~corr_cad.mechanics.row.solver.ForceResult` combined."""
     from corr_cad.tolerance.checks import ARCMIN_PER_RAD
 
     per_row = [check_values(r) for r in res.rows]

@@ -37,7 +37,7 @@ def gear_outlines(ctx: RunContext, tol: float) -> dict:
 def drive(ctx: RunContext) -> None:
     """The whole drive: ratio, masses, inertia at the input; the first stage's loads."""
     from corr_cad.geometry.parts import part_outlines
-    from corr_cad.mechanics.first_stage_loads import drive_mass_inertia, first_stage_loads
+    from corr_cad.mechanics.gears.first_stage_loads import drive_mass_inertia, first_stage_loads
     from corr_cad.run.scene.scene_first_stage import FIRST_STAGE_CHECKS
     from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
 
@@ -186,9 +186,9 @@ WHOLE_DRIVE_METRICS = {
 
 
 def first_stage_mesh_of(ctx: RunContext):
-    """The first stage's :class:`~corr_cad.mechanics.first_stage_mesh.FirstStageMesh`
+    """The first stage's :class:`~corr_cad.mechanics.gears.first_stage_mesh.FirstStageMesh`
     (``[friction] mu_mesh``; 0 without ``[friction]``: no loss figure is read then)."""
-    from corr_cad.mechanics.first_stage_mesh import first_stage_mesh
+    from corr_cad.mechanics.gears.first_stage_mesh import first_stage_mesh
 
     s = ctx.scene
     mu = s.friction.get("mu_mesh", 0.0) if s.friction else 0.0

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from corr_cad.errors import SolverError
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 from corr_cad.run.stages.context import RunContext, psi_contact_limit, scene_errors
 
 

@@ -442,13 +442,13 @@ def _clearance(ctx: RunContext) -> None:
 def clearance_rows(ctx: RunContext) -> dict:
     """``{row: (errors, crank turn)}`` of the exact clearance: the paper's one row (``""``),
     or the drive's rows A and B (row B's geometry is the one-row geometry half a turn on,
-    with ``[errors.row_b]`` and the cam phase error; ``mechanics.drive.row_errors``)."""
+    with ``[errors.row_b]`` and the cam phase error; ``mechanics.drive.drive.row_errors``)."""
     s = ctx.scene
     if not s.solver.drive:
         return {"": (raw_errors(ctx), 0.0)}
     from dataclasses import replace
 
-    from corr_cad.mechanics.drive import row_errors
+    from corr_cad.mechanics.drive.drive import row_errors
 
     eb = getattr(s, "errors_b", None)
     if eb is not None and ctx.results.registration_b is not None:
@@ -462,7 +462,7 @@ def _free_play(ctx: RunContext) -> dict:
     cam moves on its needles) and the drive's free rotation at the output where this run
     solved it (the datasheet's backlash, or the force solve's), which includes that play."""
     from corr_cad.figure_text import figure
-    from corr_cad.mechanics.windup import ARCMIN_PER_RAD
+    from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD
 
     s = ctx.scene
     out: dict = {}

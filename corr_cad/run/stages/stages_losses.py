@@ -11,7 +11,7 @@ The total efficiency at output torque ``T`` and crank speed ``n``::
 
 ``P_out = T omega_out``, ``P_load = P_out (1 / eta_load - 1)`` the
 load-dependent (Coulomb) losses of the friction model at that torque, and
-``P_0`` the load-independent losses (:mod:`corr_cad.mechanics.bearing_drag`)
+``P_0`` the load-independent losses (:mod:`corr_cad.mechanics.losses.bearing_drag`)
 at the crank speed and the oil temperature. Backdriving:
 ``eta_b = eta_b,load - P_0 / P_out``, self-locking at or below 0.
 """
@@ -22,9 +22,9 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.bearing_drag import DragBearing, LoadIndependent
-from corr_cad.mechanics.lubrication import Lubricant
-from corr_cad.mechanics.thermal_network import ThermalNetwork
+from corr_cad.mechanics.losses.bearing_drag import DragBearing, LoadIndependent
+from corr_cad.mechanics.losses.lubrication import Lubricant
+from corr_cad.mechanics.losses.thermal_network import ThermalNetwork
 
 __all__ = ["load_independent", "losses_figures", "write_losses_files", "housing_area_m2"]
 
@@ -97,7 +97,7 @@ def load_independent(scene, life, bearing_per_crank: float | None) -> LoadIndepe
         )
     churning = ()
     if fs is not None and lub["immersion_depth_mm"] > 0.0:
-        from corr_cad.mechanics.churning import ChurningGear
+        from corr_cad.mechanics.losses.churning import ChurningGear
 
         churning = (
             ChurningGear(
@@ -137,7 +137,7 @@ def parts_mass_kg(ctx) -> tuple[float, str]:
         return float(d["mass_kg"]), "the whole drive's parts (manifest drive mass_kg)"
     from corr_cad.geometry.parts import part_outlines
     from corr_cad.geometry.profile import working_profile
-    from corr_cad.mechanics.first_stage_loads import STEEL_DENSITY
+    from corr_cad.mechanics.gears.first_stage_loads import STEEL_DENSITY
 
     design = ctx.scene.design
     o = part_outlines(design, working_profile(design), 0.01)
@@ -240,7 +240,7 @@ def _efficiency_map(li: LoadIndependent, ff, temps, speeds, ratio: float) -> dic
 def losses_figures(ctx, ff, life) -> dict:
     """``datasheet.json``'s figures of ``[lubrication]`` and ``[thermal]`` (plus the test's rows).
 
-    ``ff`` the :class:`~corr_cad.mechanics.efficiency.FrictionFigures`;
+    ``ff`` the :class:`~corr_cad.mechanics.losses.efficiency.FrictionFigures`;
     ``life`` the eccentric bearings' LifeSpec (None: cams fixed on the crank).
     """
     s = ctx.scene

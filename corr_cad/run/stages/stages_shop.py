@@ -171,7 +171,7 @@ def _predicted(ctx: RunContext) -> dict:
     follows the scene's rows).
     """
     from corr_cad.mechanics.datasheet import DatasheetSpec, play_figures, span_errors
-    from corr_cad.mechanics.windup import ARCMIN_PER_RAD, Windup, revolution_classes
+    from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, Windup, revolution_classes
     from corr_cad.run.stages.stages_datasheet import (
         datasheet_errors,
         datasheet_spec,
@@ -208,7 +208,7 @@ def _predicted(ctx: RunContext) -> dict:
             if dk is None:
                 w = Windup(s.design, x, errors=err, **common)
             else:
-                from corr_cad.mechanics.drive_windup import DriveWindup
+                from corr_cad.mechanics.drive.drive_windup import DriveWindup
 
                 kw = {k: v for k, v in common.items() if k != "load_share"}
                 w = DriveWindup(s.design, x, errors=err, **kw, **dk)
@@ -261,7 +261,7 @@ def predicted_line(p: dict) -> str:
 
 def _force_comparison(ctx: RunContext) -> dict:
     from corr_cad.geometry.deviations import ManufacturingErrors
-    from corr_cad.mechanics.solver import solve_forces
+    from corr_cad.mechanics.row.solver import solve_forces
 
     s = ctx.scene
     if s.load is None:
@@ -284,7 +284,7 @@ def _force_comparison(ctx: RunContext) -> dict:
     if s.solver.drive:
         # The drive's forces; the inspected ring's row compared (the measured drive has the
         # scene's errors in both rows, as the forces stage solves it).
-        from corr_cad.mechanics.drive import solve_drive
+        from corr_cad.mechanics.drive.drive import solve_drive
 
         row = inspected_row(ctx)
         c = 0 if row == "a" else 1

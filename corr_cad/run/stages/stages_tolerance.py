@@ -11,7 +11,7 @@ import numpy as np
 
 from corr_cad.errors import SceneError, SolverError
 from corr_cad.figure_text import figure
-from corr_cad.mechanics.solver import solve_forces
+from corr_cad.mechanics.row.solver import solve_forces
 from corr_cad.run.stages.context import (
     RunContext,
     chain_kwargs,
@@ -252,11 +252,11 @@ def _life_under_tolerances(ctx: RunContext) -> dict:
 
 def _nominal_metrics(ctx: RunContext, positions: int, sheet=None) -> dict:
     """The Monte Carlo metrics of the scene's own design and errors (no tolerance drawn)."""
-    from corr_cad.mechanics.solver import cycle_angles
+    from corr_cad.mechanics.row.solver import cycle_angles
 
     s = ctx.scene
     if s.solver.drive:
-        from corr_cad.mechanics.drive import DriveSolver
+        from corr_cad.mechanics.drive.drive import DriveSolver
         from corr_cad.tolerance.montecarlo_drive import drive_metrics
 
         kw = drive_kwargs(ctx)
@@ -287,7 +287,7 @@ def _nominal_inputs(ctx: RunContext, positions: int, sheet=None) -> tuple:
 
 def _nominal_task(design, torque, positions, load_share, base, sheet, psi_limit) -> dict:
     """The paper's row's nominal metrics, run in the stage or in a pool worker."""
-    from corr_cad.mechanics.solver import cycle_angles
+    from corr_cad.mechanics.row.solver import cycle_angles
     from corr_cad.tolerance.checks import sample_metrics
 
     res = solve_forces(design, torque, cycle_angles(positions), load_share=load_share, errors=base)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from corr_cad.mechanics.windup import ARCMIN_PER_RAD
+from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD
 from corr_cad.run.stages.context import RunContext
 
 __all__ = ["whole_drive"]

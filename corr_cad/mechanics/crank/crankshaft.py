@@ -26,7 +26,7 @@ Timoshenko, *Strength of Materials*, Part I, Section 39 for the shear term):
     w_i = sum_j P_j [ int M_j m_i / (E I) dz + int V_j v_i / (kappa G A) dz ]
 
 plus the rigid-body motion of the supports' displacements ``d_1(R_1)``,
-``d_2(R_2)`` (:mod:`corr_cad.mechanics.support_bearing`, along each
+``d_2(R_2)`` (:mod:`corr_cad.mechanics.crank.support_bearing`, along each
 reaction), interpolated linearly to ``z_i``. ``kappa = 6 (1 + nu) / (7 + 6
 nu)`` is Cowper's shear coefficient of a solid round section (Cowper,
 *J. Appl. Mech.* 33, 1966). The moment over each piece between the

@@ -1,6 +1,6 @@
 """Each row's free crank interval at no load with a bearing clearance, compiled.
 
-The problem (:func:`corr_cad.mechanics.drive_numerics.free_row`): roller ``k``
+The problem (:func:`corr_cad.mechanics.drive.drive_numerics.free_row`): roller ``k``
 stays clear while ``n_k . v <= -g_k`` (a convex polygon of the cam centre's
 offset ``v``), and the bearing lets ``v`` sit within ``c = Pd/2`` of ``e tau x``.
 In the polygon's horizontal slice at ``v_y = y`` the rollers whose normal
@@ -25,7 +25,7 @@ Both are solved exactly rather than searched:
   rollers.
 
 A preloaded row (no feasible ``y``) keeps the least-pressed ``v`` as a start
-for its cam's own equilibrium (:meth:`~corr_cad.mechanics.drive.DriveSolver._row_centre`):
+for its cam's own equilibrium (:meth:`~corr_cad.mechanics.drive.drive.DriveSolver._row_centre`):
 the golden-section maximum of the slice's width, one evaluation an iteration.
 
 One position costs a few microseconds: about the force solve's own cost per
@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit
 
 __all__ = ["free_rows"]
 

@@ -2,16 +2,16 @@
 
 :func:`_invert_one` inverts the paper's contact law (three contacts in series,
 ``G(F) = h``) by Newton for one roller (the compiled Monte Carlo kernel's law,
-:func:`corr_cad.mechanics.mc_kernel._approach`); :func:`_palmgren` is
+:func:`corr_cad.mechanics.row.mc_kernel._approach`); :func:`_palmgren` is
 Palmgren's line contact ``delta = c Q^0.9`` solved for ``Q``
 (:mod:`corr_cad.mechanics.palmgren`). The drive's bearing Newton
-(:mod:`corr_cad.mechanics.drive_kernel`) and the preloaded row's cam centre
-(:mod:`corr_cad.mechanics.drive_centre`) both call them.
+(:mod:`corr_cad.mechanics.drive.drive_kernel`) and the preloaded row's cam centre
+(:mod:`corr_cad.mechanics.drive.drive_centre`) both call them.
 """
 
 from __future__ import annotations
 
-from corr_cad.mechanics.mc_kernel import _approach, _jit
+from corr_cad.mechanics.row.mc_kernel import _approach, _jit
 
 __all__ = ["_invert_one", "_palmgren"]
 

@@ -1,7 +1,7 @@
 """The bodies in the drive's solve: influence matrices and the coupled equilibrium.
 
 At each crank position the bodies add to roller ``k``'s overlap (along its
-cam line, :mod:`corr_cad.mechanics.drive`) the approach::
+cam line, :mod:`corr_cad.mechanics.drive.drive`) the approach::
 
     d_k = sum_j C_kj F_j,
     C_kj = rho_n,k rho_n,j G_ring(k, j) + G_cam(k, j)   (k and j in one row)
@@ -21,7 +21,7 @@ loadable its row and column are zero.
 
 The coupled equilibrium ``h_k = a_k tau + g_k + n_k . u - d_k``, ``d = C F``:
 Newton on ``d``. Each step solves the drive with the gaps ``g - d``
-(:meth:`~corr_cad.mechanics.drive.DriveSolver.solve_contacts`, its own
+(:meth:`~corr_cad.mechanics.drive.drive.DriveSolver.solve_contacts`, its own
 solve) and corrects ``d`` with the linearised drive's response
 ``dF/dd = -(K - K B J^-1 A^T K)`` (``K`` the rollers' contact stiffnesses,
 ``B``, ``A`` the overlaps' and the balances' columns of the crank rotation and
@@ -37,8 +37,8 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from corr_cad.geometry.design import GearDesign
-from corr_cad.mechanics.drive_numerics import _forces_of, roller_directions
-from corr_cad.mechanics.solver_geometry import RollerGeometry
+from corr_cad.mechanics.drive.drive_numerics import _forces_of, roller_directions
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry
 
 __all__ = ["BodyTables", "Influence", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
 
@@ -125,7 +125,7 @@ def influence_matrices(
 ) -> np.ndarray:
     """``C`` (P, 2R, 2R), mm/N: roller ``k``'s body approach per newton of roller ``j``'s
     cam force (row A's rollers first), at crank angles (P,). ``compiled``: by the
-    compiled loop (:mod:`~corr_cad.mechanics.bodies.coupling_kernel`), else by numpy
+    compiled loop (:mod:`~corr_cad.mechanics.drive.coupling_kernel`), else by numpy
     (the same interpolation; the tests hold them equal)."""
     z, R = design.tooth_count, design.roller_count
     phi = np.asarray(crank_angles, dtype=float).reshape(-1)
@@ -148,7 +148,7 @@ def influence_matrices(
     xc = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi) * (len(cam) / (2 * np.pi))
     on = np.concatenate([g.loadable for g in geo], axis=1) & (tables.cam is not None)
     if compiled:
-        from corr_cad.mechanics.bodies.coupling_kernel import influence_kernel
+        from corr_cad.mechanics.drive.coupling_kernel import influence_kernel
 
         C = np.empty((len(phi), 2 * R, 2 * R))
         influence_kernel(

@@ -11,7 +11,7 @@ Positions
 Positions are **output angles** ``x`` over one output revolution, ring
 fixed, as a bench records them; ``x = 0`` is the solver's crank angle 0.
 The one place where they meet the solver's crank angles (crank relative to
-the frame, :func:`~corr_cad.mechanics.solver.solve_forces`) is
+the frame, :func:`~corr_cad.mechanics.row.solver.solve_forces`) is
 :func:`crank_angles_of`: with the ring fixed the crank's absolute angle is
 ``(z + 1) x`` and its angle relative to the frame ``z x``.
 
@@ -56,9 +56,9 @@ import numpy as np
 from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import CONTACT_MODELS, ForceResult, _result
-from corr_cad.mechanics.solver_geometry import VARIANTS, roller_geometry
-from corr_cad.mechanics.solver_numerics import _RTOL, _solve_positions, make_compliance
+from corr_cad.mechanics.row.solver import CONTACT_MODELS, ForceResult, _result
+from corr_cad.mechanics.row.solver_geometry import VARIANTS, roller_geometry
+from corr_cad.mechanics.row.solver_numerics import _RTOL, _solve_positions, make_compliance
 
 __all__ = [
     "ARCMIN_PER_RAD",
@@ -188,7 +188,7 @@ class Windup:
         Share of the drive's moment on the modelled cam (``[solver] load_share``).
     contact_model : {"nonlinear", "linear"}
     variants : tuple of str
-        Printed-paper forms (:data:`~corr_cad.mechanics.solver.VARIANTS`).
+        Printed-paper forms (:data:`~corr_cad.mechanics.row.solver.VARIANTS`).
     psi_contact_limit : float, rad
         Trimmed tooth tips of an allowed undercut carry nothing.
     series_rigidity_Nm_per_arcmin : float, optional
@@ -199,7 +199,7 @@ class Windup:
     --------
     >>> import numpy as np
     >>> from corr_cad import GearDesign
-    >>> from corr_cad.mechanics.windup import ARCMIN_PER_RAD, Windup
+    >>> from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, Windup
     >>> w = Windup(GearDesign(), np.radians([0.0, 0.1]))
     >>> theta = w.theta(2.86e6)                    # T_R = 2860 N*m, rad (P,)
     >>> np.round(theta * ARCMIN_PER_RAD, 4)        # arcmin

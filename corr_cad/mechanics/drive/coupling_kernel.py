@@ -1,6 +1,6 @@
 """Compiled assembly of the bodies' influence matrices (numba).
 
-The loop of :func:`corr_cad.mechanics.bodies.coupling.influence_matrices` over
+The loop of :func:`corr_cad.mechanics.drive.coupling.influence_matrices` over
 positions and roller pairs, with the numpy path's interpolation (bilinear in the
 load coordinate and the read's offset from it; the ring's ``z``-fold symmetry,
 the frame's ``R``-fold and mirror symmetry), without its temporaries: some
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from corr_cad.mechanics.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit
 
 __all__ = ["influence_kernel"]
 

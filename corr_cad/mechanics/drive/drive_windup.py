@@ -1,7 +1,7 @@
 """The drive's windup ``theta(T, x)``: both rows together, crank locked (``model = "drive"``).
 
-The bench view of :mod:`corr_cad.mechanics.windup`, with the drive model of
-:mod:`corr_cad.mechanics.drive`: an output torque ``T`` is the crank moment
+The bench view of :mod:`corr_cad.mechanics.row.windup`, with the drive model of
+:mod:`corr_cad.mechanics.drive.drive`: an output torque ``T`` is the crank moment
 ``-T / (z + 1)`` carried by both rows together (no load share), and
 
     theta(T, x) = -tau / (z + 1)
@@ -11,7 +11,7 @@ with ``tau`` the crank rotation shared by both cams.
 Free rotation (backlash). The crank rotations each row allows without load
 form an interval; the drive's is the intersection of both rows' intervals,
 since the crank is one. The ends come from the gaps alone
-(:meth:`~corr_cad.mechanics.drive.DriveSolver.free_interval`): with a bearing
+(:meth:`~corr_cad.mechanics.drive.drive.DriveSolver.free_interval`): with a bearing
 clearance each cam may also shift within it, which widens its row's interval
 where that lets the cam move.
 """
@@ -25,13 +25,13 @@ import numpy as np
 from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.drive import DriveSolver
-from corr_cad.mechanics.drive_crank import CrankSupport
-from corr_cad.mechanics.drive_numerics import free_row
-from corr_cad.mechanics.drive_restart import restart_missed
-from corr_cad.mechanics.solver_numerics import _RTOL
-from corr_cad.mechanics.windup import crank_angles_of, series_rigidity_Nmm_per_rad
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.drive import DriveSolver
+from corr_cad.mechanics.drive.drive_crank import CrankSupport
+from corr_cad.mechanics.drive.drive_numerics import free_row
+from corr_cad.mechanics.drive.drive_restart import restart_missed
+from corr_cad.mechanics.row.solver_numerics import _RTOL
+from corr_cad.mechanics.row.windup import crank_angles_of, series_rigidity_Nmm_per_rad
 
 __all__ = ["DriveWindup"]
 
@@ -41,7 +41,7 @@ _RESTARTS = 2
 
 
 class DriveWindup:
-    """:class:`~corr_cad.mechanics.windup.Windup` of the two-row drive (same methods)."""
+    """:class:`~corr_cad.mechanics.row.windup.Windup` of the two-row drive (same methods)."""
 
     def __init__(
         self,
@@ -146,7 +146,7 @@ class DriveWindup:
 
     def free_ends(self) -> tuple[np.ndarray, np.ndarray]:
         """``theta(0-)`` and ``theta(0+)`` of the drive, rad (P,) each
-        (:meth:`~corr_cad.mechanics.drive.DriveSolver.free_interval`)."""
+        (:meth:`~corr_cad.mechanics.drive.drive.DriveSolver.free_interval`)."""
         lo = np.empty(len(self.crank_angles))
         hi = np.empty_like(lo)
         for sl, solver in self._blocks:
@@ -216,7 +216,8 @@ class DriveWindup:
         return self._solve(T)[1]
 
     def forces(self, output_torque: float):
-        """The :class:`~corr_cad.mechanics.drive.DriveResult` at ``T`` (nonzero), all positions."""
+        """The :class:`~corr_cad.mechanics.drive.drive.DriveResult` at ``T`` (nonzero), all
+        positions."""
         T = float(output_torque)
         if T == 0.0 or not math.isfinite(T):
             raise SolverError(f"forces at output torque {T!r}: give a finite, nonzero torque")
@@ -240,7 +241,7 @@ def _concatenate(parts):
     """Drive results of consecutive position blocks as one (the per-row results too)."""
     from dataclasses import replace
 
-    from corr_cad.mechanics.windup import _concatenate as concat_rows
+    from corr_cad.mechanics.row.windup import _concatenate as concat_rows
 
     first = parts[0]
     fields = {}

@@ -1,6 +1,6 @@
 """The drive: both rows of rollers and both cams solved together (``[solver] model = "drive"``).
 
-The paper's model (:mod:`corr_cad.mechanics.solver`) solves one row carrying
+The paper's model (:mod:`corr_cad.mechanics.row.solver`) solves one row carrying
 a fixed ``load_share`` of the crank moment. A CORR drive has two cams on one
 crank, 180 degrees apart, each driving its own row of rollers in the same
 slotted frame against its own ring. Here both rows are solved together.
@@ -16,7 +16,7 @@ At crank angle ``phi`` (relative to the frame, as in the one-row solver):
   ``psi_k + pi``; ring B is ring A turned by ``pi / z``, so row B's geometry
   is the one-row geometry at ``phi + pi``. The phase error enters row B's
   initial interference exactly as a rotation of its eccentric
-  (:func:`corr_cad.mechanics.solver_geometry._error_gaps`); to first order it
+  (:func:`corr_cad.mechanics.row.solver_geometry._error_gaps`); to first order it
   adds ``dphi a_k``, i.e. it pre-turns cam B by ``dphi``.
 * one crank rotation ``tau`` shared by both cams, and the whole crank moment
   ``M0`` carried by both rows together:
@@ -27,7 +27,7 @@ At crank angle ``phi`` (relative to the frame, as in the one-row solver):
   one-row solver, with the overlap ``a_k tau + h_k + u_c . n_k``; ``n_k`` is the
   unit vector from the cam centre to the roller centre, ``u_c`` the
   displacement of its cam's centre on the eccentric bearing
-  (:mod:`corr_cad.mechanics.bearing`; zero without bearings: rigid cams), less
+  (:mod:`corr_cad.mechanics.crank.bearing`; zero without bearings: rigid cams), less
   the elastic ring's and frame's approach (``bodies``, :mod:`corr_cad.mechanics.bodies`);
 * each cam with a bearing: ``sum_k F_k n_k = sum_j Q_j e_j`` (the needles
   carry the rollers' resultant). The row A share is ``sum_A a_k F_k / M0``.
@@ -42,7 +42,7 @@ backtracking line search on the scaled residual; the Jacobian is exact
 positive semi-definite). Where that line search finds no decrease (both cams
 adrift in their clearances: the slide of the crank against both cams is
 free, the Jacobian singular along it), an exact line search on the energy
-(:func:`~corr_cad.mechanics.drive_numerics.energy_search`).
+(:func:`~corr_cad.mechanics.drive.drive_numerics.energy_search`).
 """
 
 from __future__ import annotations
@@ -55,10 +55,10 @@ import numpy as np
 from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.bearing import EccentricBearing
-from corr_cad.mechanics.bodies.coupling import BodyTables, Influence, coupled_solve
-from corr_cad.mechanics.drive_crank import CrankSupport, solve_with_crank
-from corr_cad.mechanics.drive_numerics import (
+from corr_cad.mechanics.crank.bearing import EccentricBearing
+from corr_cad.mechanics.drive.coupling import BodyTables, Influence, coupled_solve
+from corr_cad.mechanics.drive.drive_crank import CrankSupport, solve_with_crank
+from corr_cad.mechanics.drive.drive_numerics import (
     _forces_of,
     _invert_convex,
     energy_step,
@@ -71,9 +71,9 @@ from corr_cad.mechanics.drive_numerics import (
     roller_directions,
     row_errors,
 )
-from corr_cad.mechanics.solver import CONTACT_MODELS, ForceResult, _result
-from corr_cad.mechanics.solver_geometry import RollerGeometry, cycle_angles, roller_geometry
-from corr_cad.mechanics.solver_numerics import _RTOL, _solve_positions, make_compliance
+from corr_cad.mechanics.row.solver import CONTACT_MODELS, ForceResult, _result
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry, cycle_angles, roller_geometry
+from corr_cad.mechanics.row.solver_numerics import _RTOL, _solve_positions, make_compliance
 
 __all__ = ["DriveResult", "row_errors", "drive_geometry", "solve_drive", "DriveSolver"]
 
@@ -574,7 +574,7 @@ def solve_drive(
 
     >>> import numpy as np
     >>> from corr_cad import GearDesign
-    >>> from corr_cad.mechanics.drive import solve_drive
+    >>> from corr_cad.mechanics.drive.drive import solve_drive
     >>> res = solve_drive(GearDesign(), 1.1e5, np.radians([0.0, 5.0]))
     >>> np.round(res.row_a_share, 12)          # identical rows, z + 1 even: exactly half
     array([0.5, 0.5])

@@ -1,4 +1,4 @@
-"""Numerics of the drive (:mod:`corr_cad.mechanics.drive`): inverting the paper's contact
+"""Numerics of the drive (:mod:`corr_cad.mechanics.drive.drive`): inverting the paper's contact
 law inside the bearing Newton, each row's free rotation at no load, and the two rows'
 geometry joined.
 """
@@ -11,7 +11,7 @@ import numpy as np
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver_geometry import RollerGeometry
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry
 
 __all__ = [
     "row_errors",
@@ -38,14 +38,14 @@ def free_row(a, g, n, half_clearance: float, e: float, want_centre: bool = False
         e fwd = max over the polygon of v_x + sqrt((Pd/2)^2 - v_y^2)
 
     (and ``e rev`` the min of ``v_x - sqrt(...)``), solved exactly over the
-    polygon's horizontal slices (:mod:`corr_cad.mechanics.free_play`, compiled).
+    polygon's horizontal slices (:mod:`corr_cad.mechanics.drive.free_play`, compiled).
     Without a clearance each roller closes at ``tau = -g_k / a_k``. An empty
     interval (``rev > fwd``): the row is preloaded (no ``v`` leaves every roller
     clear). ``want_centre``: also the least-pressed ``v`` of a preloaded row, (P,
     2), a start for its cam's own equilibrium.
     """
     if half_clearance > 0.0:
-        from corr_cad.mechanics.free_play import free_rows
+        from corr_cad.mechanics.drive.free_play import free_rows
 
         return free_rows(g, n, half_clearance, e, want_centre)
     up, down = a > 0, a < 0
@@ -72,7 +72,7 @@ def _invert_convex(comp, h, start):
     tangent predictor; the one-row solver's own inversion asks for steps below
     round-off, which a few elements never reach). Only the loaded rollers are
     evaluated, and each only until it settles (the compiled inversion's rule,
-    :mod:`corr_cad.mechanics.drive_kernel`): an unloaded roller or a settled
+    :mod:`corr_cad.mechanics.drive.drive_kernel`): an unloaded roller or a settled
     one costs no evaluation of the law.
     """
     pos = h > 0
@@ -130,7 +130,7 @@ def roller_directions(design: GearDesign, geo: RollerGeometry) -> np.ndarray:
 
 def rest_idle_cams(at, floor, state, converged):
     """Settle each cam of the drive's bearing Newton that carries nothing
-    (:meth:`~corr_cad.mechanics.drive.DriveSolver._with_bearings`): ``(settled (P,),
+    (:meth:`~corr_cad.mechanics.drive.drive.DriveSolver._with_bearings`): ``(settled (P,),
     (u, F, kf, Qs, kqs, r, gross))``, or None.
 
     ``at``: ``(cand, target, tau, u, F, kf, Qs, kqs, r, gross, a_m)``, the Newton's
@@ -192,10 +192,10 @@ def rest_idle_cams(at, floor, state, converged):
 
 
 def expand_drive(res, angles, idx, shift, pitch: float):
-    """A :class:`~corr_cad.mechanics.drive.DriveResult` over the full cycle from its solved
-    classes (:func:`corr_cad.mechanics.solver._expand` for each row; the cams' quantities,
+    """A :class:`~corr_cad.mechanics.drive.drive.DriveResult` over the full cycle from its solved
+    classes (:func:`corr_cad.mechanics.row.solver._expand` for each row; the cams' quantities,
     in the eccentrics' frames, repeat as they are)."""
-    from corr_cad.mechanics.solver import _expand
+    from corr_cad.mechanics.row.solver import _expand
 
     rows = (
         _expand(res.rows[0], angles, idx, shift, pitch),

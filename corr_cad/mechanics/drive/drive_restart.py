@@ -1,7 +1,7 @@
 """Positions the drive's bearing Newton misses from its rigid start, solved again from
 another moment's solution.
 
-With eccentric bearings, :class:`~corr_cad.mechanics.drive.DriveSolver` runs
+With eccentric bearings, :class:`~corr_cad.mechanics.drive.drive.DriveSolver` runs
 a Newton on ``(tau, u_A, u_B)`` from the rigid solution, each cam displaced
 along its load by Stribeck's estimate. The residual has kinks (a roller or a
 needle entering contact, a cam within its clearance, where its stiffness is

@@ -11,7 +11,7 @@ with ``n`` the cam normal and ``delta_cam = 2 F_j / (pi l E')`` the cam
 contact's approach to first order in the Hertz half-width (the sum of the
 two bodies' sagittas of the solver's contact law). Each roller's spin and
 its sliding contacts follow from its moment balance as in running
-(:mod:`corr_cad.mechanics.friction`); a floating cam's spin from its own.
+(:mod:`corr_cad.mechanics.losses.friction`); a floating cam's spin from its own.
 
 Friction dissipates ``D`` per unit output rotation (N*mm per rad): the
 loading branch needs ``T = T_e(theta) + D``, the unloading branch
@@ -61,8 +61,8 @@ from dataclasses import replace
 import numpy as np
 
 from corr_cad.mechanics.contact import linear_compliance
-from corr_cad.mechanics.efficiency import drive_friction, row_loads_from_forces
-from corr_cad.mechanics.friction import Friction, row_contacts, row_friction
+from corr_cad.mechanics.losses.efficiency import drive_friction, row_loads_from_forces
+from corr_cad.mechanics.losses.friction import Friction, row_contacts, row_friction
 
 __all__ = ["bench_dissipation", "hysteresis_figures", "hysteresis_loop"]
 
@@ -179,7 +179,7 @@ def hysteresis_figures(
 ) -> dict:
     """Hysteresis loss, the loop's width at T_R and the starting torques, per position.
 
-    ``windup`` the paper's one-row :class:`~corr_cad.mechanics.windup.Windup`
+    ``windup`` the paper's one-row :class:`~corr_cad.mechanics.row.windup.Windup`
     (its row stands for ``rows`` cams, at ``load_share`` under load) or a
     drive model's windup, whose two rows are summed as they are.
 

@@ -40,7 +40,7 @@ inverted by Newton from a start to the right of the root, which converges
 monotonically because the approach is convex in the force. Everything is
 vectorised over positions and rollers, and a full cycle solves only one
 position per class of the ``2 pi/(z+1)`` periodicity. A design without
-errors takes a closed-form fast path (:mod:`corr_cad.mechanics.solver_nominal`);
+errors takes a closed-form fast path (:mod:`corr_cad.mechanics.row.solver_nominal`);
 Monte Carlo (:class:`BatchSolver`) never does.
 """
 
@@ -55,7 +55,7 @@ from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.mechanics import contact
-from corr_cad.mechanics.solver_geometry import (  # noqa: F401  (re-exported: they lived here)
+from corr_cad.mechanics.row.solver_geometry import (  # noqa: F401  (re-exported: they lived here)
     VARIANTS,
     RollerGeometry,
     _error_gaps,
@@ -63,8 +63,8 @@ from corr_cad.mechanics.solver_geometry import (  # noqa: F401  (re-exported: th
     cycle_angles,
     roller_geometry,
 )
-from corr_cad.mechanics.solver_nominal import nominal_geometry, solve_nominal
-from corr_cad.mechanics.solver_numerics import (  # noqa: F401  (re-exported: they lived here)
+from corr_cad.mechanics.row.solver_nominal import nominal_geometry, solve_nominal
+from corr_cad.mechanics.row.solver_numerics import (  # noqa: F401  (re-exported: they lived here)
     _RTOL,
     _Compliance,
     _Contact,
@@ -399,7 +399,7 @@ _HUGE_PAGE = 2 << 20
 def _nominal_result(
     design, angles, target, sign, variants, contact_model, psi_contact_limit, rtol
 ) -> ForceResult | None:
-    """The fast path without errors (:mod:`~corr_cad.mechanics.solver_nominal`).
+    """The fast path without errors (:mod:`~corr_cad.mechanics.row.solver_nominal`).
 
     None: take the general one.
     """

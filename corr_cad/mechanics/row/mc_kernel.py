@@ -1,6 +1,6 @@
 """Compiled Monte Carlo kernel: many error samples of one design, metrics only.
 
-The same model and the same numerics as :mod:`corr_cad.mechanics.solver` (exact
+The same model and the same numerics as :mod:`corr_cad.mechanics.row.solver` (exact
 linear-contact start, joint Newton on the cam rotation and the roller forces,
 a bracketed Newton-bisection where that does not settle), written as loops
 over one position's rollers and compiled with numba. A sample never leaves
@@ -36,10 +36,10 @@ _LOADED_SHARE = 1e-9  # solver.LOADED_SHARE
 def kernel_inputs(geometry, profile_deviation, errors, design) -> tuple:
     """The arguments the compiled kernels share, contiguous and typed.
 
-    ``geometry`` is a :func:`~corr_cad.mechanics.solver.roller_geometry`,
+    ``geometry`` is a :func:`~corr_cad.mechanics.row.solver.roller_geometry`,
     ``profile_deviation`` its gear deviation per cell, ``errors`` the sampled
     ``(cam, ecc, phase, dr, dl)``; used by :func:`solve_samples` and
-    :func:`corr_cad.mechanics.mc_windup_kernel.windup_samples` callers.
+    :func:`corr_cad.mechanics.row.mc_windup_kernel.windup_samples` callers.
     """
     g, c = geometry, np.ascontiguousarray
     cam, ecc, phase, dr, dl = errors
@@ -265,7 +265,7 @@ def _solve_position(C, kc, W, order, bp, target, rtol):
     """Cam rotation and forces ``W[F]`` at one position; returns (tau, bracketed).
 
     Joint Newton on the rotation and the forces from the linear-contact
-    solution (as :func:`corr_cad.mechanics.solver._newton`); :func:`_nested` where
+    solution (as :func:`corr_cad.mechanics.row.solver._newton`); :func:`_nested` where
     that does not settle in 30 steps.
     """
     R = C.shape[1]

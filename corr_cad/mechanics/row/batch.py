@@ -2,7 +2,7 @@
 
 The Monte Carlo's numpy path: the nominal geometry is built once and each
 sample adds only its own error gaps and contact curvatures. The model and
-the numerics are those of :mod:`corr_cad.mechanics.solver`.
+the numerics are those of :mod:`corr_cad.mechanics.row.solver`.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import numpy as np
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.geometry.deviations import ManufacturingErrors
-from corr_cad.mechanics.solver import ForceResult, _result
-from corr_cad.mechanics.solver_geometry import RollerGeometry, _error_gaps, roller_geometry
-from corr_cad.mechanics.solver_numerics import _Compliance, _solve_positions
+from corr_cad.mechanics.row.solver import ForceResult, _result
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry, _error_gaps, roller_geometry
+from corr_cad.mechanics.row.solver_numerics import _Compliance, _solve_positions
 
 __all__ = ["BatchSolver", "solve_forces_batch"]
 

@@ -10,7 +10,7 @@ conservative with ``load_share`` 0.55); a drive model gives its rows.
 Forward: the crank drives at positive speed against the output's load;
 backdriving: the output drives at the same positive speed. Each is an
 operating point with friction in every balance at the same output torque
-(:mod:`corr_cad.mechanics.operating`); efficiency over the cycle is the
+(:mod:`corr_cad.mechanics.losses.operating`); efficiency over the cycle is the
 driven member's energy over the driving member's, exactly 1 when every
 coefficient is 0. A backdriving efficiency at or below 0 means the output
 cannot drive the crank: the drive is **self-locking** at that torque
@@ -33,7 +33,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from corr_cad.errors import SolverError
-from corr_cad.mechanics.friction import Friction, RowFriction, row_contacts, row_friction
 from corr_cad.mechanics.life import (
     BEARING_EXPONENT,
     LifeSpec,
@@ -44,7 +43,8 @@ from corr_cad.mechanics.life import (
     rolling_speeds,
     system_life_h,
 )
-from corr_cad.mechanics.operating import operating_point
+from corr_cad.mechanics.losses.friction import Friction, RowFriction, row_contacts, row_friction
+from corr_cad.mechanics.losses.operating import operating_point
 
 __all__ = [
     "RowLoads",
@@ -97,7 +97,7 @@ def rows_from_drive(design, drive) -> list[RowLoads]:
 
     ``drive`` has ``rows``, one force result per row with its own crank
     angles (row B's ``phi + pi`` and its phase) and geometry, as
-    ``corr_cad.mechanics.drive.DriveResult`` gives them. Each row carries
+    ``corr_cad.mechanics.drive.drive.DriveResult`` gives them. Each row carries
     its cam's ``bearing_load`` (the drive's frictionless ``|sum F_j n_k|``,
     as ``forces.csv`` writes it), which the bearing's life rates (a result
     without ``bearing_load``: the friction model's resultant).
@@ -112,7 +112,8 @@ def rows_from_drive(design, drive) -> list[RowLoads]:
 
 
 def drive_friction(design, rows: list[RowLoads], friction: Friction) -> list[RowFriction]:
-    """:func:`~corr_cad.mechanics.friction.row_friction` of every row (running kinematics)."""
+    """:func:`~corr_cad.mechanics.losses.friction.row_friction` of every row (running
+    kinematics)."""
     out = []
     for row in rows:
         c = row_contacts(
@@ -262,7 +263,7 @@ class FrictionFigures:
     life_spec: LifeSpec | None = None
     rating_source: str = ""
     lives_at_rated_from_life: dict | None = None
-    #: :func:`corr_cad.mechanics.hysteresis.hysteresis_figures`, when computed.
+    #: :func:`corr_cad.mechanics.losses.hysteresis.hysteresis_figures`, when computed.
     hysteresis: dict | None = None
     #: ``[thermal]``: housing area m^2, heat transfer W/(m^2 K), temperature rise K.
     thermal: tuple[float, float, float] | None = None
@@ -363,7 +364,7 @@ class FrictionFigures:
                 "definition": "output torque to turn the drive from the output at no input load",
             }
         if self.thermal is not None:
-            from corr_cad.mechanics.thermal import thermal_speed_rpm
+            from corr_cad.mechanics.losses.thermal import thermal_speed_rpm
 
             area, k, rise = self.thermal
             n = thermal_speed_rpm(self.drive_losses(), self.ratio, area, k, rise)
@@ -424,7 +425,7 @@ def friction_figures(
 ) -> FrictionFigures:
     """Efficiency map and lives at the windup's positions.
 
-    ``windup`` a :class:`~corr_cad.mechanics.windup.Windup` (its positions
+    ``windup`` a :class:`~corr_cad.mechanics.row.windup.Windup` (its positions
     and load share) of the paper's one-row model; ``rated_torque`` T_R,
     N*mm. The efficiency is one value per torque (Coulomb losses grow with
     speed as the power does); the map repeats it per speed. Lives at T_R

@@ -9,7 +9,7 @@ flow, at the same positive speeds (crank ``z + 1``, output 1, ring fixed):
   driven (or, self-locking, has to help).
 
 At each position every body is in equilibrium with friction
-(:mod:`corr_cad.mechanics.friction`): each roller's forces and moment with
+(:mod:`corr_cad.mechanics.losses.friction`): each roller's forces and moment with
 the Coulomb forces of its cam, slot and ring contacts, each cam's moment
 with its rollers' friction and its needle bearing's moment, and the crank's
 moment as what the cams' bearings pass to it. The normal cam forces are the

@@ -1,6 +1,6 @@
 """Geometry of the force model: per (crank position, roller) directions, arms and gaps.
 
-Split out of :mod:`corr_cad.mechanics.solver` (the model is described there); the
+Split out of :mod:`corr_cad.mechanics.row.solver` (the model is described there); the
 names are re-exported from it.
 """
 

@@ -1,4 +1,4 @@
-"""Fast path of :func:`~corr_cad.mechanics.solver.solve_forces` for a design without errors.
+"""Fast path of :func:`~corr_cad.mechanics.row.solver.solve_forces` for a design without errors.
 
 Without manufacturing errors every gap is zero, the roller and cam
 curvatures are one number each, and the model's quantities have closed forms
@@ -7,7 +7,7 @@ load only where its advance has the sign of the moment (``tau a > 0``), so
 the solve runs on a window of ``R // 2 + 2`` consecutive rollers per position
 that holds all of them (checked; the full width otherwise), about half the
 rollers. The linear-contact start is closed-form: ``tau = M / sum(a^2 / k0)``
-over those rollers. Newton is the shared :func:`~corr_cad.mechanics.solver_numerics._newton`.
+over those rollers. Newton is the shared :func:`~corr_cad.mechanics.row.solver_numerics._newton`.
 
 Monte Carlo (``BatchSolver``) never comes here: its results stay bit for bit
 those of the general path. A single design's forces agree with the general
@@ -23,8 +23,8 @@ import numpy as np
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics import contact
-from corr_cad.mechanics.solver_geometry import RollerGeometry, _wrap
-from corr_cad.mechanics.solver_numerics import _RTOL, _Compliance, _Contact, _nested, _newton
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry, _wrap
+from corr_cad.mechanics.row.solver_numerics import _RTOL, _Compliance, _Contact, _nested, _newton
 
 __all__ = ["nominal_geometry", "solve_nominal"]
 
@@ -32,7 +32,7 @@ __all__ = ["nominal_geometry", "solve_nominal"]
 def nominal_geometry(
     design: GearDesign, crank_angles: np.ndarray, psi_contact_limit: float = math.pi
 ) -> RollerGeometry:
-    """:func:`~corr_cad.mechanics.solver_geometry.roller_geometry`, closed form.
+    """:func:`~corr_cad.mechanics.row.solver_geometry.roller_geometry`, closed form.
 
     Without errors or variants.
 

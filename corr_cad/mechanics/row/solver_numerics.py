@@ -1,6 +1,6 @@
 """Numerics of the force solve: contact compliance, linear start, joint Newton, nested solver.
 
-Split out of :mod:`corr_cad.mechanics.solver` (the model and the numerics are described
+Split out of :mod:`corr_cad.mechanics.row.solver` (the model and the numerics are described
 there); the names are re-exported from it. Monte Carlo (``BatchSolver``) runs
 through these functions: their arithmetic is pinned bit for bit by
 ``tests/test_montecarlo_golden.py``.
@@ -14,7 +14,7 @@ from corr_cad.errors import SolverError
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics import contact
 from corr_cad.mechanics.palmgren import PalmgrenCompliance
-from corr_cad.mechanics.solver_geometry import RollerGeometry
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry
 
 _RTOL = 1e-13
 

@@ -2,10 +2,10 @@
 
 Coupling (:class:`CrankSupport`, :func:`solve_with_crank`)
 ---------------------------------------------------------
-The drive (:mod:`corr_cad.mechanics.drive`) solves both rows with the cams
+The drive (:mod:`corr_cad.mechanics.drive.drive`) solves both rows with the cams
 on their eccentrics. With a crankshaft each eccentric's centre moves by
 ``w_c`` under both cams' bearing forces (the beam and its support bearings,
-:mod:`corr_cad.mechanics.crankshaft`, :mod:`corr_cad.mechanics.support_bearing`)
+:mod:`corr_cad.mechanics.crank.crankshaft`, :mod:`corr_cad.mechanics.crank.support_bearing`)
 and turns against the crank gear by its twist ``theta_c``. Both enter
 where the cam's bearing displacement does: roller ``k`` of row ``c`` overlaps
 by
@@ -54,11 +54,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from corr_cad.errors import SolverError
-from corr_cad.mechanics.crankshaft import Crankshaft
-from corr_cad.mechanics.drive_numerics import joined
-from corr_cad.mechanics.drive_restart import replace_positions, subset_solver
+from corr_cad.mechanics.crank.crankshaft import Crankshaft
+from corr_cad.mechanics.crank.support_bearing import SupportBearing
+from corr_cad.mechanics.drive.drive_numerics import joined
+from corr_cad.mechanics.drive.drive_restart import replace_positions, subset_solver
 from corr_cad.mechanics.palmgren import PALMGREN_FORCE_EXPONENT
-from corr_cad.mechanics.support_bearing import SupportBearing
 
 __all__ = ["CrankSupport", "solve_with_crank", "budget_terms", "CRANK_RTOL"]
 

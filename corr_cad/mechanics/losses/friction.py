@@ -7,7 +7,7 @@ friction) and, on a floating cam, the cam's moment balance; the load
 sharing between rollers stays the elastic one (first order in ``mu``).
 With every body in equilibrium the power the crank and the output put in
 equals the sum of the contact and bearing losses at every position.
-:mod:`corr_cad.mechanics.operating` chooses the elastic state whose output
+:mod:`corr_cad.mechanics.losses.operating` chooses the elastic state whose output
 torque with friction is the load, in both directions of power flow.
 
 Which surfaces roll and which slide

@@ -1,14 +1,14 @@
 """Compiled inversion of the paper's contact law for the drive's bearing Newton.
 
-:class:`~corr_cad.mechanics.drive.DriveSolver` finds each roller's force
+:class:`~corr_cad.mechanics.drive.drive.DriveSolver` finds each roller's force
 ``F`` from its overlap ``h`` (``G(F) = h``, ``G`` the three contacts in
 series) at every step of its Newton on ``(tau, u_A, u_B)``. The numpy
-inversion (:func:`corr_cad.mechanics.drive_numerics._invert_convex`) iterates
+inversion (:func:`corr_cad.mechanics.drive.drive_numerics._invert_convex`) iterates
 every roller until the slowest one settles and builds some twenty temporaries
 per iteration; here each roller is inverted on its own, in a compiled loop,
 with the same Newton from the same start and the same stop (a step below
 ``1e-15`` of its force). The contact law is the one of the compiled Monte
-Carlo kernel (:func:`corr_cad.mechanics.mc_kernel._approach`). The forces
+Carlo kernel (:func:`corr_cad.mechanics.row.mc_kernel._approach`). The forces
 agree with the numpy inversion to round-off (a roller stops when it has
 settled, not when the slowest has), so a drive solved with it agrees with
 the numpy one to the bearing Newton's tolerance; the drive's Monte Carlo
@@ -21,9 +21,9 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.drive import DRIVE_RTOL, DriveSolver
-from corr_cad.mechanics.drive_laws import _invert_one, _palmgren
-from corr_cad.mechanics.mc_kernel import _jit
+from corr_cad.mechanics.drive.drive import DRIVE_RTOL, DriveSolver
+from corr_cad.mechanics.drive.drive_laws import _invert_one, _palmgren
+from corr_cad.mechanics.row.mc_kernel import _jit
 
 __all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
 
@@ -41,7 +41,7 @@ def _invert(h, start, T, F_out, k_out):
 
 class CompiledInverse:
     """``(F, dF/dh)`` at overlaps ``h`` (P, N) for a compliance of the paper's law
-    (:class:`~corr_cad.mechanics.solver_numerics._Compliance`, ``model = "nonlinear"``)."""
+    (:class:`~corr_cad.mechanics.row.solver_numerics._Compliance`, ``model = "nonlinear"``)."""
 
     def __init__(self, comp, shape: tuple[int, int]):
         cam, gear, slot = comp.contacts
@@ -471,7 +471,7 @@ def bearing_newton(
 
 
 def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int, rtol: float):
-    """:meth:`DriveSolver._with_bearings <corr_cad.mechanics.drive.DriveSolver>` compiled:
+    """:meth:`DriveSolver._with_bearings <corr_cad.mechanics.drive.drive.DriveSolver>` compiled:
     ``(tau, F, u, Qs, rel, iterations)`` from the rigid solution ``tau``, ``F``; ``rtol``:
     the relative residual each position reaches (``drive.DRIVE_RTOL``)."""
     geo, comp = solver.geo_joined, solver.comp
@@ -534,9 +534,9 @@ def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int,
 
 
 class CompiledDriveSolver(DriveSolver):
-    """:class:`~corr_cad.mechanics.drive.DriveSolver` whose bearing Newton and preloaded
+    """:class:`~corr_cad.mechanics.drive.drive.DriveSolver` whose bearing Newton and preloaded
     row's cam centre run compiled (:func:`bearing_newton`,
-    :func:`corr_cad.mechanics.drive_centre.row_centres`; the linear contact law keeps the
+    :func:`corr_cad.mechanics.drive.drive_centre.row_centres`; the linear contact law keeps the
     numpy ones)."""
 
     def _with_bearings(self, target, tau, F, iterations, max_iter: int = 100):
@@ -547,7 +547,7 @@ class CompiledDriveSolver(DriveSolver):
     def _row_centre(self, c, idx, v):
         if getattr(self.comp, "linear", False):
             return super()._row_centre(c, idx, v)
-        from corr_cad.mechanics.drive_centre import row_centres
+        from corr_cad.mechanics.drive.drive_centre import row_centres
 
         explicit = getattr(self.comp, "explicit", False)
         table = None if explicit else CompiledInverse(self.comp, self.geo_joined.gap.shape).table

@@ -43,8 +43,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from corr_cad.errors import SolverError
-from corr_cad.mechanics.churning import ChurningGear
-from corr_cad.mechanics.lubrication import Lubricant
+from corr_cad.mechanics.losses.churning import ChurningGear
+from corr_cad.mechanics.losses.lubrication import Lubricant
 
 __all__ = ["palmgren_m0", "DragBearing", "LoadIndependent", "PALMGREN_KNEE"]
 
@@ -96,7 +96,7 @@ class LoadIndependent:
     output_seal: float = 0.0
     input_per_crank: float = 1.0
     output_per_crank: float = 1.0
-    #: Dip-lubricated gears' churning (:mod:`corr_cad.mechanics.churning`); none by default.
+    #: Dip-lubricated gears' churning (:mod:`corr_cad.mechanics.losses.churning`); none by default.
     churning: tuple[ChurningGear, ...] = field(default_factory=tuple)
 
     def moments(self, crank_rpm, temperature_C) -> dict[str, np.ndarray]:

@@ -2,18 +2,18 @@
 
 For every sample and every position of the evaluation grid the kernel builds
 the sample's contact table once (the same gaps and compliances as
-:mod:`corr_cad.mechanics.mc_kernel`, i.e. as the force solver) and then solves
+:mod:`corr_cad.mechanics.row.mc_kernel`, i.e. as the force solver) and then solves
 the cam rotation at several cam moments with the same numerics
-(:func:`corr_cad.mechanics.mc_kernel._solve_position`). The windup of an
+(:func:`corr_cad.mechanics.row.mc_kernel._solve_position`). The windup of an
 output torque ``T`` is ``-tau / (z + 1)`` for the cam moment
-``-load_share T / (z + 1)`` (:mod:`corr_cad.mechanics.windup`). At ``T = +-0``
+``-load_share T / (z + 1)`` (:mod:`corr_cad.mechanics.row.windup`). At ``T = +-0``
 it is an end of the free rotation, from the gaps alone, as
-:meth:`corr_cad.mechanics.windup.Windup.free_ends`.
+:meth:`corr_cad.mechanics.row.windup.Windup.free_ends`.
 
 It also evaluates the gap-only binding of :mod:`corr_cad.mechanics.binding`
 (the preload pressure where the free rotation is empty), so that the Monte
 Carlo reads every datasheet metric off one pass over the sample's positions.
-Results agree with :class:`~corr_cad.mechanics.windup.Windup` and
+Results agree with :class:`~corr_cad.mechanics.row.windup.Windup` and
 :func:`~corr_cad.mechanics.binding.binding` to round-off
 (``tests/test_mc_datasheet.py``).
 """
@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.mc_kernel import (
+from corr_cad.mechanics.row.mc_kernel import (
     _KNEE,
     CJ,
     CN,
@@ -168,7 +168,7 @@ def windup_samples(
     """Windup of every sample at every position and cam moment; gap-only binding.
 
     Nominal arrays (P, R) and per-sample errors as
-    :func:`corr_cad.mechanics.mc_kernel.solve_samples`. ``moments`` (M,): cam
+    :func:`corr_cad.mechanics.row.mc_kernel.solve_samples`. ``moments`` (M,): cam
     moments (solver sign) to solve; where ``zero_sign[j]`` is ``-1`` or
     ``+1`` the column is the end ``theta(0-)`` or ``theta(0+)`` of the free
     rotation instead (``0``: solve ``moments[j]``).

@@ -1,6 +1,6 @@
 """Compiled Newton for the cam centre a preloaded row's own rollers hold.
 
-:meth:`DriveSolver._row_centre <corr_cad.mechanics.drive.DriveSolver>` finds,
+:meth:`DriveSolver._row_centre <corr_cad.mechanics.drive.drive.DriveSolver>` finds,
 at each position of a row left with no free rotation, the cam centre ``v``
 where its rollers' forces balance with no bearing load,
 ``sum_k F_k(g_k + n_k . v) n_k = 0``: Newton on ``v`` with the 2 x 2 tangent
@@ -10,8 +10,8 @@ where its rollers' forces balance with no bearing load,
 ``|r| <= DRIVE_RTOL sum_k F_k``. Here the same iteration runs position by
 position in a compiled loop over the row's own rollers (the numpy method
 evaluates the law over both rows' columns and every position still going);
-the contact laws are the drive kernel's (:func:`corr_cad.mechanics.drive_laws._invert_one`
-for the paper's, :func:`~corr_cad.mechanics.drive_laws._palmgren` for
+the contact laws are the drive kernel's (:func:`corr_cad.mechanics.drive.drive_laws._invert_one`
+for the paper's, :func:`~corr_cad.mechanics.drive.drive_laws._palmgren` for
 Palmgren's). The sums and the 2 x 2 solve are taken in another order than
 numpy's, so the centres agree with the numpy method's to round-off
 (``tests/test_drive_centre.py``: 1e-12 relative on seeded drives).
@@ -23,8 +23,8 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.drive_laws import _invert_one, _palmgren
-from corr_cad.mechanics.mc_kernel import _jit
+from corr_cad.mechanics.drive.drive_laws import _invert_one, _palmgren
+from corr_cad.mechanics.row.mc_kernel import _jit
 
 __all__ = ["row_centres"]
 
@@ -92,7 +92,7 @@ def row_centres(
 ) -> np.ndarray:
     """:meth:`DriveSolver._row_centre` compiled: row ``c``'s cam centres (len(idx), 2) at
     positions ``idx`` from the starts ``v``; ``table``: the paper's law's contacts (11,
-    P * N) (:class:`~corr_cad.mechanics.drive_kernel.CompiledInverse`), None for
+    P * N) (:class:`~corr_cad.mechanics.drive.drive_kernel.CompiledInverse`), None for
     Palmgren's."""
     R, geo, comp = solver.R, solver.geo_joined, solver.comp
     P, N = geo.gap.shape

@@ -5,7 +5,7 @@ leave through the housing surface ``A`` by convection and radiation,
 ``P_V = k A dT``, with ``k`` the heat transfer coefficient (about 15-20
 W/(m^2 K) for a housing in still air) and ``dT`` the surface's rise over
 the ambient. With constant Coulomb coefficients the losses at a torque are
-proportional to the speed (:mod:`corr_cad.mechanics.efficiency`), so the
+proportional to the speed (:mod:`corr_cad.mechanics.losses.efficiency`), so the
 thermal limit is the speed ``n = k A dT_max / (P_V / n)``.
 
 What it cannot predict: the losses that do not scale with the load
