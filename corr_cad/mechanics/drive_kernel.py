@@ -389,12 +389,14 @@ def bearing_newton(
                 fmax = max(fmax, w[1, i])
             idle = fmax <= _IDLE
         done = idle or _relative(r, w, geo, p, Q, gq, target, e) <= rtol
-        if not done:
-            done = _rest_idle(
-                p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
-            )
-        for _ in range(max_iter):
-            if done:
+        # Each state not converged gets the idle cams settled (one call site: the
+        # compiler inlines it once), then a Newton step while steps are left.
+        for it in range(max_iter + 1):
+            if not done:
+                done = _rest_idle(
+                    p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
+                )
+            if done or it == max_iter:
                 break
             for k in range(25):
                 J[k // 5, k % 5] = 0.0
@@ -482,10 +484,6 @@ def bearing_newton(
             _copy2(kq, kqt)
             _copy2(gq, gqt)
             done = _relative(r, w, geo, p, Q, gq, target, e) <= rtol
-            if not done:
-                done = _rest_idle(
-                    p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
-                )
         tau[p] = t
         for i in range(N):
             F0[p, i] = w[1, i]
