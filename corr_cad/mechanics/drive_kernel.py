@@ -30,13 +30,15 @@ __all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
 
 @_jit
 def _invert(h, start, T, F_out, k_out):
-    """``F`` with ``G(F) = h`` (0 where ``h <= 0``) and ``dF/dh`` per roller (flat arrays)."""
-    for i in range(h.shape[0]):
-        if not h[i] > 0.0:
-            F_out[i] = 0.0
-            k_out[i] = 0.0
-        else:
-            F_out[i], k_out[i] = _invert_one(h[i], start[i], T, 0, i)
+    """``F`` with ``G(F) = h`` (0 where ``h <= 0``) and ``dF/dh`` per position and roller
+    ((P, N) arrays; ``T`` (11, P, N))."""
+    for p in range(h.shape[0]):
+        for i in range(h.shape[1]):
+            if not h[p, i] > 0.0:
+                F_out[p, i] = 0.0
+                k_out[p, i] = 0.0
+            else:
+                F_out[p, i], k_out[p, i] = _invert_one(h[p, i], start[p, i], T, p, i)
 
 
 class CompiledInverse:
@@ -69,16 +71,15 @@ class CompiledInverse:
         self.shape = shape
 
     def __call__(self, h: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        n = self.table.shape[1]
-        F, k = np.empty(n), np.empty(n)
+        F, k = np.empty(self.shape), np.empty(self.shape)
         _invert(
-            np.ascontiguousarray(h, dtype=float).reshape(-1),
-            np.ascontiguousarray(start, dtype=float).reshape(-1),
-            self.table.reshape(11, 1, n),
+            np.ascontiguousarray(np.broadcast_to(h, self.shape), dtype=float),
+            np.ascontiguousarray(np.broadcast_to(start, self.shape), dtype=float),
+            self.table.reshape(11, *self.shape),
             F,
             k,
         )
-        return F.reshape(self.shape), k.reshape(self.shape)
+        return F, k
 
 
 # ---------------------------------------------------------------- the bearing Newton
