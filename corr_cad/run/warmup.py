@@ -3,7 +3,7 @@
 numba compiles a kernel at its first call and keeps the machine code on disk
 (``cache=True``: ``__pycache__`` beside the module, or ``NUMBA_CACHE_DIR``); a
 later process loads it in milliseconds. The first run after an install (or
-after an upgrade, which changes the sources) pays the compile: about a minute
+after an upgrade, which changes the sources) pays the compile: about 15 s of CPU
 for all the kernels on one core. :func:`missing` reads the cache's index files
 (no numba import: a run that needs no kernel pays nothing for the check);
 :func:`warm_up` runs each group of kernels once on a tiny problem through the
@@ -45,7 +45,7 @@ GROUPS = (
     (
         "drive kernels",
         ("drive_laws", "drive_kernel", "drive_centre"),
-        15,
+        8,
         "the drive's Monte Carlo, allocation, design",
     ),
 )

@@ -40,7 +40,7 @@ def _residual(p, gap, n, ux, uy, law, T, K, slope0, F, k):
             if not h > 0.0:
                 f, s = 0.0, 0.0
             else:
-                f, s = _invert_one(h, h / slope0[p, i], T[:, p, :], i)
+                f, s = _invert_one(h, h / slope0[p, i], T, p, i)
         else:
             f, s = _palmgren(h, K[p, i])
         F[i], k[i] = f, s

@@ -30,13 +30,15 @@ __all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
 
 @_jit
 def _invert(h, start, T, F_out, k_out):
-    """``F`` with ``G(F) = h`` (0 where ``h <= 0``) and ``dF/dh`` per roller (flat arrays)."""
-    for i in range(h.shape[0]):
-        if not h[i] > 0.0:
-            F_out[i] = 0.0
-            k_out[i] = 0.0
-        else:
-            F_out[i], k_out[i] = _invert_one(h[i], start[i], T, i)
+    """``F`` with ``G(F) = h`` (0 where ``h <= 0``) and ``dF/dh`` per position and roller
+    ((P, N) arrays; ``T`` (11, P, N))."""
+    for p in range(h.shape[0]):
+        for i in range(h.shape[1]):
+            if not h[p, i] > 0.0:
+                F_out[p, i] = 0.0
+                k_out[p, i] = 0.0
+            else:
+                F_out[p, i], k_out[p, i] = _invert_one(h[p, i], start[p, i], T, p, i)
 
 
 class CompiledInverse:
@@ -69,22 +71,36 @@ class CompiledInverse:
         self.shape = shape
 
     def __call__(self, h: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        n = self.table.shape[1]
-        F, k = np.empty(n), np.empty(n)
+        F, k = np.empty(self.shape), np.empty(self.shape)
         _invert(
-            np.ascontiguousarray(h, dtype=float).reshape(-1),
-            np.ascontiguousarray(start, dtype=float).reshape(-1),
-            self.table,
+            np.ascontiguousarray(np.broadcast_to(h, self.shape), dtype=float),
+            np.ascontiguousarray(np.broadcast_to(start, self.shape), dtype=float),
+            self.table.reshape(11, *self.shape),
             F,
             k,
         )
-        return F.reshape(self.shape), k.reshape(self.shape)
+        return F, k
 
 
 # ---------------------------------------------------------------- the bearing Newton
 
 _IDLE = 1e-9  # drive._IDLE_FORCE
 _MAX_STEP = 1e-2  # drive._MAX_TAU_STEP, drive._MAX_U_STEP
+
+
+@_jit
+def _copy1(dst, src):
+    """``dst[:] = src`` as a loop (a slice assignment costs LLVM far more to compile)."""
+    for i in range(dst.shape[0]):
+        dst[i] = src[i]
+
+
+@_jit
+def _copy2(dst, src):
+    """``dst[:, :] = src`` as a loop."""
+    for i in range(dst.shape[0]):
+        for j in range(dst.shape[1]):
+            dst[i, j] = src[i, j]
 
 
 @_jit
@@ -99,7 +115,8 @@ def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r):
     N = geo.shape[2]
     R = N // 2
     first = math.isnan(prev[0, 0])
-    r[:] = 0.0
+    for k in range(5):
+        r[k] = 0.0
     r[0] = -target
     for i in range(N):
         c = 0 if i < R else 1
@@ -113,7 +130,7 @@ def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r):
                 start = h / slope0[p, i]
                 if not first and prev[1, i] > 0.0:
                     start = max(prev[1, i] + (h - prev[0, i]) * prev[2, i], 0.0)
-                F, k = _invert_one(h, start, T[:, p, :], i)
+                F, k = _invert_one(h, start, T, p, i)
         else:
             F, k = _palmgren(h, K[p, i])
         w[0, i], w[1, i], w[2, i] = h, F, k
@@ -178,7 +195,7 @@ def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rto
         tiny[c] = carried <= rtol * sf
     if not (tiny[0] or tiny[1]):
         return False
-    ut[:, :] = u
+    _copy2(ut, u)
     for c in range(2):
         if tiny[c]:
             ut[c, 0], ut[c, 1] = 0.0, 0.0
@@ -189,10 +206,12 @@ def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rto
         for i in range(c * R, (c + 1) * R):
             pressed += wt[1, i]
         centred[c] = tiny[c] and pressed <= rtol * sf
-    wt[:, :] = w
-    rt[:] = r
-    Qt[:, :], kqt[:, :], gqt[:, :] = Q, kq, gq
-    ut[:, :] = u
+    _copy2(wt, w)
+    _copy1(rt, r)
+    _copy2(Qt, Q)
+    _copy2(kqt, kq)
+    _copy2(gqt, gq)
+    _copy2(ut, u)
     for c in range(2):
         if not tiny[c]:
             continue
@@ -200,15 +219,20 @@ def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rto
             ut[c, 0], ut[c, 1] = 0.0, 0.0
         for i in range(c * R, (c + 1) * R):
             wt[1, i], wt[2, i], wt[3, i] = 0.0, 0.0, 0.0
-        Qt[c, :], kqt[c, :], gqt[c, :] = 0.0, 0.0, 0.0
+        for j in range(Qt.shape[1]):
+            Qt[c, j], kqt[c, j], gqt[c, j] = 0.0, 0.0, 0.0
         rt[1 + 2 * c], rt[2 + 2 * c] = 0.0, 0.0
     rt[0] = -target
     for i in range(N):
         rt[0] += geo[1, p, i] * wt[1, i]
     if not _relative(rt, wt, geo, p, Qt, gqt, target, e) <= rtol:
         return False
-    u[:, :], w[:, :], r[:] = ut, wt, rt
-    Q[:, :], kq[:, :], gq[:, :] = Qt, kqt, gqt
+    _copy2(u, ut)
+    _copy2(w, wt)
+    _copy1(r, rt)
+    _copy2(Q, Qt)
+    _copy2(kq, kqt)
+    _copy2(gq, gqt)
     return True
 
 
@@ -366,14 +390,17 @@ def bearing_newton(
                 fmax = max(fmax, w[1, i])
             idle = fmax <= _IDLE
         done = idle or _relative(r, w, geo, p, Q, gq, target, e) <= rtol
-        if not done:
-            done = _rest_idle(
-                p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
-            )
-        for _ in range(max_iter):
-            if done:
+        # Each state not converged gets the idle cams settled (one call site: the
+        # compiler inlines it once), then a Newton step while steps are left.
+        for it in range(max_iter + 1):
+            if not done:
+                done = _rest_idle(
+                    p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
+                )
+            if done or it == max_iter:
                 break
-            J[:, :] = 0.0
+            for k in range(25):
+                J[k // 5, k % 5] = 0.0
             for i in range(N):
                 c = 0 if i < R else 1
                 ac, am, kf = geo[0, p, i], geo[1, p, i], w[2, i]
@@ -444,24 +471,27 @@ def bearing_newton(
                 if not ae > 0.0:  # no descent: the position keeps its state
                     break
                 tt = t + ae * dd[0]
-                wt[:, :], rt[:] = ls[1], ls[2]
-                ut[:, :], Qt[:, :], kqt[:, :], gqt[:, :] = ls[0], ls[3], ls[4], ls[5]
+                _copy2(wt, ls[1])
+                _copy1(rt, ls[2])
+                _copy2(ut, ls[0])
+                _copy2(Qt, ls[3])
+                _copy2(kqt, ls[4])
+                _copy2(gqt, ls[5])
             t = tt
-            u[:, :] = ut
-            w[:, :] = wt
-            r[:] = rt
-            Q[:, :], kq[:, :], gq[:, :] = Qt, kqt, gqt
+            _copy2(u, ut)
+            _copy2(w, wt)
+            _copy1(r, rt)
+            _copy2(Q, Qt)
+            _copy2(kq, kqt)
+            _copy2(gq, gqt)
             done = _relative(r, w, geo, p, Q, gq, target, e) <= rtol
-            if not done:
-                done = _rest_idle(
-                    p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp
-                )
         tau[p] = t
         for i in range(N):
             F0[p, i] = w[1, i]
-        u_out[:, p, :] = u
-        Q_out[0, p, :] = Q[0]
-        Q_out[1, p, :] = Q[1]
+        for c in range(2):
+            u_out[c, p, 0], u_out[c, p, 1] = u[c, 0], u[c, 1]
+            for j in range(Z):
+                Q_out[c, p, j] = Q[c, j]
         if idle:
             rel_out[p] = 0.0
         elif done:

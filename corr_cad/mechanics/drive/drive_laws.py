@@ -23,12 +23,13 @@ _EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
 
 
 @_jit
-def _invert_one(hi, f, T, i):
-    """``(F, dF/dh)`` of roller ``i`` at overlap ``hi > 0`` by Newton from ``f``
-    (``T``: the contacts' table, a column per roller)."""
-    cj, k1, kc, ukj = T[CJ, i], T[K1, i], T[KC, i], T[UKJ, i]
-    cn, wn, kg, ukn = T[CN, i], T[WN, i], T[KG, i], T[UKN, i]
-    cs, ws, uks = T[CS, i], T[WS, i], T[UKS, i]
+def _invert_one(hi, f, T, p, i):
+    """``(F, dF/dh)`` of roller ``i`` of position ``p`` at overlap ``hi > 0`` by Newton
+    from ``f`` (``T`` (11, P, N): the contacts' table, a column per position and roller;
+    indexed in place, not sliced: a view per call is one more type to compile)."""
+    cj, k1, kc, ukj = T[CJ, p, i], T[K1, p, i], T[KC, p, i], T[UKJ, p, i]
+    cn, wn, kg, ukn = T[CN, p, i], T[WN, p, i], T[KG, p, i], T[UKN, p, i]
+    cs, ws, uks = T[CS, p, i], T[WS, p, i], T[UKS, p, i]
     dg = 1.0
     for _ in range(60):
         vj, sj = _approach(cj * f, ukj, k1, kc)

@@ -178,8 +178,9 @@ def _evaluate(tau, C, kc, W, warm):
     """Forces at a fixed cam rotation, each roller's ``G(F) = h`` solved by Newton.
 
     Newton converges monotonically from the right of the root (``G`` convex):
-    the start is the linear-contact force, or with ``warm`` the tangent
-    predictor from the previous rotation. Returns the moment, its slope in
+    the start is the linear-contact force, or with ``warm > 0`` the tangent
+    predictor from the previous rotation (a float, not a bool: numba compiles a
+    constant bool argument once per value). Returns the moment, its slope in
     the rotation and the moment's scale.
     """
     mom = 0.0
@@ -189,7 +190,7 @@ def _evaluate(tau, C, kc, W, warm):
         a = C[A, i]
         h = tau * a + C[H0, i]
         f = h / C[K0, i]
-        if warm and W[F, i] > 0.0:
+        if warm > 0.0 and W[F, i] > 0.0:
             f = max(W[F, i] + (h - W[HP, i]) / W[DG, i], 0.0)
         W[HP, i] = h
         if h <= 0.0:
@@ -216,7 +217,7 @@ def _evaluate(tau, C, kc, W, warm):
 @_jit
 def _nested(tau, C, kc, W, target, rtol):
     """Bracketed Newton-bisection on the rotation; returns (tau, bracketed)."""
-    mom, dmom, scale = _evaluate(tau, C, kc, W, False)
+    mom, dmom, scale = _evaluate(tau, C, kc, W, 0.0)
     res = mom - target
     lo = tau if res <= 0.0 else -np.inf
     hi = tau if res >= 0.0 else np.inf
@@ -233,7 +234,7 @@ def _nested(tau, C, kc, W, target, rtol):
         if not (need_hi or need_lo):
             break
         trial = tau + step if need_hi else tau - step
-        above = _evaluate(trial, C, kc, W, False)[0] - target
+        above = _evaluate(trial, C, kc, W, 0.0)[0] - target
         if (need_hi and above >= 0.0) or (need_lo and above > 0.0):
             hi = trial
         else:
@@ -241,7 +242,7 @@ def _nested(tau, C, kc, W, target, rtol):
         step *= 4.0
     if not (np.isfinite(lo) and np.isfinite(hi)):
         return tau, False
-    mom, dmom, scale = _evaluate(tau, C, kc, W, False)
+    mom, dmom, scale = _evaluate(tau, C, kc, W, 0.0)
     for _ in range(200):
         res = mom - target
         if abs(res) <= rtol * (abs(target) + scale) + 1e-300:
@@ -255,7 +256,7 @@ def _nested(tau, C, kc, W, target, rtol):
             new = 0.5 * (lo + hi)
         if new == tau:
             break
-        mom, dmom, scale = _evaluate(new, C, kc, W, True)
+        mom, dmom, scale = _evaluate(new, C, kc, W, 1.0)
         tau = new
     return tau, True
 

@@ -10,7 +10,10 @@ Carlo rows measure the force metrics alone and with the datasheet metrics
 (``datasheet_positions_per_mesh`` 4: 104 grid positions a sample under a roller
 tolerance), in this process and on 2 pool workers, and with the cams fixed; the
 fixed cost is the Monte Carlo stage of ``corr-cad run`` with one sample (its
-manifest's seconds: imports, the pool, the nominal pass and the plot; kernels cached). Each law
+manifest's seconds: imports, the pool, the nominal pass and the plot; kernels cached); the
+``datasheet_files`` rows are that stage of ``corr-cad run`` with the datasheet alone (writing
+its files and drawing its PNGs, matplotlib's import included); the ``compile`` rows the CPU
+seconds of compiling each group of ``corr-cad warm-up`` from an empty numba cache. Each law
 on 40 needles 6 x 12 mm without and with a 5 um diametral clearance; every row
 records the one-minute load average at its end (``load_avg``): a row measured on
 a busy machine says so.
@@ -68,6 +71,8 @@ def drive_speed(out: Path, quick: bool = False) -> list:
 
     spec = DatasheetSpec(rated_torque=design.roller_count * M0)
     rows.extend(_with_crank(design, EccentricBearing(40, 6.0, 12.0), spec, repeat))
+    rows.extend(_datasheet_files_rows(repeat))
+    rows.extend(_compile_rows())
     header = [
         "case",
         "median_s",
@@ -82,6 +87,101 @@ def drive_speed(out: Path, quick: bool = False) -> list:
     _table("drive model, prototype, one process", header, rows)
     _write_csv(out, "drive_speed.csv", header, rows)
     return rows
+
+
+def _datasheet_files_rows(repeat: int) -> list:
+    """The ``datasheet_files`` stage of ``corr-cad run`` (its manifest's seconds: writing
+    the datasheet's files and drawing its two PNGs, matplotlib's import included), the
+    prototype on 40 needles without and with a 5 um clearance, Palmgren's law."""
+    rows = []
+    for clearance in (0.0, 0.005):
+        t = [_cli_stage("datasheet_files", _datasheet_scene(clearance)) for _ in range(repeat)]
+        tag = f", {clearance * 1e3:g} um clearance" if clearance else ""
+        name = f"datasheet_files (corr-cad run's stage), bearings, palmgren{tag}"
+        rows.append([name, statistics.median(t), min(t), max(t), 1.0, "", "", "", _load()])
+    return rows
+
+
+_COMPILE = """
+import json, os, time
+c0 = time.process_time()
+from corr_cad.run import warmup
+out = []
+for name, *_ in warmup.GROUPS:
+    c = time.process_time()
+    warmup._RUNS[name]()
+    out.append([name, time.process_time() - c])
+out.append(["all", time.process_time() - c0])
+print(json.dumps(out))
+"""
+
+
+def _compile_rows() -> list:
+    """Every kernel group of ``corr-cad warm-up`` compiled from an empty numba cache
+    (``NUMBA_CACHE_DIR`` a new folder), in order in one fresh process (the first group
+    carries numba's import): the CPU seconds of each and of all (target 15 s)."""
+    import json
+    import shutil
+    import subprocess
+    import sys
+    import tempfile
+
+    folder = tempfile.mkdtemp(prefix="corr-cad-bench-numba-")
+    try:
+        env = {**os.environ, "NUMBA_CACHE_DIR": folder}
+        r = subprocess.run(
+            [sys.executable, "-c", _COMPILE], env=env, check=True, capture_output=True, text=True
+        )
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    load = _load()
+    return [
+        [
+            f"compile from an empty cache: {name}",
+            "",
+            "",
+            "",
+            15.0 if name == "all" else "",
+            "",
+            "",
+            cpu,
+            load,
+        ]
+        for name, cpu in json.loads(r.stdout.strip().splitlines()[-1])
+    ]
+
+
+def _datasheet_scene(clearance: float) -> str:
+    return (
+        '[export]\nformats = ["datasheet"]\n[load]\ninput_torque = 1.1e5\n'
+        '[solver]\nmodel = "drive"\ncontact_law = "palmgren"\n'
+        "[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\nneedle_length = 12.0\n"
+        f"diametral_clearance = {clearance!r}\n"
+    )
+
+
+def _cli_stage(stage: str, scene: str) -> float:
+    """The seconds ``manifest.json`` gives ``stage`` of ``corr-cad run`` on ``scene``
+    (a fresh process)."""
+    import json
+    import shutil
+    import subprocess
+    import sys
+    import tempfile
+
+    folder = Path(tempfile.mkdtemp(prefix="corr-cad-bench-"))
+    try:
+        (folder / "s.toml").write_text(scene)
+        subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+            cwd=folder,
+            check=True,
+            capture_output=True,
+        )
+        manifest = json.loads((folder / "out" / "manifest.json").read_text())
+        return next(x["seconds"] for x in manifest["stages"] if x["name"] == stage)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def _with_crank(design, needles, spec, repeat) -> list:

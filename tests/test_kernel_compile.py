@@ -1,0 +1,91 @@
+"""What keeps compiling the kernels cheap: one type signature per kernel, no slice
+assignment in a compiled body (``docs/accuracy-and-speed.md``, "Compiling the kernels")."""
+
+from __future__ import annotations
+
+import ast
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+MECHANICS = Path(__file__).resolve().parents[1] / "corr_cad" / "mechanics"
+KERNELS = (
+    "mc_kernel",
+    "mc_windup_kernel",
+    "free_play",
+    "drive_laws",
+    "drive_kernel",
+    "drive_centre",
+)
+
+
+def _jitted(module: str):
+    tree = ast.parse((MECHANICS / f"{module}.py").read_text())
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and any(
+            isinstance(d, ast.Name) and d.id == "_jit" for d in node.decorator_list
+        ):
+            yield node
+
+
+def _slice_targets(fn: ast.FunctionDef) -> list[int]:
+    """Lines of ``a[...:...] = ...`` (a tuple of targets included) in ``fn``'s body."""
+    lines = []
+    for node in ast.walk(fn):
+        targets = node.targets if isinstance(node, ast.Assign) else []
+        if isinstance(node, ast.AugAssign):
+            targets = [node.target]
+        for t in targets:
+            for sub in ast.walk(t):
+                if isinstance(sub, ast.Subscript) and any(
+                    isinstance(s, ast.Slice) for s in ast.walk(sub.slice)
+                ):
+                    lines.append(node.lineno)
+    return lines
+
+
+@pytest.mark.parametrize("module", KERNELS)
+def test_no_compiled_kernel_assigns_to_a_slice(module):
+    """An array slice assignment costs numba and LLVM about 0.3 s of compile each (the
+    bearing Newton's twenty made half of the drive kernels' compile); the kernels copy
+    their small work arrays by loops (``drive_kernel._copy1``, ``_copy2``)."""
+    found = {fn.name: _slice_targets(fn) for fn in _jitted(module)}
+    assert found, module
+    assert not {k: v for k, v in found.items() if v}, found
+
+
+@pytest.mark.slow
+def test_every_kernel_compiles_once_from_an_empty_cache(tmp_path):
+    """From an empty cache the warm-up's paper and drive runs and the compiled inversion
+    leave every compiled function of the Monte Carlo and drive kernels with one type
+    signature (a constant bool argument compiled ``mc_kernel._evaluate`` once per value; a
+    roller table sliced per call gave ``drive_laws._invert_one`` a second layout)."""
+    code = (
+        "import numba, numpy as np\n"
+        "from corr_cad.run import warmup\n"
+        "warmup._paper_kernels(False); warmup._drive_kernels()\n"
+        "from corr_cad.geometry.design import GearDesign\n"
+        "from corr_cad.mechanics.drive_kernel import CompiledDriveSolver, CompiledInverse\n"
+        "from corr_cad.mechanics.solver_geometry import cycle_angles\n"
+        "s = CompiledDriveSolver(GearDesign(), cycle_angles(4))\n"
+        "shape = s.geo_joined.gap.shape\n"
+        "CompiledInverse(s.comp, shape)(np.full(shape, 1e-3), np.full(shape, 10.0))\n"
+        "import importlib\n"
+        "for m in ('mc_kernel', 'drive_laws', 'drive_kernel', 'drive_centre'):\n"
+        "    mod = importlib.import_module('corr_cad.mechanics.' + m)\n"
+        "    for k, v in sorted(vars(mod).items()):\n"
+        "        jit = isinstance(v, numba.core.registry.CPUDispatcher)\n"
+        "        if jit and v.__module__ == mod.__name__:\n"
+        "            print(m, k, len(v.signatures))\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    rows = [line.split() for line in out.stdout.strip().splitlines()]
+    names = {f"{m}.{k}" for m, k, _ in rows}
+    assert {"mc_kernel._evaluate", "drive_laws._invert_one", "drive_kernel._invert"} <= names
+    assert all(n == "1" for _, _, n in rows), out.stdout
