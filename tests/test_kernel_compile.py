@@ -7,11 +7,11 @@ import ast
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-MECHANICS = Path(__file__).resolve().parents[1] / "corr_cad" / "mechanics"
+from corr_cad.run.warmup import source
+
 KERNELS = (
     "mc_kernel",
     "mc_windup_kernel",
@@ -23,7 +23,7 @@ KERNELS = (
 
 
 def _jitted(module: str):
-    tree = ast.parse((MECHANICS / f"{module}.py").read_text())
+    tree = ast.parse(source(module).read_text())
     for node in tree.body:
         if isinstance(node, ast.FunctionDef) and any(
             isinstance(d, ast.Name) and d.id == "_jit" for d in node.decorator_list
@@ -68,14 +68,16 @@ def test_every_kernel_compiles_once_from_an_empty_cache(tmp_path):
         "from corr_cad.run import warmup\n"
         "warmup._paper_kernels(False); warmup._drive_kernels()\n"
         "from corr_cad.geometry.design import GearDesign\n"
-        "from corr_cad.mechanics.drive_kernel import CompiledDriveSolver, CompiledInverse\n"
-        "from corr_cad.mechanics.solver_geometry import cycle_angles\n"
+        "from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver, CompiledInverse\n"
+        "from corr_cad.mechanics.row.solver_geometry import cycle_angles\n"
         "s = CompiledDriveSolver(GearDesign(), cycle_angles(4))\n"
         "shape = s.geo_joined.gap.shape\n"
         "CompiledInverse(s.comp, shape)(np.full(shape, 1e-3), np.full(shape, 10.0))\n"
         "import importlib\n"
-        "for m in ('mc_kernel', 'drive_laws', 'drive_kernel', 'drive_centre'):\n"
-        "    mod = importlib.import_module('corr_cad.mechanics.' + m)\n"
+        "rooms = {'mc_kernel': 'row', 'drive_laws': 'drive', 'drive_kernel': 'drive',\n"
+        "         'drive_centre': 'drive'}\n"
+        "for m, room in rooms.items():\n"
+        "    mod = importlib.import_module(f'corr_cad.mechanics.{room}.{m}')\n"
         "    for k, v in sorted(vars(mod).items()):\n"
         "        jit = isinstance(v, numba.core.registry.CPUDispatcher)\n"
         "        if jit and v.__module__ == mod.__name__:\n"
