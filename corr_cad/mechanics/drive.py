@@ -189,9 +189,8 @@ class DriveSolver:
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
         self.crank = crank  # the crankshaft on its supports (None: the eccentrics fixed)
+        # With a crank too, its fixed point (drive_crank) solves the bodies' at each iterate.
         self.bodies = bodies and Influence(bodies, design, self.crank_angles, geometry)
-        if crank is not None and self.bodies is not None:
-            raise SolverError('a crankshaft and [solver] bodies = "elastic" together: give one')
 
     # ------------------------------------------------------------------ solve
 
@@ -205,7 +204,10 @@ class DriveSolver:
     def _solve_on_eccentrics(self, target: float):
         """:meth:`solve` with the eccentrics where the geometry puts them."""
         if self.bodies is not None:
-            return coupled_solve(self, target, self.bodies)
+            # Within the crank's fixed point: from the bodies' approaches of its last iterate.
+            return coupled_solve(
+                self, target, self.bodies, start=getattr(self, "_bodies_start", None)
+            )
         return self.solve_contacts(target)
 
     def solve_contacts(self, target: float):

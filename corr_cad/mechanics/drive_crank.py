@@ -201,7 +201,8 @@ def _restart(solver, target, sol, starts):
     """Positions the Newton missed, again from other solutions (drive_restart's rule)."""
     limit = max(solver.rtol, 1e-9)
     out = list(sol)
-    if solver.bearings[0] is None:
+    # With elastic bodies the bearing Newton alone would solve the rigid bodies' drive.
+    if solver.bearings[0] is None or solver.bodies is not None:
         return sol
     for start in starts:
         if start is None:
@@ -218,7 +219,7 @@ def _restart(solver, target, sol, starts):
 def _warm(solver, target, prev):
     """The bearing Newton started from the previous iterate's solution (None where it does
     not settle everywhere: the caller then solves from the rigid start)."""
-    if solver.bearings[0] is None:
+    if solver.bearings[0] is None or solver.bodies is not None:
         return None
     sol = solver._with_bearings(target, prev[0], prev[1], 0)
     return sol if np.all(sol[4] <= max(solver.rtol, 1e-9)) else None
@@ -258,6 +259,8 @@ def solve_with_crank(solver, target: float, inner) -> tuple:
                 sol = _restart(solver, target, sol, [prev, *near])
             iterations += sol[5]
             prev = sol
+            if solver.bodies is not None:  # the next iterate's bodies start from this one's
+                solver._bodies_start = solver.bodies.last_d
             g, _ = _map(crank, st, sol[1])
             r = (g - x) * scale
             size = np.max(np.abs(g * scale), axis=1)
@@ -276,6 +279,7 @@ def solve_with_crank(solver, target: float, inner) -> tuple:
             )
     finally:
         st.set_geometry(solver, None)
+        solver._bodies_start = None
     solver._crank_history = [(target, sol, x), *history][:2]
     tau, F, u, Qs, rel, _ = sol
     _, resp = _map(crank, st, F)
@@ -331,6 +335,8 @@ def budget_terms(solver, target: float, sol) -> dict[str, np.ndarray]:
         out["support_bearings"] = np.einsum("pix,pix->p", resp["R"], resp["d"])
         out["crankshaft_torsion"] = np.sum(M * resp["theta"], axis=1)
     out["initial_gaps"] = -np.sum(F * g0, axis=1)
+    if solver.bodies is not None:  # each body's F . C_body F (the approach d = C F)
+        out.update(solver.bodies.work(F))
     return out
 
 

@@ -273,28 +273,62 @@ class Influence:
         """``C`` (len(idx), N, N) of the positions ``idx``."""
         return self._all[idx] if self._all is not None else self._make(idx)
 
+    def part_tables(self) -> dict[str, BodyTables]:
+        """Each body's tables alone (the others' zero): ``ring_body``, ``frame`` and, where
+        the cams are elastic, ``cam_body``. ``C`` is linear in the tables, so the parts'
+        matrices add up to ``C``."""
+        t = self.tables
+        ring0, frame0 = np.zeros_like(t.ring), np.zeros_like(t.frame)
+        out = {
+            "ring_body": replace(t, frame=frame0, cam=None),
+            "frame": replace(t, ring=ring0, cam=None),
+        }
+        if t.cam is not None:
+            out["cam_body"] = replace(t, ring=ring0, frame=frame0)
+        return out
+
+    def work(self, F: np.ndarray) -> dict[str, np.ndarray]:
+        """Each body's work ``F . C_body F`` (P,) N*mm of the roller forces ``F`` (P, N)."""
+        parts = self.part_tables()
+        out = {name: np.zeros(len(F)) for name in parts}
+        for first in range(0, len(self.angles), self.block):
+            idx = np.arange(first, min(len(self.angles), first + self.block))
+            geo = tuple(_take(g, idx) for g in self.geometry)
+            for name, t in parts.items():
+                C = influence_matrices(t, self.design, self.angles[idx], geo)
+                out[name][idx] = np.einsum("pk,pkj,pj->p", F[idx], C, F[idx])
+        return out
+
     def __getitem__(self, p):
         idx = np.arange(len(self.angles))[p]
         C = self.matrices(np.atleast_1d(idx))
         return C if np.ndim(idx) else C[0]
 
 
-def coupled_solve(solver, target: float, influence: Influence, max_iter: int = 50):
+def coupled_solve(
+    solver,
+    target: float,
+    influence: Influence,
+    max_iter: int = 50,
+    start: np.ndarray | None = None,
+):
     """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies'
     ``influence`` (module docstring); ``rel`` includes the body residual. A block of
     positions at a time; each Newton step solves again only the positions not yet
-    converged."""
+    converged. ``start``: the bodies' approaches ``d`` (P, N) the Newton starts from
+    (zero: the rigid bodies' drive); the converged ``d`` is left in ``influence.last_d``."""
     geo0, comp0, n0 = solver.geo_joined, solver.comp, solver.n
     P, N = geo0.gap.shape
     eye = np.eye(N)
     its = 0
     body_rel = np.zeros(P)
     out: list = []
+    d_all = np.zeros((P, N)) if start is None or start.shape != (P, N) else start.copy()
     try:
-        for start in range(0, P, influence.block):
-            blk = np.arange(start, min(P, start + influence.block))
+        for first in range(0, P, influence.block):
+            blk = np.arange(first, min(P, first + influence.block))
             C = influence.matrices(blk)
-            d = np.zeros((len(blk), N))
+            d = d_all[blk]
             at = np.arange(len(blk))  # the block's positions still iterating
             for _ in range(max_iter):
                 idx = blk[at]
@@ -330,7 +364,9 @@ def coupled_solve(solver, target: float, influence: Influence, max_iter: int = 5
                 Jd = eye + Ct * k[t, None, :] - (Ct @ KB[t]) @ X[t]
                 d[at[t]] -= np.linalg.solve(Jd, r[t, :, None])[:, :, 0]
                 at = at[t]
+            d_all[blk] = d
     finally:
         solver.geo_joined, solver.comp, solver.n = geo0, comp0, n0
+    influence.last_d = d_all
     tau, F, u, Qs, rel = out
     return tau, F, u, Qs, np.maximum(rel, np.where(body_rel > BODIES_RTOL, body_rel, 0.0)), its

@@ -71,17 +71,11 @@ def default_layout(
 
 def parse_crank(values: dict, data: dict, design, bearing, formats=()) -> CrankSupport | None:
     """The scene's crankshaft and support bearings (None without either section); the
-    outputs that do not take it refused (:func:`check_crank_formats`), and so is
-    ``[solver] bodies = "elastic"`` beside it (the drive takes one or the other)."""
+    outputs that do not take it refused (:func:`check_crank_formats`). With
+    ``[solver] bodies = "elastic"`` the drive couples both."""
     given = [s for s in CRANK_SECTION_NAMES if s in data]
     if not given:
         return None
-    if values.get("solver", {}).get("bodies") == "elastic":
-        raise SceneError(
-            f'[solver] bodies = "elastic" with [{given[0]}]: the drive takes the elastic '
-            f'bodies or the crankshaft, not both; set bodies = "rigid" (or remove '
-            f"{' and '.join(f'[{g}]' for g in given)})"
-        )
     crank = _parse(values, data, design, bearing)
     check_crank_formats(crank, formats)
     return crank
