@@ -60,17 +60,21 @@ def _frame_at(T, rho0, step, ra, sa, ka, rb, sb, kb):
 
 
 @_jit
-def influence_kernel(ring, frame, rho0, step, x, rn, rs, s, cam, xc, on, C):
+def influence_kernel(ring, frame, rho0, step, x, rn, rs, s, cam, xc, on, cols, C):
     """Fill ``C`` (P, 2R, 2R): ``x`` (P, 2R) each roller's ring coordinate, ``rn``,
     ``rs`` (P, 2R) its gear and slot force ratios (0 where not loadable), ``s`` its
     centre's radius, mm; ``cam`` (Mc,) the cam's table by angle, ``xc`` each roller's
-    direction from its cam's centre as its index, ``on`` where the cam term counts."""
+    direction from its cam's centre as its index, ``on`` where the cam term counts;
+    ``cols`` (P, 2R): the loads ``j`` whose columns are made (the others left 0)."""
     Mc = cam.shape[0]
     P, N = x.shape
     R = N // 2
     for p in range(P):
         for k in range(N):
             for j in range(N):
+                if not cols[p, j]:
+                    C[p, k, j] = 0.0
+                    continue
                 same = (k < R) == (j < R)
                 v = 0.0
                 if same and rn[p, k] != 0.0 and rn[p, j] != 0.0:
