@@ -498,7 +498,6 @@ def test_a_load_outside_the_candidates_is_left_to_the_newton_on_d(small_tables):
     accepted (coupling_fixed's test is exact: those rows are)."""
     from corr_cad.mechanics.bodies.coupling import influence_matrices
     from corr_cad.mechanics.bodies.coupling_fixed import fixed_cams_newton
-    from corr_cad.mechanics.drive_numerics import _forces_of
 
     ang = np.radians([0.0, 9.0])
     s = DriveSolver(SMALL, ang, contact_model="palmgren")
@@ -508,11 +507,8 @@ def test_a_load_outside_the_candidates_is_left_to_the_newton_on_d(small_tables):
     cand[1, np.argmax(F[1])] = False  # position 1 misses its most loaded roller
     C = influence_matrices(small_tables, SMALL, ang, s.geo, columns=cand)
 
-    def law(h, idx):
-        return _forces_of(s.comp if idx is None else s.comp.take(idx), h)
-
     d = np.zeros_like(F)
-    ok = fixed_cams_newton(law, geo, C, -2.0e4, tau, d, cand, 1e-13, 1e-12)[4]
+    ok = fixed_cams_newton(s.comp, geo, C, -2.0e4, tau, d, cand, 1e-13, 1e-12)[4]
     assert ok.tolist() == [True, False]
 
 

@@ -335,13 +335,9 @@ def _fixed_block(solver, target, influence, blk, base, tau, F, d):
     for _ in range(3):
         g = geo if todo.size == len(blk) else _take(geo, todo)
         c = cb if todo.size == len(blk) else cb.take(todo)
-
-        def law(h, idx, c=c):
-            return _forces_of(c if idx is None else c.take(idx), h)
-
         C = influence.matrices(blk[todo], cand[todo])
         got = fixed_cams_newton(
-            law, g, C, target, tau[todo], d[todo], cand[todo], solver.rtol, BODIES_RTOL
+            c, g, C, target, tau[todo], d[todo], cand[todo], solver.rtol, BODIES_RTOL
         )
         res[5] += got[5]
         ok = got[4]

@@ -19,7 +19,9 @@ A backtracking line search on the scaled residual keeps each step a descent.
 It solves the equations :func:`~corr_cad.mechanics.bodies.coupling.coupled_solve`
 solves by its Newton on the approaches ``d`` around the drive's own solve, without
 that inner solve, and on the loaded block alone; positions it does not settle (to
-the same tolerances) are left to that solve.
+the same tolerances) are left to that solve. The loop over positions is compiled
+(numba): each position's Newton on its own loaded block, the contact laws of the drive
+kernels (:mod:`corr_cad.mechanics.drive_laws`).
 
 Only the columns of the rollers that can carry load are needed (``C F`` with ``F``
 zero elsewhere): the caller builds ``C`` for a candidate set, and a position whose
@@ -29,13 +31,18 @@ exact, so the test is).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from corr_cad.mechanics.drive_laws import _invert_one, _palmgren
+from corr_cad.mechanics.mc_kernel import _jit
 
 __all__ = ["fixed_cams_newton"]
 
 
 def fixed_cams_newton(
-    forces,
+    comp,
     geo,
     C: np.ndarray,
     target: float,
@@ -47,102 +54,204 @@ def fixed_cams_newton(
     max_iter: int = 40,
 ):
     """``(tau, F, d, rel, ok, iterations)`` of the positions of ``geo`` (P, N) from the
-    start ``tau`` (P,) with the bodies' approaches ``d`` (P, N); ``forces(h, idx)`` the
-    contact law's ``(F, dF/dh)`` at overlaps ``h`` of the positions ``idx`` (None: all);
-    ``C`` (P, N, N) made for the loads ``candidates`` (P, N). ``ok``: settled, moment
-    to ``rtol`` and bodies to ``body_rtol``, loading candidates only; ``rel`` the
-    moment's relative residual."""
-    loadable = geo.loadable
-    a_c = np.where(loadable, geo.advance, 0.0)
-    a_m = np.where(loadable, geo.arm, 0.0)
-    g = np.where(loadable, geo.gap, 0.0)
+    start ``tau`` (P,) with the bodies' approaches ``d`` (P, N); ``comp`` the positions'
+    contact law; ``C`` (P, N, N) made for the loads ``candidates`` (P, N). ``ok``:
+    settled, the moment to ``rtol`` and the bodies to ``body_rtol``, loading candidates
+    only; ``rel`` the moment's relative residual."""
+    loadable = np.ascontiguousarray(geo.loadable)
+    a_c = np.ascontiguousarray(np.where(loadable, geo.advance, 0.0))
+    a_m = np.ascontiguousarray(np.where(loadable, geo.arm, 0.0))
+    g = np.ascontiguousarray(np.where(loadable, geo.gap, 0.0))
     P, N = a_c.shape
-    y = np.where(loadable, a_c * tau[:, None] + g - d, -1e300)
-    tau = tau.copy()
+    if getattr(comp, "explicit", False):
+        law, T = 1, np.zeros((11, 1))
+        K = np.array(np.broadcast_to(comp.K, (P, N)), dtype=float, order="C")
+    else:
+        law, T = 0, _contact_table(comp, (P, N))
+        K = np.array(np.broadcast_to(comp.slope0, (P, N)), dtype=float, order="C")
+    y = np.ascontiguousarray(np.where(loadable, a_c * tau[:, None] + g - d, -1.0))
+    tau = np.array(tau, dtype=float)
+    F, cf = np.zeros((P, N)), np.zeros((P, N))
+    rel, ok, its = np.zeros(P), np.zeros(P, dtype=bool), np.zeros(1, dtype=np.int64)
+    _newton(
+        a_c, a_m, g, loadable, np.ascontiguousarray(C), np.ascontiguousarray(candidates),
+        law, T, K, float(target), float(rtol), float(body_rtol), int(max_iter),
+        tau, y, F, cf, rel, ok, its,
+    )  # fmt: skip
+    return tau, F, np.where(loadable, cf, 0.0), rel, ok, int(its[0])
 
-    def evaluate(y, tau):
-        F, k = forces(y, None)
-        cf = np.einsum("pkj,pj->pk", C, F)
-        r = np.where(loadable, y - a_c * tau[:, None] - g + cf, 0.0)
-        rm = np.sum(a_m * F, axis=1) - target
-        scale_m = abs(target) + np.sum(np.abs(a_m) * F, axis=1) + 1e-300
-        top = np.max(np.abs(cf), axis=1)
-        return F, k, cf, r, rm, scale_m, top
 
-    def merit(r, rm, scale_m, top):
-        return np.sum(r * r, axis=1) / (top * top + 1e-300) + (rm / scale_m) ** 2
+def _contact_table(comp, shape: tuple[int, int]) -> np.ndarray:
+    """The paper's law's per-roller table of :func:`~corr_cad.mechanics.drive_laws.
+    _invert_one` (11, P N): the drive kernel's ``CompiledInverse.table``."""
+    cam, gear, slot = comp.contacts
+    rows = (cam.cw, cam.k1, cam.k2, cam.uk, gear.cw, gear.w, gear.k2, gear.uk)
+    rows += (slot.cw, slot.w, slot.uk)
+    return np.ascontiguousarray(
+        np.stack([np.broadcast_to(np.asarray(x, dtype=float), shape).reshape(-1) for x in rows])
+    )
 
-    F, k, cf, r, rm, scale_m, top = evaluate(y, tau)
-    ok = np.zeros(P, dtype=bool)
-    failed = np.zeros(P, dtype=bool)
-    it = 0
-    for it in range(1, max_iter + 1):
-        body = np.max(np.abs(r), axis=1)
-        ok = (np.abs(rm) <= rtol * scale_m) & (body <= body_rtol * top) & (top > 0)
-        go = np.flatnonzero(~ok & ~failed)
-        if go.size == 0:
-            break
-        kk = np.where(loadable[go] & (k[go] > 0), k[go], 0.0)
-        active = kk > 0
-        m = int(np.max(np.sum(active, axis=1)))
-        if m == 0:
-            failed[go] = True
-            break
-        order = np.argsort(~active, axis=1, kind="stable")[:, :m]
-        on = np.take_along_axis(active, order, axis=1)
-        Ka = np.take_along_axis(kk, order, axis=1)
-        Caa = C[go[:, None, None], order[:, :, None], order[:, None, :]]
-        J = np.zeros((go.size, m + 1, m + 1))
-        J[:, :m, :m] = Caa * Ka[:, None, :]
-        J[:, :m, :m] += np.eye(m)
-        J[:, :m, m] = -np.take_along_axis(a_c[go], order, axis=1)
-        J[:, m, :m] = np.take_along_axis(a_m[go], order, axis=1) * Ka
-        # Padding (positions with fewer loaded rollers): identity rows, no coupling.
-        J[:, :m, :m] *= on[:, :, None] & on[:, None, :] | np.eye(m, dtype=bool)
-        J[:, :m, m] *= on
-        J[:, m, :m] *= on
-        rhs = np.zeros((go.size, m + 1))
-        rhs[:, :m] = -np.where(on, np.take_along_axis(r[go], order, axis=1), 0.0)
-        rhs[:, m] = -rm[go]
-        with np.errstate(all="ignore"):
-            sol = np.linalg.solve(J, rhs[:, :, None])[:, :, 0]
-        bad = ~np.all(np.isfinite(sol), axis=1)
-        sol[bad] = 0.0
-        v = np.zeros((go.size, N))
-        np.put_along_axis(v, order, np.where(on, Ka * sol[:, :m], 0.0), axis=1)
-        dtau = sol[:, m]
-        dy = np.where(
-            loadable[go],
-            -r[go] + a_c[go] * dtau[:, None] - np.einsum("pkj,pj->pk", C[go], v),
-            0.0,
+
+@_jit
+def _law(h, law, T, K, p, i, N):
+    """``(F, dF/dh)`` of roller ``i`` of position ``p`` at overlap ``h``."""
+    if not h > 0.0:
+        return 0.0, 0.0
+    if law == 1:
+        return _palmgren(h, K[p, i])
+    return _invert_one(h, h / K[p, i], T, p * N + i)
+
+
+@_jit
+def _evaluate(p, y, tau, a_c, a_m, g, on, C, law, T, K, target, F, k, cf, r):
+    """Forces, stiffnesses, ``C F`` and the residuals at ``(y, tau)``: ``(r_M, scale_M,
+    max |C F|)``, ``r`` (N,) filled."""
+    N = y.shape[0]
+    mom, scale = -target, abs(target)
+    for i in range(N):
+        F[i], k[i] = _law(y[i], law, T, K, p, i, N) if on[p, i] else (0.0, 0.0)
+        mom += a_m[p, i] * F[i]
+        scale += abs(a_m[p, i]) * F[i]
+        cf[i] = 0.0
+    for j in range(N):
+        if F[j] != 0.0:
+            for i in range(N):
+                cf[i] += C[p, i, j] * F[j]
+    top = 0.0
+    for i in range(N):
+        top = max(top, abs(cf[i]))
+        r[i] = y[i] - a_c[p, i] * tau - g[p, i] + cf[i] if on[p, i] else 0.0
+    return mom, scale + 1e-300, top
+
+
+@_jit
+def _merit(r, rm, sm, top):
+    s = 0.0
+    for i in range(r.shape[0]):
+        s += r[i] * r[i]
+    return s / (top * top + 1e-300) + (rm / sm) ** 2
+
+
+@_jit
+def _gauss(J, b, n):
+    """Solve ``J x = b`` (the leading ``n``) in place by partial pivoting; False if
+    singular."""
+    for c in range(n):
+        piv, best = c, abs(J[c, c])
+        for i in range(c + 1, n):
+            if abs(J[i, c]) > best:
+                piv, best = i, abs(J[i, c])
+        if not best > 0.0:
+            return False
+        if piv != c:
+            for j in range(n):
+                J[c, j], J[piv, j] = J[piv, j], J[c, j]
+            b[c], b[piv] = b[piv], b[c]
+        for i in range(c + 1, n):
+            f = J[i, c] / J[c, c]
+            if f != 0.0:
+                for j in range(c, n):
+                    J[i, j] -= f * J[c, j]
+                b[i] -= f * b[c]
+    for c in range(n - 1, -1, -1):
+        s = b[c]
+        for j in range(c + 1, n):
+            s -= J[c, j] * b[j]
+        b[c] = s / J[c, c]
+    return math.isfinite(b[0])
+
+
+@_jit
+def _newton(
+    a_c, a_m, g, on, C, cand, law, T, K, target, rtol, body_rtol, max_iter,
+    tau, y, F, cf, rel, ok, its,
+):  # fmt: skip
+    P, N = a_c.shape
+    k, r, dy, v = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
+    yt, Ft, kt, cft, rt = np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N)
+    act = np.empty(N, dtype=np.int64)
+    J, b = np.empty((N + 1, N + 1)), np.empty(N + 1)
+    for p in range(P):
+        t = tau[p]
+        rm, sm, top = _evaluate(
+            p, y[p], t, a_c, a_m, g, on, C, law, T, K, target, F[p], k, cf[p], r
         )
-        m0 = merit(r[go], rm[go], scale_m[go], top[go])
-        alpha = np.ones(go.size)
-        accept = np.zeros(go.size, dtype=bool)
-        yg, tg = y[go], tau[go]
-        for _ in range(12):
-            look = np.flatnonzero(~accept)
-            yt = yg[look] + alpha[look, None] * dy[look]
-            tt = tg[look] + alpha[look] * dtau[look]
-            Ft, kt = forces(yt, go[look])
-            cft = np.einsum("pkj,pj->pk", C[go[look]], Ft)
-            lt = loadable[go[look]]
-            rt = np.where(lt, yt - a_c[go[look]] * tt[:, None] - g[go[look]] + cft, 0.0)
-            rmt = np.sum(a_m[go[look]] * Ft, axis=1) - target
-            smt = abs(target) + np.sum(np.abs(a_m[go[look]]) * Ft, axis=1) + 1e-300
-            topt = np.max(np.abs(cft), axis=1)
-            good = merit(rt, rmt, smt, topt) <= (1.0 - 1e-4 * alpha[look]) * m0[look]
-            sel = go[look[good]]
-            y[sel], tau[sel] = yt[good], tt[good]
-            F[sel], k[sel], cf[sel], r[sel] = Ft[good], kt[good], cft[good], rt[good]
-            rm[sel], scale_m[sel], top[sel] = rmt[good], smt[good], topt[good]
-            accept[look[good]] = True
-            if np.all(accept):
+        for it in range(max_iter + 1):
+            body = 0.0
+            for i in range(N):
+                body = max(body, abs(r[i]))
+            # A hundred times tighter than asked where round-off allows (a caller that
+            # iterates on these forces, the crankshaft's fixed point, sees no noise).
+            if abs(rm) <= 1e-2 * rtol * sm and body <= 1e-2 * body_rtol * top and top > 0.0:
                 break
-            alpha[look[~good]] *= 0.5
-        failed[go[~accept | bad]] = True
-    body = np.max(np.abs(r), axis=1)
-    ok = (np.abs(rm) <= rtol * scale_m) & (body <= body_rtol * top) & (top > 0)
-    ok &= ~np.any((F > 0) & ~candidates, axis=1)
-    rel = np.abs(rm) / scale_m
-    return tau, F, np.where(loadable, cf, 0.0), rel, ok, it
+            if it == max_iter:
+                break
+            m = 0
+            for i in range(N):
+                if on[p, i] and k[i] > 0.0:
+                    act[m] = i
+                    m += 1
+            if m == 0:
+                break
+            # [I + C_AA K_A, -a_A; m_A K_A, 0] [dy_A; dtau] = -[r_A; r_M]
+            for x in range(m):
+                i = act[x]
+                for z in range(m):
+                    J[x, z] = C[p, i, act[z]] * k[act[z]]
+                J[x, x] += 1.0
+                J[x, m] = -a_c[p, i]
+                J[m, x] = a_m[p, i] * k[i]
+                b[x] = -r[i]
+            J[m, m] = 0.0
+            b[m] = -rm
+            if not _gauss(J, b, m + 1):
+                break
+            dt = b[m]
+            size, big = 0.0, 0.0
+            for x in range(m):
+                size = max(size, abs(b[x]))
+                big = max(big, abs(y[p, act[x]]))
+            if size <= 1e-15 * big and abs(dt) <= 1e-15 * abs(t):
+                break  # the step is round-off: as settled as it gets
+            for i in range(N):
+                v[i] = 0.0
+            for x in range(m):
+                v[act[x]] = k[act[x]] * b[x]
+            for i in range(N):
+                if on[p, i]:
+                    s = -r[i] + a_c[p, i] * dt
+                    for x in range(m):
+                        s -= C[p, i, act[x]] * v[act[x]]
+                    dy[i] = s
+                else:
+                    dy[i] = 0.0
+            m0 = _merit(r, rm, sm, top)
+            alpha, moved = 1.0, False
+            for _ in range(12):
+                for i in range(N):
+                    yt[i] = y[p, i] + alpha * dy[i] if on[p, i] else y[p, i]
+                tt = t + alpha * dt
+                rmt, smt, topt = _evaluate(
+                    p, yt, tt, a_c, a_m, g, on, C, law, T, K, target, Ft, kt, cft, rt
+                )
+                if _merit(rt, rmt, smt, topt) <= (1.0 - 1e-4 * alpha) * m0:
+                    moved = True
+                    break
+                alpha *= 0.5
+            if not moved:
+                break
+            t, rm, sm, top = tt, rmt, smt, topt
+            for i in range(N):
+                y[p, i], F[p, i], k[i], cf[p, i], r[i] = yt[i], Ft[i], kt[i], cft[i], rt[i]
+            its[0] = max(its[0], it + 1)
+        tau[p] = t
+        rel[p] = abs(rm) / sm
+        body = 0.0
+        for i in range(N):
+            body = max(body, abs(r[i]))
+        good = abs(rm) <= rtol * sm and body <= body_rtol * top and top > 0.0
+        if good:
+            for i in range(N):
+                if F[p, i] > 0.0 and not cand[p, i]:
+                    good = False
+        ok[p] = good
