@@ -61,6 +61,7 @@ from corr_cad.mechanics.drive_crank import CrankSupport, solve_with_crank
 from corr_cad.mechanics.drive_numerics import (
     _forces_of,
     _invert_convex,
+    cam_start,
     energy_step,
     expand_drive,
     free_row,
@@ -240,15 +241,9 @@ class DriveSolver:
         P = len(tau)
         dirs = [b.directions() for b in self.bearings]
         rows = (slice(0, R), slice(R, 2 * R))
-        # Start: each cam displaced along its load by the clearance and Stribeck's approach.
-        u = np.zeros((2, P, 2))
-        for c, (b, sl) in enumerate(zip(self.bearings, rows, strict=True)):
-            push = np.einsum("pk,pkx->px", F[:, sl], n[:, sl])  # sum F n: the needles' share
-            mag = np.linalg.norm(push, axis=1)
-            q = b.stribeck_max_load(1.0) * mag
-            depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
-            with np.errstate(divide="ignore", invalid="ignore"):
-                u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
+        # Start: each cam displaced along its load by the clearance and Stribeck's approach,
+        # or where the caller's last solution put it (``_u_start``: the bodies' Newton).
+        u = cam_start(self.bearings, F, n, R, getattr(self, "_u_start", None))
         # Fixed residual scales (zero moment with preload: the forces; on e too, as _scales).
         e = self.design.eccentricity
         scale_m = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F), axis=1) + 1e-300

@@ -39,6 +39,7 @@ import numpy as np
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.bodies.coupling_fixed import fixed_cams_newton
 from corr_cad.mechanics.drive_numerics import _forces_of, roller_directions
+from corr_cad.mechanics.drive_restart import replace_positions
 from corr_cad.mechanics.solver_geometry import RollerGeometry
 
 __all__ = ["BodyTables", "Influence", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
@@ -337,8 +338,9 @@ def _fixed_block(solver, target, influence, blk, base, tau, F, d):
         c = cb if todo.size == len(blk) else cb.take(todo)
         C = influence.matrices(blk[todo], cand[todo])
         got = fixed_cams_newton(
-            c, g, C, target, tau[todo], d[todo], cand[todo], solver.rtol, BODIES_RTOL
-        )
+            c, g, C, target, tau[todo], d[todo], cand[todo], solver.rtol, BODIES_RTOL,
+            tight=1e-2 if solver.crank is not None else 1.0,  # the crank iterates on F
+        )  # fmt: skip
         res[5] += got[5]
         ok = got[4]
         for i in range(4):
@@ -376,12 +378,27 @@ def coupled_solve(
     out: list = []
     d_all = np.zeros((P, N)) if start is None or start.shape != (P, N) else start.copy()
 
-    def contacts(idx, d):
+    def use(idx, d):
         sub = idx.size < P
         solver.geo_joined = replace(_take(geo0, idx) if sub else geo0, gap=geo0.gap[idx] - d)
         solver.comp = comp0.take(idx) if sub else comp0
         solver.n = n0[idx]
-        sol = solver.solve_contacts(target)
+
+    def contacts(idx, d, warm=False):
+        use(idx, d)
+        if not warm or out[3] is None:
+            sol = solver.solve_contacts(target)
+        else:  # the bearing Newton from the last step's crank rotation and cam centres
+            solver._u_start = out[2][:, idx]
+            try:
+                sol = solver._with_bearings(target, out[0][idx], out[1][idx], 0)
+            finally:
+                solver._u_start = None
+            bad = np.flatnonzero(~(sol[4] <= max(solver.rtol, 1e-9)))
+            if bad.size:  # those from the drive's own start
+                sol = list(sol)
+                replace_positions(sol, contacts(idx[bad], d[bad]), bad, np.ones(bad.size, bool))
+                use(idx, d)
         if not out:
             out.extend([np.zeros(P), np.zeros((P, N)), np.zeros((2, P, 2)), None, np.zeros(P)])
             if sol[3] is not None:
@@ -414,9 +431,9 @@ def coupled_solve(
                 at = np.arange(len(rest))  # the positions still iterating, in rest
             else:
                 at = rest
-            for _ in range(max_iter if at.size else 0):
+            for step in range(max_iter if at.size else 0):
                 idx = blk[rest[at]]
-                tau, F, u, Qs, rel, it = contacts(idx, d[rest[at]])
+                tau, F, u, Qs, rel, it = contacts(idx, d[rest[at]], warm=step > 0)
                 its += it
                 Ci = C[at]
                 cf = (Ci @ F[:, :, None])[:, :, 0]

@@ -52,12 +52,14 @@ def fixed_cams_newton(
     rtol: float,
     body_rtol: float,
     max_iter: int = 40,
+    tight: float = 1.0,
 ):
     """``(tau, F, d, rel, ok, iterations)`` of the positions of ``geo`` (P, N) from the
     start ``tau`` (P,) with the bodies' approaches ``d`` (P, N); ``comp`` the positions'
     contact law; ``C`` (P, N, N) made for the loads ``candidates`` (P, N). ``ok``:
     settled, the moment to ``rtol`` and the bodies to ``body_rtol``, loading candidates
-    only; ``rel`` the moment's relative residual."""
+    only; ``rel`` the moment's relative residual. ``tight``: iterate on to ``tight`` times
+    those tolerances where round-off allows."""
     loadable = np.ascontiguousarray(geo.loadable)
     a_c = np.ascontiguousarray(np.where(loadable, geo.advance, 0.0))
     a_m = np.ascontiguousarray(np.where(loadable, geo.arm, 0.0))
@@ -75,7 +77,7 @@ def fixed_cams_newton(
     rel, ok, its = np.zeros(P), np.zeros(P, dtype=bool), np.zeros(1, dtype=np.int64)
     _newton(
         a_c, a_m, g, loadable, np.ascontiguousarray(C), np.ascontiguousarray(candidates),
-        law, T, K, float(target), float(rtol), float(body_rtol), int(max_iter),
+        law, T, K, float(target), float(rtol), float(body_rtol), int(max_iter), float(tight),
         tau, y, F, cf, rel, ok, its,
     )  # fmt: skip
     return tau, F, np.where(loadable, cf, 0.0), rel, ok, int(its[0])
@@ -163,7 +165,7 @@ def _gauss(J, b, n):
 
 @_jit
 def _newton(
-    a_c, a_m, g, on, C, cand, law, T, K, target, rtol, body_rtol, max_iter,
+    a_c, a_m, g, on, C, cand, law, T, K, target, rtol, body_rtol, max_iter, tight,
     tau, y, F, cf, rel, ok, its,
 ):  # fmt: skip
     P, N = a_c.shape
@@ -180,9 +182,9 @@ def _newton(
             body = 0.0
             for i in range(N):
                 body = max(body, abs(r[i]))
-            # A hundred times tighter than asked where round-off allows (a caller that
-            # iterates on these forces, the crankshaft's fixed point, sees no noise).
-            if abs(rm) <= 1e-2 * rtol * sm and body <= 1e-2 * body_rtol * top and top > 0.0:
+            # Tighter than asked where round-off allows (a caller that iterates on these
+            # forces, the crankshaft's fixed point, then sees no noise).
+            if abs(rm) <= tight * rtol * sm and body <= tight * body_rtol * top and top > 0.0:
                 break
             if it == max_iter:
                 break
