@@ -37,7 +37,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from corr_cad.geometry.design import GearDesign
-from corr_cad.mechanics.bodies.coupling_fixed import fixed_cams_newton
+from corr_cad.mechanics.bodies.coupling_newton import overlap_newton
 from corr_cad.mechanics.drive_numerics import _forces_of, roller_directions
 from corr_cad.mechanics.drive_restart import replace_positions
 from corr_cad.mechanics.solver_geometry import RollerGeometry
@@ -313,39 +313,55 @@ class Influence:
         return C if np.ndim(idx) else C[0]
 
 
-def _fixed_block(solver, target, influence, blk, base, tau, F, d):
-    """:func:`~corr_cad.mechanics.bodies.coupling_fixed.fixed_cams_newton` on the positions
-    ``blk`` from the drive's solution ``tau``, ``F`` at the approaches ``d``: ``(tau, F, d,
-    rel, ok, iterations)``. Where the influence matrices are not kept whole, only the
-    columns of the rollers that may carry load are made: those in contact or within a
-    quarter of the deepest overlap of it (the bodies close the gaps next to the loaded
-    rollers: a ring ovalises); a position that loads another is solved again with its
-    columns added (twice at most)."""
-    geo0, comp0 = base
+def _newton_block(solver, target, influence, blk, base, start, d):
+    """:func:`~corr_cad.mechanics.bodies.coupling_newton.overlap_newton` on the positions
+    ``blk`` from the drive's solution ``start = (tau, F, u)`` at the approaches ``d``:
+    ``(tau, F, d, rel, ok, iterations, u, Q)``. Where the influence matrices are not kept
+    whole, only the columns of the rollers that may carry load are made: those in contact
+    or within a quarter of the deepest overlap of it (the bodies close the gaps next to
+    the loaded rollers: a ring ovalises); a position that loads another is solved again
+    with its columns added (twice at most)."""
+    geo0, comp0, n0 = base
+    tau, F, u = start
     P, N = geo0.gap.shape
     whole = blk.size == P
     geo, cb = (geo0, comp0) if whole else (_take(geo0, blk), comp0.take(blk))
+    n = n0[blk]
+    floating = solver.bearings[0] is not None
     if influence._all is not None:
         cand = np.ones((len(blk), N), dtype=bool)
     else:
-        h = np.where(geo.loadable, geo.advance * tau[:, None] + geo.gap - d, -np.inf)
+        nu = np.concatenate(
+            [np.einsum("pkx,px->pk", n[:, sl], u[c]) for c, sl in enumerate(_ROWS(N))], axis=1
+        )
+        h = geo.advance * tau[:, None] + geo.gap + nu - d
+        h = np.where(geo.loadable, h, -np.inf)
         deep = np.abs(np.max(h, axis=1, keepdims=True))
         cand = geo.loadable & ((h > -0.25 * deep) | (F > 0))
     res = [tau.copy(), F.copy(), d.copy(), np.zeros(len(blk)), np.zeros(len(blk), bool), 0]
+    res += [u.copy(), None]
+    if floating:
+        res[7] = [np.zeros((len(blk), b.needles)) for b in solver.bearings]
     todo = np.arange(len(blk))
     for _ in range(3):
         g = geo if todo.size == len(blk) else _take(geo, todo)
         c = cb if todo.size == len(blk) else cb.take(todo)
         C = influence.matrices(blk[todo], cand[todo])
-        got = fixed_cams_newton(
+        cams = (n[todo], u[:, todo], solver.bearings) if floating else None
+        got = overlap_newton(
             c, g, C, target, tau[todo], d[todo], cand[todo], solver.rtol, BODIES_RTOL,
             tight=1e-2 if solver.crank is not None else 1.0,  # the crank iterates on F
+            cams=cams,
         )  # fmt: skip
         res[5] += got[5]
         ok = got[4]
         for i in range(4):
             res[i][todo[ok]] = got[i][ok]
         res[4][todo[ok]] = True
+        if floating:
+            res[6][:, todo[ok]] = got[6][:, ok]
+            for q, gq in zip(res[7], got[7], strict=True):
+                q[todo[ok]] = gq[ok]
         miss = ~ok & np.any((got[1] > 0) & ~cand[todo], axis=1)
         if influence._all is not None or not np.any(miss):
             break
@@ -354,22 +370,33 @@ def _fixed_block(solver, target, influence, blk, base, tau, F, d):
     return tuple(res)
 
 
+def _ROWS(N: int) -> tuple[slice, slice]:
+    return slice(0, N // 2), slice(N // 2, N)
+
+
+def _one_needle_count(solver) -> bool:
+    """The cams fixed, or both on needle bearings of one needle count (the compiled
+    Newton's)."""
+    a, b = solver.bearings
+    return a is None or a.needles == b.needles
+
+
 def coupled_solve(
     solver,
     target: float,
     influence: Influence,
     max_iter: int = 50,
     start: np.ndarray | None = None,
-    fixed_newton: bool = True,
+    direct: bool = True,
 ):
     """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies'
     ``influence`` (module docstring); ``rel`` includes the body residual. A block of
     positions at a time; each Newton step solves again only the positions not yet
     converged. ``start``: the bodies' approaches ``d`` (P, N) the Newton starts from
     (zero: the rigid bodies' drive); the converged ``d`` is left in ``influence.last_d``.
-    With the cams fixed (``fixed_newton``) the positions are first solved by one Newton
-    on the overlaps (:mod:`~corr_cad.mechanics.bodies.coupling_fixed`); those it does not
-    settle, by the Newton on ``d``."""
+    ``direct``: the positions are first solved by one Newton on the overlaps
+    (:mod:`~corr_cad.mechanics.bodies.coupling_newton`); those it does not settle, by the
+    Newton on ``d``."""
     geo0, comp0, n0 = solver.geo_joined, solver.comp, solver.n
     P, N = geo0.gap.shape
     eye = np.eye(N)
@@ -415,14 +442,19 @@ def coupled_solve(
             blk = np.arange(first, min(P, first + influence.block))
             d = d_all[blk]
             rest = np.arange(len(blk))  # the block's positions left to the Newton on d
-            if fixed_newton and solver.bearings[0] is None:
-                tau, F, _, _, _, it = contacts(blk, d)
+            if direct and _one_needle_count(solver):
+                tau, F, u, _, _, it = contacts(blk, d)
                 its += it
-                got = _fixed_block(solver, target, influence, blk, (geo0, comp0), tau, F, d)
+                base = (geo0, comp0, n0)
+                got = _newton_block(solver, target, influence, blk, base, (tau, F, u), d)
                 ok = got[4]
                 its += got[5]
                 done = blk[ok]
                 out[0][done], out[1][done], out[4][done] = got[0][ok], got[1][ok], got[3][ok]
+                if got[7] is not None:
+                    out[2][:, done] = got[6][:, ok]
+                    for c in (0, 1):
+                        out[3][c][done] = got[7][c][ok]
                 body_rel[done] = 0.0
                 d[ok] = got[2][ok]
                 rest = np.flatnonzero(~ok)
