@@ -65,6 +65,7 @@ __all__ = ["CrankSupport", "solve_with_crank", "budget_terms", "CRANK_RTOL"]
 #: Relative change of the eccentric centres' deflection and twist at the fixed point.
 CRANK_RTOL = 1e-12
 _MAX_ITER = 80
+_FLOOR_MM = 1e-15
 _DEPTH = 3
 
 
@@ -85,11 +86,14 @@ class CrankSupport:
     def supports(self) -> tuple[SupportBearing | None, SupportBearing | None]:
         return self.bearing, self.bearing_2 if self.bearing_2 is not None else self.bearing
 
-    def response(self, loads: np.ndarray, moments: np.ndarray) -> dict:
+    def response(self, loads: np.ndarray, moments: np.ndarray, floor=None) -> dict:
         """The shaft's answer to the eccentric loads ``P`` (P, 2, 2) N (eccentric A's frame)
         and the rows' moments ``M`` (P, 2) N*mm: deflections ``w`` (P, 2, 2) mm (beam
         ``w_beam`` and supports ``w_supports``), twists ``theta`` (P, 2) rad, reactions ``R``
-        and support displacements ``d`` (P, 2, 2)."""
+        and support displacements ``d`` (P, 2, 2). ``floor`` (P,) N: a reaction at most
+        this large is round-off of a zero one, and its support stays centred in its
+        clearance (the first newton of load takes the clearance up: a reaction of
+        round-off must not)."""
         P = np.asarray(loads, dtype=float)
         cb, cs = self.shaft.beam_influence_parts()
         w_bend = np.einsum("ij,pjx->pix", cb, P)
@@ -103,8 +107,9 @@ class CrankSupport:
                 continue
             mag = np.linalg.norm(R[:, i], axis=1)
             dr = b.displacement(mag)
+            live = mag > (0.0 if floor is None else floor)
             with np.errstate(divide="ignore", invalid="ignore"):
-                d[:, i] = np.where(mag[:, None] > 0, R[:, i] * (dr / mag)[:, None], 0.0)
+                d[:, i] = np.where(live[:, None], R[:, i] * (dr / mag)[:, None], 0.0)
         w_sup = np.einsum("ci,pix->pcx", self.shaft.support_lever(), d)
         theta = np.asarray(moments, dtype=float) @ self.shaft.torsion_matrix().T
         return {
@@ -191,7 +196,9 @@ class _State:
 
 def _map(crank: CrankSupport, st: _State, F: np.ndarray):
     P, M = st.loads_and_moments(F)
-    resp = crank.response(P, M)
+    # A reaction below 1e-9 of the rollers' forces is the round-off of a zero one (rows
+    # that preload their cams at zero moment): its support stays centred.
+    resp = crank.response(P, M, 1e-9 * np.sum(np.abs(F), axis=1))
     th = resp["theta"]
     g = np.concatenate([resp["w"].reshape(-1, 4), (th[:, 0] - th[:, 1])[:, None]], axis=1)
     return g, resp
@@ -264,7 +271,9 @@ def solve_with_crank(solver, target: float, inner) -> tuple:
             g, _ = _map(crank, st, sol[1])
             r = (g - x) * scale
             size = np.max(np.abs(g * scale), axis=1)
-            if np.all(np.max(np.abs(r), axis=1) <= CRANK_RTOL * size + 1e-300):
+            # 1e-15 mm: a deflection of round-off (rows preloading their cams at zero
+            # moment load the shaft with round-off only) has settled.
+            if np.all(np.max(np.abs(r), axis=1) <= CRANK_RTOL * size + _FLOOR_MM):
                 break
             xs.append(x * scale)
             gs.append(g * scale)
