@@ -332,7 +332,7 @@ def _newton_block(solver, target, influence, blk, base, start, d):
         cand = np.ones((len(blk), N), dtype=bool)
     else:
         nu = np.concatenate(
-            [np.einsum("pkx,px->pk", n[:, sl], u[c]) for c, sl in enumerate(_ROWS(N))], axis=1
+            [np.einsum("pkx,px->pk", n[:, sl], u[c]) for c, sl in enumerate(_row_slices(N))], axis=1
         )
         h = geo.advance * tau[:, None] + geo.gap + nu - d
         h = np.where(geo.loadable, h, -np.inf)
@@ -370,7 +370,7 @@ def _newton_block(solver, target, influence, blk, base, start, d):
     return tuple(res)
 
 
-def _ROWS(N: int) -> tuple[slice, slice]:
+def _row_slices(N: int) -> tuple[slice, slice]:
     return slice(0, N // 2), slice(N // 2, N)
 
 
