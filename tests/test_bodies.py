@@ -10,11 +10,13 @@ import pytest
 from scipy.optimize import root
 
 from corr_cad import GearDesign
+from corr_cad.geometry.deviations import ManufacturingErrors
 from corr_cad.geometry.parts import part_outlines
 from corr_cad.geometry.profile import working_profile
 from corr_cad.mechanics.bodies.mesh import mesh_region, min_angle_deg
 from corr_cad.mechanics.bodies.plane import PlaneBody
 from corr_cad.mechanics.bodies.reduction import MeshSpec, reduce_bodies
+from corr_cad.mechanics.crank.bearing import EccentricBearing
 from corr_cad.mechanics.drive.coupling import BodyTables
 from corr_cad.mechanics.drive.drive import DriveSolver
 
@@ -440,8 +442,76 @@ def test_the_coupled_newton_converges_quadratically(small_tables, law):
 
     ang = np.radians(np.arange(0.0, 40.0, 4.0))
     solver = DriveSolver(SMALL, ang, contact_model=law, bodies=small_tables)
-    rel = coupled_solve(solver, -2.0e4, solver.bodies, max_iter=5)[4]
+    rel = coupled_solve(solver, -2.0e4, solver.bodies, max_iter=5, direct=False)[4]
     assert np.max(rel) <= 1e-12
+
+
+NEEDLES = EccentricBearing(24, 3.0, 8.0, 0.004)
+ERRORS = ManufacturingErrors(
+    roller_radius_errors=tuple(0.002 * np.sin(np.arange(10) * 1.7)),
+    slot_angle_errors=tuple(1e-4 * np.cos(np.arange(10) * 2.3)),
+    cam_phase_error=2e-4,
+)
+
+
+@pytest.mark.parametrize("bearing", [None, NEEDLES], ids=["cams fixed", "needles"])
+@pytest.mark.parametrize("blocks", [False, True], ids=["one block", "blocks of 4"])
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+def test_the_overlap_newton_equals_the_newton_on_d(small_tables, law, blocks, bearing, monkeypatch):
+    """One Newton on the overlaps, the crank rotation and the cams' centres
+    (coupling_newton) settles every position under a moment (the Newton on the body
+    approaches takes no step) and gives that Newton's answer to 1e-9 (nominal parts and
+    errors; the rated moment, 3 % of it, reversed, zero; cams fixed and on needles with
+    clearance); in blocks it builds only the columns of the rollers that may carry load,
+    and again with the columns a solution loads outside them."""
+    from corr_cad.mechanics.drive import coupling
+
+    if blocks:
+        monkeypatch.setattr(coupling, "BLOCK_ENTRIES", 4 * (2 * SMALL.roller_count) ** 2)
+    steps = []  # the Newton on d's steps (its drive response), each recorded
+    response = coupling._response
+
+    def recorded(*a, **k):
+        steps.append(1)
+        return response(*a, **k)
+
+    ang = np.radians(np.arange(0.0, 360.0, 13.7))
+    for errors in (None, ERRORS):
+        s = DriveSolver(
+            SMALL, ang, contact_model=law, bodies=small_tables, errors=errors, bearing=bearing
+        )
+        for target in (-2.0e4, -6.0e2, 2.0e4, 0.0):
+            if target:  # at zero moment a cam in its clearance may go to the Newton on d
+                monkeypatch.setattr(coupling, "_response", recorded)
+            fast = coupling.coupled_solve(s, target, s.bodies)
+            monkeypatch.setattr(coupling, "_response", response)
+            slow = coupling.coupled_solve(s, target, s.bodies, direct=False)
+            assert np.max(fast[4]) <= 1e-9 and np.max(slow[4]) <= 1e-9
+            top = np.max(slow[1]) if target else 1.0
+            assert np.max(np.abs(fast[1] - slow[1])) <= 1e-9 * top
+            if target:
+                np.testing.assert_allclose(fast[0], slow[0], rtol=1e-9)
+                np.testing.assert_allclose(fast[2], slow[2], rtol=0, atol=1e-9 * 0.004)
+    assert not steps  # every position settled by the Newton on the overlaps
+
+
+def test_a_load_outside_the_candidates_is_left_to_the_newton_on_d(small_tables):
+    """A position whose solution loads a roller whose column was not built is not
+    accepted (coupling_newton's test is exact: those rows are)."""
+    from corr_cad.mechanics.drive.coupling import influence_matrices
+    from corr_cad.mechanics.drive.coupling_newton import overlap_newton
+
+    ang = np.radians([0.0, 9.0])
+    s = DriveSolver(SMALL, ang, contact_model="palmgren")
+    tau, F, *_ = s.solve_contacts(-2.0e4)
+    geo = s.geo_joined
+    cand = geo.loadable.copy()
+    cand[1, np.argmax(F[1])] = False  # position 1 misses its most loaded roller
+    C = influence_matrices(small_tables, SMALL, ang, s.geo, columns=cand)
+
+    d = np.zeros_like(F)
+    ok = overlap_newton(s.comp, geo, C, -2.0e4, tau, d, cand, 1e-13, 1e-12)[4]
+    assert ok.tolist() == [True, False]
 
 
 def test_positions_coupled_a_block_at_a_time_give_the_same_drive(small_tables, monkeypatch):

@@ -161,25 +161,16 @@ def test_cli_refusal_exit_2_and_one_line(tmp_path):
     assert not out.exists()
 
 
-@pytest.mark.parametrize("section", ["[crankshaft]\nshaft_diameter = 50.0\n", "[bearings.crank]\n"])
-def test_elastic_bodies_with_the_crank_refused_at_load_in_one_line(tmp_path, section):
-    """[solver] bodies = "elastic" with a crank section: refused when the scene loads (exit
-    2, one line naming both keys and a value that works), not by the solver mid-run."""
-    text = DRIVE.replace("positions = 52", 'positions = 52\nbodies = "elastic"') + section
-    r, out = run(tmp_path, text)
-    assert r.returncode == 2, r.stderr[-2000:]
-    lines = [x for x in r.stderr.splitlines() if x.strip()]
-    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
-    name = section.split("]")[0] + "]"
-    assert '[solver] bodies = "elastic"' in lines[0] and name in lines[0]
-    assert 'bodies = "rigid"' in lines[0]
-    assert not out.exists()
-    # the value it names works: the same sections with bodies = "rigid" load
-    crank = {"crankshaft": {"shaft_diameter": 50.0}} if "shaft" in section else {}
-    rigid = _drive(solver={"bodies": "rigid"}, **crank)
-    if not crank:
-        rigid["bearings"] = {"crank": {}}
-    assert parse_scene(rigid).crank is not None
+@pytest.mark.parametrize("section", ["crankshaft", "bearings.crank"])
+def test_elastic_bodies_with_the_crank_load_together(section):
+    """[solver] bodies = "elastic" beside a crank section: the scene loads with both (the
+    drive couples them: tests/test_crank_bodies.py)."""
+    extra = {"crankshaft": {"shaft_diameter": 50.0}} if section == "crankshaft" else {}
+    data = _drive(solver={"bodies": "elastic"}, **extra)
+    if not extra:
+        data["bearings"] = {"crank": {}}
+    s = parse_scene(data)
+    assert s.crank is not None and s.solver.bodies == "elastic"
 
 
 def _hashes(out: Path) -> dict:

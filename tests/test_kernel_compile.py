@@ -19,6 +19,8 @@ KERNELS = (
     "drive_laws",
     "drive_kernel",
     "drive_centre",
+    "coupling_kernel",
+    "coupling_newton",
 )
 
 

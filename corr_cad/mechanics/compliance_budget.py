@@ -14,8 +14,9 @@ difference of the two: it adds up too.
 Components (windup in arcmin, mean over the datasheet's positions, and the share of the
 total): the three contacts of each roller (cam, ring, slot), the cams' needle bearings,
 the crankshaft's bending, shear and torsion, its support bearings, the initial gaps of
-the errors (minus the forces' work on them: 0 for nominal parts), the ring body and the
-frame (rigid unless the bodies are elastic: 0, and said so), the first stage (its
+the errors (minus the forces' work on them: 0 for nominal parts), the ring body, the
+frame and the cams (``F . C_body F`` of each body's influence matrix where the bodies
+are elastic; else rigid: 0, and said so), the first stage (its
 compliance is not modelled) and the ``[datasheet] series_rigidity_Nm_per_arcmin``
 (``T / k`` where given).
 """
@@ -30,6 +31,8 @@ from corr_cad.mechanics.row.windup import ARCMIN_PER_RAD, NMM_PER_NM, series_rig
 __all__ = [
     "MODEL_COMPONENTS",
     "ABSENT_COMPONENTS",
+    "BODY_COMPONENTS",
+    "components_of",
     "compliance_budget",
     "support_loads",
     "with_life_hours",
@@ -62,12 +65,29 @@ DEFINITION = (
 )
 
 
+#: The elastic bodies' components (``[solver] bodies = "elastic"``), after the model's.
+BODY_COMPONENTS = ("ring_body", "frame", "cam_body")
+
+
+def components_of(windup) -> tuple[tuple[str, ...], dict[str, str]]:
+    """The components a drive windup's solve holds, and those it does not (with the
+    reason): the elastic bodies' in the solve where ``windup`` was given them."""
+    tables = windup._options.get("bodies")
+    if tables is None:
+        return MODEL_COMPONENTS, ABSENT_COMPONENTS
+    bodies = BODY_COMPONENTS if tables.cam is not None else BODY_COMPONENTS[:2]
+    absent = {k: v for k, v in ABSENT_COMPONENTS.items() if k not in bodies}
+    if tables.cam is None:
+        absent = {"cam_body": "rigid (no cam table)", **absent}
+    return (*MODEL_COMPONENTS, *bodies), absent
+
+
 def _terms(windup, T: float) -> dict[str, np.ndarray]:
     """Each component's windup (P,) rad at output torque ``T`` (N*mm), and ``"total"``."""
     theta, _, pieces = windup._solve(T)
     target = windup.cam_moment(T)
     P = len(theta)
-    out = {k: np.zeros(P) for k in MODEL_COMPONENTS}
+    out = {k: np.zeros(P) for k in components_of(windup)[0]}
     for sl, solver, sol in pieces:
         for k, v in budget_terms(solver, target, sol).items():
             out[k][sl] = v / T
@@ -97,19 +117,18 @@ def compliance_budget(
     T = float(rated_torque)
     k = series_rigidity_Nmm_per_rad(series_rigidity_Nm_per_arcmin)
     t1, t2 = (r * T for r in rigidity_range)
+    model, absent = components_of(windup)
     at = {}
     for name, t in (("rated", T), ("low", t1), ("high", t2)):
         if t == 0.0:
-            at[name] = {
-                kk: np.zeros(len(windup.output_angles)) for kk in (*MODEL_COMPONENTS, "total")
-            }
+            at[name] = {kk: np.zeros(len(windup.output_angles)) for kk in (*model, "total")}
         else:
             at[name] = _terms(windup, t)
     total = float(np.mean(at["rated"]["total"])) + T / k
     parts = {}
     branch_total = float(np.mean(at["high"]["total"] - at["low"]["total"])) + (t2 - t1) / k
-    residual = np.abs(sum(at["rated"][c] for c in MODEL_COMPONENTS) - at["rated"]["total"])
-    for c in MODEL_COMPONENTS:
+    residual = np.abs(sum(at["rated"][c] for c in model) - at["rated"]["total"])
+    for c in model:
         v = float(np.mean(at["rated"][c]))
         b = float(np.mean(at["high"][c] - at["low"][c]))
         parts[c] = {
@@ -128,7 +147,7 @@ def compliance_budget(
             "in_model": True,
             "note": "[datasheet] series_rigidity_Nm_per_arcmin, T / k",
         }
-    for c, why in ABSENT_COMPONENTS.items():
+    for c, why in absent.items():
         parts[c] = {
             "windup_arcmin": 0.0,
             "share": 0.0,

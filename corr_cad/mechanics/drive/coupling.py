@@ -37,7 +37,9 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from corr_cad.geometry.design import GearDesign
+from corr_cad.mechanics.drive.coupling_newton import overlap_newton
 from corr_cad.mechanics.drive.drive_numerics import _forces_of, roller_directions
+from corr_cad.mechanics.drive.drive_restart import replace_positions
 from corr_cad.mechanics.row.solver_geometry import RollerGeometry
 
 __all__ = ["BodyTables", "Influence", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
@@ -122,11 +124,13 @@ def influence_matrices(
     crank_angles: np.ndarray,
     geometry: tuple[RollerGeometry, RollerGeometry],
     compiled: bool = True,
+    columns: np.ndarray | None = None,
 ) -> np.ndarray:
     """``C`` (P, 2R, 2R), mm/N: roller ``k``'s body approach per newton of roller ``j``'s
     cam force (row A's rollers first), at crank angles (P,). ``compiled``: by the
     compiled loop (:mod:`~corr_cad.mechanics.drive.coupling_kernel`), else by numpy
-    (the same interpolation; the tests hold them equal)."""
+    (the same interpolation; the tests hold them equal). ``columns`` (P, 2R) bool, compiled
+    only: the loads whose columns are made, the others left 0 (None: all)."""
     z, R = design.tooth_count, design.roller_count
     phi = np.asarray(crank_angles, dtype=float).reshape(-1)
     theta = np.arange(R) * design.slot_pitch_rad
@@ -163,6 +167,7 @@ def influence_matrices(
             cam,
             xc,
             on,
+            np.ones(x.shape, dtype=bool) if columns is None else np.asarray(columns, dtype=bool),
             C,
         )
         return C
@@ -282,13 +287,42 @@ class Influence:
             out._all = np.tile(out._make(np.arange(P)), (n, 1, 1))
         return out
 
-    def _make(self, idx: np.ndarray) -> np.ndarray:
+    def _make(self, idx: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
         geo = tuple(_take(g, idx) for g in self.geometry)
-        return influence_matrices(self.tables, self.design, self.angles[idx], geo)
+        return influence_matrices(self.tables, self.design, self.angles[idx], geo, columns=columns)
 
-    def matrices(self, idx: np.ndarray) -> np.ndarray:
-        """``C`` (len(idx), N, N) of the positions ``idx``."""
-        return self._all[idx] if self._all is not None else self._make(idx)
+    def matrices(self, idx: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
+        """``C`` (len(idx), N, N) of the positions ``idx`` (``columns`` (len(idx), N):
+        only those loads' columns, the others 0, where not made once for all)."""
+        if self._all is not None:
+            return self._all[idx]
+        return self._make(idx, columns)
+
+    def part_tables(self) -> dict[str, BodyTables]:
+        """Each body's tables alone (the others' zero): ``ring_body``, ``frame`` and, where
+        the cams are elastic, ``cam_body``. ``C`` is linear in the tables, so the parts'
+        matrices add up to ``C``."""
+        t = self.tables
+        ring0, frame0 = np.zeros_like(t.ring), np.zeros_like(t.frame)
+        out = {
+            "ring_body": replace(t, frame=frame0, cam=None),
+            "frame": replace(t, ring=ring0, cam=None),
+        }
+        if t.cam is not None:
+            out["cam_body"] = replace(t, ring=ring0, frame=frame0)
+        return out
+
+    def work(self, F: np.ndarray) -> dict[str, np.ndarray]:
+        """Each body's work ``F . C_body F`` (P,) N*mm of the roller forces ``F`` (P, N)."""
+        parts = self.part_tables()
+        out = {name: np.zeros(len(F)) for name in parts}
+        for first in range(0, len(self.angles), self.block):
+            idx = np.arange(first, min(len(self.angles), first + self.block))
+            geo = tuple(_take(g, idx) for g in self.geometry)
+            for name, t in parts.items():
+                C = influence_matrices(t, self.design, self.angles[idx], geo)
+                out[name][idx] = np.einsum("pk,pkj,pj->p", F[idx], C, F[idx])
+        return out
 
     def __getitem__(self, p):
         idx = np.arange(len(self.angles))[p]
@@ -296,44 +330,163 @@ class Influence:
         return C if np.ndim(idx) else C[0]
 
 
-def coupled_solve(solver, target: float, influence: Influence, max_iter: int = 50):
+def _newton_block(solver, target, influence, blk, base, start, d):
+    """:func:`~corr_cad.mechanics.drive.coupling_newton.overlap_newton` on the positions
+    ``blk`` from the drive's solution ``start = (tau, F, u)`` at the approaches ``d``:
+    ``(tau, F, d, rel, ok, iterations, u, Q)``. Where the influence matrices are not kept
+    whole, only the columns of the rollers that may carry load are made: those in contact
+    or within a quarter of the deepest overlap of it (the bodies close the gaps next to
+    the loaded rollers: a ring ovalises); a position that loads another is solved again
+    with its columns added (twice at most)."""
+    geo0, comp0, n0 = base
+    tau, F, u = start
+    P, N = geo0.gap.shape
+    whole = blk.size == P
+    geo, cb = (geo0, comp0) if whole else (_take(geo0, blk), comp0.take(blk))
+    n = n0[blk]
+    floating = solver.bearings[0] is not None
+    if influence._all is not None:
+        cand = np.ones((len(blk), N), dtype=bool)
+    else:
+        nu = np.concatenate(
+            [np.einsum("pkx,px->pk", n[:, sl], u[c]) for c, sl in enumerate(_row_slices(N))], axis=1
+        )
+        h = geo.advance * tau[:, None] + geo.gap + nu - d
+        h = np.where(geo.loadable, h, -np.inf)
+        deep = np.abs(np.max(h, axis=1, keepdims=True))
+        cand = geo.loadable & ((h > -0.25 * deep) | (F > 0))
+    res = [tau.copy(), F.copy(), d.copy(), np.zeros(len(blk)), np.zeros(len(blk), bool), 0]
+    res += [u.copy(), None]
+    if floating:
+        res[7] = [np.zeros((len(blk), b.needles)) for b in solver.bearings]
+    todo = np.arange(len(blk))
+    for _ in range(3):
+        g = geo if todo.size == len(blk) else _take(geo, todo)
+        c = cb if todo.size == len(blk) else cb.take(todo)
+        C = influence.matrices(blk[todo], cand[todo])
+        cams = (n[todo], u[:, todo], solver.bearings) if floating else None
+        got = overlap_newton(
+            c, g, C, target, tau[todo], d[todo], cand[todo], solver.rtol, BODIES_RTOL,
+            tight=1e-2 if solver.crank is not None else 1.0,  # the crank iterates on F
+            cams=cams,
+        )  # fmt: skip
+        res[5] += got[5]
+        ok = got[4]
+        for i in range(4):
+            res[i][todo[ok]] = got[i][ok]
+        res[4][todo[ok]] = True
+        if floating:
+            res[6][:, todo[ok]] = got[6][:, ok]
+            for q, gq in zip(res[7], got[7], strict=True):
+                q[todo[ok]] = gq[ok]
+        miss = ~ok & np.any((got[1] > 0) & ~cand[todo], axis=1)
+        if influence._all is not None or not np.any(miss):
+            break
+        todo = todo[miss]
+        cand[todo] |= got[1][miss] > 0
+    return tuple(res)
+
+
+def _row_slices(N: int) -> tuple[slice, slice]:
+    return slice(0, N // 2), slice(N // 2, N)
+
+
+def _one_needle_count(solver) -> bool:
+    """The cams fixed, or both on needle bearings of one needle count (the compiled
+    Newton's)."""
+    a, b = solver.bearings
+    return a is None or a.needles == b.needles
+
+
+def coupled_solve(
+    solver,
+    target: float,
+    influence: Influence,
+    max_iter: int = 50,
+    start: np.ndarray | None = None,
+    direct: bool = True,
+):
     """The drive's solution ``(tau, F, u, Q, rel, iterations)`` with the bodies'
     ``influence`` (module docstring); ``rel`` includes the body residual. A block of
     positions at a time; each Newton step solves again only the positions not yet
-    converged."""
+    converged. ``start``: the bodies' approaches ``d`` (P, N) the Newton starts from
+    (zero: the rigid bodies' drive); the converged ``d`` is left in ``influence.last_d``.
+    ``direct``: the positions are first solved by one Newton on the overlaps
+    (:mod:`~corr_cad.mechanics.drive.coupling_newton`); those it does not settle, by the
+    Newton on ``d``."""
     geo0, comp0, n0 = solver.geo_joined, solver.comp, solver.n
     P, N = geo0.gap.shape
     eye = np.eye(N)
     its = 0
     body_rel = np.zeros(P)
     out: list = []
+    d_all = np.zeros((P, N)) if start is None or start.shape != (P, N) else start.copy()
+
+    def use(idx, d):
+        sub = idx.size < P
+        solver.geo_joined = replace(_take(geo0, idx) if sub else geo0, gap=geo0.gap[idx] - d)
+        solver.comp = comp0.take(idx) if sub else comp0
+        solver.n = n0[idx]
+
+    def contacts(idx, d, warm=False):
+        use(idx, d)
+        if not warm or out[3] is None:
+            sol = solver.solve_contacts(target)
+        else:  # the bearing Newton from the last step's crank rotation and cam centres
+            solver._u_start = out[2][:, idx]
+            try:
+                sol = solver._with_bearings(target, out[0][idx], out[1][idx], 0)
+            finally:
+                solver._u_start = None
+            bad = np.flatnonzero(~(sol[4] <= max(solver.rtol, 1e-9)))
+            if bad.size:  # those from the drive's own start
+                sol = list(sol)
+                replace_positions(sol, contacts(idx[bad], d[bad]), bad, np.ones(bad.size, bool))
+                use(idx, d)
+        if not out:
+            out.extend([np.zeros(P), np.zeros((P, N)), np.zeros((2, P, 2)), None, np.zeros(P)])
+            if sol[3] is not None:
+                out[3] = [np.zeros((P, q.shape[1])) for q in sol[3]]
+        tau, F, u, Qs, rel, _ = sol
+        out[0][idx], out[1][idx], out[2][:, idx], out[4][idx] = tau, F, u, rel
+        if Qs is not None:
+            for c in (0, 1):
+                out[3][c][idx] = Qs[c]
+        return sol
+
     try:
-        for start in range(0, P, influence.block):
-            blk = np.arange(start, min(P, start + influence.block))
-            C = influence.matrices(blk)
-            d = np.zeros((len(blk), N))
-            at = np.arange(len(blk))  # the block's positions still iterating
-            for _ in range(max_iter):
-                idx = blk[at]
-                sub = idx.size < P
-                solver.geo_joined = replace(
-                    _take(geo0, idx) if sub else geo0, gap=geo0.gap[idx] - d[at]
-                )
-                solver.comp = comp0.take(idx) if sub else comp0
-                solver.n = n0[idx]
-                tau, F, u, Qs, rel, it = solver.solve_contacts(target)
+        for first in range(0, P, influence.block):
+            blk = np.arange(first, min(P, first + influence.block))
+            d = d_all[blk]
+            rest = np.arange(len(blk))  # the block's positions left to the Newton on d
+            if direct and _one_needle_count(solver):
+                tau, F, u, _, _, it = contacts(blk, d)
                 its += it
-                if not out:
-                    out = [np.zeros(P), np.zeros((P, N)), np.zeros((2, P, 2)), None, np.zeros(P)]
-                    if Qs is not None:
-                        out[3] = [np.zeros((P, q.shape[1])) for q in Qs]
-                out[0][idx], out[1][idx], out[2][:, idx], out[4][idx] = tau, F, u, rel
-                if Qs is not None:
+                base = (geo0, comp0, n0)
+                got = _newton_block(solver, target, influence, blk, base, (tau, F, u), d)
+                ok = got[4]
+                its += got[5]
+                done = blk[ok]
+                out[0][done], out[1][done], out[4][done] = got[0][ok], got[1][ok], got[3][ok]
+                if got[7] is not None:
+                    out[2][:, done] = got[6][:, ok]
                     for c in (0, 1):
-                        out[3][c][idx] = Qs[c]
+                        out[3][c][done] = got[7][c][ok]
+                body_rel[done] = 0.0
+                d[ok] = got[2][ok]
+                rest = np.flatnonzero(~ok)
+            if rest.size:
+                C = influence.matrices(blk[rest])
+                at = np.arange(len(rest))  # the positions still iterating, in rest
+            else:
+                at = rest
+            for step in range(max_iter if at.size else 0):
+                idx = blk[rest[at]]
+                tau, F, u, Qs, rel, it = contacts(idx, d[rest[at]], warm=step > 0)
+                its += it
                 Ci = C[at]
                 cf = (Ci @ F[:, :, None])[:, :, 0]
-                r = d[at] - cf
+                r = d[rest[at]] - cf
                 top = np.max(np.abs(cf), axis=1)
                 rel_i = np.where(top > 0, np.max(np.abs(r), axis=1) / (top + 1e-300), 0.0)
                 body_rel[idx] = rel_i
@@ -345,9 +498,11 @@ def coupled_solve(solver, target: float, influence: Influence, max_iter: int = 5
                 Ct = Ci[t]
                 # I - C dF/dd = I + C diag(k) - (C K B) X: no N^3 product.
                 Jd = eye + Ct * k[t, None, :] - (Ct @ KB[t]) @ X[t]
-                d[at[t]] -= np.linalg.solve(Jd, r[t, :, None])[:, :, 0]
+                d[rest[at[t]]] -= np.linalg.solve(Jd, r[t, :, None])[:, :, 0]
                 at = at[t]
+            d_all[blk] = d
     finally:
         solver.geo_joined, solver.comp, solver.n = geo0, comp0, n0
+    influence.last_d = d_all
     tau, F, u, Qs, rel = out
     return tau, F, u, Qs, np.maximum(rel, np.where(body_rel > BODIES_RTOL, body_rel, 0.0)), its

@@ -61,6 +61,7 @@ from corr_cad.mechanics.drive.drive_crank import CrankSupport, solve_with_crank
 from corr_cad.mechanics.drive.drive_numerics import (
     _forces_of,
     _invert_convex,
+    cam_start,
     energy_step,
     expand_drive,
     free_row,
@@ -189,9 +190,8 @@ class DriveSolver:
         self.R = design.roller_count
         self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
         self.crank = crank  # the crankshaft on its supports (None: the eccentrics fixed)
+        # With a crank too, its fixed point (drive_crank) solves the bodies' at each iterate.
         self.bodies = bodies and Influence(bodies, design, self.crank_angles, geometry)
-        if crank is not None and self.bodies is not None:
-            raise SolverError('a crankshaft and [solver] bodies = "elastic" together: give one')
 
     # ------------------------------------------------------------------ solve
 
@@ -205,7 +205,10 @@ class DriveSolver:
     def _solve_on_eccentrics(self, target: float):
         """:meth:`solve` with the eccentrics where the geometry puts them."""
         if self.bodies is not None:
-            return coupled_solve(self, target, self.bodies)
+            # Within the crank's fixed point: from the bodies' approaches of its last iterate.
+            return coupled_solve(
+                self, target, self.bodies, start=getattr(self, "_bodies_start", None)
+            )
         return self.solve_contacts(target)
 
     def solve_contacts(self, target: float):
@@ -238,15 +241,9 @@ class DriveSolver:
         P = len(tau)
         dirs = [b.directions() for b in self.bearings]
         rows = (slice(0, R), slice(R, 2 * R))
-        # Start: each cam displaced along its load by the clearance and Stribeck's approach.
-        u = np.zeros((2, P, 2))
-        for c, (b, sl) in enumerate(zip(self.bearings, rows, strict=True)):
-            push = np.einsum("pk,pkx->px", F[:, sl], n[:, sl])  # sum F n: the needles' share
-            mag = np.linalg.norm(push, axis=1)
-            q = b.stribeck_max_load(1.0) * mag
-            depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
-            with np.errstate(divide="ignore", invalid="ignore"):
-                u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
+        # Start: each cam displaced along its load by the clearance and Stribeck's approach,
+        # or where the caller's last solution put it (``_u_start``: the bodies' Newton).
+        u = cam_start(self.bearings, F, n, R, getattr(self, "_u_start", None))
         # Fixed residual scales (zero moment with preload: the forces; on e too, as _scales).
         e = self.design.eccentricity
         scale_m = abs(target) + np.sum((np.abs(a_m) + e) * np.abs(F), axis=1) + 1e-300

@@ -65,6 +65,7 @@ __all__ = ["CrankSupport", "solve_with_crank", "budget_terms", "CRANK_RTOL"]
 #: Relative change of the eccentric centres' deflection and twist at the fixed point.
 CRANK_RTOL = 1e-12
 _MAX_ITER = 80
+_FLOOR_MM = 1e-15
 _DEPTH = 3
 
 
@@ -85,11 +86,14 @@ class CrankSupport:
     def supports(self) -> tuple[SupportBearing | None, SupportBearing | None]:
         return self.bearing, self.bearing_2 if self.bearing_2 is not None else self.bearing
 
-    def response(self, loads: np.ndarray, moments: np.ndarray) -> dict:
+    def response(self, loads: np.ndarray, moments: np.ndarray, floor=None) -> dict:
         """The shaft's answer to the eccentric loads ``P`` (P, 2, 2) N (eccentric A's frame)
         and the rows' moments ``M`` (P, 2) N*mm: deflections ``w`` (P, 2, 2) mm (beam
         ``w_beam`` and supports ``w_supports``), twists ``theta`` (P, 2) rad, reactions ``R``
-        and support displacements ``d`` (P, 2, 2)."""
+        and support displacements ``d`` (P, 2, 2). ``floor`` (P,) N: a reaction at most
+        this large is round-off of a zero one, and its support stays centred in its
+        clearance (the first newton of load takes the clearance up: a reaction of
+        round-off must not)."""
         P = np.asarray(loads, dtype=float)
         cb, cs = self.shaft.beam_influence_parts()
         w_bend = np.einsum("ij,pjx->pix", cb, P)
@@ -103,8 +107,9 @@ class CrankSupport:
                 continue
             mag = np.linalg.norm(R[:, i], axis=1)
             dr = b.displacement(mag)
+            live = mag > (0.0 if floor is None else floor)
             with np.errstate(divide="ignore", invalid="ignore"):
-                d[:, i] = np.where(mag[:, None] > 0, R[:, i] * (dr / mag)[:, None], 0.0)
+                d[:, i] = np.where(live[:, None], R[:, i] * (dr / mag)[:, None], 0.0)
         w_sup = np.einsum("ci,pix->pcx", self.shaft.support_lever(), d)
         theta = np.asarray(moments, dtype=float) @ self.shaft.torsion_matrix().T
         return {
@@ -205,7 +210,9 @@ class _State:
 
 def _map(crank: CrankSupport, st: _State, F: np.ndarray):
     P, M = st.loads_and_moments(F)
-    resp = crank.response(P, M)
+    # A reaction below 1e-9 of the rollers' forces is the round-off of a zero one (rows
+    # that preload their cams at zero moment): its support stays centred.
+    resp = crank.response(P, M, 1e-9 * np.sum(np.abs(F), axis=1))
     th = resp["theta"]
     g = np.concatenate([resp["w"].reshape(-1, 4), (th[:, 0] - th[:, 1])[:, None]], axis=1)
     return g, resp
@@ -215,7 +222,8 @@ def _restart(solver, target, sol, starts):
     """Positions the Newton missed, again from other solutions (drive_restart's rule)."""
     limit = max(solver.rtol, 1e-9)
     out = list(sol)
-    if solver.bearings[0] is None:
+    # With elastic bodies the bearing Newton alone would solve the rigid bodies' drive.
+    if solver.bearings[0] is None or solver.bodies is not None:
         return sol
     for start in starts:
         if start is None:
@@ -232,7 +240,7 @@ def _restart(solver, target, sol, starts):
 def _warm(solver, target, prev):
     """The bearing Newton started from the previous iterate's solution (None where it does
     not settle everywhere: the caller then solves from the rigid start)."""
-    if solver.bearings[0] is None:
+    if solver.bearings[0] is None or solver.bodies is not None:
         return None
     sol = solver._with_bearings(target, prev[0], prev[1], 0)
     return sol if np.all(sol[4] <= max(solver.rtol, 1e-9)) else None
@@ -276,10 +284,15 @@ def solve_with_crank(solver, target: float, inner) -> tuple:
                 sol = _restart(solver, target, sol, [prev, *near])
             iterations += sol[5]
             prev = sol
+            if solver.bodies is not None:  # the next iterate's bodies start from this one's
+                solver._bodies_start = solver.bodies.last_d
             g, _ = _map(crank, st, sol[1])
             r = (g - x) * scale
             size = np.max(np.abs(g * scale), axis=1)
-            if np.all(np.max(np.abs(r), axis=1) <= CRANK_RTOL * size + floor):
+            # 1e-15 mm: a deflection of round-off (rows preloading their cams at zero
+            # moment load the shaft with round-off only) has settled; at zero moment
+            # the floor above (cams floating free) is the larger.
+            if np.all(np.max(np.abs(r), axis=1) <= CRANK_RTOL * size + max(floor, _FLOOR_MM)):
                 break
             xs.append(x * scale)
             gs.append(g * scale)
@@ -294,6 +307,7 @@ def solve_with_crank(solver, target: float, inner) -> tuple:
             )
     finally:
         st.set_geometry(solver, None)
+        solver._bodies_start = None
     solver._crank_history = [(target, sol, x), *history][:2]
     tau, F, u, Qs, rel, _ = sol
     _, resp = _map(crank, st, F)
@@ -349,6 +363,8 @@ def budget_terms(solver, target: float, sol) -> dict[str, np.ndarray]:
         out["support_bearings"] = np.einsum("pix,pix->p", resp["R"], resp["d"])
         out["crankshaft_torsion"] = np.sum(M * resp["theta"], axis=1)
     out["initial_gaps"] = -np.sum(F * g0, axis=1)
+    if solver.bodies is not None:  # each body's F . C_body F (the approach d = C F)
+        out.update(solver.bodies.work(F))
     return out
 
 

@@ -98,6 +98,24 @@ def _invert_convex(comp, h, start):
         return F, np.where(F > 0, 1.0 / dg, 0.0)
 
 
+def cam_start(bearings, F: np.ndarray, n: np.ndarray, R: int, u0=None) -> np.ndarray:
+    """The bearing Newton's start (2, P, 2): ``u0`` where given (its shape), else each cam
+    displaced along its load ``sum F n`` by half its clearance and Stribeck's approach."""
+    P = F.shape[0]
+    if u0 is not None and np.shape(u0) == (2, P, 2):
+        return np.array(u0, dtype=float)
+    u = np.zeros((2, P, 2))
+    for c, b in enumerate(bearings):
+        sl = slice(c * R, (c + 1) * R)
+        push = np.einsum("pk,pkx->px", F[:, sl], n[:, sl])  # sum F n: the needles' share
+        mag = np.linalg.norm(push, axis=1)
+        q = b.stribeck_max_load(1.0) * mag
+        depth = 0.5 * b.diametral_clearance + b.needle_coefficient * q**0.9
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u[c] = np.where(mag[:, None] > 0, -push / mag[:, None] * depth[:, None], 0.0)
+    return u
+
+
 def joined(ga: RollerGeometry, gb: RollerGeometry) -> RollerGeometry:
     """Both rows as one geometry of ``2 (z + 1)`` rollers (row A first)."""
     out = {}

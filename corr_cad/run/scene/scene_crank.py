@@ -69,18 +69,12 @@ def default_layout(
 
 
 def parse_crank(values: dict, data: dict, design, bearing, formats=()) -> CrankSupport | None:
-    """The scene's crankshaft and support bearings (None without either section);
-    ``[solver] bodies = "elastic"`` beside it refused (the drive takes one or the other).
-    Every output that solves the drive takes it (``formats`` is not consulted)."""
+    """The scene's crankshaft and support bearings (None without either section). Every
+    output that solves the drive takes it (``formats`` is not consulted); with
+    ``[solver] bodies = "elastic"`` the drive couples both."""
     given = [s for s in CRANK_SECTION_NAMES if s in data]
     if not given:
         return None
-    if values.get("solver", {}).get("bodies") == "elastic":
-        raise SceneError(
-            f'[solver] bodies = "elastic" with [{given[0]}]: the drive takes the elastic '
-            f'bodies or the crankshaft, not both; set bodies = "rigid" (or remove '
-            f"{' and '.join(f'[{g}]' for g in given)})"
-        )
     return _parse(values, data, design, bearing)
 
 

@@ -140,8 +140,9 @@ def design_tables(design, chord: float) -> BodyTables:
     return cached_tables(design, part_outlines(design, working, chord))[0]
 
 
-def bodies_description(tables: BodyTables | None = None) -> dict:
-    """What the files state of the elastic bodies (``bodies`` of forces and datasheet)."""
+def bodies_description(tables: BodyTables | None = None, with_crank: bool = False) -> dict:
+    """What the files state of the elastic bodies (``bodies`` of forces and datasheet);
+    ``with_crank``: the crankshaft and its support bearings are in the figure too."""
     out = {
         "model": "elastic: plane-stress finite elements (P2 triangles) of the drawn outlines",
         "ring": "each row's gear ring, thickness the face width, held on its outer edge all "
@@ -161,6 +162,9 @@ def bodies_description(tables: BodyTables | None = None) -> dict:
         ],
         "not_in_figure": ["crankshaft", "support bearings", "output bearings", "housing"],
     }
+    if with_crank:  # [crankshaft] / [bearings.crank] beside the bodies
+        out["in_figure"].append("crankshaft and its support bearings ([crankshaft])")
+        out["not_in_figure"] = ["output bearings", "housing"]
     if tables is not None:
         out["mesh_size_mm"] = tables.mesh_size
         out["mesh_nodes"] = dict(zip(("ring", "frame", "cam"), tables.nodes, strict=False))

@@ -39,7 +39,7 @@ def model_description(scene, tables=None) -> dict:
     if sv.bodies == "elastic":  # absent under rigid bodies: those files keep their bytes
         from corr_cad.run.stages.stages_bodies import bodies_description
 
-        out["bodies"] = bodies_description(tables)
+        out["bodies"] = bodies_description(tables, with_crank=crank is not None)
     return out
 
 
@@ -76,12 +76,11 @@ def compliances(scene) -> dict:
     inside.append("crankshaft: bending, shear and torsion (Timoshenko beam)")
     if crank.bearing is not None:
         inside.append(f"support bearings of the crankshaft ({crank.bearing.type})")
-    outside = [
-        "ring body (rigid)",
-        "frame (rigid)",
-        "first stage",
-        "output bearings and housing",
-    ]
+    outside = ["first stage", "output bearings and housing"]
+    if scene.solver.bodies == "elastic":
+        inside.append("gear ring body, frame body and cam body (plane-stress FE)")
+    else:
+        outside[:0] = ["ring body (rigid)", "frame (rigid)"]
     if crank.bearing is None:
         outside.insert(0, "support bearings (rigid)")
     return {"in_figure": inside, "not_in_figure": outside}
