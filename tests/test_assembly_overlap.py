@@ -108,8 +108,9 @@ def _with_bearings(template: str, folder: Path, crank: str = ""):
     cam's bore takes: 6 mm x the face width, as many as fit, at most 40); ``crank``: the
     crank model's sections added (the formats its solves refuse left out)."""
     lines = (ROOT / "templates" / template).read_text().splitlines()
-    if crank:
+    if crank:  # and the Monte Carlo's gates, which would ask for it
         lines = [x if not x.startswith("formats") else 'formats = ["dxf"]' for x in lines]
+        lines = [x for x in lines if not x.startswith(("max_binding_prob", "max_failure_prob"))]
     text = "\n".join(x for x in lines if not x.startswith("load_share")) + "\n"
     drive = '[solver]\nmodel = "drive"\n'
     text = text.replace("[solver]\n", drive) if "[solver]\n" in text else text + "\n" + drive
