@@ -345,12 +345,14 @@ def _local_gap(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float) 
     def vertex_to_segments(q, p, idx):
         s0, s1 = p[idx], p[(idx + 1) % len(p)]
         d = s1 - s0
-        t = np.clip(
-            np.einsum("qij,ij->qi", q[:, None] - s0[None], d) / np.einsum("ij,ij->i", d, d), 0, 1
-        )
-        return float(
-            np.linalg.norm(q[:, None] - (s0[None] + t[..., None] * d[None]), axis=-1).min()
-        )
+        # |q - s0| bounds a vertex's distance to a segment from above and |q - s0| - |d|
+        # from below: only the pairs whose lower bound reaches the least upper bound can
+        # hold the minimum (a 1e-9 mm margin for rounding), and only they are projected
+        r = np.hypot(q[:, None, 0] - s0[None, :, 0], q[:, None, 1] - s0[None, :, 1])
+        qi, si = np.nonzero(r - np.hypot(d[:, 0], d[:, 1])[None] <= r.min() + 1e-9)
+        qq, ss, dd = q[qi], s0[si], d[si]
+        t = np.clip(np.einsum("ij,ij->i", qq - ss, dd) / np.einsum("ij,ij->i", dd, dd), 0, 1)
+        return float(np.linalg.norm(qq - (ss + t[:, None] * dd), axis=-1).min())
 
     ia, ib = near(a), near(b)
     return min(vertex_to_segments(a[ia], b, ib), vertex_to_segments(b[ib], a, ia))
