@@ -31,10 +31,14 @@ The crankshaft (z along the shaft as the assembly's, mm; ``w`` face width,
   rounded down to 0.5 mm, where the support bearings (``[bearings.crank]``)
   sit against the core's shoulders.
 
-With the scene's crank model (``[crankshaft]`` or ``[bearings.crank]``: rows
-carried as :class:`BearingRows` with a :class:`CrankDrawing`) the crankshaft is
-the shaft that model bends: a uniform shaft of its ``shaft_diameter`` from the
-lower support's outer face to the upper's, the support seats of its bearing
+The run draws the crank model's shaft (``[crankshaft]`` / ``[bearings.crank]``, or
+without them the same shaft derived from the design:
+:func:`corr_cad.run.stages.stages_bearing_parts.crank_drawing`; rows carried as
+:class:`BearingRows` with a :class:`CrankDrawing`); the layout above is what
+:func:`crankshaft_pieces` gives for rows without one. The crank model's shaft is a
+uniform shaft of its ``shaft_diameter`` from the lower support's outer face to the
+upper's (with ``[first_stage]`` from the crank gear's flange,
+:func:`~corr_cad.geometry.first_stage_parts.first_stage_layout`), the support seats of its bearing
 ``width`` centred at its ``support_positions`` (seat radius the shaft's), and
 the eccentric journals of its ``eccentric_length`` centred at its
 ``eccentric_positions``, each of diameter ``eccentric_diameter`` less its needle
