@@ -68,6 +68,25 @@ def test_the_bearing_s_sizes_by_hand():
     assert seat_radius(d, [a, b]) == 33.0  # floor to 0.5 of 0.9 * 37
 
 
+def test_the_shaft_drawn_without_the_crank_sections_is_the_derived_one():
+    """The drive with bearings and neither [crankshaft] nor [bearings.crank]: the shaft drawn is
+    default_layout's, by hand on the prototype (d_e = 94.4 - 12 = 82.4, d = floor(0.8 (82.4 - 7))
+    = 60, rollers round(12) = 12 mm, B = round(21.6) = 22, supports -2 t - B / 2 = -27 and
+    2 w + 3 t + B / 2 = 59, gear -27 - 22 = -49, outside diameter 1.45 d + 2 D = 111)."""
+    import tomllib
+
+    from corr_cad.run.scene.scene import parse_scene
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
+
+    scene = parse_scene(tomllib.loads(SCENE))
+    assert scene.crank is None
+    c = needle_rows_of(scene).crank
+    assert (c.shaft_diameter, c.eccentric_diameter, c.eccentric_length) == (60.0, 82.4, 12.0)
+    assert c.eccentric_positions == (6.0, 26.0) and c.support_positions == (-27.0, 59.0)
+    assert (c.support_width, c.gear_position, c.bore_diameter) == (22.0, -49.0, 0.0)
+    assert c.support_outer_diameter == pytest.approx(111.0, abs=1e-12)
+
+
 def test_cage_and_needle_speeds_against_rolling_on_both_races():
     """Each needle rolls without slip on both races: the contact speeds match."""
     d = GearDesign()
@@ -149,6 +168,7 @@ def test_the_needles_do_not_interfere_with_the_cam_or_the_eccentric(clearance):
 def test_the_input_inertia_with_floating_cams_against_a_hand_sum():
     """compound.toml's parts with the cams on 40 x 6 x 12 needles: the cams (annuli) and the
     needles (cylinders) summed here from closed forms; the other parts as the files give."""
+    import tomllib
     from pathlib import Path
 
     from corr_cad.geometry.first_stage import FirstStageGeometry  # noqa: F401
@@ -157,11 +177,15 @@ def test_the_input_inertia_with_floating_cams_against_a_hand_sum():
     from corr_cad.geometry.parts import part_outlines
     from corr_cad.geometry.profile import undercut_analysis, working_profile
     from corr_cad.mechanics.gears.first_stage_loads import STEEL_DENSITY, drive_mass_inertia
-    from corr_cad.run.scene.scene import load_scene
+    from corr_cad.run.scene.scene import load_scene, parse_scene
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
 
     scene = load_scene(Path(__file__).resolve().parents[1] / "templates" / "compound.toml")
     d, fs = scene.design, scene.first_stage
-    rows = needle_rows(d, BEARING)
+    # the parts the CLI draws: the needles and the crankshaft (derived from the design)
+    drive = parse_scene(tomllib.loads(_compound_with_crank("")))
+    rows = needle_rows_of(drive)
+    assert rows.crank.shaft_diameter == 60.0 and list(rows) == needle_rows(d, BEARING)
     verts = {
         k: approximate_gear(getattr(fs, k), 1e-3).vertices
         for k in ("pinion", "wheel", "crank_gear")
@@ -201,14 +225,14 @@ def test_the_input_inertia_with_floating_cams_against_a_hand_sum():
     assert got["input_inertia_cams_fixed_kg_m2"] == pytest.approx(fixed, rel=1e-4)
     assert got["input_inertia_cams_fixed_kg_m2"] > 5 * got["input_inertia_kg_m2"]
     assert "Harris" in got["inertia_convention"]
-    # docs/physics.md: 3.77e-4 kg m^2 floating against 4.22e-3 fixed; the cams themselves
+    # docs/physics.md: 5.35e-4 kg m^2 floating against 4.38e-3 fixed; the cams themselves
     # 128 times less than fixed
-    assert got["input_inertia_kg_m2"] == pytest.approx(3.77e-4, rel=2e-3)
+    assert got["input_inertia_kg_m2"] == pytest.approx(5.35e-4, rel=2e-3)
     assert got["parts"]["disk_cam"]["spin_per_crank"] == pytest.approx(wo, rel=1e-12)
     from corr_cad.mechanics.life import rolling_speeds
 
     assert rolling_speeds(d, "bearing")["bearing"] == pytest.approx((1 - wo) * (z + 1), rel=1e-12)
-    assert got["input_inertia_cams_fixed_kg_m2"] == pytest.approx(4.22e-3, rel=2e-3)
+    assert got["input_inertia_cams_fixed_kg_m2"] == pytest.approx(4.38e-3, rel=2e-3)
 
 
 @pytest.mark.slow
@@ -423,3 +447,128 @@ def test_the_crankshaft_drawn_is_the_crank_model_s(tmp_path):
     assert (lo, hi) == pytest.approx((s1 - B / 2, s2 + B / 2), abs=1e-9)
     inter = json.loads((out / "manifest.json").read_text())["interference"]
     assert inter["ok"] and inter["other_pairs"]["overlaps"] == 0
+
+
+def _compound_with_crank(crank: str) -> str:
+    """templates/compound.toml on the drive with 40 x 6 x 12 needles and ``crank``."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "templates" / "compound.toml").read_text()
+    export = SCENE.split("[export]")[1].split("[solver]")[0]
+    export += "assembly_angles_deg = [0.0]\n"
+    return (
+        text.split("[export]")[0]
+        + "[export]"
+        + export
+        + "[solver]"
+        + SCENE.split("[solver]")[1]
+        + crank
+    )
+
+
+@pytest.mark.slow
+def test_the_compound_s_crankshaft_is_the_crank_model_s(tmp_path):
+    """compound.toml on the drive, [crankshaft] shaft_diameter = 50 (its other sizes and
+    the support bearings derived): crankshaft.step is the crank model's shaft, not a shaft of
+    the first stage's own layout. Its journals are e off the axis (to 1e-9 mm), centred at the
+    model's eccentric_positions; its seats at its support_positions with the bearing's
+    width; its flange's face toward the eccentrics at its gear_position (one bearing width
+    beyond the first support: -25 - 18 = -43), the crank gear hanging below the flange; the
+    crank bearings where the model puts them; the mass from these parts; nothing interferes."""
+    pytest.importorskip("OCP")
+    import trimesh
+
+    (tmp_path / "s.toml").write_text(_compound_with_crank("[crankshaft]\nshaft_diameter = 50\n"))
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = tmp_path / "out"
+    w, t, e = 12.0, 8.0, 3.5
+    B = 18.0  # round(1.8 round(0.2 d)), d = 50
+    s1, s2 = -2 * t - B / 2, 2 * w + 3 * t + B / 2  # -25, 57
+    zg, f = s1 - B, 5.0  # the gear's place; the flange max(5, 2 m) thick
+    b, g = 15.0, 1.0  # the first stage's face width, the axial gap
+    rj = 0.5 * (2 * 47.2 - 2 * 6.0 - 0.005)
+    ja, jb = 0.5 * w, 1.5 * w + t
+    # the part's own coordinates start at the flange's bottom face (zg - f)
+    circles = [(rad, x, y, z + zg - f) for rad, x, y, z in _circles(out / "crankshaft.step")]
+    journals = [c for c in circles if abs(c[0] - rj) < 1e-9]
+    for _, x, y, _ in journals:
+        assert abs(x) < 1e-9 and abs(abs(y) - e) < 1e-9
+    got = sorted({(round(z, 9), math.copysign(1.0, y)) for _, _, y, z in journals})
+    assert got == [(ja - 6, 1.0), (ja + 6, 1.0), (jb - 6, -1.0), (jb + 6, -1.0)]
+    core = {round(z, 9) for rad, x, y, z in circles if abs(rad - 25.0) < 1e-9}
+    # (the lower seat runs on into the shaft down to the flange: one cylinder, no edge at s1 - B/2)
+    assert {zg, s1 + B / 2, s2 - B / 2, s2 + B / 2} <= core
+    assert all(abs(x) < 1e-9 and abs(y) < 1e-9 for rad, x, y, _ in circles if rad == 25.0)
+    # the assembly: the shaft, its flange and the gear where the crank model has them
+    asm = trimesh.load(out / "assembly_000deg.3mf")
+    lo, hi = asm.geometry["crankshaft"].bounds[:, 2]
+    assert (lo, hi) == pytest.approx((zg - f, s2 + B / 2), abs=1e-9)
+    gear = asm.geometry["crank_gear"].bounds[:, 2]
+    assert gear == pytest.approx((zg - f - g - b, zg - f), abs=1e-9)
+    for k, s in ((1, s1), (2, s2)):
+        zb = asm.geometry[f"crank_bearing_{k}"].bounds[:, 2]
+        assert zb == pytest.approx((s - B / 2, s + B / 2), abs=1e-9)
+    # the crankshaft's mass: its flange (the crank gear's rim) and the model's cylinders
+    manifest = json.loads((out / "manifest.json").read_text())
+    drive = manifest["drive"]["parts"]
+    rim = drive["crank_gear"]  # noqa: F841  (its own part; the flange is the shaft's)
+    from corr_cad.geometry.first_stage_parts import first_stage_layout
+    from corr_cad.mechanics.gears.first_stage_loads import STEEL_DENSITY
+    from corr_cad.run.scene.scene import load_scene
+
+    scene = load_scene(tmp_path / "s.toml")
+    lay = first_stage_layout(scene.design, scene.first_stage)
+    R = lay.rim_outer
+    shaft_len = (s2 + B / 2) - zg - 2 * w
+    vol = math.pi * (R * R * f + 25.0**2 * shaft_len + 2 * rj * rj * w)
+    assert drive["crankshaft"]["mass_kg"] == pytest.approx(STEEL_DENSITY * vol, rel=1e-12)
+    i_hand = (
+        STEEL_DENSITY
+        * math.pi
+        * (0.5 * R**4 * f + 0.5 * 25.0**4 * shaft_len + 2 * w * rj * rj * (0.5 * rj * rj + e * e))
+    )
+    assert drive["crankshaft"]["inertia_kg_m2"] == pytest.approx(i_hand * 1e-6, rel=1e-12)
+    # the support bearings' placeholders: from the shaft to 2 rollers beyond the pitch circle
+    Dr, dm = 10.0, 1.45 * 50.0
+    ro = 0.5 * dm + Dr
+    m_brg = STEEL_DENSITY * math.pi * (ro * ro - 25.0**2) * B
+    assert drive["crank_bearing"]["mass_kg"] == pytest.approx(m_brg, rel=1e-12)
+    inter = manifest["interference"]
+    assert inter["ok"] and inter["other_pairs"]["overlaps"] == 0
+    # the DXF: the journals' circles at (0, +-e)
+    import ezdxf
+
+    dxf_journals = [
+        c
+        for c in ezdxf.readfile(out / "crankshaft.dxf").modelspace().query("CIRCLE")
+        if abs(c.dxf.radius - rj) < 1e-12
+    ]
+    assert sorted(c.dxf.center[1] for c in dxf_journals) == [-e, e]
+
+
+def test_a_crank_gear_inside_the_supports_is_refused_with_the_first_stage(tmp_path):
+    """[first_stage] hangs the crank gear on a flange below the lower support bearing: a
+    gear_position above that bearing's outer face is one line naming the key and the range,
+    exit 2, nothing written."""
+    text = _compound_with_crank("[crankshaft]\nshaft_diameter = 50\ngear_position = -20.0\n")
+    lines = text.splitlines()
+    text = "\n".join('formats = ["dxf"]' if x.startswith("formats") else x for x in lines)
+    (tmp_path / "s.toml").write_text(text + "\n")
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 2, r.stderr[-2000:]
+    errors = [x for x in r.stderr.splitlines() if "error" in x]
+    assert len(errors) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "[crankshaft] gear_position = -20.0: " in errors[0]
+    assert "(-inf, -34] mm, e.g. -43" in errors[0]
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

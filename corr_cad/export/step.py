@@ -47,6 +47,7 @@ __all__ = [
     "read_step",
     "StepPart",
     "mass_properties",
+    "volume",
     "bounding_box",
     "readback_facts",
     "unplaced",
@@ -495,6 +496,17 @@ def read_step(path: Path, heal: bool = True) -> tuple[str, list[StepPart]]:
     else:
         parts.append(StepPart(_label_name(top), _label_name(top), get_shape(top)))
     return _label_name(top), parts
+
+
+def volume(shape) -> float:
+    """Open CASCADE's own volume of ``shape``, mm^3 (:func:`mass_properties`' first figure,
+    without the surface integral)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    vol = GProp_GProps()
+    _static(BRepGProp, "VolumeProperties")(shape, vol)
+    return float(vol.Mass())
 
 
 def mass_properties(shape) -> tuple[float, float]:

@@ -31,10 +31,14 @@ The crankshaft (z along the shaft as the assembly's, mm; ``w`` face width,
   rounded down to 0.5 mm, where the support bearings (``[bearings.crank]``)
   sit against the core's shoulders.
 
-With the scene's crank model (``[crankshaft]`` or ``[bearings.crank]``: rows
-carried as :class:`BearingRows` with a :class:`CrankDrawing`) the crankshaft is
-the shaft that model bends: a uniform shaft of its ``shaft_diameter`` from the
-lower support's outer face to the upper's, the support seats of its bearing
+The run draws the crank model's shaft (``[crankshaft]`` / ``[bearings.crank]``, or
+without them the same shaft derived from the design:
+:func:`corr_cad.run.stages.stages_bearing_parts.crank_drawing`; rows carried as
+:class:`BearingRows` with a :class:`CrankDrawing`); the layout above is what
+:func:`crankshaft_pieces` gives for rows without one. The crank model's shaft is a
+uniform shaft of its ``shaft_diameter`` from the lower support's outer face to the
+upper's (with ``[first_stage]`` from the crank gear's flange,
+:func:`~corr_cad.geometry.first_stage_parts.first_stage_layout`), the support seats of its bearing
 ``width`` centred at its ``support_positions`` (seat radius the shaft's), and
 the eccentric journals of its ``eccentric_length`` centred at its
 ``eccentric_positions``, each of diameter ``eccentric_diameter`` less its needle
@@ -108,6 +112,12 @@ class CrankDrawing:
     eccentric_positions: tuple[float, float]
     support_positions: tuple[float, float]
     support_width: float
+    #: Where the crank gear's torque enters the shaft (the model's ``gear_position``):
+    #: with ``[first_stage]`` the face of the crank gear's flange toward the eccentrics.
+    gear_position: float | None = None
+    bore_diameter: float = 0.0
+    #: The support bearing's outside diameter (its pitch diameter plus two rollers).
+    support_outer_diameter: float | None = None
 
 
 class BearingRows(list):
@@ -201,7 +211,8 @@ def crankshaft_pieces(
 
 def _model_pieces(design: GearDesign, rows, c: CrankDrawing, z_bottom) -> list:
     """:func:`crankshaft_pieces` from the crank model: seat, core, journal A, core,
-    journal B, core, seat, bottom to top (empty cores left out)."""
+    journal B, core, seat, bottom to top (empty cores left out), each with the model's
+    bore (``bore_diameter``, centred on the shaft's axis) where it has one."""
     e, rs, half = design.eccentricity, 0.5 * c.shaft_diameter, 0.5 * c.eccentric_length
     (s1, s2), hb = sorted(c.support_positions), 0.5 * c.support_width
     ja, jb = c.eccentric_positions
@@ -215,9 +226,19 @@ def _model_pieces(design: GearDesign, rows, c: CrankDrawing, z_bottom) -> list:
         )
     rja = 0.5 * (c.eccentric_diameter - rows[0].diametral_clearance)
     rjb = 0.5 * (c.eccentric_diameter - rows[1].diametral_clearance)
+    bore = 0.5 * float(c.bore_diameter)
+    if bore > 0.0 and bore + e >= min(rja, rjb) - 0.25:
+        raise DesignError(
+            f"[crankshaft] bore_diameter = {c.bore_diameter:g}: the bore would cut the eccentric "
+            f"journals (radius {min(rja, rjb):.4g} mm, {e:g} mm off the axis); allowed range "
+            f"[0, {2.0 * (min(rja, rjb) - e - 0.25):.4g}) mm, e.g. 0"
+        )
+    holes = [bore] if bore > 0.0 else []
     outers = [rs, rs, OffsetCircle(rja, (0.0, e)), rs, OffsetCircle(rjb, (0.0, -e)), rs, rs]
     return [
-        (o, [], b - a, a) for o, a, b in zip(outers, cuts, cuts[1:], strict=False) if b - a > 1e-9
+        (o, list(holes), b - a, a)
+        for o, a, b in zip(outers, cuts, cuts[1:], strict=False)
+        if b - a > 1e-9
     ]
 
 

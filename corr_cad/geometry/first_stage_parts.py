@@ -93,6 +93,8 @@ class Layout:
         Radii: the input shaft's seat, the wheel's bore, the pin's.
     shaft_radius, crank_bearing_outer, rim_outer : float
     face_width, bearing_width : float
+    bearing_z : tuple of float
+        Bottom faces of the two crank bearings.
     """
 
     z_gears: float
@@ -107,6 +109,7 @@ class Layout:
     rim_outer: float
     face_width: float
     bearing_width: float
+    bearing_z: tuple[float, float] = (0.0, 0.0)
 
 
 def first_stage_layout(design: GearDesign, fs: FirstStageGeometry, rows=None) -> Layout:
@@ -114,14 +117,40 @@ def first_stage_layout(design: GearDesign, fs: FirstStageGeometry, rows=None) ->
 
     ``rows`` (:func:`corr_cad.geometry.bearing_parts.needle_rows`): the cams float on
     needle bearings, the shaft's radius is the support seats'
-    (:func:`~corr_cad.geometry.bearing_parts.seat_radius`).
+    (:func:`~corr_cad.geometry.bearing_parts.seat_radius`). With the crankshaft drawn
+    from the crank model (``rows.crank``, a
+    :class:`~corr_cad.geometry.bearing_parts.CrankDrawing`) the layout is the model's:
+    the flange's face toward the eccentrics at its ``gear_position``, the crank
+    bearings of its support ``width`` centred at its ``support_positions``, the shaft
+    its ``shaft_diameter`` up to the upper bearing's outer face.
     """
     m, b, g = fs.stage.module, fs.stage.face_width, AXIAL_GAP
     t, w = design.frame_thickness, design.face_width
     f = max(5.0, 2.0 * m)
+    crank = getattr(rows, "crank", None)
     z_flange = -t - 2 * g - b - f
+    z_top = 2 * w + 2 * t + g + b
+    bearing_width = b
+    bearing_z = (-t - g - b, 2 * w + 2 * t + g)
     rim = fs.crank_gear.root_radius + 3.0 * m
     shaft = design.cam_bore_radius if rows is None else seat_radius(design, rows)
+    outer = _round(shaft * 1.25, 0.5)
+    if crank is not None:
+        bearing_width = crank.support_width
+        s1, s2 = sorted(crank.support_positions)
+        hb = 0.5 * bearing_width
+        zg = crank.gear_position
+        if zg is None or zg > s1 - hb + 1e-9:
+            raise DesignError(
+                f"[crankshaft] gear_position = {zg!r}: with [first_stage] the crank gear's "
+                f"flange sits on the shaft below the lower support bearing (centred at "
+                f"{s1:g} mm, {bearing_width:g} mm wide); allowed range (-inf, {s1 - hb:g}] mm, "
+                f"e.g. {s1 - 2.0 * hb:g}"
+            )
+        z_flange = zg - f
+        z_top = s2 + hb
+        bearing_z = (s1 - hb, s2 - hb)
+        outer = 0.5 * crank.support_outer_diameter
     pin_bore = _round(0.4 * fs.pinion.root_radius, 0.5)
     wheel_bore = _round(0.45 * fs.wheel.root_radius, 0.5)
     if shaft + 1.0 >= rim or min(pin_bore, wheel_bore) < 1.0:
@@ -133,15 +162,16 @@ def first_stage_layout(design: GearDesign, fs: FirstStageGeometry, rows=None) ->
         z_gears=z_flange - g - b,
         z_flange=z_flange,
         flange_thickness=f,
-        z_top=2 * w + 2 * t + g + b,
+        z_top=z_top,
         pinion_bore=pin_bore,
         wheel_bore=wheel_bore,
         wheel_bearing_inner=_round(0.75 * wheel_bore, 0.1),
         shaft_radius=shaft,
-        crank_bearing_outer=_round(shaft * 1.25, 0.5),
+        crank_bearing_outer=outer,
         rim_outer=rim,
         face_width=b,
-        bearing_width=b,
+        bearing_width=bearing_width,
+        bearing_z=bearing_z,
     )
 
 
@@ -195,12 +225,14 @@ def first_stage_profiles(
             (o, hs, h, z0 - lay.z_flange)
             for o, hs, h, z0 in crankshaft_pieces(design, rows, lay.bearing_width, top)
         ]
+    crank = getattr(rows, "crank", None)
+    bore = [0.5 * crank.bore_diameter] if crank is not None and crank.bore_diameter else []
     return {
         "pinion": [(pin, [lay.pinion_bore], b, 0.0)],
         "wheel": [(whl, [lay.wheel_bore], b, 0.0)],
         "crank_gear": [(lay.rim_outer, [crk], b + g, 0.0)],
         "crankshaft": [
-            (lay.rim_outer, [], lay.flange_thickness, 0.0),
+            (lay.rim_outer, bore, lay.flange_thickness, 0.0),
             *shaft,
         ],
         "wheel_bearing": [(lay.wheel_bore, [lay.wheel_bearing_inner], b, 0.0)],
@@ -275,14 +307,15 @@ def gear_phases(fs: FirstStageGeometry, pinion_rad: float) -> tuple[list[float],
 
 
 def first_stage_placements(
-    design: GearDesign, fs: FirstStageGeometry, crank_angle_rad: float
+    design: GearDesign, fs: FirstStageGeometry, crank_angle_rad: float, rows=None
 ) -> list[Placement]:
     """The first stage's instances at ``crank_angle_rad`` (relative to the frame).
 
     The crankshaft turns by ``crank + crank / z`` (as the cams); the pinion
     by ``i1`` times that; the crank gear's phase follows from the meshes.
+    ``rows`` as :func:`first_stage_layout` takes them (the axial places).
     """
-    lay = first_stage_layout(design, fs)
+    lay = first_stage_layout(design, fs, rows)
     phi = crank_angle_rad + crank_angle_rad / design.tooth_count
     pinion = fs.ratio * phi
     wheels, crank = gear_phases(fs, pinion)
@@ -297,9 +330,7 @@ def first_stage_placements(
         x, y = a * math.sin(beta), a * math.cos(beta)
         out.append(Placement(f"wheel_{k}", "wheel", psi, (x, y, zg)))
         out.append(Placement(f"wheel_bearing_{k}", "wheel_bearing", psi, (x, y, zg)))
-    w, t = design.face_width, design.frame_thickness
-    below = -t - AXIAL_GAP - lay.bearing_width
-    above = 2 * w + 2 * t + AXIAL_GAP
+    below, above = lay.bearing_z
     out.append(Placement("crank_bearing_1", "crank_bearing", phi, (0.0, 0.0, below)))
     out.append(Placement("crank_bearing_2", "crank_bearing", phi, (0.0, 0.0, above)))
     return out
@@ -314,12 +345,14 @@ def _local_gap(a: np.ndarray, b: np.ndarray, centre: np.ndarray, radius: float) 
     def vertex_to_segments(q, p, idx):
         s0, s1 = p[idx], p[(idx + 1) % len(p)]
         d = s1 - s0
-        t = np.clip(
-            np.einsum("qij,ij->qi", q[:, None] - s0[None], d) / np.einsum("ij,ij->i", d, d), 0, 1
-        )
-        return float(
-            np.linalg.norm(q[:, None] - (s0[None] + t[..., None] * d[None]), axis=-1).min()
-        )
+        # |q - s0| bounds a vertex's distance to a segment from above and |q - s0| - |d|
+        # from below: only the pairs whose lower bound reaches the least upper bound can
+        # hold the minimum (a 1e-9 mm margin for rounding), and only they are projected
+        r = np.hypot(q[:, None, 0] - s0[None, :, 0], q[:, None, 1] - s0[None, :, 1])
+        qi, si = np.nonzero(r - np.hypot(d[:, 0], d[:, 1])[None] <= r.min() + 1e-9)
+        qq, ss, dd = q[qi], s0[si], d[si]
+        t = np.clip(np.einsum("ij,ij->i", qq - ss, dd) / np.einsum("ij,ij->i", dd, dd), 0, 1)
+        return float(np.linalg.norm(qq - (ss + t[:, None] * dd), axis=-1).min())
 
     ia, ib = near(a), near(b)
     return min(vertex_to_segments(a[ia], b, ib), vertex_to_segments(b[ib], a, ia))

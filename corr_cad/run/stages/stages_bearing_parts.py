@@ -15,6 +15,7 @@ from corr_cad.run.stages.context import RunContext
 
 __all__ = [
     "needle_rows_of",
+    "crank_drawing",
     "profiles",
     "solids",
     "placements",
@@ -26,34 +27,62 @@ __all__ = [
 
 def needle_rows_of(ctx_or_scene):
     """The drawn rows (:func:`~corr_cad.geometry.bearing_parts.needle_rows`, as
-    :class:`~corr_cad.geometry.bearing_parts.BearingRows` carrying the scene's crank model
-    where it has one), or None."""
+    :class:`~corr_cad.geometry.bearing_parts.BearingRows` carrying the crankshaft drawn:
+    the scene's crank model, or without ``[crankshaft]`` / ``[bearings.crank]`` the shaft
+    :func:`~corr_cad.run.scene.scene_crank.default_layout` derives), or None."""
     s = getattr(ctx_or_scene, "scene", ctx_or_scene)
     solver = getattr(s, "solver", None)
     if solver is None or not solver.drive or getattr(s, "bearing", None) is None:
         return None
-    from corr_cad.geometry.bearing_parts import BearingRows, CrankDrawing, needle_rows
+    from corr_cad.geometry.bearing_parts import BearingRows, needle_rows
 
     rows = BearingRows(needle_rows(s.design, s.bearing, s.bearing_b))
-    crank = getattr(s, "crank", None)
-    # the part drawn is the part the crank model bends; with [first_stage] the crankshaft
-    # stays the first stage's (its flange carries the crank gear where that stage is laid)
-    if crank is not None and getattr(s, "first_stage", None) is None:
-        sh = crank.shaft
-        width = next((b.width for b in crank.supports if b is not None), None)
-        if width is None:  # rigid supports: the width a designer would draw
-            from corr_cad.run.scene.scene_crank import default_layout
-
-            width = default_layout(s.design, s.bearing.needle_diameter, sh.shaft_diameter)["width"]
-        rows.crank = CrankDrawing(
-            sh.shaft_diameter,
-            sh.eccentric_diameter,
-            sh.eccentric_length,
-            tuple(sh.eccentric_positions),
-            tuple(sh.support_positions),
-            float(width),
-        )
+    rows.crank = crank_drawing(s)
     return rows
+
+
+def crank_drawing(scene):
+    """The crankshaft the files draw (:class:`~corr_cad.geometry.bearing_parts.CrankDrawing`):
+    the one the crank model bends (``[crankshaft]`` / ``[bearings.crank]``, their derived
+    defaults filled in), or, without either section (the model keeps the crank rigid),
+    the same derived default shaft: one crankshaft, with or without ``[first_stage]``."""
+    from corr_cad.geometry.bearing_parts import CrankDrawing
+    from corr_cad.run.scene.scene_crank import default_layout
+
+    s = scene
+    needle = s.bearing.needle_diameter
+    crank = getattr(s, "crank", None)
+    if crank is None:
+        d = default_layout(s.design, needle)
+        return CrankDrawing(
+            d["shaft_diameter"],
+            d["eccentric_diameter"],
+            d["eccentric_length"],
+            tuple(d["eccentric_positions"]),
+            tuple(d["support_positions"]),
+            float(d["width"]),
+            float(d["gear_position"]),
+            0.0,
+            d["pitch_diameter"] + 2.0 * d["roller_diameter"],
+        )
+    sh = crank.shaft
+    brg = next((b for b in crank.supports if b is not None), None)
+    dflt = default_layout(s.design, needle, sh.shaft_diameter)
+    if brg is None:  # rigid supports: the bearing a designer would draw
+        width, outer = dflt["width"], dflt["pitch_diameter"] + 2.0 * dflt["roller_diameter"]
+    else:
+        width, outer = brg.width or dflt["width"], brg.pitch_diameter + 2.0 * brg.roller_diameter
+    return CrankDrawing(
+        sh.shaft_diameter,
+        sh.eccentric_diameter,
+        sh.eccentric_length,
+        tuple(sh.eccentric_positions),
+        tuple(sh.support_positions),
+        float(width),
+        float(sh.gear_position),
+        float(sh.bore_diameter),
+        float(outer),
+    )
 
 
 def profiles(ctx: RunContext, rows) -> dict:

@@ -110,7 +110,13 @@ def solids(ctx: RunContext, report: dict) -> dict:
 
 
 def placements(ctx: RunContext, angle_deg: float) -> list:
-    return first_stage_placements(ctx.scene.design, ctx.scene.first_stage, math.radians(angle_deg))
+    """The first stage's instances at ``angle_deg``, laid out along the drawn crankshaft."""
+    from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
+
+    s = ctx.scene
+    return first_stage_placements(
+        s.design, s.first_stage, math.radians(angle_deg), needle_rows_of(ctx)
+    )
 
 
 def step_parts(ctx: RunContext, report: dict, quick_boxes: dict) -> dict:

@@ -217,7 +217,8 @@ def _step_files(ctx: RunContext) -> None:
 def _freecad_step_file(ctx: RunContext, shapes, placements, parts, tag: str, report) -> None:
     """The assembly as one compound of its placed solids (FreeCAD 0.20's default
     importer opens it): read back, as many solids as instances, of the
-    assembly's total volume."""
+    assembly's total volume (each instance its product's part file's volume as read
+    back: the assembly's product is that file's geometry, its box checked)."""
     from corr_cad.export import step
 
     fname = f"assembly_{tag}_freecad.step"
@@ -225,10 +226,11 @@ def _freecad_step_file(ctx: RunContext, shapes, placements, parts, tag: str, rep
     product_volume: dict[str, float] = {}
     for p in parts:
         if p.product not in product_volume:
-            product_volume[p.product] = step.mass_properties(p.shape)[0]
+            read = report.get(f"{p.product}.step", {}).get("readback_volume_mm3")
+            product_volume[p.product] = read if read is not None else step.volume(p.shape)
     want = sum(product_volume[p.product] for p in parts)
     solids = step.read_solids(path, heal=False)
-    volume = sum(step.mass_properties(s)[0] for s in solids)
+    volume = sum(step.volume(s) for s in solids)
     facts = {
         "solids": len(solids),
         "readback_volume_mm3": volume,

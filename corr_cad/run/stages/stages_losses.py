@@ -71,8 +71,9 @@ def load_independent(scene, life, bearing_per_crank: float | None) -> LoadIndepe
     fs = scene.first_stage
     if fs is not None:
         from corr_cad.geometry.first_stage_parts import first_stage_layout
+        from corr_cad.run.stages.stages_bearing_parts import needle_rows_of
 
-        lay = first_stage_layout(d, fs)
+        lay = first_stage_layout(d, fs, needle_rows_of(scene))  # the bearings drawn
         i1 = abs(fs.ratio)
         zp, zw = fs.stage.pinion_teeth, fs.stage.wheel_teeth
         bearings.append(
