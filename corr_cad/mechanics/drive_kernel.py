@@ -25,7 +25,7 @@ from corr_cad.mechanics.drive import DRIVE_RTOL, DriveSolver
 from corr_cad.mechanics.drive_laws import _invert_one, _palmgren
 from corr_cad.mechanics.mc_kernel import _jit
 
-__all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
+__all__ = ["CompiledInverse", "CompiledDriveSolver", "ForcePassDriveSolver", "bearing_solve"]
 
 
 @_jit
@@ -552,3 +552,33 @@ class CompiledDriveSolver(DriveSolver):
         explicit = getattr(self.comp, "explicit", False)
         table = None if explicit else CompiledInverse(self.comp, self.geo_joined.gap.shape).table
         return row_centres(self, c, idx, v, DRIVE_RTOL, table)
+
+
+class ForcePassDriveSolver(CompiledDriveSolver):
+    """:class:`CompiledDriveSolver` whose rigid start is compiled too under Palmgren's law
+    (:func:`corr_cad.mechanics.drive_rigid.rigid_palmgren`): the Monte Carlo's force pass.
+    The rigid start agrees with the numpy one to round-off, not bit for bit; the datasheet
+    pass keeps the numpy start, whose zero-moment preload of a nominal drive is round-off
+    itself (a pressure of 1e-118 MPa that the summary prints to 12 digits)."""
+
+    def solve_contacts(self, target: float):
+        """:meth:`DriveSolver.solve_contacts` with the rigid start compiled under Palmgren's
+        law (:func:`corr_cad.mechanics.drive_rigid.rigid_palmgren`)."""
+        if not getattr(self.comp, "explicit", False):
+            return super().solve_contacts(target)
+        from corr_cad.mechanics.drive_rigid import rigid_palmgren
+
+        rigid = rigid_palmgren(self.geo_joined, self.comp, target, self.rtol)
+        if rigid is None:  # no bracket somewhere: the numpy solver says where
+            return super().solve_contacts(target)
+        tau, F, iterations = rigid
+        if self.bearings[0] is not None:
+            return self._with_bearings(target, tau, F, iterations)
+        geo = self.geo_joined
+        a_c = np.where(geo.loadable, geo.advance, 0.0)
+        a_m = np.where(geo.loadable, geo.arm, 0.0)
+        # The residual's scale as solver_numerics._solve_positions takes it.
+        gross = np.where(geo.loadable, np.abs(tau[:, None] * a_c) + np.abs(geo.gap), 0.0)
+        scale = np.sum(np.abs(a_m) * (np.abs(F) + gross / self.comp.slope0), axis=1)
+        rel = np.abs(np.sum(a_m * F, axis=1) - target) / (abs(target) + scale + 1e-300)
+        return tau, F, np.zeros((2, len(tau), 2)), None, rel, iterations

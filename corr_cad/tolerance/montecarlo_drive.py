@@ -147,7 +147,7 @@ def drive_chunk(
     ``errors_for(base, tolerances, draws, k)``: sample ``k``'s errors (the Monte
     Carlo's own mapping of draws to errors).
     """
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver  # numba: only when run
+    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver  # numba: only when run
 
     tol_b = row_b_tolerances(tolerances)
     angles = np.asarray(angles, dtype=float).reshape(-1)
@@ -161,7 +161,7 @@ def drive_chunk(
             (errors_for(base, tolerances, draws, k), errors_for(base_b, tol_b, draws_b, k))
             for k in range(lo, hi)
         ]
-        solver = CompiledDriveSolver(
+        solver = ForcePassDriveSolver(
             design,
             np.tile(angles, hi - lo),
             geometry=stacked_geometry(design, angles, pairs, psi_limit),

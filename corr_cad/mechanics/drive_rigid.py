@@ -1,0 +1,202 @@
+"""Compiled rigid start of the drive under Palmgren's law, one position at a time.
+
+:meth:`DriveSolver.solve_contacts <corr_cad.mechanics.drive.DriveSolver>` solves
+the rigid drive (cams fixed) first: the crank rotation ``tau`` at which the
+rollers of both rows carry the crank moment, ``sum_k a_k F_k(a_k tau + g_k) =
+M``, by :func:`corr_cad.mechanics.solver_numerics._nested` (numpy, every
+position in step): the exact linear-contact ``tau`` (the secant compliance's
+piecewise-linear moment, :func:`~corr_cad.mechanics.solver_numerics._linear_tau`),
+a bracket widened by four times its step until the moment changes sign, then
+Newton safeguarded by bisection until the moment's residual falls below
+``rtol`` of its terms. Under Palmgren's law each roller's force is closed
+form (``F = (h / K)^(1 / 0.9)``), so the start of the drive's bearing Newton
+is this loop alone; here it runs compiled, position by position, with the
+same steps and the same stops (a position stops when it has settled, as it
+does in numpy once its ``tau`` no longer moves). The sums are taken in
+another order than numpy's, so ``tau`` agrees with the numpy solve to
+round-off (``tests/test_drive_rigid.py``), and the drive's solution, which
+the bearing Newton takes to its own tolerance from there, to that tolerance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from corr_cad.mechanics.mc_kernel import _jit
+
+__all__ = ["rigid_palmgren"]
+
+_EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
+
+
+@_jit
+def _moment(p, tau, a_c, a_m, h0, K, F):
+    """Forces ``F`` (N,) at ``tau`` of position ``p``; ``(moment, dmoment/dtau, scale)``."""
+    mom, dmom, scale = 0.0, 0.0, 0.0
+    for i in range(a_c.shape[1]):
+        h = tau * a_c[p, i] + h0[p, i]
+        f = (h / K[p, i]) ** (1.0 / _EXP) if h > 0.0 else 0.0
+        F[i] = f
+        if f > 0.0:
+            # G'(F) = 0.9 K F^-0.1 = 0.9 h / F (one power a roller, not two).
+            dmom += a_m[p, i] * a_c[p, i] / (_EXP * h / f)
+        mom += a_m[p, i] * f
+        scale += abs(a_m[p, i] * f)
+    return mom, dmom, scale
+
+
+@_jit
+def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order):
+    """``solver_numerics._linear_tau`` of position ``p`` (``bp``, ``order``: scratch)."""
+    N = a_c.shape[1]
+    const, s_left, i_down = 0.0, 0.0, 0.0
+    for i in range(N):
+        a = a_c[p, i]
+        if a != 0.0:
+            bp[i] = -h0[p, i] / a
+        else:
+            bp[i] = np.inf
+            if h0[p, i] > 0.0:
+                const += a_m[p, i] * h0[p, i] / k0[p, i]
+        if a < 0.0:
+            s_left += a_m[p, i] * a / k0[p, i]
+            i_down += a_m[p, i] * h0[p, i] / k0[p, i]
+    i_left = i_down + const
+    # The breakpoints' order, by insertion (a few dozen rollers; numba's argsort costs
+    # seconds of compile time).
+    for j in range(N):
+        order[j] = j
+    for j in range(1, N):
+        i, t = order[j], bp[order[j]]
+        m = j - 1
+        while m >= 0 and bp[order[m]] > t:
+            order[m + 1] = order[m]
+            m -= 1
+        order[m + 1] = i
+    # The sums of the "down" rollers after each breakpoint: totals less the running sums.
+    sd_tot, id_tot = s_left, i_down
+    su, iu, sd_cum, id_cum = 0.0, 0.0, 0.0, 0.0
+    n_f = 0
+    k, reached = 0, False
+    seg_k_s, seg_k_i = 0.0, 0.0  # segment of breakpoint k - 1 (the one before the root)
+    prev_s, prev_i = 0.0, 0.0
+    last_s, last_i, last_t = 0.0, 0.0, 0.0
+    for j in range(N):
+        i = order[j]
+        a = a_c[p, i]
+        slope = a_m[p, i] * a / k0[p, i]
+        icpt = a_m[p, i] * h0[p, i] / k0[p, i]
+        if a > 0.0:
+            su += slope
+            iu += icpt
+        elif a < 0.0:
+            sd_cum += slope
+            id_cum += icpt
+        t = bp[i]
+        if not math.isfinite(t):
+            continue
+        n_f += 1
+        seg_s = su + (sd_tot - sd_cum)
+        seg_i = iu + (id_tot - id_cum) + const
+        if not reached and seg_s * t + seg_i >= target:
+            reached, k = True, j
+            seg_k_s, seg_k_i = prev_s, prev_i
+        prev_s, prev_i = seg_s, seg_i
+        last_s, last_i, last_t = seg_s, seg_i, t
+    use_left = (reached and k == 0) or n_f == 0
+    if use_left:
+        s_seg, i_seg, t_seg = s_left, i_left, 0.0
+    elif reached:
+        s_seg, i_seg = seg_k_s, seg_k_i
+        t_seg = bp[order[k - 1]]
+    else:
+        s_seg, i_seg, t_seg = last_s, last_i, last_t
+    tau = (target - i_seg) / s_seg
+    if not math.isfinite(tau):
+        tau = t_seg
+    return tau
+
+
+@_jit
+def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
+    """Every position's rigid solve (``solver_numerics._nested`` under Palmgren's law);
+    returns the iterations the slowest position took, -1 where a position has no
+    bracket (no roller can carry the moment)."""
+    P, N = a_c.shape
+    F = np.empty(N)
+    bp, order = np.empty(N), np.empty(N, dtype=np.int64)
+    most = 0
+    for p in range(P):
+        tau = _linear_tau(p, a_c, a_m, h0, k0, target, bp, order)
+        mom, dmom, scale = _moment(p, tau, a_c, a_m, h0, K, F)
+        res = mom - target
+        lo = tau if res <= 0 else -np.inf
+        hi = tau if res >= 0 else np.inf
+        amax, gmax = 0.0, 0.0
+        for i in range(N):
+            amax = max(amax, abs(a_c[p, i]))
+            gmax = max(gmax, abs(h0[p, i]))
+        gap_scale = gmax / max(amax, 1e-300)
+        step = max(max(1e-3 * abs(tau), 1e-3 * gap_scale), 1e-15)
+        for _ in range(200):
+            need_hi, need_lo = not math.isfinite(hi), not math.isfinite(lo)
+            if not (need_hi or need_lo):
+                break
+            trial = tau + step if need_hi else tau - step
+            r_t = _moment(p, trial, a_c, a_m, h0, K, F)[0] - target
+            if need_hi:
+                if r_t >= 0:
+                    hi = trial
+                else:
+                    lo = trial
+            if need_lo:
+                if r_t <= 0:
+                    lo = trial
+                elif r_t > 0:
+                    hi = trial
+            step *= 4.0
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            return -1
+        # The forces at tau again (the bracket's trials overwrote them).
+        mom, dmom, scale = _moment(p, tau, a_c, a_m, h0, K, F)
+        it = 0
+        for it in range(1, max_iter + 1):
+            res = mom - target
+            if abs(res) <= rtol * (abs(target) + scale) + 1e-300:
+                break
+            if res < 0:
+                lo = tau
+            if res > 0:
+                hi = tau
+            newton = tau - res / dmom
+            if dmom > 0 and newton > lo and newton < hi:
+                tau_new = newton
+            else:
+                tau_new = 0.5 * (lo + hi)
+            if tau_new == tau:
+                break
+            mom, dmom, scale = _moment(p, tau_new, a_c, a_m, h0, K, F)
+            tau = tau_new
+        most = max(most, it)
+        tau_out[p] = tau
+        for i in range(N):
+            F_out[p, i] = F[i]
+    return most
+
+
+def rigid_palmgren(geo, comp, target: float, rtol: float):
+    """``(tau, F, iterations)`` of the rigid drive under Palmgren's law (``comp``: a
+    :class:`~corr_cad.mechanics.palmgren.PalmgrenCompliance`), as
+    ``solver_numerics._solve_positions`` gives them; None where a position has no
+    bracket (that solver raises the error)."""
+    P, N = geo.gap.shape
+    a_c = np.ascontiguousarray(np.where(geo.loadable, geo.advance, 0.0))
+    a_m = np.ascontiguousarray(np.where(geo.loadable, geo.arm, 0.0))
+    h0 = np.ascontiguousarray(np.where(geo.loadable, geo.gap, -1e300))
+    K = np.ascontiguousarray(np.broadcast_to(comp.K, (P, N)), dtype=float)
+    k0 = np.ascontiguousarray(np.broadcast_to(comp.slope0, (P, N)), dtype=float)
+    tau, F = np.empty(P), np.empty((P, N))
+    it = _rigid(a_c, a_m, h0, K, k0, float(target), float(rtol), 200, tau, F)
+    return None if it < 0 else (tau, F, int(it))

@@ -1,0 +1,95 @@
+"""The compiled rigid start of the drive under Palmgren's law
+(:mod:`corr_cad.mechanics.drive_rigid`) gives the numpy solver's
+(``solver_numerics._solve_positions``) crank rotation and forces to round-off, with
+the same iterations, on seeded drives (per-roller radii, phase error, slot fit, row B's
+own errors; driving, reversed, zero and small moments); the Monte Carlo's force pass
+that runs it solves each drive as the numpy start does, with and without bearings."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from corr_cad import GearDesign
+from corr_cad.geometry.deviations import ManufacturingErrors
+from corr_cad.mechanics.bearing import EccentricBearing
+from corr_cad.mechanics.drive import DriveSolver
+from corr_cad.mechanics.solver_geometry import cycle_angles
+from corr_cad.mechanics.solver_numerics import _solve_positions
+
+DESIGN = GearDesign()
+
+
+def _errors(seed: int) -> tuple[ManufacturingErrors, ManufacturingErrors]:
+    rng = np.random.default_rng(seed)
+    z = DESIGN.roller_count
+    a = ManufacturingErrors(
+        roller_radius_errors=tuple(rng.normal(0.0, 0.002, z)),
+        cam_phase_error=float(rng.normal(0.0, 2e-4)),
+        slot_clearance=0.002 if seed % 2 else None,
+        cam_radius_error=float(rng.normal(0.0, 0.002)),
+    )
+    b = ManufacturingErrors(roller_radius_error=float(rng.normal(0.0, 0.002)))
+    return a, b
+
+
+@pytest.mark.parametrize("seed", range(8))
+@pytest.mark.parametrize("moment", [1.1e5, -3e4, 0.0, 1e3])
+def test_the_compiled_rigid_start_is_the_numpy_solver_s(seed, moment):
+    from corr_cad.mechanics.drive_rigid import rigid_palmgren
+
+    ea, eb = _errors(seed)
+    solver = DriveSolver(
+        DESIGN, cycle_angles(180), errors=ea, errors_b=eb, contact_model="palmgren"
+    )
+    geo, comp = solver.geo_joined, solver.comp
+    tau0, F0, it0, _, _ = _solve_positions(geo, comp, moment, solver.rtol)
+    tau, F, it = rigid_palmgren(geo, comp, moment, solver.rtol)
+    assert it == it0
+    # tau to round-off of the largest rotation, each force to round-off of the largest.
+    assert np.max(np.abs(tau - tau0)) <= 1e-12 * np.max(np.abs(tau0))
+    assert np.max(np.abs(F - F0)) <= 1e-13 * np.max(F0)
+    mom = np.sum(np.where(geo.loadable, geo.arm, 0.0) * F, axis=1)
+    assert np.allclose(mom, moment, rtol=0, atol=1e-12 * (abs(moment) + np.max(F) * 10))
+
+
+@pytest.mark.parametrize("clearance", [None, 0.0, 0.005])
+def test_the_force_pass_solves_each_drive_as_the_numpy_start_does(clearance):
+    """The force pass's solver (compiled rigid start) against the drive kernel's with the
+    numpy start: every field to 1e-12 of its largest value, cams fixed or on needles."""
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver, ForcePassDriveSolver
+
+    bearing = None if clearance is None else EccentricBearing(40, 6.0, 12.0, clearance)
+    for seed in range(3):
+        ea, eb = _errors(seed)
+        kw = {"errors": ea, "errors_b": eb, "bearing": bearing, "contact_model": "palmgren"}
+        ref = CompiledDriveSolver(DESIGN, cycle_angles(72), **kw).result(1.1e5)
+        got = ForcePassDriveSolver(DESIGN, cycle_angles(72), **kw).result(1.1e5)
+        assert got.success and ref.success
+        for name in ("F_j", "F_n", "cam_rotation", "cam_displacement", "row_a_share"):
+            a, b = getattr(got, name), getattr(ref, name)
+            assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b)), name
+        assert got.moment_residual <= 1e-12
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_a_position_no_roller_can_carry_is_refused_as_the_numpy_solver_refuses():
+    """No bracket (every loadable roller masked): the compiled start hands over to the numpy
+    solver, whose error names the positions."""
+    from corr_cad.errors import SolverError
+    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver
+
+    solver = ForcePassDriveSolver(DESIGN, cycle_angles(4), contact_model="palmgren")
+    solver.geo_joined.loadable[:] = False
+    with pytest.raises(SolverError, match="no roller can carry"):
+        solver.solve(1.1e5)
+
+
+def test_the_rigid_kernel_holds_one_specialisation():
+    """The warm-up's drive runs leave the rigid start's kernel with one compiled type
+    signature (a second would double its compile time)."""
+    from corr_cad.mechanics import drive_rigid
+    from corr_cad.run import warmup
+
+    warmup._drive_kernels()
+    assert len(drive_rigid._rigid.signatures) == 1, drive_rigid._rigid.signatures
