@@ -125,7 +125,7 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
     returns the iterations the slowest position took, -1 where a position has no
     bracket (no roller can carry the moment)."""
     P, N = a_c.shape
-    F = np.empty(N)
+    F, Ft = np.empty(N), np.empty(N)  # the forces at tau, at the bracket's trials
     bp, order = np.empty(N), np.empty(N, dtype=np.int64)
     most = 0
     for p in range(P):
@@ -145,7 +145,7 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
             if not (need_hi or need_lo):
                 break
             trial = tau + step if need_hi else tau - step
-            r_t = _moment(p, trial, a_c, a_m, h0, K, F)[0] - target
+            r_t = _moment(p, trial, a_c, a_m, h0, K, Ft)[0] - target
             if need_hi:
                 if r_t >= 0:
                     hi = trial
@@ -159,8 +159,6 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
             step *= 4.0
         if not (math.isfinite(lo) and math.isfinite(hi)):
             return -1
-        # The forces at tau again (the bracket's trials overwrote them).
-        mom, dmom, scale = _moment(p, tau, a_c, a_m, h0, K, F)
         it = 0
         for it in range(1, max_iter + 1):
             res = mom - target
