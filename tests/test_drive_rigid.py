@@ -93,3 +93,46 @@ def test_the_rigid_kernel_holds_one_specialisation():
 
     warmup._drive_kernels()
     assert len(drive_rigid._rigid.signatures) == 1, drive_rigid._rigid.signatures
+
+
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+@pytest.mark.parametrize("clearance", [None, 0.005])
+def test_the_force_pass_s_lean_result_is_the_result_s_metrics_bit_for_bit(law, clearance):
+    """The force pass reads its metrics off ``force_metrics_result``: the same bits as off
+    the full :meth:`result` (samples stacked as the Monte Carlo stacks them)."""
+    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver
+    from corr_cad.tolerance.montecarlo_drive import _block_metrics, stacked_geometry
+
+    bearing = None if clearance is None else EccentricBearing(40, 6.0, 12.0, clearance)
+    angles = cycle_angles(36)
+    pairs = [_errors(seed) for seed in range(3)]
+    solver = ForcePassDriveSolver(
+        DESIGN,
+        np.tile(angles, len(pairs)),
+        geometry=stacked_geometry(DESIGN, angles, pairs, np.pi),
+        bearing=bearing,
+        contact_model=law,
+    )
+    interval = solver.free_interval(solve=False)
+    full = _block_metrics(solver.result(1.1e5), interval, 26.0, len(pairs), len(angles))
+    lean = _block_metrics(
+        solver.force_metrics_result(1.1e5), interval, 26.0, len(pairs), len(angles)
+    )
+    assert solver.force_metrics_result(1.1e5).success == solver.result(1.1e5).success
+    for name, value in full.items():
+        assert np.array_equal(lean[name], value), name
+
+
+def test_the_block_s_shared_directions_are_the_stacked_rows_own_bit_for_bit():
+    """The force pass gives each block the nominal rollers' directions, tiled: the same
+    bits as computed from the block's stacked rows."""
+    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver
+    from corr_cad.tolerance.montecarlo_drive import _nominal_rows, stacked_geometry
+
+    angles = cycle_angles(36)
+    pairs = [_errors(seed) for seed in range(3)]
+    geometry = stacked_geometry(DESIGN, angles, pairs, np.pi)
+    tiled = np.tile(_nominal_rows(DESIGN, angles, np.pi)[1], (len(pairs), 1, 1))
+    own = ForcePassDriveSolver(DESIGN, np.tile(angles, len(pairs)), geometry=geometry).n
+    assert np.array_equal(tiled, own)
+    assert not _nominal_rows(DESIGN, angles, np.pi)[1].flags.writeable

@@ -187,11 +187,15 @@ class DriveSolver:
             raise SolverError("eccentric bearings: give both cams a bearing or neither")
         self.rtol = rtol
         self.R = design.roller_count
-        self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
+        self.n = self._directions(geometry)
         self.crank = crank  # the crankshaft on its supports (None: the eccentrics fixed)
         self.bodies = bodies and Influence(bodies, design, self.crank_angles, geometry)
         if crank is not None and self.bodies is not None:
             raise SolverError('a crankshaft and [solver] bodies = "elastic" together: give one')
+
+    def _directions(self, geometry: tuple[RollerGeometry, RollerGeometry]) -> np.ndarray:
+        """Both rows' ``n_k`` (P, 2R, 2) (:func:`roller_directions`)."""
+        return np.concatenate([roller_directions(self.design, g) for g in geometry], axis=1)
 
     # ------------------------------------------------------------------ solve
 
