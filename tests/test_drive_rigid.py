@@ -57,7 +57,8 @@ def test_the_compiled_rigid_start_is_the_numpy_solver_s(seed, moment):
 def test_the_force_pass_solves_each_drive_as_the_numpy_start_does(clearance):
     """The force pass's solver (compiled rigid start) against the drive kernel's with the
     numpy start: every field to 1e-12 of its largest value, cams fixed or on needles."""
-    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver, ForcePassDriveSolver
+    from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
+    from corr_cad.mechanics.drive_rigid import ForcePassDriveSolver
 
     bearing = None if clearance is None else EccentricBearing(40, 6.0, 12.0, clearance)
     for seed in range(3):
@@ -77,7 +78,7 @@ def test_a_position_no_roller_can_carry_is_refused_as_the_numpy_solver_refuses()
     """No bracket (every loadable roller masked): the compiled start hands over to the numpy
     solver, whose error names the positions."""
     from corr_cad.errors import SolverError
-    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver
+    from corr_cad.mechanics.drive_rigid import ForcePassDriveSolver
 
     solver = ForcePassDriveSolver(DESIGN, cycle_angles(4), contact_model="palmgren")
     solver.geo_joined.loadable[:] = False
@@ -100,7 +101,7 @@ def test_the_rigid_kernel_holds_one_specialisation():
 def test_the_force_pass_s_lean_result_is_the_result_s_metrics_bit_for_bit(law, clearance):
     """The force pass reads its metrics off ``force_metrics_result``: the same bits as off
     the full :meth:`result` (samples stacked as the Monte Carlo stacks them)."""
-    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver
+    from corr_cad.mechanics.drive_rigid import ForcePassDriveSolver
     from corr_cad.tolerance.montecarlo_drive import _block_metrics, stacked_geometry
 
     bearing = None if clearance is None else EccentricBearing(40, 6.0, 12.0, clearance)
@@ -126,7 +127,7 @@ def test_the_force_pass_s_lean_result_is_the_result_s_metrics_bit_for_bit(law, c
 def test_the_block_s_shared_directions_are_the_stacked_rows_own_bit_for_bit():
     """The force pass gives each block the nominal rollers' directions, tiled: the same
     bits as computed from the block's stacked rows."""
-    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver
+    from corr_cad.mechanics.drive_rigid import ForcePassDriveSolver
     from corr_cad.tolerance.montecarlo_drive import _nominal_rows, stacked_geometry
 
     angles = cycle_angles(36)

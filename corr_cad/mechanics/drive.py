@@ -193,11 +193,8 @@ class DriveSolver:
         if crank is not None and self.bodies is not None:
             raise SolverError('a crankshaft and [solver] bodies = "elastic" together: give one')
 
-    def _directions(self, geometry: tuple[RollerGeometry, RollerGeometry]) -> np.ndarray:
-        """Both rows' ``n_k`` (P, 2R, 2) (:func:`roller_directions`)."""
+    def _directions(self, geometry) -> np.ndarray:  # both rows' n_k (P, 2R, 2)
         return np.concatenate([roller_directions(self.design, g) for g in geometry], axis=1)
-
-    # ------------------------------------------------------------------ solve
 
     def solve(self, target: float):
         """``(tau, F (P, 2R), u (2, P, 2), Q list, rel, iterations)`` at crank moment ``target``

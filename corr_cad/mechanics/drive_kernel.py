@@ -18,16 +18,14 @@ uses it (``tests/test_montecarlo_drive.py``).
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
 
 import numpy as np
 
-from corr_cad.mechanics import contact
 from corr_cad.mechanics.drive import DRIVE_RTOL, DriveSolver
 from corr_cad.mechanics.drive_laws import _invert_one, _palmgren
 from corr_cad.mechanics.mc_kernel import _jit
 
-__all__ = ["CompiledInverse", "CompiledDriveSolver", "ForcePassDriveSolver", "bearing_solve"]
+__all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
 
 
 @_jit
@@ -554,68 +552,3 @@ class CompiledDriveSolver(DriveSolver):
         explicit = getattr(self.comp, "explicit", False)
         table = None if explicit else CompiledInverse(self.comp, self.geo_joined.gap.shape).table
         return row_centres(self, c, idx, v, DRIVE_RTOL, table)
-
-
-class ForcePassDriveSolver(CompiledDriveSolver):
-    """:class:`CompiledDriveSolver` whose rigid start is compiled too under Palmgren's law
-    (:func:`corr_cad.mechanics.drive_rigid.rigid_palmgren`): the Monte Carlo's force pass.
-    The rigid start agrees with the numpy one to round-off, not bit for bit; the datasheet
-    pass keeps the numpy start, whose zero-moment preload of a nominal drive is round-off
-    itself (a pressure of 1e-118 MPa that the summary prints to 12 digits).
-
-    ``directions``: the rollers' ``n_k`` (P, 2R, 2) when the caller has them (the samples
-    of a block share the nominal ones: the same bits as computed from the stacked rows)."""
-
-    def __init__(self, *args, directions: np.ndarray | None = None, **kwargs):
-        self._given_directions = directions
-        super().__init__(*args, **kwargs)
-
-    def _directions(self, geometry):
-        if self._given_directions is not None:
-            return self._given_directions
-        return super()._directions(geometry)
-
-    def solve_contacts(self, target: float):
-        """:meth:`DriveSolver.solve_contacts` with the rigid start compiled under Palmgren's
-        law (:func:`corr_cad.mechanics.drive_rigid.rigid_palmgren`)."""
-        if not getattr(self.comp, "explicit", False):
-            return super().solve_contacts(target)
-        from corr_cad.mechanics.drive_rigid import rigid_palmgren
-
-        rigid = rigid_palmgren(self.geo_joined, self.comp, target, self.rtol)
-        if rigid is None:  # no bracket somewhere: the numpy solver says where
-            return super().solve_contacts(target)
-        tau, F, iterations = rigid
-        if self.bearings[0] is not None:
-            return self._with_bearings(target, tau, F, iterations)
-        geo = self.geo_joined
-        a_c = np.where(geo.loadable, geo.advance, 0.0)
-        a_m = np.where(geo.loadable, geo.arm, 0.0)
-        # The residual's scale as solver_numerics._solve_positions takes it.
-        gross = np.where(geo.loadable, np.abs(tau[:, None] * a_c) + np.abs(geo.gap), 0.0)
-        scale = np.sum(np.abs(a_m) * (np.abs(F) + gross / self.comp.slope0), axis=1)
-        rel = np.abs(np.sum(a_m * F, axis=1) - target) / (abs(target) + scale + 1e-300)
-        return tau, F, np.zeros((2, len(tau), 2)), None, rel, iterations
-
-    def force_metrics_result(self, target: float) -> SimpleNamespace:
-        """What the Monte Carlo's force metrics read of :meth:`result`, and only that:
-        ``success``, ``F_n`` (2, P, R) and ``rows`` (each row's ``F_j``, ``p_cam``,
-        ``p_slot``, ``p_gear``), the same arrays bit for bit (the same elementwise
-        expressions, on both rows at once; the contacts' half-width factors the
-        compliance's own), without the rest of the result (shear forces, validity,
-        bearing loads, the share)."""
-        tau, F, u, Qs, rel, it = self.solve(target)
-        geo, comp, R = self.geo_joined, self.comp, self.R
-        length = self.design.roller_length
-        Fn = geo.rho_n * F
-        p_cam = contact.max_pressure(F, comp.cj, length)
-        p_slot = contact.max_pressure(np.abs(geo.rho_s * F), comp.cs, length)
-        p_gear = contact.max_pressure(Fn, comp.cn, length)
-        rows = tuple(
-            SimpleNamespace(
-                F_j=F[:, sl], p_cam=p_cam[:, sl], p_slot=p_slot[:, sl], p_gear=p_gear[:, sl]
-            )
-            for sl in (slice(0, R), slice(R, 2 * R))
-        )
-        ok = bool(np.all(rel <= max(self.rtol, 1e-9)))
-        return SimpleNamespace(success=ok, F_n=np.stack([Fn[:, :R], Fn[:, R:]]), rows=rows)

@@ -16,17 +16,25 @@ does in numpy once its ``tau`` no longer moves). The sums are taken in
 another order than numpy's, so ``tau`` agrees with the numpy solve to
 round-off (``tests/test_drive_rigid.py``), and the drive's solution, which
 the bearing Newton takes to its own tolerance from there, to that tolerance.
+
+:class:`ForcePassDriveSolver` is the drive Monte Carlo's force pass
+(:func:`corr_cad.tolerance.montecarlo_drive.drive_chunk`): the compiled drive solver
+with this start, the block's rollers' directions given (the nominal ones, tiled) and
+the force metrics' arrays alone (:meth:`ForcePassDriveSolver.force_metrics_result`).
 """
 
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 
+from corr_cad.mechanics import contact
+from corr_cad.mechanics.drive_kernel import CompiledDriveSolver
 from corr_cad.mechanics.mc_kernel import _jit
 
-__all__ = ["rigid_palmgren"]
+__all__ = ["ForcePassDriveSolver", "rigid_palmgren"]
 
 _EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
 
@@ -198,3 +206,66 @@ def rigid_palmgren(geo, comp, target: float, rtol: float):
     tau, F = np.empty(P), np.empty((P, N))
     it = _rigid(a_c, a_m, h0, K, k0, float(target), float(rtol), 200, tau, F)
     return None if it < 0 else (tau, F, int(it))
+
+
+class ForcePassDriveSolver(CompiledDriveSolver):
+    """:class:`CompiledDriveSolver` whose rigid start is compiled too under Palmgren's law
+    (:func:`corr_cad.mechanics.drive_rigid.rigid_palmgren`): the Monte Carlo's force pass.
+    The rigid start agrees with the numpy one to round-off, not bit for bit; the datasheet
+    pass keeps the numpy start, whose zero-moment preload of a nominal drive is round-off
+    itself (a pressure of 1e-118 MPa that the summary prints to 12 digits).
+
+    ``directions``: the rollers' ``n_k`` (P, 2R, 2) when the caller has them (the samples
+    of a block share the nominal ones: the same bits as computed from the stacked rows)."""
+
+    def __init__(self, *args, directions: np.ndarray | None = None, **kwargs):
+        self._given_directions = directions
+        super().__init__(*args, **kwargs)
+
+    def _directions(self, geometry):
+        if self._given_directions is not None:
+            return self._given_directions
+        return super()._directions(geometry)
+
+    def solve_contacts(self, target: float):
+        """:meth:`DriveSolver.solve_contacts` with the rigid start compiled under Palmgren's
+        law (:func:`corr_cad.mechanics.drive_rigid.rigid_palmgren`)."""
+        if not getattr(self.comp, "explicit", False):
+            return super().solve_contacts(target)
+        rigid = rigid_palmgren(self.geo_joined, self.comp, target, self.rtol)
+        if rigid is None:  # no bracket somewhere: the numpy solver says where
+            return super().solve_contacts(target)
+        tau, F, iterations = rigid
+        if self.bearings[0] is not None:
+            return self._with_bearings(target, tau, F, iterations)
+        geo = self.geo_joined
+        a_c = np.where(geo.loadable, geo.advance, 0.0)
+        a_m = np.where(geo.loadable, geo.arm, 0.0)
+        # The residual's scale as solver_numerics._solve_positions takes it.
+        gross = np.where(geo.loadable, np.abs(tau[:, None] * a_c) + np.abs(geo.gap), 0.0)
+        scale = np.sum(np.abs(a_m) * (np.abs(F) + gross / self.comp.slope0), axis=1)
+        rel = np.abs(np.sum(a_m * F, axis=1) - target) / (abs(target) + scale + 1e-300)
+        return tau, F, np.zeros((2, len(tau), 2)), None, rel, iterations
+
+    def force_metrics_result(self, target: float) -> SimpleNamespace:
+        """What the Monte Carlo's force metrics read of :meth:`result`, and only that:
+        ``success``, ``F_n`` (2, P, R) and ``rows`` (each row's ``F_j``, ``p_cam``,
+        ``p_slot``, ``p_gear``), the same arrays bit for bit (the same elementwise
+        expressions, on both rows at once; the contacts' half-width factors the
+        compliance's own), without the rest of the result (shear forces, validity,
+        bearing loads, the share)."""
+        tau, F, u, Qs, rel, it = self.solve(target)
+        geo, comp, R = self.geo_joined, self.comp, self.R
+        length = self.design.roller_length
+        Fn = geo.rho_n * F
+        p_cam = contact.max_pressure(F, comp.cj, length)
+        p_slot = contact.max_pressure(np.abs(geo.rho_s * F), comp.cs, length)
+        p_gear = contact.max_pressure(Fn, comp.cn, length)
+        rows = tuple(
+            SimpleNamespace(
+                F_j=F[:, sl], p_cam=p_cam[:, sl], p_slot=p_slot[:, sl], p_gear=p_gear[:, sl]
+            )
+            for sl in (slice(0, R), slice(R, 2 * R))
+        )
+        ok = bool(np.all(rel <= max(self.rtol, 1e-9)))
+        return SimpleNamespace(success=ok, F_n=np.stack([Fn[:, :R], Fn[:, R:]]), rows=rows)

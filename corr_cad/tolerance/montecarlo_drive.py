@@ -167,7 +167,7 @@ def drive_chunk(
     ``errors_for(base, tolerances, draws, k)``: sample ``k``'s errors (the Monte
     Carlo's own mapping of draws to errors).
     """
-    from corr_cad.mechanics.drive_kernel import ForcePassDriveSolver  # numba: only when run
+    from corr_cad.mechanics.drive_rigid import ForcePassDriveSolver  # numba: only when run
 
     tol_b = row_b_tolerances(tolerances)
     angles = np.asarray(angles, dtype=float).reshape(-1)
