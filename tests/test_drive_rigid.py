@@ -137,3 +137,21 @@ def test_the_block_s_shared_directions_are_the_stacked_rows_own_bit_for_bit():
     own = ForcePassDriveSolver(DESIGN, np.tile(angles, len(pairs)), geometry=geometry).n
     assert np.array_equal(tiled, own)
     assert not _nominal_rows(DESIGN, angles, np.pi)[1].flags.writeable
+
+
+def test_the_shared_nominal_rows_are_each_caller_s_own_from_threads():
+    """Threads (a Dask worker's) asking for the nominal rows of different angles, in turn,
+    each get their own angles' rows: the cache is read and replaced as one entry."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from corr_cad.mechanics.solver_geometry import roller_geometry
+    from corr_cad.tolerance.montecarlo_drive import _nominal_rows
+
+    sets = [cycle_angles(36), cycle_angles(36) + 0.01, cycle_angles(8)]
+    want = [roller_geometry(DESIGN, a, None, (), np.pi).psi for a in sets]
+
+    def ask(k: int) -> bool:
+        return np.array_equal(_nominal_rows(DESIGN, sets[k % 3], np.pi)[0][0].psi, want[k % 3])
+
+    with ThreadPoolExecutor(3) as pool:
+        assert all(pool.map(ask, range(300)))

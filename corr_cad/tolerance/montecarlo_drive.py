@@ -69,8 +69,9 @@ def drive_metrics(res, interval: tuple[np.ndarray, np.ndarray], ratio: float) ->
     }
 
 
-#: The last nominal rows built (:func:`_nominal_rows`): ``(key, rows)``.
-_NOMINAL: list = [None, None]
+#: The last nominal rows built (:func:`_nominal_rows`): ``[(key, (rows, directions))]``,
+#: one tuple read and replaced whole (a thread never sees one key with another's rows).
+_NOMINAL: list = [None]
 
 
 def _nominal_rows(design, phi: np.ndarray, psi_limit: float) -> tuple[list, np.ndarray]:
@@ -78,14 +79,16 @@ def _nominal_rows(design, phi: np.ndarray, psi_limit: float) -> tuple[list, np.n
     and their rollers' directions (P, 2R, 2), read-only; the same for every block of a
     chunk and every chunk of a run, so built once (the last ones kept)."""
     key = (design, phi.tobytes(), float(psi_limit))
-    if _NOMINAL[0] != key:
+    entry = _NOMINAL[0]
+    if entry is None or entry[0] != key:
         rows = [roller_geometry(design, x, None, (), psi_limit) for x in (phi, phi + np.pi)]
         n = np.concatenate([roller_directions(design, g) for g in rows], axis=1)
         for v in [n, *(v for g in rows for v in vars(g).values())]:
             if isinstance(v, np.ndarray):
                 v.setflags(write=False)
-        _NOMINAL[:] = [key, (rows, n)]
-    return _NOMINAL[1]
+        entry = (key, (rows, n))
+        _NOMINAL[0] = entry
+    return entry[1]
 
 
 def stacked_geometry(
