@@ -128,63 +128,133 @@ def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order):
 
 
 @_jit
+def _walk(p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft):
+    """The bracket's trials ``tau0 + side step0 4^k`` from trial ``k`` on (``stepk`` its step),
+    as ``_nested`` tries them, each only where needed: ``(0, ...)`` at the first trial
+    beyond ``cut`` (the bracket's end lies at or beyond it), ``(1, ..., end)`` at the end
+    (the first trial whose moment reaches the target's other side), ``(-1, ...)`` none
+    within 200 trials. A trial the known moments already place on the start side
+    (at or before ``xneg`` going up, at or after ``xpos`` going down: the moment is
+    monotone in the rotation) is passed without an evaluation."""
+    while k < 200:
+        t = tau0 + stepk if side > 0 else tau0 - stepk
+        if (side > 0 and t > cut) or (side < 0 and t < cut):
+            return 0, k, stepk, t
+        if not ((side > 0 and t <= xneg) or (side < 0 and t >= xpos)):
+            r = _moment(p, t, a_c, a_m, h0, K, Ft)[0] - target
+            if (side > 0 and r >= 0) or (side < 0 and r <= 0):
+                return 1, k, stepk, t
+        k += 1
+        stepk *= 4.0
+    return -1, k, stepk, 0.0
+
+
+@_jit
 def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
     """Every position's rigid solve (``solver_numerics._nested`` under Palmgren's law);
     returns the iterations the slowest position took, -1 where a position has no
-    bracket (no roller can carry the moment)."""
+    bracket (no roller can carry the moment).
+
+    The bracket's far end matters only where a Newton step would leave it or a
+    bisection needs it: each step is first evaluated (as an accepted one is), and a
+    step whose moment stays clearly on the start side (1e-9 of its terms) lies inside
+    the bracket (the moment is monotone: the far end's is across the target); the
+    trials are walked (:func:`_walk`) only as far as a step's decision needs them, so
+    the steps, bisections and stops are ``_nested``'s with its bracket."""
     P, N = a_c.shape
-    F, Ft = np.empty(N), np.empty(N)  # the forces at tau, at the bracket's trials
+    F, Ft, Fc = np.empty(N), np.empty(N), np.empty(N)  # at tau, at a trial, at a step
     bp, order = np.empty(N), np.empty(N, dtype=np.int64)
     most = 0
     for p in range(P):
         tau = _linear_tau(p, a_c, a_m, h0, k0, target, bp, order)
         mom, dmom, scale = _moment(p, tau, a_c, a_m, h0, K, F)
         res = mom - target
+        if math.isnan(res):
+            return -1
         lo = tau if res <= 0 else -np.inf
         hi = tau if res >= 0 else np.inf
+        side = 1 if not math.isfinite(hi) else (-1 if not math.isfinite(lo) else 0)
+        found = side == 0  # the bracket's far end known (or replaced by an iterate)
         amax, gmax = 0.0, 0.0
         for i in range(N):
             amax = max(amax, abs(a_c[p, i]))
             gmax = max(gmax, abs(h0[p, i]))
         gap_scale = gmax / max(amax, 1e-300)
-        step = max(max(1e-3 * abs(tau), 1e-3 * gap_scale), 1e-15)
-        for _ in range(200):
-            need_hi, need_lo = not math.isfinite(hi), not math.isfinite(lo)
-            if not (need_hi or need_lo):
-                break
-            trial = tau + step if need_hi else tau - step
-            r_t = _moment(p, trial, a_c, a_m, h0, K, Ft)[0] - target
-            if need_hi:
-                if r_t >= 0:
-                    hi = trial
-                else:
-                    lo = trial
-            if need_lo:
-                if r_t <= 0:
-                    lo = trial
-                elif r_t > 0:
-                    hi = trial
-            step *= 4.0
-        if not (math.isfinite(lo) and math.isfinite(hi)):
-            return -1
+        tau0, k = tau, 0
+        stepk = max(max(1e-3 * abs(tau), 1e-3 * gap_scale), 1e-15)
+        xpos, xneg = np.inf, -np.inf  # evaluated points clearly above / below the target
         it = 0
         for it in range(1, max_iter + 1):
             res = mom - target
+            margin = 1e-9 * (abs(target) + scale)
+            if res > margin:
+                xpos = min(xpos, tau)
+            if res < -margin:
+                xneg = max(xneg, tau)
             if abs(res) <= rtol * (abs(target) + scale) + 1e-300:
                 break
             if res < 0:
                 lo = tau
+                found = found or side < 0
             if res > 0:
                 hi = tau
+                found = found or side > 0
             newton = tau - res / dmom
-            if dmom > 0 and newton > lo and newton < hi:
-                tau_new = newton
-            else:
-                tau_new = 0.5 * (lo + hi)
+            ok, tried = False, False
+            if found:
+                ok = dmom > 0 and newton > lo and newton < hi
+            elif dmom > 0 and ((side < 0 and newton < hi) or (side > 0 and newton > lo)):
+                momc, dmomc, scalec = _moment(p, newton, a_c, a_m, h0, K, Fc)
+                tried = True
+                resc = momc - target
+                if side < 0 and resc > 1e-9 * (abs(target) + scalec):
+                    xpos = min(xpos, newton)
+                if side > 0 and resc < -1e-9 * (abs(target) + scalec):
+                    xneg = max(xneg, newton)
+                status, k, stepk, end = _walk(
+                    p, side, tau0, k, stepk, newton, xpos, xneg, target, a_c, a_m, h0, K, Ft
+                )
+                if status < 0:
+                    return -1
+                if status == 0:
+                    ok = True
+                else:
+                    found = True
+                    if side < 0:
+                        lo = end
+                    else:
+                        hi = end
+                    ok = newton > lo and newton < hi
+            if not ok and not found:  # a bisection: the bracket's far end itself
+                cut = side * np.inf
+                status, k, stepk, end = _walk(
+                    p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft
+                )
+                if status != 1:
+                    return -1
+                found = True
+                if side < 0:
+                    lo = end
+                else:
+                    hi = end
+            tau_new = newton if ok else 0.5 * (lo + hi)
             if tau_new == tau:
                 break
-            mom, dmom, scale = _moment(p, tau_new, a_c, a_m, h0, K, F)
+            if ok and tried:
+                mom, dmom, scale = momc, dmomc, scalec
+                for i in range(N):
+                    F[i] = Fc[i]
+            else:
+                mom, dmom, scale = _moment(p, tau_new, a_c, a_m, h0, K, F)
             tau = tau_new
+        if not found:  # no step needed the far end: its bracket must still exist
+            if abs(mom - target) > rtol * (abs(target) + scale) + 1e-300:
+                cut = side * np.inf
+                status = _walk(
+                    p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft
+                )[0]
+                if status != 1:
+                    return -1
         most = max(most, it)
         tau_out[p] = tau
         for i in range(N):
