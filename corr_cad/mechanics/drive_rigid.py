@@ -175,10 +175,13 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
         hi = tau if res >= 0 else np.inf
         side = 1 if not math.isfinite(hi) else (-1 if not math.isfinite(lo) else 0)
         found = side == 0  # the bracket's far end known (or replaced by an iterate)
-        amax, gmax = 0.0, 0.0
+        amax, gmax, mono = 0.0, 0.0, True
         for i in range(N):
             amax = max(amax, abs(a_c[p, i]))
             gmax = max(gmax, abs(h0[p, i]))
+            mono = mono and a_c[p, i] * a_m[p, i] >= 0.0  # each roller's moment monotone
+        # Where the moment is not monotone, no evaluation places a trial: all are walked.
+        big = 1e-9 if mono else np.inf
         gap_scale = gmax / max(amax, 1e-300)
         tau0, k = tau, 0
         stepk = max(max(1e-3 * abs(tau), 1e-3 * gap_scale), 1e-15)
@@ -186,7 +189,7 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
         it = 0
         for it in range(1, max_iter + 1):
             res = mom - target
-            margin = 1e-9 * (abs(target) + scale)
+            margin = big * (abs(target) + scale)
             if res > margin:
                 xpos = min(xpos, tau)
             if res < -margin:
@@ -207,9 +210,9 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
                 momc, dmomc, scalec = _moment(p, newton, a_c, a_m, h0, K, Fc)
                 tried = True
                 resc = momc - target
-                if side < 0 and resc > 1e-9 * (abs(target) + scalec):
+                if side < 0 and resc > big * (abs(target) + scalec):
                     xpos = min(xpos, newton)
-                if side > 0 and resc < -1e-9 * (abs(target) + scalec):
+                if side > 0 and resc < -big * (abs(target) + scalec):
                     xneg = max(xneg, newton)
                 status, k, stepk, end = _walk(
                     p, side, tau0, k, stepk, newton, xpos, xneg, target, a_c, a_m, h0, K, Ft
