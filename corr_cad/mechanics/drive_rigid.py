@@ -206,20 +206,22 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
             ok, tried = False, False
             if found:
                 ok = dmom > 0 and newton > lo and newton < hi
-            elif dmom > 0 and ((side < 0 and newton < hi) or (side > 0 and newton > lo)):
-                momc, dmomc, scalec = _moment(p, newton, a_c, a_m, h0, K, Fc)
-                tried = True
-                resc = momc - target
-                if side < 0 and resc > big * (abs(target) + scalec):
-                    xpos = min(xpos, newton)
-                if side > 0 and resc < -big * (abs(target) + scalec):
-                    xneg = max(xneg, newton)
+            else:  # the far end: how far out a step's decision or a bisection needs it
+                cut = side * np.inf
+                if dmom > 0 and ((side < 0 and newton < hi) or (side > 0 and newton > lo)):
+                    momc, dmomc, scalec = _moment(p, newton, a_c, a_m, h0, K, Fc)
+                    tried, cut = True, newton
+                    resc = momc - target
+                    if side < 0 and resc > big * (abs(target) + scalec):
+                        xpos = min(xpos, newton)
+                    if side > 0 and resc < -big * (abs(target) + scalec):
+                        xneg = max(xneg, newton)
                 status, k, stepk, end = _walk(
-                    p, side, tau0, k, stepk, newton, xpos, xneg, target, a_c, a_m, h0, K, Ft
+                    p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft
                 )
                 if status < 0:
                     return -1
-                if status == 0:
+                if status == 0:  # a trial short of the far end lies beyond the step
                     ok = True
                 else:
                     found = True
@@ -227,19 +229,7 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
                         lo = end
                     else:
                         hi = end
-                    ok = newton > lo and newton < hi
-            if not ok and not found:  # a bisection: the bracket's far end itself
-                cut = side * np.inf
-                status, k, stepk, end = _walk(
-                    p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft
-                )
-                if status != 1:
-                    return -1
-                found = True
-                if side < 0:
-                    lo = end
-                else:
-                    hi = end
+                    ok = tried and newton > lo and newton < hi
             tau_new = newton if ok else 0.5 * (lo + hi)
             if tau_new == tau:
                 break
@@ -250,14 +240,8 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
             else:
                 mom, dmom, scale = _moment(p, tau_new, a_c, a_m, h0, K, F)
             tau = tau_new
-        if not found:  # no step needed the far end: its bracket must still exist
-            if abs(mom - target) > rtol * (abs(target) + scale) + 1e-300:
-                cut = side * np.inf
-                status = _walk(
-                    p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft
-                )[0]
-                if status != 1:
-                    return -1
+        if not found and abs(mom - target) > rtol * (abs(target) + scale) + 1e-300:
+            return -1  # unsettled with the far end unknown: the numpy solver decides
         most = max(most, it)
         tau_out[p] = tau
         for i in range(N):
