@@ -44,8 +44,8 @@ GROUPS = (
     ("free-play kernel", ("free_play",), 4, "the drive's backlash with a bearing clearance"),
     (
         "drive kernels",
-        ("drive_laws", "drive_kernel", "drive_centre"),
-        8,
+        ("drive_laws", "drive_kernel", "drive_centre", "drive_rigid"),
+        15,
         "the drive's Monte Carlo, allocation, design",
     ),
 )

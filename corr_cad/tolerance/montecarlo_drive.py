@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from corr_cad.mechanics.drive.drive import row_errors
+from corr_cad.mechanics.drive.drive_numerics import roller_directions
 from corr_cad.mechanics.row.solver import loaded_mask
 from corr_cad.mechanics.row.solver_geometry import RollerGeometry, _error_gaps, roller_geometry
 from corr_cad.tolerance.checks import ARCMIN_PER_RAD
@@ -79,6 +80,28 @@ def drive_metrics(res, interval: tuple[np.ndarray, np.ndarray], ratio: float) ->
     }
 
 
+#: The last nominal rows built (:func:`_nominal_rows`): ``[(key, (rows, directions))]``,
+#: one tuple read and replaced whole (a thread never sees one key with another's rows).
+_NOMINAL: list = [None]
+
+
+def _nominal_rows(design, phi: np.ndarray, psi_limit: float) -> tuple[list, np.ndarray]:
+    """Rows A and B of the nominal design at crank angles ``phi`` (row B at ``phi + pi``)
+    and their rollers' directions (P, 2R, 2), read-only; the same for every block of a
+    chunk and every chunk of a run, so built once (the last ones kept)."""
+    key = (design, phi.tobytes(), float(psi_limit))
+    entry = _NOMINAL[0]
+    if entry is None or entry[0] != key:
+        rows = [roller_geometry(design, x, None, (), psi_limit) for x in (phi, phi + np.pi)]
+        n = np.concatenate([roller_directions(design, g) for g in rows], axis=1)
+        for v in [n, *(v for g in rows for v in vars(g).values())]:
+            if isinstance(v, np.ndarray):
+                v.setflags(write=False)
+        entry = (key, (rows, n))
+        _NOMINAL[0] = entry
+    return entry[1]
+
+
 def stacked_geometry(
     design, angles: np.ndarray, pairs: list, psi_limit: float
 ) -> tuple[RollerGeometry, RollerGeometry]:
@@ -92,7 +115,7 @@ def stacked_geometry(
     """
     phi = np.asarray(angles, dtype=float).reshape(-1)
     phis = (phi, phi + np.pi)
-    nominal = [roller_geometry(design, x, None, (), psi_limit) for x in phis]
+    nominal = _nominal_rows(design, phi, psi_limit)[0]
     theta = np.arange(design.roller_count) * design.slot_pitch_rad
     r, Rj = design.roller_radius, design.cam_radius
     parts: tuple[dict, dict] = (
@@ -186,6 +209,7 @@ def drive_chunk(
     Carlo's own mapping of draws to errors).
     """
     from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver  # numba: only when run
+    from corr_cad.mechanics.drive.drive_rigid import ForcePassDriveSolver
 
     tol_b = row_b_tolerances(tolerances)
     angles = np.asarray(angles, dtype=float).reshape(-1)
@@ -199,8 +223,20 @@ def drive_chunk(
             (errors_for(base, tolerances, draws, k), errors_for(base_b, tol_b, draws_b, k))
             for k in range(lo, hi)
         ]
-        solver = chain_solver(CompiledDriveSolver, design, angles, pairs, psi_limit, drive)
-        res = solver.result(float(input_torque))
+        if drive.get("crank") is not None or drive.get("bodies") is not None:
+            solver = chain_solver(CompiledDriveSolver, design, angles, pairs, psi_limit, drive)
+            res = solver.result(float(input_torque))
+        else:  # the eccentrics fixed and the bodies rigid: the compiled force pass
+            solver = ForcePassDriveSolver(
+                design,
+                np.tile(angles, hi - lo),
+                geometry=stacked_geometry(design, angles, pairs, psi_limit),
+                directions=np.tile(_nominal_rows(design, angles, psi_limit)[1], (hi - lo, 1, 1)),
+                bearing=drive.get("bearing"),
+                bearing_b=drive.get("bearing_b"),
+                contact_model=drive.get("contact_model", "nonlinear"),
+            )
+            res = solver.force_metrics_result(float(input_torque))
         ok &= bool(res.success)
         # The backlash is the interval's width: 0 where tight, with no zero-moment solve.
         interval = solver.free_interval(solve=False)

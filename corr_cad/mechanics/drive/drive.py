@@ -188,12 +188,13 @@ class DriveSolver:
             raise SolverError("eccentric bearings: give both cams a bearing or neither")
         self.rtol = rtol
         self.R = design.roller_count
-        self.n = np.concatenate([roller_directions(design, g) for g in geometry], axis=1)
+        self.n = self._directions(geometry)
         self.crank = crank  # the crankshaft on its supports (None: the eccentrics fixed)
         # With a crank too, its fixed point (drive_crank) solves the bodies' at each iterate.
         self.bodies = bodies and Influence(bodies, design, self.crank_angles, geometry)
 
-    # ------------------------------------------------------------------ solve
+    def _directions(self, geometry) -> np.ndarray:  # both rows' n_k (P, 2R, 2)
+        return np.concatenate([roller_directions(self.design, g) for g in geometry], axis=1)
 
     def solve(self, target: float):
         """``(tau, F (P, 2R), u (2, P, 2), Q list, rel, iterations)`` at crank moment ``target``
