@@ -219,6 +219,16 @@ class WindupCurve:
         return np.stack([self.theta(T) for T in np.asarray(output_torques, dtype=float)])
 
     @staticmethod
+    def _settled(rel: np.ndarray, rtol: float, what: str) -> None:
+        """A :class:`SolverError` (``what`` not reached) where a relative residual of ``rel``
+        is above ``rtol`` (at least 1e-9)."""
+        limit = max(rtol, 1e-9)
+        if not np.all(rel <= limit):
+            raise SolverError(
+                f"{what} not reached to {limit:g} (worst relative residual {float(rel.max()):.3g})"
+            )
+
+    @staticmethod
     def _forces_torque(output_torque: float) -> float:
         """``output_torque`` as a float; a :class:`SolverError` unless finite and nonzero."""
         T = float(output_torque)
@@ -395,12 +405,8 @@ class Windup(WindupCurve):
         pieces = []
         for sl, geo, comp in self._geometry(sign):
             tau, Fj, iterations, _, rel = _solve_positions(geo, comp, target, self.rtol)
-            limit = max(self.rtol, 1e-9)
-            if not np.all(rel <= limit):
-                raise SolverError(
-                    f"windup at output torque {output_torque:g} N*mm: moment balance not "
-                    f"reached to {limit:g} (worst relative residual {float(rel.max()):.3g})"
-                )
+            what = f"windup at output torque {output_torque:g} N*mm: moment balance"
+            self._settled(rel, self.rtol, what)
             theta[sl] = -tau / self._ratio
             pieces.append((sl, geo, comp, Fj, tau, rel, iterations, target))
         return theta, pieces
