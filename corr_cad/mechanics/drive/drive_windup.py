@@ -31,7 +31,7 @@ from corr_cad.mechanics.drive.drive_crank import CrankSupport
 from corr_cad.mechanics.drive.drive_numerics import free_row
 from corr_cad.mechanics.drive.drive_restart import restart_missed
 from corr_cad.mechanics.row.solver_numerics import _RTOL
-from corr_cad.mechanics.row.windup import WindupCurve, crank_angles_of
+from corr_cad.mechanics.row.windup import WindupCurve
 
 __all__ = ["DriveWindup"]
 
@@ -65,12 +65,7 @@ class DriveWindup(WindupCurve):
                 "variant 'working_half_only' is the paper's one-row form; the drive model "
                 "loads both halves of both rows"
             )
-        x = np.asarray(output_angles, dtype=float).reshape(-1)
-        if x.size == 0 or not np.all(np.isfinite(x)):
-            raise SolverError("output_angles must be a non-empty array of finite angles (rad)")
-        self.design = design
-        self.output_angles = x
-        self.crank_angles = crank_angles_of(x, design)
+        self._place(design, output_angles)
         self.series_rigidity_Nm_per_arcmin = series_rigidity_Nm_per_arcmin
         self.bearings = (bearing, bearing_b if bearing_b is not None else bearing)
         solver_options = dict(
@@ -92,7 +87,7 @@ class DriveWindup(WindupCurve):
         self._ratio = float(design.roller_count)
         step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
         self._blocks = []
-        for a in range(0, len(x), step):
+        for a in range(0, len(self.output_angles), step):
             sl = slice(a, a + step)
             self._blocks.append((sl, DriveSolver(design, self.crank_angles[sl], **solver_options)))
         self._cache: dict[float, tuple] = {}

@@ -181,6 +181,16 @@ class WindupCurve:
 
     series_rigidity_Nm_per_arcmin: float | None
 
+    def _place(self, design: GearDesign, output_angles: np.ndarray) -> None:
+        """Set ``design``, the output angles (P,) rad, checked finite and not empty, and
+        their crank angles (:func:`crank_angles_of`)."""
+        x = np.asarray(output_angles, dtype=float).reshape(-1)
+        if x.size == 0 or not np.all(np.isfinite(x)):
+            raise SolverError("output_angles must be a non-empty array of finite angles (rad)")
+        self.design = design
+        self.output_angles = x
+        self.crank_angles = crank_angles_of(x, design)
+
     def free_ends(self) -> tuple[np.ndarray, np.ndarray]:
         """``theta(0-)`` and ``theta(0+)``, rad (P,) each."""
         raise NotImplementedError
@@ -302,12 +312,7 @@ class Windup(WindupCurve):
             raise SolverError(
                 f"series_rigidity_Nm_per_arcmin = {k!r}: allowed range is (0, inf), e.g. 1000"
             )
-        x = np.asarray(output_angles, dtype=float).reshape(-1)
-        if x.size == 0 or not np.all(np.isfinite(x)):
-            raise SolverError("output_angles must be a non-empty array of finite angles (rad)")
-        self.design = design
-        self.output_angles = x
-        self.crank_angles = crank_angles_of(x, design)
+        self._place(design, output_angles)
         self.errors = errors or ManufacturingErrors()
         self.load_share = float(load_share)
         self.contact_model = contact_model
