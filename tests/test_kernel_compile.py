@@ -28,7 +28,7 @@ def _jitted(module: str):
     tree = ast.parse(source(module).read_text())
     for node in tree.body:
         if isinstance(node, ast.FunctionDef) and any(
-            isinstance(d, ast.Name) and d.id == "_jit" for d in node.decorator_list
+            isinstance(d, ast.Name) and d.id in ("_jit", "_jit_inner") for d in node.decorator_list
         ):
             yield node
 

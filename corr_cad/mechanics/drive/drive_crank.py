@@ -57,7 +57,7 @@ from corr_cad.errors import SolverError
 from corr_cad.mechanics.crank.crankshaft import Crankshaft
 from corr_cad.mechanics.crank.support_bearing import SupportBearing
 from corr_cad.mechanics.drive.drive_numerics import joined
-from corr_cad.mechanics.drive.drive_restart import replace_positions, subset_solver
+from corr_cad.mechanics.drive.drive_restart import restart_from
 from corr_cad.mechanics.palmgren import PALMGREN_FORCE_EXPONENT
 
 __all__ = ["CrankSupport", "solve_with_crank", "budget_terms", "CRANK_RTOL"]
@@ -220,21 +220,10 @@ def _map(crank: CrankSupport, st: _State, F: np.ndarray):
 
 def _restart(solver, target, sol, starts):
     """Positions the Newton missed, again from other solutions (drive_restart's rule)."""
-    limit = max(solver.rtol, 1e-9)
-    out = list(sol)
     # With elastic bodies the bearing Newton alone would solve the rigid bodies' drive.
     if solver.bearings[0] is None or solver.bodies is not None:
         return sol
-    for start in starts:
-        if start is None:
-            continue
-        idx = np.flatnonzero(~(out[4] <= limit) & (start[4] <= limit))
-        if idx.size == 0:
-            continue
-        sub = subset_solver(solver, idx)
-        got = sub._with_bearings(target, start[0][idx], start[1][idx], 0)
-        replace_positions(out, got, idx, got[4] <= limit)
-    return tuple(out)
+    return restart_from(solver, target, sol, starts)
 
 
 def _warm(solver, target, prev):

@@ -22,20 +22,28 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-__all__ = ["restart_missed", "subset_solver", "replace_positions"]
+__all__ = ["restart_from", "restart_missed", "subset_solver", "replace_positions"]
 
 
 def restart_missed(solver, target: float, sol, starts: list) -> tuple:
     """``sol`` (``solver.solve(target)``'s ``(tau, F, u, Qs, rel, iterations)``) with its
     unsettled positions solved again from ``starts`` (solutions of the same solver at other
     moments, nearest first), where they settle from one."""
-    limit = max(solver.rtol, 1e-9)
-    out = list(sol)
     # With a crankshaft the coupling restarts its own misses (drive_crank: the geometry
     # moves); with elastic bodies the restart would solve the rigid bodies' drive.
     if solver.bearings[0] is None or solver.crank is not None or solver.bodies is not None:
         return sol
+    return restart_from(solver, target, sol, starts)
+
+
+def restart_from(solver, target: float, sol, starts: list) -> tuple:
+    """``sol`` with each unsettled position solved again by the bearing Newton from the
+    first of ``starts`` (``None`` skipped) that settled there, where it settles."""
+    limit = max(solver.rtol, 1e-9)
+    out = list(sol)
     for start in starts:
+        if start is None:
+            continue
         idx = np.flatnonzero(~(out[4] <= limit) & (start[4] <= limit))
         if idx.size == 0:
             continue

@@ -31,7 +31,7 @@ from corr_cad.mechanics.drive.drive_crank import CrankSupport
 from corr_cad.mechanics.drive.drive_numerics import free_row
 from corr_cad.mechanics.drive.drive_restart import restart_missed
 from corr_cad.mechanics.row.solver_numerics import _RTOL
-from corr_cad.mechanics.row.windup import crank_angles_of, series_rigidity_Nmm_per_rad
+from corr_cad.mechanics.row.windup import WindupCurve
 
 __all__ = ["DriveWindup"]
 
@@ -40,7 +40,7 @@ _BLOCK_ELEMENTS = 6000
 _RESTARTS = 2
 
 
-class DriveWindup:
+class DriveWindup(WindupCurve):
     """:class:`~corr_cad.mechanics.row.windup.Windup` of the two-row drive (same methods)."""
 
     def __init__(
@@ -65,15 +65,10 @@ class DriveWindup:
                 "variant 'working_half_only' is the paper's one-row form; the drive model "
                 "loads both halves of both rows"
             )
-        x = np.asarray(output_angles, dtype=float).reshape(-1)
-        if x.size == 0 or not np.all(np.isfinite(x)):
-            raise SolverError("output_angles must be a non-empty array of finite angles (rad)")
-        self.design = design
-        self.output_angles = x
-        self.crank_angles = crank_angles_of(x, design)
+        self._place(design, output_angles)
         self.series_rigidity_Nm_per_arcmin = series_rigidity_Nm_per_arcmin
         self.bearings = (bearing, bearing_b if bearing_b is not None else bearing)
-        self._options = dict(
+        solver_options = dict(
             errors=errors,
             errors_b=errors_b,
             bearing=bearing,
@@ -81,31 +76,20 @@ class DriveWindup:
             contact_model=contact_model,
             variants=variants,
             psi_contact_limit=psi_contact_limit,
-            series_rigidity_Nm_per_arcmin=series_rigidity_Nm_per_arcmin,
             rtol=rtol,
             crank=crank,
             bodies=bodies,
         )
+        #: The keyword arguments of this windup (:meth:`at`).
+        self._options = dict(
+            solver_options, series_rigidity_Nm_per_arcmin=series_rigidity_Nm_per_arcmin
+        )
         self._ratio = float(design.roller_count)
         step = max(1, _BLOCK_ELEMENTS // (2 * design.roller_count))
         self._blocks = []
-        for a in range(0, len(x), step):
+        for a in range(0, len(self.output_angles), step):
             sl = slice(a, a + step)
-            solver = DriveSolver(
-                design,
-                self.crank_angles[sl],
-                errors=errors,
-                errors_b=errors_b,
-                bearing=bearing,
-                bearing_b=bearing_b,
-                contact_model=contact_model,
-                variants=variants,
-                psi_contact_limit=psi_contact_limit,
-                rtol=rtol,
-                crank=crank,
-                bodies=bodies,
-            )
-            self._blocks.append((sl, solver))
+            self._blocks.append((sl, DriveSolver(design, self.crank_angles[sl], **solver_options)))
         self._cache: dict[float, tuple] = {}
         #: Each block's last solutions ``(crank moment, solution)``: restarts' starts.
         self._history: list[list] = [[] for _ in self._blocks]
@@ -130,12 +114,8 @@ class DriveWindup:
             near = sorted(self._history[b], key=lambda h: abs(h[0] - target))
             sol = restart_missed(solver, target, sol, [h[1] for h in near])
             tau, F, u, Qs, rel, it = sol
-            limit = max(solver.rtol, 1e-9)
-            if not np.all(rel <= limit):
-                raise SolverError(
-                    f"drive windup at output torque {T:g} N*mm: equilibrium not reached to "
-                    f"{limit:g} (worst relative residual {float(rel.max()):.3g})"
-                )
+            what = f"drive windup at output torque {T:g} N*mm: equilibrium"
+            self._settled(rel, solver.rtol, what)
             theta[sl] = -tau / self._ratio
             share[sl] = solver.share(F)
             pieces.append((sl, solver, sol))
@@ -154,11 +134,6 @@ class DriveWindup:
             # T > 0 turns the crank backwards (tau < 0): theta(0-) is the forward end.
             lo[sl], hi[sl] = -fwd / self._ratio, -rev / self._ratio
         return lo, hi
-
-    def backlash(self) -> np.ndarray:
-        """``theta(0+) - theta(0-)``, rad (P,)."""
-        lo, hi = self.free_ends()
-        return hi - lo
 
     def slack(self) -> np.ndarray:
         """Positions where no contact carries a force at zero torque, bool (P,).
@@ -188,25 +163,8 @@ class DriveWindup:
         x = self.output_angles[np.asarray(mask, dtype=bool)]
         return DriveWindup(self.design, x, **self._options)
 
-    def contact_theta(self, output_torque: float) -> np.ndarray:
-        """Windup of the contacts (and bearings) alone, rad (P,); ``+-0.0``: the free ends."""
-        T = float(output_torque)
-        if not math.isfinite(T):
-            raise SolverError(f"output torque {T!r}: must be a finite number (N*mm)")
-        if T == 0.0:
-            lo, hi = self.free_ends()
-            return lo if math.copysign(1.0, T) < 0 else hi
-        return self._solve(T)[0]
-
-    def theta(self, output_torque: float) -> np.ndarray:
-        """Windup with the series compliance, rad (P,)."""
-        T = float(output_torque)
-        k = series_rigidity_Nmm_per_rad(self.series_rigidity_Nm_per_arcmin)
-        return self.contact_theta(T) + T / k
-
-    def curve(self, output_torques: np.ndarray) -> np.ndarray:
-        """:meth:`theta` at each torque: (L, P) rad."""
-        return np.stack([self.theta(T) for T in np.asarray(output_torques, dtype=float)])
+    def _loaded_theta(self, output_torque: float) -> np.ndarray:
+        return self._solve(output_torque)[0]
 
     def row_a_share(self, output_torque: float) -> np.ndarray:
         """Share of the moment row A carries at each position (P,); 0.5 at zero torque."""
@@ -218,9 +176,7 @@ class DriveWindup:
     def forces(self, output_torque: float):
         """The :class:`~corr_cad.mechanics.drive.drive.DriveResult` at ``T`` (nonzero), all
         positions."""
-        T = float(output_torque)
-        if T == 0.0 or not math.isfinite(T):
-            raise SolverError(f"forces at output torque {T!r}: give a finite, nonzero torque")
+        T = self._forces_torque(output_torque)
         _, _, pieces = self._solve(T)
         target = self.cam_moment(T)
         parts = [solver._build(target, *sol) for _, solver, sol in pieces]

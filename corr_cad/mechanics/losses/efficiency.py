@@ -43,7 +43,12 @@ from corr_cad.mechanics.life import (
     rolling_speeds,
     system_life_h,
 )
-from corr_cad.mechanics.losses.friction import Friction, RowFriction, row_contacts, row_friction
+from corr_cad.mechanics.losses.friction import (
+    Friction,
+    RowFriction,
+    design_contacts,
+    row_friction,
+)
 from corr_cad.mechanics.losses.operating import operating_point
 
 __all__ = [
@@ -116,14 +121,7 @@ def drive_friction(design, rows: list[RowLoads], friction: Friction) -> list[Row
     kinematics)."""
     out = []
     for row in rows:
-        c = row_contacts(
-            design.tooth_count,
-            design.eccentricity,
-            design.cam_radius,
-            design.roller_radius,
-            row.crank_angles,
-            row.slot_force,
-        )
+        c = design_contacts(design, row.crank_angles, row.slot_force)
         out.append(row_friction(c, row.cam_force, friction))
     return out
 
@@ -137,14 +135,7 @@ def bearing_loads(design, row: RowLoads) -> np.ndarray:
     """
     if row.bearing_load is not None:
         return np.asarray(row.bearing_load, dtype=float)
-    c = row_contacts(
-        design.tooth_count,
-        design.eccentricity,
-        design.cam_radius,
-        design.roller_radius,
-        row.crank_angles,
-        row.slot_force,
-    )
+    c = design_contacts(design, row.crank_angles, row.slot_force)
     push = np.einsum("pk,pkx->px", np.asarray(row.cam_force, dtype=float), -c.d[:, :, 0])
     return np.linalg.norm(push, axis=1)
 

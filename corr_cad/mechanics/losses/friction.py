@@ -53,16 +53,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from corr_cad.errors import SolverError
+
+if TYPE_CHECKING:
+    from corr_cad.geometry.design import GearDesign
 
 __all__ = [
     "MOUNTINGS",
     "Friction",
     "RowContacts",
     "RowFriction",
+    "design_contacts",
     "row_contacts",
     "roller_equilibrium",
     "row_friction",
@@ -200,6 +205,25 @@ def row_contacts(
         roller_radius=r,
         cam_radius=Rj,
         crank_speed=float(R if crank_speed is None else crank_speed),
+    )
+
+
+def design_contacts(
+    design: GearDesign,
+    crank_angles: np.ndarray,
+    slot_side: np.ndarray,
+    *,
+    crank_speed: float | None = None,
+) -> RowContacts:
+    """:func:`row_contacts` of ``design``'s nominal row (its slot angles, ``2 pi k / (z + 1)``)."""
+    return row_contacts(
+        design.tooth_count,
+        design.eccentricity,
+        design.cam_radius,
+        design.roller_radius,
+        crank_angles,
+        slot_side,
+        crank_speed=crank_speed,
     )
 
 

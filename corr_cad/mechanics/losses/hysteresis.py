@@ -62,7 +62,7 @@ import numpy as np
 
 from corr_cad.mechanics.contact import linear_compliance
 from corr_cad.mechanics.losses.efficiency import drive_friction, row_loads_from_forces
-from corr_cad.mechanics.losses.friction import Friction, row_contacts, row_friction
+from corr_cad.mechanics.losses.friction import Friction, design_contacts, row_friction
 
 __all__ = ["bench_dissipation", "hysteresis_figures", "hysteresis_loop"]
 
@@ -155,15 +155,7 @@ def bench_dissipation(design, windup, torque: float, step: float, friction: Fric
 def _row_dissipation(design, res, dF: np.ndarray, friction: Friction) -> np.ndarray:
     """One row's dissipation per unit output rotation, its cam forces changing by ``dF``."""
     ddelta = dF * linear_compliance(design.roller_length, design.material.contact_modulus)
-    c = row_contacts(
-        design.tooth_count,
-        design.eccentricity,
-        design.cam_radius,
-        design.roller_radius,
-        res.crank_angles,
-        res.F_s,
-        crank_speed=0.0,
-    )
+    c = design_contacts(design, res.crank_angles, res.F_s, crank_speed=0.0)
     n = -c.d[:, :, 0]  # cam centre -> roller centre
     ur = c.centre / np.linalg.norm(c.centre, axis=-1, keepdims=True)
     o1 = c.cam_centre[:, None, :]

@@ -84,7 +84,7 @@ def load_target() -> None:
         pass
 
 
-def _jit(fn):
+def _jit(fn, **options):
     """Compile with numba, cached on disk when numba finds a writable place.
 
     Without one (a read-only install, no writable home, no usable
@@ -93,9 +93,15 @@ def _jit(fn):
     bits, ~4 s more).
     """
     try:
-        return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)
+        return numba.njit(cache=True, nogil=True, error_model="numpy", **options)(fn)
     except RuntimeError:  # "cannot cache function ...: no locator available"
-        return numba.njit(cache=False, nogil=True, error_model="numpy")(fn)
+        return numba.njit(cache=False, nogil=True, error_model="numpy", **options)(fn)
+
+
+def _jit_inner(fn):
+    """:func:`_jit` for a helper that only compiled code calls: without the wrappers that let
+    Python call it (about 0.1 s of compile each; the row's two kernels share nine helpers)."""
+    return _jit(fn, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 
 # Rows of a position's per-roller table ``C`` (fields x rollers).
@@ -106,7 +112,7 @@ FIELDS = 13
 F, RES, INV, HP, DG = range(5)
 
 
-@_jit
+@_jit_inner
 def _approach(u, uk, k1, k2):
     """``(delta(u), delta'(u))`` of one contact, tangent continuation past the knee."""
     ue = min(u, uk)
@@ -119,7 +125,7 @@ def _approach(u, uk, k1, k2):
     return val, slope
 
 
-@_jit
+@_jit_inner
 def _compliance(f, C, i, kc):
     """``G(f)`` and ``G'(f)`` of roller ``i``: cam, gear and slot contacts in series."""
     cj, cn, cs, wn, ws, k1 = C[CJ, i], C[CN, i], C[CS, i], C[WN, i], C[WS, i], C[K1, i]
@@ -127,6 +133,110 @@ def _compliance(f, C, i, kc):
     vn, sn = _approach(cn * wn * f, C[UKN, i], k1, C[KG, i])
     vs, ss = _approach(cs * ws * f, C[UKS, i], k1, 0.0)
     return vj + wn * vn + ws * vs, cj * sj + wn * cn * wn * sn + ws * cs * ws * ss
+
+
+@_jit_inner
+def _invert(f, h, C, i, kc):
+    """Roller ``i``'s force with ``G(F) = h`` by Newton from ``f``: monotone from the right
+    of the root (``G`` convex), so ``f`` is the linear-contact force or a predictor above it."""
+    for _ in range(100):
+        g, d = _compliance(f, C, i, kc)
+        f_new = max(f - (g - h) / d, 0.0)
+        if abs(f_new - f) <= 4e-16 * f:
+            return f_new
+        f = f_new
+    return f
+
+
+@_jit_inner
+def _roller_pressure(C, i, f):
+    """Largest ``sqrt(F / c)`` of roller ``i``'s cam, gear and slot contacts at ``F_j = f``."""
+    pj = math.sqrt(f / C[CJ, i])
+    pn = math.sqrt(C[WN, i] * f / C[CN, i])
+    ps_ = math.sqrt(C[WS, i] * f / C[CS, i])
+    return max(max(pj, ps_), pn)
+
+
+@_jit_inner
+def _free_ends(C, gap):
+    """The cam rotations ``(fwd, rev)`` where the first roller closes its gap turning forward
+    (``a > 0``: the smallest ``-gap / a``) and in reverse (``a < 0``: the largest); ``inf``
+    and ``-inf`` where none does."""
+    fwd = np.inf
+    rev = -np.inf
+    for i in range(C.shape[1]):
+        a = C[A, i]
+        if a > 0.0:
+            fwd = min(fwd, -gap[i] / a)
+        elif a < 0.0:
+            rev = max(rev, -gap[i] / a)
+    return fwd, rev
+
+
+@_jit_inner
+def _relative_residual(C, W, gap, tau, target):
+    """The moment residual of the forces ``W[F]`` at the rotation ``tau``, relative to the
+    moment's gross scale (as ``solver._solve_positions`` measures it)."""
+    mom = 0.0
+    scale = 0.0
+    for i in range(C.shape[1]):
+        a = C[A, i]
+        f = W[F, i]
+        mom += a * f
+        if a != 0.0:
+            gross = abs(tau * a) + abs(gap[i])
+            scale += abs(a) * (abs(f) + gross / C[K0, i])
+    return abs(mom - target) / (abs(target) + scale + 1e-300)
+
+
+@_jit_inner
+def _fill_table(
+    C, gap, k, p, psi, s, rho_n, rho_s, a_nom, loadable, kg_nom, pd, cam_err, ecc_err,
+    phase_err, dr_all, dl_all, e, L, z, r, Rj, c0,
+):  # fmt: skip
+    """Sample ``k``'s gaps ``gap`` and contact table ``C`` at position ``p`` (the arguments
+    of :func:`solve_samples`, ``c0 = pi length modulus``); returns its cam's curvature."""
+    kc = 1.0 / (Rj + cam_err[k])
+    ea = e + ecc_err[k]
+    any_delta = False
+    for i in range(C.shape[1]):
+        if dl_all[k, i] != 0.0:
+            any_delta = True
+    geo = ecc_err[k] != 0.0 or phase_err[k] != 0.0 or any_delta
+    lam = 2.0 / c0
+    for i in range(C.shape[1]):
+        # The sample's initial interference (solver._error_gaps).
+        dr = dr_all[k, i]
+        dl = dl_all[k, i]
+        gj = cam_err[k] + dr
+        if geo:
+            ss = s[p, i]
+            if any_delta:
+                ps = psi[p, i] + z * dl
+                sn = e * math.sin(ps)
+                ss = e * math.cos(ps) + math.sqrt(L * L - sn * sn)
+            ang = psi[p, i] - dl + phase_err[k]
+            gj = gj + L - math.sqrt(ss * ss + ea * ea - 2.0 * ss * ea * math.cos(ang))
+        gap[i] = gj + rho_n[p, i] * (dr + pd[p, i]) - rho_s[p, i] * max(-dr, 0.0)
+        # Its contacts (solver._Compliance).
+        k1 = 1.0 / (r + dr)
+        kg = kg_nom[p, i]
+        wn = rho_n[p, i]
+        ws = rho_s[p, i]
+        C[A, i] = a_nom[p, i]
+        C[H0, i] = gap[i] if loadable[p, i] else -1e300
+        C[K0, i] = lam * (1.0 + wn * wn + ws * ws)
+        C[CJ, i] = 4.0 / (c0 * max(k1 + kc, 1e-300))
+        C[CN, i] = 4.0 / (c0 * max(k1 + kg, 1e-300))
+        C[CS, i] = 4.0 / (c0 * max(k1, 1e-300))
+        C[WN, i] = wn
+        C[WS, i] = ws
+        C[K1, i] = k1
+        C[KG, i] = kg
+        C[UKJ, i] = _KNEE / max(max(k1 * k1, kc * kc), 1e-300)
+        C[UKN, i] = _KNEE / max(max(k1 * k1, kg * kg), 1e-300)
+        C[UKS, i] = _KNEE / max(k1 * k1, 1e-300)
+    return kc
 
 
 @_jit
@@ -173,7 +283,7 @@ def _linear_tau(C, target, order, bp):
     return start
 
 
-@_jit
+@_jit_inner
 def _evaluate(tau, C, kc, W, warm):
     """Forces at a fixed cam rotation, each roller's ``G(F) = h`` solved by Newton.
 
@@ -197,13 +307,7 @@ def _evaluate(tau, C, kc, W, warm):
             W[F, i] = 0.0
             W[DG, i] = C[K0, i]
             continue
-        for _ in range(100):
-            g, d = _compliance(f, C, i, kc)
-            f_new = max(f - (g - h) / d, 0.0)
-            if abs(f_new - f) <= 4e-16 * f:
-                f = f_new
-                break
-            f = f_new
+        f = _invert(f, h, C, i, kc)
         g, d = _compliance(f, C, i, kc)
         W[F, i] = f
         W[DG, i] = d
@@ -261,7 +365,7 @@ def _nested(tau, C, kc, W, target, rtol):
     return tau, True
 
 
-@_jit
+@_jit_inner
 def _solve_position(C, kc, W, order, bp, target, rtol):
     """Cam rotation and forces ``W[F]`` at one position; returns (tau, bracketed).
 
@@ -354,96 +458,42 @@ def solve_samples(
     n = cam_err.shape[0]
     P, R = psi.shape
     c0 = np.pi * length * modulus
-    lam = 2.0 / c0
     C = np.empty((FIELDS, R))
     W = np.zeros((5, R))
     gap = np.empty(R)
     bp = np.empty(R)
     order = np.empty(R, dtype=np.int64)
     for k in range(n):
-        kc = 1.0 / (Rj + cam_err[k])
-        ea = e + ecc_err[k]
-        any_delta = False
-        for i in range(R):
-            if dl_all[k, i] != 0.0:
-                any_delta = True
-        geo = ecc_err[k] != 0.0 or phase_err[k] != 0.0 or any_delta
         peak_f = 0.0
         peak_p = 0.0
         min_loaded = R + 1
         lost = 0.0
         worst = 0.0
         for p in range(P):
-            for i in range(R):
-                # The sample's initial interference (solver._error_gaps).
-                dr = dr_all[k, i]
-                dl = dl_all[k, i]
-                gj = cam_err[k] + dr
-                if geo:
-                    ss = s[p, i]
-                    if any_delta:
-                        ps = psi[p, i] + z * dl
-                        sn = e * math.sin(ps)
-                        ss = e * math.cos(ps) + math.sqrt(L * L - sn * sn)
-                    ang = psi[p, i] - dl + phase_err[k]
-                    gj = gj + L - math.sqrt(ss * ss + ea * ea - 2.0 * ss * ea * math.cos(ang))
-                gap[i] = gj + rho_n[p, i] * (dr + pd[p, i]) - rho_s[p, i] * max(-dr, 0.0)
-                # Its contacts (solver._Compliance).
-                k1 = 1.0 / (r + dr)
-                kg = kg_nom[p, i]
-                wn = rho_n[p, i]
-                ws = rho_s[p, i]
-                C[A, i] = a_nom[p, i]
-                C[H0, i] = gap[i] if loadable[p, i] else -1e300
-                C[K0, i] = lam * (1.0 + wn * wn + ws * ws)
-                C[CJ, i] = 4.0 / (c0 * max(k1 + kc, 1e-300))
-                C[CN, i] = 4.0 / (c0 * max(k1 + kg, 1e-300))
-                C[CS, i] = 4.0 / (c0 * max(k1, 1e-300))
-                C[WN, i] = wn
-                C[WS, i] = ws
-                C[K1, i] = k1
-                C[KG, i] = kg
-                C[UKJ, i] = _KNEE / max(max(k1 * k1, kc * kc), 1e-300)
-                C[UKN, i] = _KNEE / max(max(k1 * k1, kg * kg), 1e-300)
-                C[UKS, i] = _KNEE / max(k1 * k1, 1e-300)
+            kc = _fill_table(
+                C, gap, k, p, psi, s, rho_n, rho_s, a_nom, loadable, kg_nom, pd, cam_err,
+                ecc_err, phase_err, dr_all, dl_all, e, L, z, r, Rj, c0,
+            )  # fmt: skip
             tau, ok = _solve_position(C, kc, W, order, bp, target, rtol)
             if not ok:
                 worst = np.inf
                 break
             # Residual as solver._solve_positions measures it, and the backlash.
-            mom = 0.0
-            scale = 0.0
-            fmax = 0.0
-            fwd = np.inf
-            rev = -np.inf
-            for i in range(R):
-                a = C[A, i]
-                f = W[F, i]
-                mom += a * f
-                if a != 0.0:
-                    gross = abs(tau * a) + abs(gap[i])
-                    scale += abs(a) * (abs(f) + gross / C[K0, i])
-                    t = -gap[i] / a
-                    if a > 0.0:
-                        fwd = min(fwd, t)
-                    else:
-                        rev = max(rev, t)
-                fmax = max(fmax, f)
-            worst = max(worst, abs(mom - target) / (abs(target) + scale + 1e-300))
+            worst = max(worst, _relative_residual(C, W, gap, tau, target))
+            fwd, rev = _free_ends(C, gap)
             if np.isfinite(fwd) and np.isfinite(rev):
                 lost = max(lost, max(fwd - rev, 0.0) / R)
+            fmax = 0.0
+            for i in range(R):
+                fmax = max(fmax, W[F, i])
             threshold = _LOADED_SHARE * max(fmax, 0.0) + 0.0
             loaded = 0
             for i in range(R):
                 f = W[F, i]
                 if f > threshold:
                     loaded += 1
-                fn = C[WN, i] * f
-                peak_f = max(peak_f, fn)
-                pj = math.sqrt(f / C[CJ, i])
-                pn = math.sqrt(fn / C[CN, i])
-                ps_ = math.sqrt(C[WS, i] * f / C[CS, i])
-                peak_p = max(peak_p, max(max(pj, ps_), pn))
+                peak_f = max(peak_f, C[WN, i] * f)
+                peak_p = max(peak_p, _roller_pressure(C, i, f))
             min_loaded = min(min_loaded, loaded)
         out[k, 0] = peak_f
         out[k, 1] = 2.0 * peak_p / (np.pi * length)

@@ -20,29 +20,19 @@ Results agree with :class:`~corr_cad.mechanics.row.windup.Windup` and
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from corr_cad.mechanics.row.mc_kernel import (
-    _KNEE,
-    CJ,
-    CN,
-    CS,
     FIELDS,
     H0,
     K0,
-    K1,
-    KG,
-    UKJ,
-    UKN,
-    UKS,
-    WN,
-    WS,
     A,
-    F,
-    _compliance,
+    _fill_table,
+    _free_ends,
+    _invert,
     _jit,
+    _relative_residual,
+    _roller_pressure,
     _solve_position,
 )
 
@@ -62,14 +52,7 @@ def _preload_pressure(C, kc, gap, R, length, floor):
     ``h / G'(0)``, an upper bound of its force since ``G`` is convex, cannot
     reach ``floor`` is not inverted), and the overlap at ``tau*`` (mm).
     """
-    lo = np.inf  # first closing forward (a > 0): -gap/a, smallest
-    hi = -np.inf  # first closing in reverse (a < 0): -gap/a, largest
-    for i in range(R):
-        a = C[A, i]
-        if a > 0.0:
-            lo = min(lo, -gap[i] / a)
-        elif a < 0.0:
-            hi = max(hi, -gap[i] / a)
+    lo, hi = _free_ends(C, gap)  # first closing forward (a > 0), in reverse (a < 0)
     if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
         return floor, 0.0
     # Safeguarded Newton on the piecewise-linear up - down: intersect the two
@@ -114,24 +97,9 @@ def _preload_pressure(C, kc, gap, R, length, floor):
         f = h / C[K0, i]  # linear-contact force: an upper bound
         if _roller_pressure(C, i, f) <= top:
             continue
-        for _ in range(100):  # G(f) = h, monotone Newton from the right
-            g, d = _compliance(f, C, i, kc)
-            f_new = max(f - (g - h) / d, 0.0)
-            if abs(f_new - f) <= 4e-16 * f:
-                f = f_new
-                break
-            f = f_new
+        f = _invert(f, h, C, i, kc)  # G(f) = h, monotone Newton from the right
         top = max(top, _roller_pressure(C, i, f))
     return top / scale, over
-
-
-@_jit
-def _roller_pressure(C, i, f):
-    """Largest ``sqrt(F / c)`` of roller ``i``'s cam, gear and slot contacts at ``F_j = f``."""
-    pj = math.sqrt(f / C[CJ, i])
-    pn = math.sqrt(C[WN, i] * f / C[CN, i])
-    ps_ = math.sqrt(C[WS, i] * f / C[CS, i])
-    return max(max(pj, ps_), pn)
 
 
 @_jit
@@ -184,7 +152,6 @@ def windup_samples(
     P, R = psi.shape
     M = moments.shape[0]
     c0 = np.pi * length * modulus
-    lam = 2.0 / c0
     C = np.empty((FIELDS, R))
     W = np.zeros((5, R))
     gap = np.empty(R)
@@ -192,57 +159,17 @@ def windup_samples(
     order = np.empty(R, dtype=np.int64)
     ratio = float(R)
     for k in range(n):
-        kc = 1.0 / (Rj + cam_err[k])
-        ea = e + ecc_err[k]
-        any_delta = False
-        for i in range(R):
-            if dl_all[k, i] != 0.0:
-                any_delta = True
-        geo = ecc_err[k] != 0.0 or phase_err[k] != 0.0 or any_delta
         worst = 0.0
         lost = 0.0
         press = 0.0
         inter = 0.0
         for p in range(P):
-            for i in range(R):
-                dr = dr_all[k, i]
-                dl = dl_all[k, i]
-                gj = cam_err[k] + dr
-                if geo:
-                    ss = s[p, i]
-                    if any_delta:
-                        ps = psi[p, i] + z * dl
-                        sn = e * math.sin(ps)
-                        ss = e * math.cos(ps) + math.sqrt(L * L - sn * sn)
-                    ang = psi[p, i] - dl + phase_err[k]
-                    gj = gj + L - math.sqrt(ss * ss + ea * ea - 2.0 * ss * ea * math.cos(ang))
-                gap[i] = gj + rho_n[p, i] * (dr + pd[p, i]) - rho_s[p, i] * max(-dr, 0.0)
-                k1 = 1.0 / (r + dr)
-                kg = kg_nom[p, i]
-                wn = rho_n[p, i]
-                ws = rho_s[p, i]
-                C[A, i] = a_nom[p, i]
-                C[H0, i] = gap[i] if loadable[p, i] else -1e300
-                C[K0, i] = lam * (1.0 + wn * wn + ws * ws)
-                C[CJ, i] = 4.0 / (c0 * max(k1 + kc, 1e-300))
-                C[CN, i] = 4.0 / (c0 * max(k1 + kg, 1e-300))
-                C[CS, i] = 4.0 / (c0 * max(k1, 1e-300))
-                C[WN, i] = wn
-                C[WS, i] = ws
-                C[K1, i] = k1
-                C[KG, i] = kg
-                C[UKJ, i] = _KNEE / max(max(k1 * k1, kc * kc), 1e-300)
-                C[UKN, i] = _KNEE / max(max(k1 * k1, kg * kg), 1e-300)
-                C[UKS, i] = _KNEE / max(k1 * k1, 1e-300)
+            kc = _fill_table(
+                C, gap, k, p, psi, s, rho_n, rho_s, a_nom, loadable, kg_nom, pd, cam_err,
+                ecc_err, phase_err, dr_all, dl_all, e, L, z, r, Rj, c0,
+            )  # fmt: skip
             # Free rotation from the gaps (Windup.free_ends).
-            fwd = np.inf
-            rev = -np.inf
-            for i in range(R):
-                a = C[A, i]
-                if a > 0.0:
-                    fwd = min(fwd, -gap[i] / a)
-                elif a < 0.0:
-                    rev = max(rev, -gap[i] / a)
+            fwd, rev = _free_ends(C, gap)
             tight = fwd <= rev
             if np.isfinite(fwd) and np.isfinite(rev):
                 lost = max(lost, max(fwd - rev, 0.0) / ratio)
@@ -264,16 +191,7 @@ def windup_samples(
                     worst = np.inf
                     theta_out[k, p, j] = np.nan
                     continue
-                mom = 0.0
-                scale = 0.0
-                for i in range(R):
-                    a = C[A, i]
-                    f = W[F, i]
-                    mom += a * f
-                    if a != 0.0:
-                        gross = abs(tau * a) + abs(gap[i])
-                        scale += abs(a) * (abs(f) + gross / C[K0, i])
-                worst = max(worst, abs(mom - target) / (abs(target) + scale + 1e-300))
+                worst = max(worst, _relative_residual(C, W, gap, tau, target))
                 theta_out[k, p, j] = -tau / ratio
                 if sg != 0:
                     zero_theta = -tau / ratio

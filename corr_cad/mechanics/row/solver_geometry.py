@@ -54,6 +54,23 @@ def _wrap(a: np.ndarray) -> np.ndarray:
     return np.mod(a + np.pi, 2.0 * np.pi) - np.pi
 
 
+def _angles(design: GearDesign, crank_angles: np.ndarray) -> tuple:
+    """The crank angles ``phi`` (P,), the slots' polar angles ``theta`` (R,) and
+    ``psi = phi - theta`` (P, R), rad."""
+    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
+    theta = np.arange(design.roller_count) * design.slot_pitch_rad
+    return phi, theta, phi[:, None] - theta[None, :]
+
+
+def _loadable(psi: np.ndarray, psi_contact_limit: float) -> np.ndarray:
+    """Rollers that may carry a force, bool (P, R): all but those on the trimmed tooth tips of
+    an allowed undercut (``|psi| > psi_contact_limit``)."""
+    loadable = np.ones(psi.shape, dtype=bool)
+    if psi_contact_limit < math.pi:
+        loadable &= np.abs(_wrap(psi)) <= psi_contact_limit
+    return loadable
+
+
 def roller_geometry(
     design: GearDesign,
     crank_angles: np.ndarray,
@@ -67,12 +84,9 @@ def roller_geometry(
         raise SolverError(f"variant {bad[0]!r} is unknown; valid variants: {', '.join(VARIANTS)}")
     errors = errors or ManufacturingErrors()
     z = design.tooth_count
-    R = design.roller_count
     e, Rj, r = design.eccentricity, design.cam_radius, design.roller_radius
     L = Rj + r
-    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
-    theta = np.arange(R) * design.slot_pitch_rad
-    psi = phi[:, None] - theta[None, :]
+    phi, theta, psi = _angles(design, crank_angles)
     sp, cp = np.sin(psi), np.cos(psi)
 
     W = np.sqrt(L * L - (e * sp) ** 2)
@@ -111,9 +125,7 @@ def roller_geometry(
     else:
         gap, dr = np.zeros_like(psi), np.zeros_like(psi)
 
-    loadable = np.ones_like(psi, dtype=bool)
-    if psi_contact_limit < math.pi:
-        loadable &= np.abs(_wrap(psi)) <= psi_contact_limit
+    loadable = _loadable(psi, psi_contact_limit)
     return RollerGeometry(
         psi=psi,
         s=s,

@@ -23,7 +23,7 @@ import numpy as np
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics import contact
-from corr_cad.mechanics.row.solver_geometry import RollerGeometry, _wrap
+from corr_cad.mechanics.row.solver_geometry import RollerGeometry, _angles, _loadable
 from corr_cad.mechanics.row.solver_numerics import _RTOL, _Compliance, _Contact, _nested, _newton
 
 __all__ = ["nominal_geometry", "solve_nominal"]
@@ -46,9 +46,7 @@ def nominal_geometry(
     z, R = design.tooth_count, design.roller_count
     e, Rj, r = design.eccentricity, design.cam_radius, design.roller_radius
     L = Rj + r
-    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
-    theta = np.arange(R) * design.slot_pitch_rad
-    psi = phi[:, None] - theta[None, :]
+    phi, theta, psi = _angles(design, crank_angles)
     # One (P, 2) x (2, 2R) product: sin(phi - theta) | cos(phi - theta). A
     # broadcast (P, 1) x (R,) loop pays numpy's per-row overhead 4 times.
     s_th, c_th = np.sin(theta), np.cos(theta)
@@ -68,9 +66,7 @@ def nominal_geometry(
     cos_b = W / (L * rho_n)
     k_locus = (1.0 + 2.0 * tan2 - (z * z) * d2s / s) * (cos_b * cos_b * cos_b) / s
     arm = (-1.0 / L) * esp * s
-    loadable = np.ones(psi.shape, dtype=bool)
-    if psi_contact_limit < math.pi:
-        loadable &= np.abs(_wrap(psi)) <= psi_contact_limit
+    loadable = _loadable(psi, psi_contact_limit)
     return RollerGeometry(
         psi=psi,
         s=s,

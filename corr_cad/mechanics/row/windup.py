@@ -71,6 +71,7 @@ __all__ = [
     "revolution_classes",
     "series_rigidity_Nmm_per_rad",
     "Windup",
+    "WindupCurve",
 ]
 
 #: 1 rad in arcmin and arcsec (1 arcmin = pi/10800 rad).
@@ -170,7 +171,83 @@ def series_rigidity_Nmm_per_rad(rigidity_Nm_per_arcmin: float | None) -> float:
     return float(rigidity_Nm_per_arcmin) * NMM_PER_NM * ARCMIN_PER_RAD
 
 
-class Windup:
+class WindupCurve:
+    """What a windup reads off its free ends and its loaded solve, shared by the paper's row
+    (:class:`Windup`) and the drive (:class:`~corr_cad.mechanics.drive.drive_windup.DriveWindup`).
+
+    A subclass gives :meth:`free_ends`, ``_loaded_theta(T)`` (the contact windup at a
+    finite nonzero output torque, (P,) rad) and ``series_rigidity_Nm_per_arcmin``.
+    """
+
+    series_rigidity_Nm_per_arcmin: float | None
+
+    def _place(self, design: GearDesign, output_angles: np.ndarray) -> None:
+        """Set ``design``, the output angles (P,) rad, checked finite and not empty, and
+        their crank angles (:func:`crank_angles_of`)."""
+        x = np.asarray(output_angles, dtype=float).reshape(-1)
+        if x.size == 0 or not np.all(np.isfinite(x)):
+            raise SolverError("output_angles must be a non-empty array of finite angles (rad)")
+        self.design = design
+        self.output_angles = x
+        self.crank_angles = crank_angles_of(x, design)
+
+    def free_ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """``theta(0-)`` and ``theta(0+)``, rad (P,) each."""
+        raise NotImplementedError
+
+    def _loaded_theta(self, output_torque: float) -> np.ndarray:
+        raise NotImplementedError
+
+    def backlash(self) -> np.ndarray:
+        """``theta(0+) - theta(0-)``, rad (P,): the free rotation."""
+        lo, hi = self.free_ends()
+        return hi - lo
+
+    def contact_theta(self, output_torque: float) -> np.ndarray:
+        """Windup of the contacts (with the drive's bearings) alone at an output torque
+        (N*mm), rad (P,).
+
+        ``+0.0`` and ``-0.0`` give the ends of the free rotation (:meth:`free_ends`).
+        """
+        T = float(output_torque)
+        if not math.isfinite(T):
+            raise SolverError(f"output torque {T!r}: must be a finite number (N*mm)")
+        if T == 0.0:
+            lo, hi = self.free_ends()
+            return lo if math.copysign(1.0, T) < 0 else hi
+        return self._loaded_theta(T)
+
+    def theta(self, output_torque: float) -> np.ndarray:
+        """Windup at an output torque (N*mm), contacts plus the series compliance, rad (P,)."""
+        T = float(output_torque)
+        return self.contact_theta(T) + T / series_rigidity_Nmm_per_rad(
+            self.series_rigidity_Nm_per_arcmin
+        )
+
+    def curve(self, output_torques: np.ndarray) -> np.ndarray:
+        """:meth:`theta` at each torque (L,), N*mm: (L, P) rad."""
+        return np.stack([self.theta(T) for T in np.asarray(output_torques, dtype=float)])
+
+    @staticmethod
+    def _settled(rel: np.ndarray, rtol: float, what: str) -> None:
+        """A :class:`SolverError` (``what`` not reached) where a relative residual of ``rel``
+        is above ``rtol`` (at least 1e-9)."""
+        limit = max(rtol, 1e-9)
+        if not np.all(rel <= limit):
+            raise SolverError(
+                f"{what} not reached to {limit:g} (worst relative residual {float(rel.max()):.3g})"
+            )
+
+    @staticmethod
+    def _forces_torque(output_torque: float) -> float:
+        """``output_torque`` as a float; a :class:`SolverError` unless finite and nonzero."""
+        T = float(output_torque)
+        if T == 0.0 or not math.isfinite(T):
+            raise SolverError(f"forces at output torque {T!r}: give a finite, nonzero torque")
+        return T
+
+
+class Windup(WindupCurve):
     """The windup ``theta(T, x)`` at output angles ``x`` (P,), vectorised over positions.
 
     The roller geometry and contact compliance are built once; each torque
@@ -235,12 +312,7 @@ class Windup:
             raise SolverError(
                 f"series_rigidity_Nm_per_arcmin = {k!r}: allowed range is (0, inf), e.g. 1000"
             )
-        x = np.asarray(output_angles, dtype=float).reshape(-1)
-        if x.size == 0 or not np.all(np.isfinite(x)):
-            raise SolverError("output_angles must be a non-empty array of finite angles (rad)")
-        self.design = design
-        self.output_angles = x
-        self.crank_angles = crank_angles_of(x, design)
+        self._place(design, output_angles)
         self.errors = errors or ManufacturingErrors()
         self.load_share = float(load_share)
         self.contact_model = contact_model
@@ -313,11 +385,6 @@ class Windup:
             hi = np.where(tight, zero, hi)
         return lo, hi
 
-    def backlash(self) -> np.ndarray:
-        """``theta(0+) - theta(0-)``, rad (P,): the free rotation, no force solve."""
-        lo, hi = self.free_ends()
-        return hi - lo
-
     def slack(self) -> np.ndarray:
         """Positions where no contact carries a force at zero torque, bool (P,): free play."""
         return self.backlash() > 0.0
@@ -343,40 +410,15 @@ class Windup:
         pieces = []
         for sl, geo, comp in self._geometry(sign):
             tau, Fj, iterations, _, rel = _solve_positions(geo, comp, target, self.rtol)
-            limit = max(self.rtol, 1e-9)
-            if not np.all(rel <= limit):
-                raise SolverError(
-                    f"windup at output torque {output_torque:g} N*mm: moment balance not "
-                    f"reached to {limit:g} (worst relative residual {float(rel.max()):.3g})"
-                )
+            what = f"windup at output torque {output_torque:g} N*mm: moment balance"
+            self._settled(rel, self.rtol, what)
             theta[sl] = -tau / self._ratio
             pieces.append((sl, geo, comp, Fj, tau, rel, iterations, target))
         return theta, pieces
 
-    def contact_theta(self, output_torque: float) -> np.ndarray:
-        """Windup of the contacts alone at an output torque (N*mm), rad (P,).
-
-        ``+0.0`` and ``-0.0`` give the ends of the free rotation
-        (:meth:`free_ends`).
-        """
+    def _loaded_theta(self, output_torque: float) -> np.ndarray:
         T = float(output_torque)
-        if not math.isfinite(T):
-            raise SolverError(f"output torque {T!r}: must be a finite number (N*mm)")
-        if T == 0.0:
-            lo, hi = self.free_ends()
-            return lo if math.copysign(1.0, T) < 0 else hi
         return self._solve(T, 1 if T > 0 else -1)[0]
-
-    def theta(self, output_torque: float) -> np.ndarray:
-        """Windup at an output torque (N*mm), contacts plus the series compliance, rad (P,)."""
-        T = float(output_torque)
-        return self.contact_theta(T) + T / series_rigidity_Nmm_per_rad(
-            self.series_rigidity_Nm_per_arcmin
-        )
-
-    def curve(self, output_torques: np.ndarray) -> np.ndarray:
-        """:meth:`theta` at each torque (L,), N*mm: (L, P) rad."""
-        return np.stack([self.theta(T) for T in np.asarray(output_torques, dtype=float)])
 
     def forces(self, output_torque: float) -> ForceResult:
         """The force result behind :meth:`contact_theta` (nonzero torque), one row per position.
@@ -384,9 +426,7 @@ class Windup:
         Its ``cam_rotation`` is the solver's ``tau``; the output windup is
         ``-tau / (z + 1)``; ``cam_moment`` is the modelled cam's moment.
         """
-        T = float(output_torque)
-        if T == 0.0 or not math.isfinite(T):
-            raise SolverError(f"forces at output torque {T!r}: give a finite, nonzero torque")
+        T = self._forces_torque(output_torque)
         _, pieces = self._solve(T, 1 if T > 0 else -1)
         parts = [
             _result(self.design, geo, Fj, tau, rel, it, self.crank_angles[sl], target, len(tau))
