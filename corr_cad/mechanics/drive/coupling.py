@@ -37,7 +37,6 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from corr_cad.geometry.design import GearDesign
-from corr_cad.mechanics.drive.coupling_newton import overlap_newton
 from corr_cad.mechanics.drive.drive_numerics import _forces_of, roller_directions
 from corr_cad.mechanics.drive.drive_restart import replace_positions
 from corr_cad.mechanics.row.solver_geometry import RollerGeometry
@@ -359,6 +358,8 @@ def _newton_block(solver, target, influence, blk, base, start, d):
     res += [u.copy(), None]
     if floating:
         res[7] = [np.zeros((len(blk), b.needles)) for b in solver.bearings]
+    from corr_cad.mechanics.drive.coupling_newton import overlap_newton  # numba: when run
+
     todo = np.arange(len(blk))
     for _ in range(3):
         g = geo if todo.size == len(blk) else _take(geo, todo)
