@@ -290,14 +290,15 @@ class Influence:
         self.angles = np.asarray(crank_angles, dtype=float).reshape(-1)
         N = 2 * design.roller_count
         self.block = max(1, BLOCK_ENTRIES // (N * N))
-        self._whole, self._kept = len(self.angles) <= self.block, None
+        self._whole, self._kept, self._samples = len(self.angles) <= self.block, None, 1
 
     @property
     def _all(self) -> np.ndarray | None:
         """Every position's ``C`` where they fit in one block (made at the first use:
         the Newton on the overlaps reads its columns from the tables), else None."""
         if self._whole and self._kept is None:
-            self._kept = self._make(np.arange(len(self.angles)))
+            P = len(self.angles) // self._samples  # samples' stacks share theirs: made once
+            self._kept = np.tile(self._make(np.arange(P)), (self._samples, 1, 1))
         return self._kept
 
     @classmethod
@@ -312,9 +313,7 @@ class Influence:
         out.angles = np.tile(np.asarray(crank_angles, dtype=float).reshape(-1), n)
         N = 2 * design.roller_count
         out.block = max(1, BLOCK_ENTRIES // (N * N))
-        out._whole, out._kept = n * P <= out.block, None
-        if out._whole:
-            out._kept = np.tile(out._make(np.arange(P)), (n, 1, 1))
+        out._whole, out._kept, out._samples = n * P <= out.block, None, n
         return out
 
     def _make(self, idx: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
