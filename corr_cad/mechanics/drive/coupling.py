@@ -130,10 +130,12 @@ def influence_inputs(
     design: GearDesign,
     crank_angles: np.ndarray,
     geometry: tuple[RollerGeometry, RollerGeometry],
+    directions: np.ndarray | None = None,
 ) -> tuple:
     """The compiled kernels' reading of the tables at the positions (P,):
     ``(ring, frame, rho0, step, x, rn, rs, s, cam, xc, on)``
-    (:func:`~corr_cad.mechanics.drive.coupling_kernel.influence_kernel`)."""
+    (:func:`~corr_cad.mechanics.drive.coupling_kernel.influence_kernel`); ``directions``
+    (P, 2R, 2): the rollers' from their cams' centres where known (the drive solver's)."""
     z, R = design.tooth_count, design.roller_count
     phi = np.asarray(crank_angles, dtype=float).reshape(-1)
     theta = np.arange(R) * design.slot_pitch_rad
@@ -148,9 +150,14 @@ def influence_inputs(
     s = np.ascontiguousarray(np.concatenate([g.s for g in geo], axis=1))
     x = t / step
     # Each roller's direction from its cam's centre, as an index of the cam's table.
-    n = np.concatenate([roller_directions(design, g) for g in geo], axis=1)
     cam = np.zeros(1) if tables.cam is None else np.ascontiguousarray(tables.cam)
-    xc = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi) * (len(cam) / (2 * np.pi))
+    if tables.cam is None:
+        xc = np.zeros(x.shape)
+    else:
+        n = directions
+        if n is None:
+            n = np.concatenate([roller_directions(design, g) for g in geo], axis=1)
+        xc = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi) * (len(cam) / (2 * np.pi))
     on = np.concatenate([g.loadable for g in geo], axis=1) & (tables.cam is not None)
     rho = tables.frame_radii
     return (
@@ -187,10 +194,10 @@ def influence_matrices(
     if compiled:
         from corr_cad.mechanics.drive.coupling_kernel import influence_kernel
 
-        C = np.empty((len(x), 2 * R, 2 * R))
+        Ct = np.empty((len(x), 2 * R, 2 * R))
         cols = np.ones(x.shape, dtype=bool) if columns is None else columns
-        influence_kernel(tb, np.asarray(cols, dtype=bool), C)
-        return C
+        influence_kernel(tb, np.asarray(cols, dtype=bool), Ct)
+        return np.ascontiguousarray(np.transpose(Ct, (0, 2, 1)))
     phi = np.asarray(crank_angles, dtype=float).reshape(-1)
     slot = np.concatenate([np.arange(R), np.arange(R)])
     row = np.repeat([0, 1], R)
@@ -320,11 +327,12 @@ class Influence:
         geo = tuple(_take(g, idx) for g in self.geometry)
         return influence_matrices(self.tables, self.design, self.angles[idx], geo, columns=columns)
 
-    def inputs(self, idx: np.ndarray) -> tuple:
-        """The tables as read at the positions ``idx`` (:func:`influence_inputs`)."""
+    def inputs(self, idx: np.ndarray, directions: np.ndarray | None = None) -> tuple:
+        """The tables as read at the positions ``idx`` (:func:`influence_inputs`; the
+        rollers' ``directions`` at them where known)."""
         every = idx.size == len(self.angles) and np.array_equal(idx, np.arange(idx.size))
         geo = self.geometry if every else tuple(_take(g, idx) for g in self.geometry)
-        return influence_inputs(self.tables, self.design, self.angles[idx], geo)
+        return influence_inputs(self.tables, self.design, self.angles[idx], geo, directions)
 
     def matrices(self, idx: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
         """``C`` (len(idx), N, N) of the positions ``idx`` (``columns`` (len(idx), N):
@@ -378,7 +386,7 @@ def _newton_block(solver, target, influence, blk, base, start, d, chain=None):
     floating = solver.bearings[0] is not None
     cams = (n0[blk], u, solver.bearings) if floating else None
     return overlap_newton(
-        comp, geo, influence.inputs(blk), target, tau, d, solver.rtol, BODIES_RTOL,
+        comp, geo, influence.inputs(blk, n0[blk]), target, tau, d, solver.rtol, BODIES_RTOL,
         tight=1e-2 if solver.crank is not None else 1.0,  # the crank iterates on F
         cams=cams, chain=chain,
     )  # fmt: skip

@@ -84,9 +84,10 @@ def prepare(p, tb, xf, D0, FD):
 
 
 @_jit
-def column(p, j, tb, xf, D0, FD, Cp):
-    """Column ``j`` of position ``p``'s matrix into ``Cp`` (N, N) (``xf``, ``D0``, ``FD``
-    from :func:`prepare`): :func:`_ring_at` and
+def column(p, j, tb, xf, D0, FD, Ct):
+    """Column ``j`` of position ``p``'s matrix into row ``j`` of ``Ct`` (N, N), the matrix
+    transposed (a column read and written in place; ``xf``, ``D0``, ``FD`` from
+    :func:`prepare`): :func:`_ring_at` and
     :func:`_frame_at` (the readings the tests compare with the numpy path) with what
     depends on the load alone worked out once."""
     ring, frame, rho0, step, x, rn, rs, s, cam, xc, on = tb
@@ -125,7 +126,7 @@ def column(p, j, tb, xf, D0, FD, Cp):
             t += fi * ((1.0 - fd) * ring[i1, e0] + fd * ring[i1, e1])
             v = rn[p, k] * rn[p, j] * t
         if rs[p, k] != 0.0 and sj != 0.0:
-            m = k % R - ka
+            m = (k - R if k >= R else k) - ka  # k < 2 R: no integer division
             m = m + R if m < 0 else m
             if flip:
                 m = R - m if m > 0 else 0
@@ -140,13 +141,16 @@ def column(p, j, tb, xf, D0, FD, Cp):
             t += ff * ((1.0 - fd) * frame[f0 + 1, m, side, r1] + fd * frame[f0 + 1, m, side, r2])
             v += (0.5 if same else 0.25) * abs(rs[p, k]) * sj * t
         if same and on[p, k] and on[p, j]:
-            dc = xc[p, k] - xc[p, j]
-            dc -= Mc * math.floor(dc / Mc)
+            dc = xc[p, k] - xc[p, j]  # both in [0, Mc]: wrapped once at most
+            if dc < 0.0:
+                dc += Mc
+            elif dc >= Mc:
+                dc -= Mc
             c0 = min(int(math.floor(dc)), Mc - 1)
             fc = dc - c0
             c1 = c0 + 1 if c0 + 1 < Mc else 0
             v += (1.0 - fc) * cam[c0] + fc * cam[c1]
-        Cp[k, j] = v
+        Ct[j, k] = v
 
 
 @_jit
@@ -157,7 +161,8 @@ def influence_kernel(tb, cols, C):
     where not loadable), ``s`` its centre's radius, mm; ``cam`` (Mc,) the cam's table by
     angle, ``xc`` each roller's direction from its cam's centre as its index, ``on`` where
     the cam term counts; ``cols`` (P, 2R): the loads ``j`` whose columns are made (the
-    others left 0)."""
+    others left 0), each position's transposed in place (``C[p, j, k]``: the caller
+    transposes)."""
     x = tb[4]
     P, N = x.shape
     xf = np.empty(N)
@@ -165,10 +170,10 @@ def influence_kernel(tb, cols, C):
     FD = np.empty(N - 1)
     for p in range(P):
         prepare(p, tb, xf, D0, FD)
-        Cp = C[p]
+        Ct = C[p]
         for j in range(N):
             if cols[p, j]:
-                column(p, j, tb, xf, D0, FD, Cp)
+                column(p, j, tb, xf, D0, FD, Ct)
             else:
                 for k in range(N):
-                    Cp[k, j] = 0.0
+                    Ct[j, k] = 0.0

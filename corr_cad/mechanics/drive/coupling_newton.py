@@ -154,9 +154,10 @@ def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq):
     ``(r_M, scale_M, max |C F|, scale of the cams' balance)``; ``r`` (N,), ``rc`` (4,)
     filled (``F0``: the forces the paper's law's inversion starts from, where positive);
     ``lz = (tb, xf, D0, FD, Cp, have)``: position ``p``'s columns of ``C``
-    (``Cp`` (N, N)), each made when its roller first takes load (``have``)."""
+    (``Ct`` (N, N), transposed: a column a row), each made when its roller first takes
+    load (``have``)."""
     a_c, a_m, g, on, law, T, K, target, floating, n, dirs, bear = st
-    tb, xf, D0, FD, Cp, have = lz
+    tb, xf, D0, FD, Ct, have = lz
     N = y.shape[0]
     R = N // 2
     mom, scale = -target, abs(target)
@@ -168,10 +169,10 @@ def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq):
     for j in range(N):
         if F[j] != 0.0:
             if not have[j]:
-                column(p, j, tb, xf, D0, FD, Cp)
+                column(p, j, tb, xf, D0, FD, Ct)
                 have[j] = True
             for i in range(N):
-                cf[i] += Cp[i, j] * F[j]
+                cf[i] += Ct[j, i] * F[j]
     top = 0.0
     for i in range(N):
         top = max(top, abs(cf[i]))
@@ -294,8 +295,8 @@ def _newton(
     Z = dirs.shape[1]
     st = (a_c, a_m, g, on, law, T, K, target, floating, n, dirs, bear)
     xf, D0, FD = np.empty(N), np.empty(N - 1, dtype=np.int64), np.empty(N - 1)
-    Cp, have = np.empty((N, N)), np.empty(N, dtype=np.bool_)
-    lz = (tb, xf, D0, FD, Cp, have)
+    Ct, have = np.empty((N, N)), np.empty(N, dtype=np.bool_)
+    lz = (tb, xf, D0, FD, Ct, have)
     nc = 4 if floating else 0
     k, r, dy, v = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
     yt, Ft, kt, cft, rt = np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N)
@@ -338,7 +339,7 @@ def _newton(
                 i = act[x]
                 c = 0 if i < R else 1
                 for z in range(m):
-                    J[x, z] = Cp[i, act[z]] * k[act[z]]
+                    J[x, z] = Ct[act[z], i] * k[act[z]]
                 J[x, x] += 1.0
                 J[x, m] = -a_c[p, i]
                 J[m, x] = a_m[p, i] * k[i]
@@ -378,12 +379,14 @@ def _newton(
             for i in range(N):
                 if on[p, i]:
                     c = 0 if i < R else 1
-                    s = -r[i] + a_c[p, i] * dt + n[p, i, 0] * du[c, 0] + n[p, i, 1] * du[c, 1]
-                    for x in range(m):
-                        s -= Cp[i, act[x]] * v[act[x]]
-                    dy[i] = s
+                    dy[i] = -r[i] + a_c[p, i] * dt + n[p, i, 0] * du[c, 0] + n[p, i, 1] * du[c, 1]
                 else:
                     dy[i] = 0.0
+            for x in range(m):  # C's columns in place: its rows of the transposed
+                j = act[x]
+                for i in range(N):
+                    if on[p, i]:
+                        dy[i] -= Ct[j, i] * v[j]
             m0 = _merit(r, rm, sm, top, rc, sf)
             alpha, moved = 1.0, False
             for _ in range(12):
