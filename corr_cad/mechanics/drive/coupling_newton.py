@@ -280,6 +280,8 @@ def _seed(p, q, b, seq, a_c, g, on, n, tau, y, U, F):
         F[p, i] = F[q, j]  # where the paper's law's inversion starts
         if on[q, j] and on[bq, k]:
             y[p, i] = y[q, j] + w * (y[q, j] - y[bq, k])
+            if F[q, j] > 0.0 and F[bq, k] > 0.0:
+                F[p, i] = max(F[q, j] + w * (F[q, j] - F[bq, k]), 0.0)
         else:
             nu = n[p, i, 0] * U[p, c, 0] + n[p, i, 1] * U[p, c, 1]
             y[p, i] = a_c[p, i] * tau[p] + g[p, i] + nu
@@ -300,6 +302,7 @@ def _newton(
     nc = 4 if floating else 0
     k, r, dy, v = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
     yt, Ft, kt, cft, rt = np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N)
+    Fg = np.empty(N)
     rc, rct, ut, du = np.empty(4), np.empty(4), np.empty((2, 2)), np.empty((2, 2))
     kq, kqt, Qt = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
     act = np.empty(N, dtype=np.int64)
@@ -392,12 +395,14 @@ def _newton(
             for _ in range(12):
                 for i in range(N):
                     yt[i] = y[p, i] + alpha * dy[i] if on[p, i] else y[p, i]
+                    # The inversion's start: the force's tangent along the step.
+                    Fg[i] = max(F[p, i] + alpha * k[i] * dy[i], 0.0) if F[p, i] > 0.0 else 0.0
                 tt = t + alpha * dt
                 for c in range(2):
                     ut[c, 0] = u[c, 0] + alpha * du[c, 0]
                     ut[c, 1] = u[c, 1] + alpha * du[c, 1]
                 rmt, smt, topt, sft = _evaluate(
-                    p, yt, tt, ut, st, lz, F[p], Ft, kt, cft, rt, rct, Qt, kqt
+                    p, yt, tt, ut, st, lz, Fg, Ft, kt, cft, rt, rct, Qt, kqt
                 )
                 if _merit(rt, rmt, smt, topt, rct, sft) <= (1.0 - 1e-4 * alpha) * m0:
                     moved = True
