@@ -105,10 +105,12 @@ def overlap_newton(
         shift, given = np.zeros(P, dtype=np.int64), np.ones(P, dtype=bool)
     else:
         order, src, shift, given = chain
-    nu = np.where(
-        np.arange(N) < N // 2, np.einsum("pkx,px->pk", n, u[0]), np.einsum("pkx,px->pk", n, u[1])
-    )
-    y = np.ascontiguousarray(np.where(loadable, a_c * tau[:, None] + g + nu - d, -1.0))
+    y = a_c * tau[:, None] + g - d
+    if cams is not None:  # the cams' start displacements along each roller's direction
+        R = N // 2
+        y[:, :R] += np.einsum("pkx,px->pk", n[:, :R], u[0])
+        y[:, R:] += np.einsum("pkx,px->pk", n[:, R:], u[1])
+    y = np.ascontiguousarray(np.where(loadable, y, -1.0))
     tau = np.array(tau, dtype=float)
     U = np.ascontiguousarray(np.transpose(u, (1, 0, 2)))  # (P, 2, 2)
     F, cf = np.zeros((P, N)), np.zeros((P, N))
@@ -132,9 +134,10 @@ def _contact_table(comp, shape: tuple[int, int]) -> np.ndarray:
     cam, gear, slot = comp.contacts
     rows = (cam.cw, cam.k1, cam.k2, cam.uk, gear.cw, gear.w, gear.k2, gear.uk)
     rows += (slot.cw, slot.w, slot.uk)
-    return np.ascontiguousarray(
-        np.stack([np.broadcast_to(np.asarray(x, dtype=float), shape) for x in rows])
-    )
+    T = np.empty((len(rows), *shape))
+    for i, x in enumerate(rows):
+        T[i] = x
+    return T
 
 
 @_jit
