@@ -51,7 +51,7 @@ GROUPS = (
     (
         "bodies kernels",
         ("coupling_kernel", "coupling_newton"),
-        4,
+        5,
         'the elastic ring, frame and cams ([solver] bodies = "elastic")',
     ),
 )
