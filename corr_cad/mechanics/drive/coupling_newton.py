@@ -45,8 +45,22 @@ import math
 import numpy as np
 
 from corr_cad.mechanics.drive.coupling_kernel import column, prepare
-from corr_cad.mechanics.drive.drive_laws import _invert_one, _palmgren
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.drive.drive_laws import (
+    CJ,
+    CN,
+    CS,
+    K1,
+    KC,
+    KG,
+    UKJ,
+    UKN,
+    UKS,
+    WN,
+    WS,
+    _invert_one,
+    _palmgren,
+)
+from corr_cad.mechanics.row.mc_kernel import _approach, _jit
 
 __all__ = ["overlap_newton"]
 
@@ -152,10 +166,23 @@ def _law(h, law, T, K, p, i, f0):
 
 
 @_jit
-def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq):
+def _forward(f, T, p, i):
+    """``(h, dh/dF)`` of roller ``i`` of position ``p`` under the paper's law at the force
+    ``f``: the overlap ``G(f)`` the inversion (``drive_laws._invert_one``) solves for."""
+    vj, sj = _approach(T[CJ, p, i] * f, T[UKJ, p, i], T[K1, p, i], T[KC, p, i])
+    vn, sn = _approach(T[CN, p, i] * f, T[UKN, p, i], T[K1, p, i], T[KG, p, i])
+    vs, ss = _approach(T[CS, p, i] * f, T[UKS, p, i], T[K1, p, i], 0.0)
+    wn, ws = T[WN, p, i], T[WS, p, i]
+    return vj + wn * vn + ws * vs, T[CJ, p, i] * sj + wn * T[CN, p, i] * sn + ws * T[CS, p, i] * ss
+
+
+@_jit
+def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq, mode):
     """Forces, stiffnesses, ``C F``, the needles and the residuals at ``(y, tau, u)``:
     ``(r_M, scale_M, max |C F|, scale of the cams' balance)``; ``r`` (N,), ``rc`` (4,)
-    filled (``F0``: the forces the paper's law's inversion starts from, where positive);
+    filled (``F0``: the forces the paper's law's inversion starts from, where positive;
+    ``mode[0] == 1``: under the paper's law a roller of positive ``F0`` is put at that
+    force, its overlap ``y`` the law's, with no inversion);
     ``lz = (tb, xf, D0, FD, Cp, have)``: position ``p``'s columns of ``C``
     (``Ct`` (N, N), transposed: a column a row), each made when its roller first takes
     load (``have``)."""
@@ -165,7 +192,11 @@ def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq):
     R = N // 2
     mom, scale = -target, abs(target)
     for i in range(N):
-        F[i], k[i] = _law(y[i], law, T, K, p, i, F0[i]) if on[p, i] else (0.0, 0.0)
+        if on[p, i] and mode[0] == 1 and law == 0 and F0[i] > 0.0:
+            y[i], dg = _forward(F0[i], T, p, i)
+            F[i], k[i] = F0[i], 1.0 / dg
+        else:
+            F[i], k[i] = _law(y[i], law, T, K, p, i, F0[i]) if on[p, i] else (0.0, 0.0)
         mom += a_m[p, i] * F[i]
         scale += abs(a_m[p, i]) * F[i]
         cf[i] = 0.0
@@ -305,7 +336,7 @@ def _newton(
     nc = 4 if floating else 0
     k, r, dy, v = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
     yt, Ft, kt, cft, rt = np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N)
-    Fg = np.empty(N)
+    Fg, mode = np.empty(N), np.zeros(1, dtype=np.int64)
     rc, rct, ut, du = np.empty(4), np.empty(4), np.empty((2, 2)), np.empty((2, 2))
     kq, kqt, Qt = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
     act = np.empty(N, dtype=np.int64)
@@ -322,7 +353,12 @@ def _newton(
             have[j] = False
         t = tau[p]
         u = U[p]
-        rm, sm, top, sf = _evaluate(p, y[p], t, u, st, lz, F[p], F[p], k, cf[p], r, rc, Q[p], kq)
+        # A chained position under the paper's law: its rollers put at the start's forces.
+        mode[0] = 1 if q >= 0 and ok[q] else 0
+        rm, sm, top, sf = _evaluate(
+            p, y[p], t, u, st, lz, F[p], F[p], k, cf[p], r, rc, Q[p], kq, mode
+        )
+        mode[0] = 0
         for it in range(max_iter + 1):
             # Tighter than asked where round-off allows (a caller that iterates on these
             # forces, the crankshaft's fixed point, then sees no noise).
@@ -405,7 +441,7 @@ def _newton(
                     ut[c, 0] = u[c, 0] + alpha * du[c, 0]
                     ut[c, 1] = u[c, 1] + alpha * du[c, 1]
                 rmt, smt, topt, sft = _evaluate(
-                    p, yt, tt, ut, st, lz, Fg, Ft, kt, cft, rt, rct, Qt, kqt
+                    p, yt, tt, ut, st, lz, Fg, Ft, kt, cft, rt, rct, Qt, kqt, mode
                 )
                 if _merit(rt, rmt, smt, topt, rct, sft) <= (1.0 - 1e-4 * alpha) * m0:
                     moved = True
