@@ -358,7 +358,10 @@ def _newton(
         rm, sm, top, sf = _evaluate(
             p, y[p], t, u, st, lz, F[p], F[p], k, cf[p], r, rc, Q[p], kq, mode
         )
-        mode[0] = 0
+        # The steps under the paper's law: a loaded roller's force moves along its tangent,
+        # its overlap the law's at the new force (forward: no inversion; the same step to
+        # first order, Newton's convergence kept).
+        mode[0] = 1
         for it in range(max_iter + 1):
             # Tighter than asked where round-off allows (a caller that iterates on these
             # forces, the crankshaft's fixed point, then sees no noise).
@@ -434,7 +437,7 @@ def _newton(
             for _ in range(12):
                 for i in range(N):
                     yt[i] = y[p, i] + alpha * dy[i] if on[p, i] else y[p, i]
-                    # The inversion's start: the force's tangent along the step.
+                    # The force along its tangent (and the inversion's start where it ends).
                     Fg[i] = max(F[p, i] + alpha * k[i] * dy[i], 0.0) if F[p, i] > 0.0 else 0.0
                 tt = t + alpha * dt
                 for c in range(2):
