@@ -487,7 +487,7 @@ def test_the_overlap_newton_equals_the_newton_on_d(small_tables, law, blocks, be
             monkeypatch.setattr(coupling, "_response", response)
             slow = coupling.coupled_solve(s, target, s.bodies, direct=False)
             assert np.max(fast[4]) <= 1e-9 and np.max(slow[4]) <= 1e-9
-            top = np.max(slow[1]) if target else 1.0
+            top = max(np.max(slow[1]), 1.0)  # at zero moment: the rows' preload, if any
             assert np.max(np.abs(fast[1] - slow[1])) <= 1e-9 * top
             if target:
                 np.testing.assert_allclose(fast[0], slow[0], rtol=1e-9)
@@ -495,23 +495,24 @@ def test_the_overlap_newton_equals_the_newton_on_d(small_tables, law, blocks, be
     assert not steps  # every position settled by the Newton on the overlaps
 
 
-def test_a_load_outside_the_candidates_is_left_to_the_newton_on_d(small_tables):
-    """A position whose solution loads a roller whose column was not built is not
-    accepted (coupling_newton's test is exact: those rows are)."""
-    from corr_cad.mechanics.drive.coupling import influence_matrices
-    from corr_cad.mechanics.drive.coupling_newton import overlap_newton
+def test_positions_are_chained_by_their_phase_in_the_drive_s_period():
+    """The overlap Newton solves the positions in the order of their phase in a slot
+    pitch of crank angle, each from its neighbour's solution with its rollers renumbered:
+    the drive one slot pitch on is the drive with roller ``k`` where ``k - 1`` was."""
+    from corr_cad.mechanics.drive.coupling import _chain
 
-    ang = np.radians([0.0, 9.0])
+    R = SMALL.roller_count
+    pitch = 2 * np.pi / R
+    ang = np.array([0.1, 0.1 + pitch + 1e-3, 0.1 + 3 * pitch + 2e-3, 0.1 + 5e-4])
     s = DriveSolver(SMALL, ang, contact_model="palmgren")
-    tau, F, *_ = s.solve_contacts(-2.0e4)
-    geo = s.geo_joined
-    cand = geo.loadable.copy()
-    cand[1, np.argmax(F[1])] = False  # position 1 misses its most loaded roller
-    C = influence_matrices(small_tables, SMALL, ang, s.geo, columns=cand)
-
-    d = np.zeros_like(F)
-    ok = overlap_newton(s.comp, geo, C, -2.0e4, tau, d, cand, 1e-13, 1e-12)[4]
-    assert ok.tolist() == [True, False]
+    order, src, shift = _chain(s, np.arange(len(ang)))
+    assert order.tolist() == [0, 3, 1, 2] and src.tolist() == [-1, 3, 1, 0]
+    assert shift.tolist() == [0, 1, 2, 0]
+    _, F, *_ = s.solve_contacts(-2.0e4)
+    both = DriveSolver(SMALL, np.array([0.1, 0.1 + pitch]), contact_model="palmgren")
+    _, G, *_ = both.solve_contacts(-2.0e4)
+    assert np.allclose(np.roll(G[0, :R], 1), G[1, :R], rtol=1e-9, atol=1e-9 * np.max(G))
+    assert F.shape == (4, 2 * R)
 
 
 def test_positions_coupled_a_block_at_a_time_give_the_same_drive(small_tables, monkeypatch):

@@ -134,7 +134,9 @@ def test_elastic_monte_carlo_equals_solve_drive_sample_by_sample(small_tables, b
 
 def test_influence_is_made_once_a_block_not_once_a_sample(small_tables, monkeypatch):
     """A block's samples share the nominal positions' influence matrices: the FE tables'
-    interpolation runs once a block whatever its sample count."""
+    interpolation into whole matrices runs at most once a block whatever its sample
+    count (the overlap Newton reads only its loaded rollers' columns, and needs none
+    where every position settles)."""
     from corr_cad.mechanics.drive import coupling
 
     calls = []
@@ -149,7 +151,8 @@ def test_influence_is_made_once_a_block_not_once_a_sample(small_tables, monkeypa
     rng = np.random.default_rng(1)
     ea = [_errors(rng, R) for _ in range(5)]
     _chunk(SMALL, ea, ea, cycle_angles(7), {"bodies": small_tables})
-    assert calls == [7]  # one block of 5 samples x 7 positions: the 7 nominal positions once
+    # One block of 5 samples x 7 positions: the 7 nominal positions once, if at all.
+    assert calls in ([], [7])
 
 
 @pytest.mark.parametrize("chain", ["crank", "bodies"])

@@ -51,7 +51,7 @@ def test_a_second_run_of_a_drive_monte_carlo_compiles_nothing(tmp_path):
     again = _cli("warm-up", cwd=tmp_path, NUMBA_DEBUG_CACHE="1")
     assert again.returncode == 0, again.stderr
     assert "groups compiled, the rest loaded from cache" in again.stdout
-    assert "0 of 4 groups compiled" in again.stdout, again.stdout
+    assert "0 of 5 groups compiled" in again.stdout, again.stdout
     scene = tmp_path / "drive_mc.toml"
     scene.write_text(DRIVE_MC)
     run = _cli("run", str(scene), "--out", "out", cwd=tmp_path, NUMBA_DEBUG_CACHE="1")
@@ -60,6 +60,19 @@ def test_a_second_run_of_a_drive_monte_carlo_compiles_nothing(tmp_path):
     assert "[cache] data loaded" in record  # the kernels ran, from the cache
     assert "[cache] data saved" not in record  # and none was compiled
     assert "compiling the numerical kernels" not in record
+    # The elastic bodies' kernels (their group's run: the influence matrices and the
+    # Newton, cams fixed and on needles, both laws) load from the cache too.
+    code = "from corr_cad.run import warmup; warmup._bodies_kernels()"
+    bodies = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_DEBUG_CACHE": "1"},
+    )
+    assert bodies.returncode == 0, bodies.stderr
+    record = bodies.stdout + bodies.stderr
+    assert "[cache] data loaded" in record and "[cache] data saved" not in record, record
 
 
 def test_an_empty_cache_lacks_every_group(tmp_path, monkeypatch):
@@ -87,6 +100,14 @@ def test_which_groups_a_scene_uses():
         }
     )
     assert scene_groups(mc) == ["free-play kernel", "drive kernels"]
+    elastic = parse_scene(
+        {
+            **load,
+            "solver": {"model": "drive", "bodies": "elastic"},
+            "export": {"formats": ["forces"]},
+        }
+    )
+    assert scene_groups(elastic) == ["free-play kernel", "bodies kernels"]
 
 
 def test_a_small_monte_carlo_of_the_paper_s_row_needs_no_kernel():

@@ -48,11 +48,17 @@ GROUPS = (
         15,
         "the drive's Monte Carlo, allocation, design",
     ),
+    (
+        "bodies kernels",
+        ("coupling_kernel", "coupling_newton"),
+        5,
+        'the elastic ring, frame and cams ([solver] bodies = "elastic")',
+    ),
 )
 
 _JIT = re.compile(r"^@_jit\s*\ndef (\w+)", re.M)
 #: Kernels no stage calls (a test's alone): never compiled by a run, never missed.
-_UNUSED = {"drive_kernel": ("_invert",)}
+_UNUSED = {"drive_kernel": ("_invert",), "coupling_kernel": ("_ring_at", "_frame_at")}
 
 
 def source(module: str) -> Path:
@@ -146,11 +152,44 @@ def _free_play() -> None:
     DriveSolver(GearDesign(), cycle_angles(4), bearing=bearing).free_interval(solve=False)
 
 
+def _bodies_kernels() -> None:
+    """The elastic bodies' influence matrices and Newton, cams fixed and on needles, under
+    both contact laws, on small made-up tables (the kernels' types are the real tables':
+    no finite-element reduction needed)."""
+    import numpy as np
+
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
+    from corr_cad.mechanics.drive.coupling import BodyTables
+    from corr_cad.mechanics.drive.drive import DriveSolver
+    from corr_cad.mechanics.row.solver_geometry import cycle_angles
+
+    design = GearDesign()
+    R, z = design.roller_count, design.tooth_count  # the tables: any size, read modulo
+    tables = BodyTables(
+        ring=np.full((2, 2 * z), 1e-6),
+        frame=np.full((3, R, 2, 3), 1e-6),
+        frame_radii=np.array([120.0, 140.0, 160.0]),
+        nodes=(0, 0, 0),
+        mesh_size=1.0,
+        cam=np.full(8, 1e-6),
+    )
+    needles = EccentricBearing(40, 6.0, 12.0, diametral_clearance=0.005)
+    for law in ("nonlinear", "palmgren"):
+        for bearing in (None, needles):
+            solver = DriveSolver(
+                design, cycle_angles(2), bearing=bearing, contact_model=law, bodies=tables
+            )
+            F = solver.solve(1.1e5)[1]  # the solve alone: the backlash is the free-play group's
+    solver.bodies.work(F)  # whole matrices: each body's share (the compliance budget)
+
+
 _RUNS = {
     "Monte Carlo kernel": lambda: _paper_kernels(False),
     "datasheet windup kernel": lambda: _paper_kernels(True),
     "free-play kernel": _free_play,
     "drive kernels": _drive_kernels,
+    "bodies kernels": _bodies_kernels,
 }
 
 
@@ -159,7 +198,8 @@ def scene_groups(scene) -> list[str]:
     formats = set(scene.formats)
     sampled = bool({"montecarlo", "allocation", "modification"} & formats)
     if scene.solver.drive:
-        return ["free-play kernel"] + (["drive kernels"] if sampled else [])
+        elastic = ["bodies kernels"] if scene.solver.bodies == "elastic" else []
+        return ["free-play kernel"] + (["drive kernels"] if sampled else []) + elastic
     if not sampled:
         return []
     from corr_cad.run.scene.scene_montecarlo import wants_datasheet_metrics

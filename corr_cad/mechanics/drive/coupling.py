@@ -41,7 +41,14 @@ from corr_cad.mechanics.drive.drive_numerics import _forces_of, roller_direction
 from corr_cad.mechanics.drive.drive_restart import replace_positions
 from corr_cad.mechanics.row.solver_geometry import RollerGeometry
 
-__all__ = ["BodyTables", "Influence", "influence_matrices", "coupled_solve", "BODIES_RTOL"]
+__all__ = [
+    "BodyTables",
+    "Influence",
+    "influence_inputs",
+    "influence_matrices",
+    "coupled_solve",
+    "BODIES_RTOL",
+]
 
 #: The body approaches' relative residual ``|d - C F| / max |C F|`` the coupled solve reaches.
 BODIES_RTOL = 1e-12
@@ -117,6 +124,56 @@ def _frame(T, rho, ra, sa, ka, rb, sb, kb):
     return _bilinear(Tp.ravel(), base, 0, fi, d0, fd, R * 2 * W + 1, 1)
 
 
+def influence_inputs(
+    tables: BodyTables,
+    design: GearDesign,
+    crank_angles: np.ndarray,
+    geometry: tuple[RollerGeometry, RollerGeometry],
+    directions: np.ndarray | None = None,
+) -> tuple:
+    """The compiled kernels' reading of the tables at the positions (P,):
+    ``(ring, frame, rho0, step, x, rn, rs, s, cam, xc, on)``
+    (:func:`~corr_cad.mechanics.drive.coupling_kernel.influence_kernel`); ``directions``
+    (P, 2R, 2): the rollers' from their cams' centres where known (the drive solver's)."""
+    z, R = design.tooth_count, design.roller_count
+    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
+    theta = np.arange(R) * design.slot_pitch_rad
+    Mz = tables.ring.shape[1]
+    step = 2.0 * np.pi / Mz
+    t = np.concatenate(
+        [(phi[:, None] + c * np.pi) / z + theta[None, :] for c in (0, 1)], axis=1
+    )  # each roller's polar angle on its own ring
+    geo = geometry
+    rn = np.concatenate([np.where(g.loadable, g.rho_n, 0.0) for g in geo], axis=1)
+    rs = np.concatenate([np.where(g.loadable, g.rho_s, 0.0) for g in geo], axis=1)
+    s = np.ascontiguousarray(np.concatenate([g.s for g in geo], axis=1))
+    x = t / step
+    # Each roller's direction from its cam's centre, as an index of the cam's table.
+    cam = np.zeros(1) if tables.cam is None else np.ascontiguousarray(tables.cam)
+    if tables.cam is None:
+        xc = np.zeros(x.shape)
+    else:
+        n = directions
+        if n is None:
+            n = np.concatenate([roller_directions(design, g) for g in geo], axis=1)
+        xc = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi) * (len(cam) / (2 * np.pi))
+    on = np.concatenate([g.loadable for g in geo], axis=1) & (tables.cam is not None)
+    rho = tables.frame_radii
+    return (
+        np.ascontiguousarray(tables.ring),
+        np.ascontiguousarray(tables.frame),
+        float(rho[0]),
+        float(rho[1] - rho[0]),
+        x,
+        rn,
+        rs,
+        s,
+        cam,
+        xc,
+        on,
+    )
+
+
 def influence_matrices(
     tables: BodyTables,
     design: GearDesign,
@@ -130,46 +187,19 @@ def influence_matrices(
     compiled loop (:mod:`~corr_cad.mechanics.drive.coupling_kernel`), else by numpy
     (the same interpolation; the tests hold them equal). ``columns`` (P, 2R) bool, compiled
     only: the loads whose columns are made, the others left 0 (None: all)."""
-    z, R = design.tooth_count, design.roller_count
-    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
-    theta = np.arange(R) * design.slot_pitch_rad
-    M, Mz = tables.ring.shape
-    step = 2.0 * np.pi / Mz
-    slot = np.concatenate([np.arange(R), np.arange(R)])
-    row = np.repeat([0, 1], R)
-    t = np.concatenate(
-        [(phi[:, None] + c * np.pi) / z + theta[None, :] for c in (0, 1)], axis=1
-    )  # each roller's polar angle on its own ring
-    geo = geometry
-    rn = np.concatenate([np.where(g.loadable, g.rho_n, 0.0) for g in geo], axis=1)
-    rs = np.concatenate([np.where(g.loadable, g.rho_s, 0.0) for g in geo], axis=1)
-    s = np.concatenate([g.s for g in geo], axis=1)
-    x = t / step
-    # Each roller's direction from its cam's centre, as an index of the cam's table.
-    n = np.concatenate([roller_directions(design, g) for g in geo], axis=1)
-    cam = np.zeros(1) if tables.cam is None else np.ascontiguousarray(tables.cam)
-    xc = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi) * (len(cam) / (2 * np.pi))
-    on = np.concatenate([g.loadable for g in geo], axis=1) & (tables.cam is not None)
+    R = design.roller_count
+    tb = influence_inputs(tables, design, crank_angles, geometry)
+    _, _, _, _, x, rn, rs, s, cam, xc, on = tb
     if compiled:
         from corr_cad.mechanics.drive.coupling_kernel import influence_kernel
 
-        C = np.empty((len(phi), 2 * R, 2 * R))
-        influence_kernel(
-            np.ascontiguousarray(tables.ring),
-            np.ascontiguousarray(tables.frame),
-            float(tables.frame_radii[0]),
-            float(tables.frame_radii[1] - tables.frame_radii[0]),
-            x,
-            rn,
-            rs,
-            np.ascontiguousarray(s),
-            cam,
-            xc,
-            on,
-            np.ones(x.shape, dtype=bool) if columns is None else np.asarray(columns, dtype=bool),
-            C,
-        )
-        return C
+        Ct = np.empty((len(x), 2 * R, 2 * R))
+        cols = np.ones(x.shape, dtype=bool) if columns is None else columns
+        influence_kernel(tb, np.asarray(cols, dtype=bool), Ct)
+        return np.ascontiguousarray(np.transpose(Ct, (0, 2, 1)))
+    phi = np.asarray(crank_angles, dtype=float).reshape(-1)
+    slot = np.concatenate([np.arange(R), np.arange(R)])
+    row = np.repeat([0, 1], R)
     same = row[:, None] == row[None, :]
     C = np.zeros((len(phi), 2 * R, 2 * R))
     for sl in (slice(0, R), slice(R, 2 * R)):  # each row's own ring: [p, k (read), j (load)]
@@ -266,8 +296,16 @@ class Influence:
         self.angles = np.asarray(crank_angles, dtype=float).reshape(-1)
         N = 2 * design.roller_count
         self.block = max(1, BLOCK_ENTRIES // (N * N))
-        P = len(self.angles)
-        self._all = self._make(np.arange(P)) if P <= self.block else None
+        self._whole, self._kept, self._samples = len(self.angles) <= self.block, None, 1
+
+    @property
+    def _all(self) -> np.ndarray | None:
+        """Every position's ``C`` where they fit in one block (made at the first use:
+        the Newton on the overlaps reads its columns from the tables), else None."""
+        if self._whole and self._kept is None:
+            P = len(self.angles) // self._samples  # samples' stacks share theirs: made once
+            self._kept = np.tile(self._make(np.arange(P)), (self._samples, 1, 1))
+        return self._kept
 
     @classmethod
     def repeated(cls, tables: BodyTables, design: GearDesign, crank_angles, geometry, n: int):
@@ -281,14 +319,19 @@ class Influence:
         out.angles = np.tile(np.asarray(crank_angles, dtype=float).reshape(-1), n)
         N = 2 * design.roller_count
         out.block = max(1, BLOCK_ENTRIES // (N * N))
-        out._all = None
-        if n * P <= out.block:
-            out._all = np.tile(out._make(np.arange(P)), (n, 1, 1))
+        out._whole, out._kept, out._samples = n * P <= out.block, None, n
         return out
 
     def _make(self, idx: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
         geo = tuple(_take(g, idx) for g in self.geometry)
         return influence_matrices(self.tables, self.design, self.angles[idx], geo, columns=columns)
+
+    def inputs(self, idx: np.ndarray, directions: np.ndarray | None = None) -> tuple:
+        """The tables as read at the positions ``idx`` (:func:`influence_inputs`; the
+        rollers' ``directions`` at them where known)."""
+        every = idx.size == len(self.angles) and np.array_equal(idx, np.arange(idx.size))
+        geo = self.geometry if every else tuple(_take(g, idx) for g in self.geometry)
+        return influence_inputs(self.tables, self.design, self.angles[idx], geo, directions)
 
     def matrices(self, idx: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
         """``C`` (len(idx), N, N) of the positions ``idx`` (``columns`` (len(idx), N):
@@ -329,63 +372,42 @@ class Influence:
         return C if np.ndim(idx) else C[0]
 
 
-def _newton_block(solver, target, influence, blk, base, start, d):
+def _newton_block(solver, target, influence, blk, base, start, d, chain=None):
     """:func:`~corr_cad.mechanics.drive.coupling_newton.overlap_newton` on the positions
-    ``blk`` from the drive's solution ``start = (tau, F, u)`` at the approaches ``d``:
-    ``(tau, F, d, rel, ok, iterations, u, Q)``. Where the influence matrices are not kept
-    whole, only the columns of the rollers that may carry load are made: those in contact
-    or within a quarter of the deepest overlap of it (the bodies close the gaps next to
-    the loaded rollers: a ring ovalises); a position that loads another is solved again
-    with its columns added (twice at most)."""
+    ``blk`` of the drive ``base = (geometry, contact law, directions)`` from the drive's
+    solution ``start = (tau, F, u)`` at the approaches ``d`` (``chain``: its positions'
+    order and sources, as there): ``(tau, F, d, rel, ok, iterations, u, Q)``."""
     geo0, comp0, n0 = base
-    tau, F, u = start
-    P, N = geo0.gap.shape
-    whole = blk.size == P
-    geo, cb = (geo0, comp0) if whole else (_take(geo0, blk), comp0.take(blk))
-    n = n0[blk]
+    tau, _, u = start
+    whole = blk.size == geo0.gap.shape[0]
+    geo = geo0 if whole else _take(geo0, blk)
+    comp = comp0 if whole else comp0.take(blk)
     floating = solver.bearings[0] is not None
-    if influence._all is not None:
-        cand = np.ones((len(blk), N), dtype=bool)
-    else:
-        nu = np.concatenate(
-            [np.einsum("pkx,px->pk", n[:, sl], u[c]) for c, sl in enumerate(_row_slices(N))], axis=1
-        )
-        h = geo.advance * tau[:, None] + geo.gap + nu - d
-        h = np.where(geo.loadable, h, -np.inf)
-        deep = np.abs(np.max(h, axis=1, keepdims=True))
-        cand = geo.loadable & ((h > -0.25 * deep) | (F > 0))
-    res = [tau.copy(), F.copy(), d.copy(), np.zeros(len(blk)), np.zeros(len(blk), bool), 0]
-    res += [u.copy(), None]
-    if floating:
-        res[7] = [np.zeros((len(blk), b.needles)) for b in solver.bearings]
+    cams = (n0[blk], u, solver.bearings) if floating else None
     from corr_cad.mechanics.drive.coupling_newton import overlap_newton  # numba: when run
 
-    todo = np.arange(len(blk))
-    for _ in range(3):
-        g = geo if todo.size == len(blk) else _take(geo, todo)
-        c = cb if todo.size == len(blk) else cb.take(todo)
-        C = influence.matrices(blk[todo], cand[todo])
-        cams = (n[todo], u[:, todo], solver.bearings) if floating else None
-        got = overlap_newton(
-            c, g, C, target, tau[todo], d[todo], cand[todo], solver.rtol, BODIES_RTOL,
-            tight=1e-2 if solver.crank is not None else 1.0,  # the crank iterates on F
-            cams=cams,
-        )  # fmt: skip
-        res[5] += got[5]
-        ok = got[4]
-        for i in range(4):
-            res[i][todo[ok]] = got[i][ok]
-        res[4][todo[ok]] = True
-        if floating:
-            res[6][:, todo[ok]] = got[6][:, ok]
-            for q, gq in zip(res[7], got[7], strict=True):
-                q[todo[ok]] = gq[ok]
-        miss = ~ok & np.any((got[1] > 0) & ~cand[todo], axis=1)
-        if influence._all is not None or not np.any(miss):
-            break
-        todo = todo[miss]
-        cand[todo] |= got[1][miss] > 0
-    return tuple(res)
+    return overlap_newton(
+        comp, geo, influence.inputs(blk, n0[blk]), target, tau, d, solver.rtol, BODIES_RTOL,
+        tight=1e-2 if solver.crank is not None else 1.0,  # the crank iterates on F
+        cams=cams, chain=chain,
+    )  # fmt: skip
+
+
+def _chain(solver, idx: np.ndarray):
+    """The positions ``idx``'s order by their phase in the drive's period (a slot pitch
+    of crank angle), each one's neighbour before it and the slots between them:
+    ``(order, src, shift)`` (len(idx),) each for
+    :func:`~corr_cad.mechanics.drive.coupling_newton.overlap_newton`. Roller ``k`` at
+    ``phi + 2 pi / R`` is where roller ``k - 1`` was at ``phi``."""
+    R = solver.R
+    turns = solver.crank_angles[idx] * R / (2.0 * np.pi)
+    slots = np.floor(turns)
+    order = np.argsort(turns - slots, kind="stable")
+    src = np.full(len(idx), -1)
+    src[order[1:]] = order[:-1]
+    shift = np.zeros(len(idx), dtype=np.int64)
+    shift[order[1:]] = (slots[order[1:]] - slots[order[:-1]]).astype(np.int64) % R
+    return order, src, shift
 
 
 def _row_slices(N: int) -> tuple[slice, slice]:
@@ -455,27 +477,49 @@ def coupled_solve(
                 out[3][c][idx] = Qs[c]
         return sol
 
+    def accept(idx, got, ok, d):
+        done = idx[ok]
+        out[0][done], out[1][done], out[4][done] = got[0][ok], got[1][ok], got[3][ok]
+        if got[7] is not None:
+            out[2][:, done] = got[6][:, ok]
+            for c in (0, 1):
+                out[3][c][done] = got[7][c][ok]
+        body_rel[done] = 0.0
+        d[ok] = got[2][ok]
+
+    base = (geo0, comp0, n0)
+    direct = direct and _one_needle_count(solver)
+    pending = np.arange(P)
     try:
-        for first in range(0, P, influence.block):
-            blk = np.arange(first, min(P, first + influence.block))
+        if direct and start is None:
+            # In the order of the positions' phase, each from its neighbour's solution;
+            # the first from the drive's own solve.
+            order, src, shift = _chain(solver, pending)
+            first = order[:1]
+            tau, F, u, _, _, it = contacts(first, d_all[first])
+            its += it
+            given = np.zeros(P, dtype=bool)
+            given[first] = True
+            t0, u0 = np.zeros(P), np.zeros((2, P, 2))
+            t0[first], u0[:, first] = tau, u
+            got = _newton_block(
+                solver, target, influence, pending, base, (t0, None, u0), d_all,
+                chain=(order, src, shift, given),
+            )  # fmt: skip
+            its += got[5]
+            accept(pending, got, got[4], d_all)
+            pending = np.flatnonzero(~got[4])
+        for first in range(0, pending.size, influence.block):
+            blk = pending[first : first + influence.block]
             d = d_all[blk]
             rest = np.arange(len(blk))  # the block's positions left to the Newton on d
-            if direct and _one_needle_count(solver):
+            if direct:
                 tau, F, u, _, _, it = contacts(blk, d)
                 its += it
-                base = (geo0, comp0, n0)
                 got = _newton_block(solver, target, influence, blk, base, (tau, F, u), d)
-                ok = got[4]
                 its += got[5]
-                done = blk[ok]
-                out[0][done], out[1][done], out[4][done] = got[0][ok], got[1][ok], got[3][ok]
-                if got[7] is not None:
-                    out[2][:, done] = got[6][:, ok]
-                    for c in (0, 1):
-                        out[3][c][done] = got[7][c][ok]
-                body_rel[done] = 0.0
-                d[ok] = got[2][ok]
-                rest = np.flatnonzero(~ok)
+                accept(blk, got, got[4], d)
+                rest = np.flatnonzero(~got[4])
             if rest.size:
                 C = influence.matrices(blk[rest])
                 at = np.arange(len(rest))  # the positions still iterating, in rest

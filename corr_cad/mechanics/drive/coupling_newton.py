@@ -28,10 +28,14 @@ the same tolerances: a cam adrift in its clearance leaves the block singular) ar
 left to that solve. The loop over positions is compiled (numba), with the contact
 laws of the drive kernels (:mod:`corr_cad.mechanics.drive.drive_laws`).
 
-Only the columns of the rollers that can carry load are needed (``C F`` with ``F``
-zero elsewhere): the caller builds ``C`` for a candidate set, and a position whose
-solution loads a roller outside it is left to the full solve too (its rows are
-exact, so the test is).
+Only the columns of the rollers that carry load are needed (``C F`` with ``F`` zero
+elsewhere): a position's columns are read from the bodies' tables as its rollers
+take load (:mod:`~corr_cad.mechanics.drive.coupling_kernel`, the same arithmetic as
+the whole matrix). Positions next to each other (in the phase of the drive's
+period) have nearly the same solution: solved in that order, each starts from its
+neighbour's, its rollers renumbered by the slots between them, and settles in a
+step or two; the first, and any whose neighbour did not settle, from the drive's
+own solve.
 """
 
 from __future__ import annotations
@@ -40,8 +44,23 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.drive.drive_laws import _invert_one, _palmgren
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.drive.coupling_kernel import column, prepare
+from corr_cad.mechanics.drive.drive_laws import (
+    CJ,
+    CN,
+    CS,
+    K1,
+    KC,
+    KG,
+    UKJ,
+    UKN,
+    UKS,
+    WN,
+    WS,
+    _invert_one,
+    _palmgren,
+)
+from corr_cad.mechanics.row.mc_kernel import _approach, _jit
 
 __all__ = ["overlap_newton"]
 
@@ -49,26 +68,31 @@ __all__ = ["overlap_newton"]
 def overlap_newton(
     comp,
     geo,
-    C: np.ndarray,
+    tb: tuple,
     target: float,
     tau: np.ndarray,
     d: np.ndarray,
-    candidates: np.ndarray,
     rtol: float,
     body_rtol: float,
     max_iter: int = 40,
     tight: float = 1.0,
     cams=None,
+    chain=None,
 ):
     """``(tau, F, d, rel, ok, iterations, u, Q)`` of the positions of ``geo`` (P, N) from
     the start ``tau`` (P,) with the bodies' approaches ``d`` (P, N); ``comp`` the
-    positions' contact law; ``C`` (P, N, N) made for the loads ``candidates`` (P, N).
+    positions' contact law; ``tb`` the bodies' tables as read at the positions
+    (:func:`~corr_cad.mechanics.drive.coupling.influence_inputs`): a position's columns of
+    ``C`` are made as its rollers take load (``C F`` needs no others).
     ``cams``: None (cams fixed; ``u``, ``Q`` None) or ``(n (P, N, 2), u (2, P, 2),
     bearings)``, the rollers' directions, the cams' start and their needle bearings (of
-    one needle count). ``ok``: settled, the moment to ``rtol``, the bodies to
-    ``body_rtol`` and the cams' balance to ``rtol``, loading candidates only; ``rel``
-    the moment's and the cams' relative residual. ``tight``: iterate on to ``tight``
-    times those tolerances where round-off allows."""
+    one needle count). ``chain``: None (every position from its start) or ``(order, src,
+    shift, given)`` (P,) each: the positions solved in ``order``, position ``p`` from
+    position ``src[p]``'s solution (settled before it; -1: none) with its rollers' indices
+    moved by ``shift[p]`` within each row, else from its start where ``given[p]``, else
+    left unsettled. ``ok``: settled, the moment to ``rtol``, the bodies to ``body_rtol`` and
+    the cams' balance to ``rtol``; ``rel`` the moment's and the cams' relative residual.
+    ``tight``: iterate on to ``tight`` times those tolerances where round-off allows."""
     loadable = np.ascontiguousarray(geo.loadable)
     a_c = np.ascontiguousarray(np.where(loadable, geo.advance, 0.0))
     a_m = np.ascontiguousarray(np.where(loadable, geo.arm, 0.0))
@@ -90,19 +114,27 @@ def overlap_newton(
         bear = np.array(
             [[0.5 * b.diametral_clearance, b.needle_coefficient, 0.0] for b in bearings]
         )
-    nu = np.where(
-        np.arange(N) < N // 2, np.einsum("pkx,px->pk", n, u[0]), np.einsum("pkx,px->pk", n, u[1])
-    )
-    y = np.ascontiguousarray(np.where(loadable, a_c * tau[:, None] + g + nu - d, -1.0))
+    if chain is None:
+        order, src = np.arange(P), np.full(P, -1)
+        shift, given = np.zeros(P, dtype=np.int64), np.ones(P, dtype=bool)
+    else:
+        order, src, shift, given = chain
+    y = a_c * tau[:, None] + g - d
+    if cams is not None:  # the cams' start displacements along each roller's direction
+        R = N // 2
+        y[:, :R] += np.einsum("pkx,px->pk", n[:, :R], u[0])
+        y[:, R:] += np.einsum("pkx,px->pk", n[:, R:], u[1])
+    y = np.ascontiguousarray(np.where(loadable, y, -1.0))
     tau = np.array(tau, dtype=float)
     U = np.ascontiguousarray(np.transpose(u, (1, 0, 2)))  # (P, 2, 2)
     F, cf = np.zeros((P, N)), np.zeros((P, N))
     Q = np.zeros((P, 2, dirs.shape[1]))
     rel, ok, its = np.zeros(P), np.zeros(P, dtype=bool), np.zeros(1, dtype=np.int64)
+    seq = np.ascontiguousarray(np.stack([order, src, shift]).astype(np.int64))
     _newton(
-        a_c, a_m, g, loadable, np.ascontiguousarray(C), np.ascontiguousarray(candidates),
-        law, T, K, float(target), float(rtol), float(body_rtol), int(max_iter), float(tight),
-        cams is not None, n, dirs, bear, tau, y, U, F, cf, Q, rel, ok, its,
+        a_c, a_m, g, loadable, tb, law, T, K, float(target), float(rtol), float(body_rtol),
+        int(max_iter), float(tight), cams is not None, n, dirs, bear, seq,
+        np.ascontiguousarray(given, dtype=bool), tau, y, U, F, cf, Q, rel, ok, its,
     )  # fmt: skip
     out_u = np.transpose(U, (1, 0, 2)).copy() if cams is not None else None
     out_q = [Q[:, 0].copy(), Q[:, 1].copy()] if cams is not None else None
@@ -116,39 +148,65 @@ def _contact_table(comp, shape: tuple[int, int]) -> np.ndarray:
     cam, gear, slot = comp.contacts
     rows = (cam.cw, cam.k1, cam.k2, cam.uk, gear.cw, gear.w, gear.k2, gear.uk)
     rows += (slot.cw, slot.w, slot.uk)
-    return np.ascontiguousarray(
-        np.stack([np.broadcast_to(np.asarray(x, dtype=float), shape) for x in rows])
-    )
+    T = np.empty((len(rows), *shape))
+    for i, x in enumerate(rows):
+        T[i] = x
+    return T
 
 
 @_jit
-def _law(h, law, T, K, p, i, N):
-    """``(F, dF/dh)`` of roller ``i`` of position ``p`` at overlap ``h``."""
+def _law(h, law, T, K, p, i, f0):
+    """``(F, dF/dh)`` of roller ``i`` of position ``p`` at overlap ``h`` (the paper's law
+    inverted by Newton from the force ``f0``, where positive)."""
     if not h > 0.0:
         return 0.0, 0.0
     if law == 1:
         return _palmgren(h, K[p, i])
-    return _invert_one(h, h / K[p, i], T, p, i)
+    return _invert_one(h, f0 if f0 > 0.0 else h / K[p, i], T, p, i)
 
 
 @_jit
-def _evaluate(p, y, tau, u, st, F, k, cf, r, rc, Q, kq):
+def _forward(f, T, p, i):
+    """``(h, dh/dF)`` of roller ``i`` of position ``p`` under the paper's law at the force
+    ``f``: the overlap ``G(f)`` the inversion (``drive_laws._invert_one``) solves for."""
+    vj, sj = _approach(T[CJ, p, i] * f, T[UKJ, p, i], T[K1, p, i], T[KC, p, i])
+    vn, sn = _approach(T[CN, p, i] * f, T[UKN, p, i], T[K1, p, i], T[KG, p, i])
+    vs, ss = _approach(T[CS, p, i] * f, T[UKS, p, i], T[K1, p, i], 0.0)
+    wn, ws = T[WN, p, i], T[WS, p, i]
+    return vj + wn * vn + ws * vs, T[CJ, p, i] * sj + wn * T[CN, p, i] * sn + ws * T[CS, p, i] * ss
+
+
+@_jit
+def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq, mode):
     """Forces, stiffnesses, ``C F``, the needles and the residuals at ``(y, tau, u)``:
     ``(r_M, scale_M, max |C F|, scale of the cams' balance)``; ``r`` (N,), ``rc`` (4,)
-    filled."""
-    a_c, a_m, g, on, C, law, T, K, target, floating, n, dirs, bear = st
+    filled (``F0``: the forces the paper's law's inversion starts from, where positive;
+    ``mode[0] == 1``: under the paper's law a roller of positive ``F0`` is put at that
+    force, its overlap ``y`` the law's, with no inversion);
+    ``lz = (tb, xf, D0, FD, Cp, have)``: position ``p``'s columns of ``C``
+    (``Ct`` (N, N), transposed: a column a row), each made when its roller first takes
+    load (``have``)."""
+    a_c, a_m, g, on, law, T, K, target, floating, n, dirs, bear = st
+    tb, xf, D0, FD, Ct, have = lz
     N = y.shape[0]
     R = N // 2
     mom, scale = -target, abs(target)
     for i in range(N):
-        F[i], k[i] = _law(y[i], law, T, K, p, i, N) if on[p, i] else (0.0, 0.0)
+        if on[p, i] and mode[0] == 1 and law == 0 and F0[i] > 0.0:
+            y[i], dg = _forward(F0[i], T, p, i)
+            F[i], k[i] = F0[i], 1.0 / dg
+        else:
+            F[i], k[i] = _law(y[i], law, T, K, p, i, F0[i]) if on[p, i] else (0.0, 0.0)
         mom += a_m[p, i] * F[i]
         scale += abs(a_m[p, i]) * F[i]
         cf[i] = 0.0
     for j in range(N):
         if F[j] != 0.0:
+            if not have[j]:
+                column(p, j, tb, xf, D0, FD, Ct)
+                have[j] = True
             for i in range(N):
-                cf[i] += C[p, i, j] * F[j]
+                cf[i] += Ct[j, i] * F[j]
     top = 0.0
     for i in range(N):
         top = max(top, abs(cf[i]))
@@ -235,25 +293,75 @@ def _settled(r, rm, sm, top, rc, sf, rtol, body_rtol):
 
 
 @_jit
+def _seed(p, q, b, seq, a_c, g, on, n, tau, y, U, F):
+    """Position ``p``'s start from position ``q``'s solution, its rollers' indices moved by
+    ``seq[2, p]`` within each row; extrapolated linearly from ``b``'s before it where
+    ``b >= 0`` (a roller not loadable in either: its overlap without the bodies)."""
+    N = y.shape[1]
+    R = N // 2
+    w = 1.0 if b >= 0 else 0.0
+    bq = b if b >= 0 else q
+    tau[p] = tau[q] + w * (tau[q] - tau[bq])
+    for c in range(2):
+        for x in range(2):
+            U[p, c, x] = U[q, c, x] + w * (U[q, c, x] - U[bq, c, x])
+    for i in range(N):
+        if not on[p, i]:
+            continue
+        c = 0 if i < R else 1
+        j = c * R + (i - c * R - seq[2, p]) % R
+        k = c * R + (j - c * R - seq[2, q]) % R if b >= 0 else j
+        F[p, i] = F[q, j]  # where the paper's law's inversion starts
+        if on[q, j] and on[bq, k]:
+            y[p, i] = y[q, j] + w * (y[q, j] - y[bq, k])
+            if F[q, j] > 0.0 and F[bq, k] > 0.0:
+                F[p, i] = max(F[q, j] + w * (F[q, j] - F[bq, k]), 0.0)
+        else:
+            nu = n[p, i, 0] * U[p, c, 0] + n[p, i, 1] * U[p, c, 1]
+            y[p, i] = a_c[p, i] * tau[p] + g[p, i] + nu
+
+
+@_jit
 def _newton(
-    a_c, a_m, g, on, C, cand, law, T, K, target, rtol, body_rtol, max_iter, tight,
-    floating, n, dirs, bear, tau, y, U, F, cf, Q, rel, ok, its,
+    a_c, a_m, g, on, tb, law, T, K, target, rtol, body_rtol, max_iter, tight,
+    floating, n, dirs, bear, seq, given, tau, y, U, F, cf, Q, rel, ok, its,
 ):  # fmt: skip
     P, N = a_c.shape
     R = N // 2
     Z = dirs.shape[1]
-    st = (a_c, a_m, g, on, C, law, T, K, target, floating, n, dirs, bear)
+    st = (a_c, a_m, g, on, law, T, K, target, floating, n, dirs, bear)
+    xf, D0, FD = np.empty(N), np.empty(N - 1, dtype=np.int64), np.empty(N - 1)
+    Ct, have = np.empty((N, N)), np.empty(N, dtype=np.bool_)
+    lz = (tb, xf, D0, FD, Ct, have)
     nc = 4 if floating else 0
     k, r, dy, v = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
     yt, Ft, kt, cft, rt = np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N)
+    Fg, mode = np.empty(N), np.zeros(1, dtype=np.int64)
     rc, rct, ut, du = np.empty(4), np.empty(4), np.empty((2, 2)), np.empty((2, 2))
     kq, kqt, Qt = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
     act = np.empty(N, dtype=np.int64)
     J, b = np.empty((N + 5, N + 5)), np.empty(N + 5)
-    for p in range(P):
+    for o in range(P):
+        p, q = seq[0, o], seq[1, seq[0, o]]
+        if q >= 0 and ok[q]:
+            q2 = seq[1, q]  # the one before it: a linear extrapolation where it settled too
+            _seed(p, q, q2 if q2 >= 0 and ok[q2] else -1, seq, a_c, g, on, n, tau, y, U, F)
+        elif not given[p]:
+            continue  # no start: left to the caller (ok False)
+        prepare(p, tb, xf, D0, FD)
+        for j in range(N):
+            have[j] = False
         t = tau[p]
         u = U[p]
-        rm, sm, top, sf = _evaluate(p, y[p], t, u, st, F[p], k, cf[p], r, rc, Q[p], kq)
+        # A chained position under the paper's law: its rollers put at the start's forces.
+        mode[0] = 1 if q >= 0 and ok[q] else 0
+        rm, sm, top, sf = _evaluate(
+            p, y[p], t, u, st, lz, F[p], F[p], k, cf[p], r, rc, Q[p], kq, mode
+        )
+        # The steps under the paper's law: a loaded roller's force moves along its tangent,
+        # its overlap the law's at the new force (forward: no inversion; the same step to
+        # first order, Newton's convergence kept).
+        mode[0] = 1
         for it in range(max_iter + 1):
             # Tighter than asked where round-off allows (a caller that iterates on these
             # forces, the crankshaft's fixed point, then sees no noise).
@@ -276,7 +384,7 @@ def _newton(
                 i = act[x]
                 c = 0 if i < R else 1
                 for z in range(m):
-                    J[x, z] = C[p, i, act[z]] * k[act[z]]
+                    J[x, z] = Ct[act[z], i] * k[act[z]]
                 J[x, x] += 1.0
                 J[x, m] = -a_c[p, i]
                 J[m, x] = a_m[p, i] * k[i]
@@ -316,22 +424,28 @@ def _newton(
             for i in range(N):
                 if on[p, i]:
                     c = 0 if i < R else 1
-                    s = -r[i] + a_c[p, i] * dt + n[p, i, 0] * du[c, 0] + n[p, i, 1] * du[c, 1]
-                    for x in range(m):
-                        s -= C[p, i, act[x]] * v[act[x]]
-                    dy[i] = s
+                    dy[i] = -r[i] + a_c[p, i] * dt + n[p, i, 0] * du[c, 0] + n[p, i, 1] * du[c, 1]
                 else:
                     dy[i] = 0.0
+            for x in range(m):  # C's columns in place: its rows of the transposed
+                j = act[x]
+                for i in range(N):
+                    if on[p, i]:
+                        dy[i] -= Ct[j, i] * v[j]
             m0 = _merit(r, rm, sm, top, rc, sf)
             alpha, moved = 1.0, False
             for _ in range(12):
                 for i in range(N):
                     yt[i] = y[p, i] + alpha * dy[i] if on[p, i] else y[p, i]
+                    # The force along its tangent (and the inversion's start where it ends).
+                    Fg[i] = max(F[p, i] + alpha * k[i] * dy[i], 0.0) if F[p, i] > 0.0 else 0.0
                 tt = t + alpha * dt
                 for c in range(2):
                     ut[c, 0] = u[c, 0] + alpha * du[c, 0]
                     ut[c, 1] = u[c, 1] + alpha * du[c, 1]
-                rmt, smt, topt, sft = _evaluate(p, yt, tt, ut, st, Ft, kt, cft, rt, rct, Qt, kqt)
+                rmt, smt, topt, sft = _evaluate(
+                    p, yt, tt, ut, st, lz, Fg, Ft, kt, cft, rt, rct, Qt, kqt, mode
+                )
                 if _merit(rt, rmt, smt, topt, rct, sft) <= (1.0 - 1e-4 * alpha) * m0:
                     moved = True
                     break
@@ -352,9 +466,4 @@ def _newton(
         for c in range(2):
             cams = max(cams, math.sqrt(rc[2 * c] ** 2 + rc[2 * c + 1] ** 2))
         rel[p] = max(abs(rm) / sm, cams / sf)
-        good = _settled(r, rm, sm, top, rc, sf, rtol, body_rtol)
-        if good:
-            for i in range(N):
-                if F[p, i] > 0.0 and not cand[p, i]:
-                    good = False
-        ok[p] = good
+        ok[p] = _settled(r, rm, sm, top, rc, sf, rtol, body_rtol)

@@ -10,13 +10,14 @@ the shared machine's load cannot inflate.
 from __future__ import annotations
 
 import os
+import statistics
 import tempfile
 import time
 from pathlib import Path
 
 from corr_cad.geometry.design import GearDesign
 from corr_cad.run.bench.bench_common import M0, _table, _write_csv
-from corr_cad.run.bench.bench_drive import _timed
+from corr_cad.run.bench.bench_drive import _load, _timed
 
 __all__ = ["bodies_speed"]
 
@@ -41,16 +42,20 @@ def bodies_speed(out: Path, quick: bool = False) -> list:
             tables, _ = stages_bodies.cached_tables(design, outlines)  # a new folder: computed
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
             rows.append(
-                ["FE reduction, ring, frame and cam, uncached", wall, wall, wall, 10.0, "", cpu]
+                [
+                    "FE reduction, ring, frame and cam, uncached",
+                    *(wall, wall, wall, 10.0, "", cpu, _load()),
+                ]
             )
             t = _timed(lambda: stages_bodies.cached_tables(design, outlines), repeat)
-            rows.append(["FE tables read from the cache", *t[:3], 0.2, "", t[3]])
+            rows.append(["FE tables read from the cache", *t[:3], 0.2, "", t[3], _load()])
         finally:
             if old is None:
                 os.environ.pop("CORR_CAD_CACHE_DIR", None)
             else:
                 os.environ["CORR_CAD_CACHE_DIR"] = old
     needles = EccentricBearing(40, 6.0, 12.0, 0.005)
+    rounds = 1 if quick else 5
     for law in ("nonlinear", "palmgren"):
         for bearing in (None, needles):
             kind = "bearings" if bearing is not None else "cams fixed"
@@ -60,19 +65,34 @@ def bodies_speed(out: Path, quick: bool = False) -> list:
                     design, M0, positions=3600, bearing=bearing, contact_model=law, bodies=bodies
                 )
 
-            rigid = _timed(run, repeat)
-            rows.append([f"3600 positions rigid, {kind}, {law}", *rigid[:3], "", "", rigid[3]])
-            el = _timed(lambda run=run: run(tables), repeat)
+            # Interleaved, rigid then elastic in each round: the machine's load bears
+            # on both alike; the medians of the rounds.
+            run(), run(tables)  # warm-up
+            rigid, elastic = [], []
+            for _ in range(rounds):
+                rigid.append(_timed(run, 1))
+                elastic.append(_timed(lambda run=run: run(tables), 1))
+            load = _load()
+            r = [statistics.median(t[i] for t in rigid) for i in (0, 1, 2, 3)]
+            e = [statistics.median(t[i] for t in elastic) for i in (0, 1, 2, 3)]
+            r[1], r[2] = min(t[0] for t in rigid), max(t[0] for t in rigid)
+            e[1], e[2] = min(t[0] for t in elastic), max(t[0] for t in elastic)
+            rows.append([f"3600 positions rigid, {kind}, {law}", *r[:3], "", "", r[3], load])
+            # CPU: what the machine's load inflates least
+            ratio = e[3] / r[3]
             rows.append(
-                [
-                    f"3600 positions elastic, {kind}, {law}",
-                    *el[:3],
-                    2 * rigid[0],
-                    el[3] / rigid[3],  # CPU: what the machine's load cannot inflate
-                    el[3],
-                ]
+                [f"3600 positions elastic, {kind}, {law}", *e[:3], 2 * r[0], ratio, e[3], load]
             )
-    header = ["case", "median_s", "min_s", "max_s", "target_s", "elastic_over_rigid_cpu", "cpu_s"]
+    header = [
+        "case",
+        "median_s",
+        "min_s",
+        "max_s",
+        "target_s",
+        "elastic_over_rigid_cpu",
+        "cpu_s",
+        "load_avg",
+    ]
     nodes = " + ".join(str(n) for n in tables.nodes)
     _table(f"elastic bodies, prototype (ring + frame + cam: {nodes} nodes)", header, rows)
     _write_csv(out, "bodies_speed.csv", header, rows)
