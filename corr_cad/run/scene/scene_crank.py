@@ -135,6 +135,7 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
         )
     except CorrCadError as exc:
         raise SceneError(f"[crankshaft] {exc}") from exc
+    _check_layout(shaft, design, needle, dflt, derived)
     shaft_src = (
         "scene"
         if not any(s.startswith("[crankshaft]") for s in derived)
@@ -154,3 +155,40 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
         bearing_source=brg_src,
         derived=tuple(derived),
     )
+
+
+def _check_layout(shaft: Crankshaft, design, needle: float | None, dflt: dict, derived) -> None:
+    """The shaft the files draw: each eccentric journal under its own row's cam, the shaft
+    inside the journal (``d <= d_e - 2 e``), the needles between the journal and the cam's
+    bore (``d_e + 2 D <= 2 R_bore``). One line naming the key the scene gave."""
+    w, t, e = design.roller_length, design.frame_thickness, design.eccentricity
+    bore = 2.0 * design.cam_bore_radius
+    tol = 1e-9
+    given_de = "[crankshaft] eccentric_diameter" not in derived
+    d, d_e = shaft.shaft_diameter, shaft.eccentric_diameter
+    if needle is not None and d_e + 2.0 * needle > bore + tol:
+        raise SceneError(
+            f"[crankshaft] eccentric_diameter = {d_e:g}: the needles ({needle:g} mm) must fit "
+            f"between the journal and the cam's bore ({bore:g} mm): allowed range is "
+            f"(0, {bore - 2.0 * needle:g}] mm, e.g. {dflt['eccentric_diameter']:g}"
+        )
+    if d > d_e - 2.0 * e + tol:
+        if given_de:
+            raise SceneError(
+                f"[crankshaft] eccentric_diameter = {d_e:g}: the journal must hold the shaft "
+                f"(shaft_diameter {d:g} + 2 e = {d + 2.0 * e:g} mm at least), e.g. "
+                f"{max(dflt['eccentric_diameter'], d + 2.0 * e):g}"
+            )
+        raise SceneError(
+            f"[crankshaft] shaft_diameter = {d:g}: the shaft must lie inside the eccentric "
+            f"journal (diameter {d_e:g} mm at eccentricity {e:g} mm): allowed range is "
+            f"(0, {d_e - 2.0 * e:g}] mm, e.g. {math.floor(0.8 * (d_e - 2.0 * e)):g}"
+        )
+    spans = ((0.0, w), (w + t, 2.0 * w + t))
+    for name, z, (lo, hi) in zip("AB", shaft.eccentric_positions, spans, strict=True):
+        if not lo - tol <= z <= hi + tol:
+            raise SceneError(
+                f"[crankshaft] eccentric_positions = {list(shaft.eccentric_positions)}: "
+                f"eccentric {name} must lie under row {name}'s cam, z in [{lo:g}, {hi:g}] mm, "
+                f"e.g. {dflt['eccentric_positions']!r}"
+            )

@@ -1,0 +1,140 @@
+"""Hostile values on the crankshaft beside the needle bearings and the elastic bodies:
+each refused up front in one line (key, value, allowed range, a value that works), and
+the crank gear placed between the eccentrics twisting each through its own segment."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from corr_cad.errors import SceneError
+from corr_cad.mechanics.crank.crankshaft import STEEL_E as E
+from corr_cad.mechanics.crank.crankshaft import STEEL_NU as NU
+from corr_cad.mechanics.crank.crankshaft import Crankshaft
+from corr_cad.mechanics.drive.drive_crank import CrankSupport
+from corr_cad.run.scene.scene import parse_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+NEEDLES = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
+
+
+def _drive(crankshaft: dict, needles: bool = True) -> dict:
+    data = {
+        "solver": {"model": "drive", "contact_law": "palmgren"},
+        "load": {"input_torque": 1.1e5},
+        "crankshaft": crankshaft,
+    }
+    if needles:
+        data["bearings"] = {"eccentric": dict(NEEDLES)}
+    return data
+
+
+@pytest.mark.parametrize(
+    "crankshaft,needles,pattern",
+    [
+        # A 1 mm journal on a 60 mm shaft: the beam was built and the coupling ran 80
+        # solves (about 100 s) before 'did not settle ... check shaft_diameter'.
+        (
+            {"eccentric_diameter": 1.0},
+            True,
+            r"^\[crankshaft\] eccentric_diameter = 1: the journal must hold the shaft "
+            r"\(shaft_diameter 60 \+ 2 e = 67 mm at least\), e\.g\. 82\.4$",
+        ),
+        (
+            {"shaft_diameter": 80.0},
+            True,
+            r"^\[crankshaft\] shaft_diameter = 80: .* allowed range is \(0, 75\.4\] mm, e\.g\. 60$",
+        ),
+        (
+            {"shaft_diameter": 100.0},
+            False,
+            r"^\[crankshaft\] shaft_diameter = 100: .* allowed range is \(0, 87\.4\] mm, "
+            r"e\.g\. 69$",
+        ),
+        (
+            {"eccentric_diameter": 90.0},
+            True,
+            r"^\[crankshaft\] eccentric_diameter = 90: the needles \(6 mm\) must fit .*"
+            r"allowed range is \(0, 82\.4\] mm, e\.g\. 82\.4$",
+        ),
+        (
+            {"eccentric_positions": [-100.0, 26.0]},
+            True,
+            r"^\[crankshaft\] eccentric_positions = \[-100\.0, 26\.0\]: eccentric A must lie "
+            r"under row A's cam, z in \[0, 12\] mm, e\.g\. \[6\.0, 26\.0\]$",
+        ),
+        (
+            {"eccentric_positions": [6.0, 6.0]},
+            True,
+            r"^\[crankshaft\] eccentric_positions = \[6\.0, 6\.0\]: eccentric B must lie "
+            r"under row B's cam, z in \[20, 32\] mm",
+        ),
+    ],
+)
+def test_a_shaft_the_files_cannot_draw_is_refused_in_one_line(crankshaft, needles, pattern):
+    with pytest.raises(SceneError, match=pattern) as err:
+        parse_scene(_drive(crankshaft, needles))
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "crankshaft",
+    [
+        {},
+        {"shaft_diameter": 75.4, "eccentric_positions": [0.0, 32.0]},
+        {"support_positions": [-80.0, -30.0]},  # both supports on one side: overhung
+        {"eccentric_diameter": 82.4, "shaft_diameter": 5.0},
+    ],
+)
+def test_the_limits_themselves_load(crankshaft):
+    assert parse_scene(_drive(crankshaft)).crank is not None
+
+
+def test_gear_between_the_eccentrics_twists_each_through_its_own_segment():
+    """Gear at z = 55 between A (45) and B (65) on a uniform shaft: A twists by
+    M_A 10 / (G J), B by M_B 10 / (G J), neither by the other's moment (the cross term
+    was the twist of the nearer one's segment: M_B 10 / (G J) added to A)."""
+    shaft = Crankshaft(60.0, 60.0, 12.0, (45.0, 65.0), (10.0, 110.0), 55.0)
+    M = np.array([[4.0e4, 6.0e4]])
+    th = CrankSupport(shaft).response(np.zeros((1, 2, 2)), M)["theta"][0]
+    GJ = E / (2 * (1 + NU)) * math.pi * 60.0**4 / 32
+    np.testing.assert_allclose(abs(th[0]), 4.0e4 * 10 / GJ, rtol=1e-12)
+    np.testing.assert_allclose(abs(th[1]), 6.0e4 * 10 / GJ, rtol=1e-12)
+    t = shaft.torsion_matrix()
+    assert t[0, 1] == 0.0 and t[1, 0] == 0.0
+
+
+def test_cli_refuses_a_journal_too_small_at_once(tmp_path):
+    """Through the CLI from a folder with the user's files: exit 2, one line, nothing
+    written, the other file untouched."""
+    (tmp_path / "notes.txt").write_text("mine")
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        "[export]\nformats = ['forces']\n[load]\ninput_torque = 1.1e5\n"
+        "[solver]\nmodel = 'drive'\ncontact_law = 'palmgren'\nbodies = 'elastic'\n"
+        "[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\nneedle_length = 12.0\n"
+        "diametral_clearance = 0.005\n[crankshaft]\neccentric_diameter = 1.0\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert r.returncode == 2
+    lines = [ln for ln in r.stderr.splitlines() if "warning" not in ln]
+    assert lines == [
+        "corr-cad: error: [crankshaft] eccentric_diameter = 1: the journal must hold the "
+        "shaft (shaft_diameter 60 + 2 e = 67 mm at least), e.g. 82.4"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "s.toml"]
+    assert (tmp_path / "notes.txt").read_text() == "mine"
