@@ -24,15 +24,48 @@ ROOT = Path(__file__).resolve().parents[1]
 NEEDLES = {"needles": 40, "needle_diameter": 6.0, "needle_length": 12.0}
 
 
-def _drive(crankshaft: dict, needles: bool = True) -> dict:
+def _drive(crankshaft: dict, needles: bool = True, crank=None, eccentric=None) -> dict:
     data = {
         "solver": {"model": "drive", "contact_law": "palmgren"},
         "load": {"input_torque": 1.1e5},
         "crankshaft": crankshaft,
+        "bearings": {},
     }
     if needles:
-        data["bearings"] = {"eccentric": dict(NEEDLES)}
+        data["bearings"]["eccentric"] = {**NEEDLES, **(eccentric or {})}
+    if crank is not None:
+        data["bearings"]["crank"] = crank
     return data
+
+
+@pytest.mark.parametrize(
+    "crank,eccentric,pattern",
+    [
+        # 1000 rollers of 12 mm on an 87 mm pitch circle solved without a word.
+        (
+            {"rollers": 1000},
+            None,
+            r"^\[bearings\.crank\] rollers = 1000: 1000 rollers of 12 mm do not fit on the "
+            r"pitch circle of 87 mm; allowed range is \[3, 22\], e\.g\. 18$",
+        ),
+        (
+            {"pitch_diameter": 40.0},
+            None,
+            r"^\[bearings\.crank\] pitch_diameter = 40: the 18 rollers of 12 mm \(derived\) "
+            r"do not fit on it; allowed range is \(69\.11, 5000\] mm, e\.g\. 87$",
+        ),
+        (
+            {"pitch_diameter": 50.0, "rollers": 6, "roller_diameter": 4.0},
+            None,
+            r"^\[bearings\.crank\] pitch_diameter = 50: the inner raceway \(46 mm\) must sit "
+            r"on the shaft \(60 mm\): allowed range is \[64, 5000\] mm, e\.g\. 87$",
+        ),
+    ],
+)
+def test_support_bearings_that_cannot_be_built_are_refused(crank, eccentric, pattern):
+    with pytest.raises(SceneError, match=pattern) as err:
+        parse_scene(_drive({"shaft_diameter": 60.0}, crank=crank, eccentric=eccentric))
+    assert "\n" not in str(err.value)
 
 
 @pytest.mark.parametrize(

@@ -115,6 +115,7 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
             )
         except CorrCadError as exc:
             raise SceneError(f"[bearings.crank] {exc}") from exc
+        _check_support(support, dflt, brg_v["rollers"] is not None)
     for key in ("eccentric_positions", "support_positions"):
         v = shaft_v[key]
         if v is not None and len(v) != 2:
@@ -192,3 +193,29 @@ def _check_layout(shaft: Crankshaft, design, needle: float | None, dflt: dict, d
                 f"eccentric {name} must lie under row {name}'s cam, z in [{lo:g}, {hi:g}] mm, "
                 f"e.g. {dflt['eccentric_positions']!r}"
             )
+
+
+def _check_support(support: SupportBearing, dflt: dict, rollers_given: bool) -> None:
+    """A support bearing that can be built: its rollers side by side on the pitch circle
+    (``d_m sin(pi / Z) > D``) and its inner raceway on the shaft (``d_m - D >= d``)."""
+    n, D, dm = support.rollers, support.roller_diameter, support.pitch_diameter
+    shaft = dflt["shaft_diameter"]  # the scene's, or the derived one
+    if dm * math.sin(math.pi / n) <= D:
+        most = max(math.ceil(math.pi / math.asin(min(1.0, D / dm))) - 1, 3)
+        if not rollers_given:  # the scene gave the pitch circle; the count is derived
+            least = D / math.sin(math.pi / n)
+            raise SceneError(
+                f"[bearings.crank] pitch_diameter = {dm:g}: the {n} rollers of {D:g} mm (derived) "
+                f"do not fit on it; allowed range is ({least:.4g}, 5000] mm, e.g. "
+                f"{max(dflt['pitch_diameter'], math.ceil(least + 1.0)):g}"
+            )
+        raise SceneError(
+            f"[bearings.crank] rollers = {n}: {n} rollers of {D:g} mm do not fit on the pitch "
+            f"circle of {dm:g} mm; allowed range is [3, {most}], e.g. {min(dflt['rollers'], most)}"
+        )
+    if dm - D < shaft - 1e-9:
+        raise SceneError(
+            f"[bearings.crank] pitch_diameter = {dm:g}: the inner raceway ({dm - D:g} mm) must "
+            f"sit on the shaft ({shaft:g} mm): allowed range is [{shaft + D:g}, 5000] mm, e.g. "
+            f"{max(dflt['pitch_diameter'], shaft + D):g}"
+        )
