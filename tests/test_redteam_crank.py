@@ -55,9 +55,21 @@ def _drive(crankshaft: dict, needles: bool = True, crank=None, eccentric=None) -
             r"do not fit on it; allowed range is \(69\.11, 5000\] mm, e\.g\. 87$",
         ),
         (
-            {"pitch_diameter": 50.0, "rollers": 6, "roller_diameter": 4.0},
+            {"pitch_diameter": 13.0, "rollers": 3},
             None,
-            r"^\[bearings\.crank\] pitch_diameter = 50: the inner raceway \(46 mm\) must sit "
+            r"^\[bearings\.crank\] pitch_diameter = 13: the 3 rollers of 12 mm do not fit on "
+            r"it; allowed range is \(13\.86, 5000\] mm, e\.g\. 87$",
+        ),
+        (
+            {"pitch_diameter": 80.0, "rollers": 21},
+            None,
+            r"^\[bearings\.crank\] rollers = 21: 21 rollers of 12 mm do not fit on the pitch "
+            r"circle of 80 mm; allowed range is \[3, 20\], e\.g\. 18$",
+        ),
+        (
+            {"pitch_diameter": 62.0, "rollers": 6, "roller_diameter": 4.0},
+            None,
+            r"^\[bearings\.crank\] pitch_diameter = 62: the inner raceway \(58 mm\) must sit "
             r"on the shaft \(60 mm\): allowed range is \[64, 5000\] mm, e\.g\. 87$",
         ),
     ],
@@ -95,6 +107,11 @@ def test_support_bearings_that_cannot_be_built_are_refused(crank, eccentric, pat
             True,
             r"^\[crankshaft\] eccentric_diameter = 90: the needles \(6 mm\) must fit .*"
             r"allowed range is \(0, 82\.4\] mm, e\.g\. 82\.4$",
+        ),
+        (
+            {"eccentric_diameter": 85.0},
+            True,
+            r"^\[crankshaft\] eccentric_diameter = 85: the needles \(6 mm\) must fit ",
         ),
         (
             {"eccentric_positions": [-100.0, 26.0]},

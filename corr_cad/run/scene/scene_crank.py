@@ -201,13 +201,14 @@ def _check_support(support: SupportBearing, dflt: dict, rollers_given: bool) -> 
     n, D, dm = support.rollers, support.roller_diameter, support.pitch_diameter
     shaft = dflt["shaft_diameter"]  # the scene's, or the derived one
     if dm * math.sin(math.pi / n) <= D:
-        most = max(math.ceil(math.pi / math.asin(min(1.0, D / dm))) - 1, 3)
-        if not rollers_given:  # the scene gave the pitch circle; the count is derived
+        most = math.ceil(math.pi / math.asin(min(1.0, D / dm))) - 1
+        if not rollers_given or most < 3:  # name the pitch circle: no count fits, or derived
             least = D / math.sin(math.pi / n)
+            how = " (derived)" if not rollers_given else ""
             raise SceneError(
-                f"[bearings.crank] pitch_diameter = {dm:g}: the {n} rollers of {D:g} mm (derived) "
+                f"[bearings.crank] pitch_diameter = {dm:g}: the {n} rollers of {D:g} mm{how} "
                 f"do not fit on it; allowed range is ({least:.4g}, 5000] mm, e.g. "
-                f"{max(dflt['pitch_diameter'], math.ceil(least + 1.0)):g}"
+                f"{max(dflt['pitch_diameter'], math.ceil(least + 1.0), shaft + D):g}"
             )
         raise SceneError(
             f"[bearings.crank] rollers = {n}: {n} rollers of {D:g} mm do not fit on the pitch "
