@@ -188,3 +188,67 @@ def test_cli_refuses_a_journal_too_small_at_once(tmp_path):
     ]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "s.toml"]
     assert (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def _soft_drive(dia: float, positions: int = 2):
+    from corr_cad import GearDesign
+    from corr_cad.mechanics.crank.bearing import EccentricBearing
+    from corr_cad.mechanics.crank.support_bearing import SupportBearing
+    from corr_cad.mechanics.drive.drive import solve_drive
+
+    shaft = Crankshaft(dia, 82.4, 12.0, (6.0, 26.0), (-27.0, 59.0), -49.0)
+    crank = CrankSupport(shaft, SupportBearing("cylindrical", 18, 12.0, 12.0, 87.0))
+    angles = np.radians(np.linspace(0.0, 90.0, positions))
+    return solve_drive(
+        GearDesign(),
+        1.1e5,
+        angles,
+        bearing=EccentricBearing(40, 6.0, 12.0, 0.005),
+        contact_model="palmgren",
+        crank=crank,
+    )
+
+
+def test_a_shaft_that_moves_the_eccentrics_beyond_e_is_refused_at_once():
+    """A 2 mm shaft moves the eccentric centres by ~36 mm under the rigid crank's loads
+    (the teeth are 2 e = 7 mm deep): refused on the first iterate, naming the key and a
+    diameter that works (the 1 mm shaft ran 80 solves, ~100 s, before 'did not settle')."""
+    from corr_cad.errors import SolverError
+
+    with pytest.raises(SolverError) as err:
+        _soft_drive(2.0)
+    msg = str(err.value)
+    assert "\n" not in msg
+    assert "[crankshaft] shaft_diameter = 2 (with its support bearings) moves the eccentric " in msg
+    assert "more than the eccentricity e = 3.5 mm" in msg and msg.endswith("shaft_diameter = 12")
+    assert _soft_drive(12.0).success  # the value it suggests solves
+
+
+@pytest.mark.slow
+def test_cli_soft_shaft_with_elastic_bodies_and_clearance_refuses_in_one_line(tmp_path):
+    """The 1 mm shaft on a given support bearing, elastic bodies, needles with clearance:
+    exit 2 in one line (no hang, no traceback), nothing written."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        "[export]\nformats = ['forces']\n[load]\ninput_torque = 1.1e5\n"
+        "[solver]\nmodel = 'drive'\ncontact_law = 'palmgren'\nbodies = 'elastic'\n"
+        "positions = 36\n"
+        "[bearings.eccentric]\nneedles = 40\nneedle_diameter = 6.0\nneedle_length = 12.0\n"
+        "diametral_clearance = 0.005\n[crankshaft]\nshaft_diameter = 1.0\n"
+        "[bearings.crank]\nrollers = 18\nroller_diameter = 12.0\npitch_diameter = 87.0\n"
+        "clearance = 0.05\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--workers", "1"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
+    assert r.returncode == 2
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("corr-cad: error")]
+    assert len(lines) == 1 and "Traceback" not in r.stderr
+    assert "[crankshaft] shaft_diameter = 1 (with its support bearings)" in lines[0]
+    assert not (tmp_path / "outputs").exists() or not any((tmp_path / "outputs").iterdir())

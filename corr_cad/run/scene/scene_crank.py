@@ -115,7 +115,7 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
             )
         except CorrCadError as exc:
             raise SceneError(f"[bearings.crank] {exc}") from exc
-        _check_support(support, dflt, brg_v["rollers"] is not None)
+        _check_support(support, dflt, brg_v["rollers"] is not None, brg_v["pitch_diameter"])
     for key in ("eccentric_positions", "support_positions"):
         v = shaft_v[key]
         if v is not None and len(v) != 2:
@@ -195,18 +195,21 @@ def _check_layout(shaft: Crankshaft, design, needle: float | None, dflt: dict, d
             )
 
 
-def _check_support(support: SupportBearing, dflt: dict, rollers_given: bool) -> None:
+def _check_support(support: SupportBearing, dflt: dict, rollers_given: bool, pitch_given) -> None:
     """A support bearing that can be built: its rollers side by side on the pitch circle
     (``d_m sin(pi / Z) > D``) and its inner raceway on the shaft (``d_m - D >= d``)."""
     n, D, dm = support.rollers, support.roller_diameter, support.pitch_diameter
     shaft = dflt["shaft_diameter"]  # the scene's, or the derived one
+    pitch = f"{dm:g}" + (
+        "" if pitch_given is not None else f" (derived from the {shaft:g} mm shaft)"
+    )
     if dm * math.sin(math.pi / n) <= D:
         most = math.ceil(math.pi / math.asin(min(1.0, D / dm))) - 1
         if not rollers_given or most < 3:  # name the pitch circle: no count fits, or derived
             least = D / math.sin(math.pi / n)
             how = " (derived)" if not rollers_given else ""
             raise SceneError(
-                f"[bearings.crank] pitch_diameter = {dm:g}: the {n} rollers of {D:g} mm{how} "
+                f"[bearings.crank] pitch_diameter = {pitch}: the {n} rollers of {D:g} mm{how} "
                 f"do not fit on it; allowed range is ({least:.4g}, 5000] mm, e.g. "
                 f"{max(dflt['pitch_diameter'], math.ceil(least + 1.0), shaft + D):g}"
             )
@@ -216,7 +219,7 @@ def _check_support(support: SupportBearing, dflt: dict, rollers_given: bool) -> 
         )
     if dm - D < shaft - 1e-9:
         raise SceneError(
-            f"[bearings.crank] pitch_diameter = {dm:g}: the inner raceway ({dm - D:g} mm) must "
+            f"[bearings.crank] pitch_diameter = {pitch}: the inner raceway ({dm - D:g} mm) must "
             f"sit on the shaft ({shaft:g} mm): allowed range is [{shaft + D:g}, 5000] mm, e.g. "
             f"{max(dflt['pitch_diameter'], shaft + D):g}"
         )
