@@ -252,3 +252,67 @@ def test_cli_soft_shaft_with_elastic_bodies_and_clearance_refuses_in_one_line(tm
     assert len(lines) == 1 and "Traceback" not in r.stderr
     assert "[crankshaft] shaft_diameter = 1 (with its support bearings)" in lines[0]
     assert not (tmp_path / "outputs").exists() or not any((tmp_path / "outputs").iterdir())
+
+
+SMALL_CHAIN = """[design]
+tooth_count = 9
+cam_radius = 45.0
+roller_radius = 4.0
+eccentricity = 1.5
+[export]
+formats = ["montecarlo"]
+[load]
+input_torque = 2.0e4
+[solver]
+model = "drive"
+contact_law = "palmgren"
+bodies = "elastic"
+[tolerances]
+roller_radius = { normal = 0.002 }
+cam_radius = { normal = 0.002 }
+[montecarlo]
+samples = 6
+positions = 9
+[crankshaft]
+shaft_diameter = 20.0
+[bearings.crank]
+"""
+
+
+@pytest.mark.slow
+def test_cli_monte_carlo_on_crank_and_bodies_says_so_and_keeps_its_bytes(tmp_path):
+    """A Monte Carlo alone on the crank and the elastic bodies, from a folder with the
+    user's own file: the console names the chain, and one worker, two workers and another
+    PYTHONHASHSEED write the same bytes (manifest.json aside: it holds timings)."""
+    (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "s.toml").write_text(SMALL_CHAIN)
+    outs = []
+    for i, (workers, seed) in enumerate((("1", "0"), ("2", "0"), ("2", "123"))):
+        env = {
+            **os.environ,
+            "PYTHONPATH": str(ROOT),
+            "PYTHONHASHSEED": seed,
+            "CORR_CAD_CACHE_DIR": str(tmp_path / "cache"),
+        }
+        r = subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", f"o{i}"]
+            + ["--workers", workers],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=600,
+        )
+        assert r.returncode == 0, r.stderr
+        assert (
+            "  every sample solved on the crankshaft on its support bearings and the elastic "
+            "ring, frame and cams (FE) (model.samples_chain)" in r.stdout.splitlines()
+        )
+        outs.append(tmp_path / f"o{i}")
+    names = sorted(p.name for p in outs[0].iterdir() if p.name != "manifest.json")
+    assert "montecarlo.csv" in names
+    for o in outs[1:]:
+        assert sorted(p.name for p in o.iterdir() if p.name != "manifest.json") == names
+        for n in names:
+            assert (o / n).read_bytes() == (outs[0] / n).read_bytes(), n
+    assert (tmp_path / "notes.txt").read_text() == "mine"

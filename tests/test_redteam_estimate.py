@@ -57,3 +57,36 @@ def test_the_cache_is_looked_up_under_the_scenes_own_key(monkeypatch, tmp_path):
     (tmp_path / "bodies").mkdir()
     (tmp_path / "bodies" / f"{body_key(d, outlines, MeshSpec())}.npz").write_bytes(b"x")
     assert costs_bodies._cached(s)
+
+
+@pytest.mark.parametrize(
+    "chain,said",
+    [
+        (None, None),
+        (
+            "every sample solved on the nominal drive's chain: the crankshaft on its support "
+            "bearings as [crankshaft] and [bearings.crank] give it (one shaft for every sample)",
+            "  every sample solved on the crankshaft on its support bearings (model.samples_chain)",
+        ),
+        (
+            "every sample solved on the nominal drive's chain: the crankshaft ...; the elastic "
+            "ring, frame and cams by the nominal design's influence tables",
+            "  every sample solved on the crankshaft on its support bearings and the elastic "
+            "ring, frame and cams (FE) (model.samples_chain)",
+        ),
+    ],
+)
+def test_the_monte_carlo_console_says_what_the_samples_solve_on(chain, said):
+    """A Monte Carlo alone (no forces, no datasheet) said nothing of the crank or the
+    elastic bodies on the console; the line comes from the manifest's samples_chain."""
+    from corr_cad.run.console import summary_lines
+
+    mc = {"samples": 16, "percentiles": {}}
+    if chain is not None:
+        mc["samples_chain"] = chain
+    lines = summary_lines({"montecarlo": mc, "files": []}, "out")
+    i = lines.index("Monte Carlo, 16 samples:")
+    if said is None:
+        assert not any("every sample solved on" in x for x in lines)
+    else:
+        assert lines[i + 1] == said
