@@ -304,6 +304,13 @@ def peak_lines(pk: dict, head: str) -> list[str]:
     ]
 
 
+#: ``samples_chain``'s parts, as the Monte Carlo's console line names them.
+_CHAIN_WORDS = (
+    ("crankshaft", "the crankshaft on its support bearings"),
+    ("elastic", "the elastic ring, frame and cams (FE)"),
+)
+
+
 def summary_lines(manifest: dict, out) -> list[str]:
     """The console summary of a finished run, from its manifest."""
     lines = []
@@ -340,6 +347,10 @@ def summary_lines(manifest: dict, out) -> list[str]:
     mc = manifest.get("montecarlo")
     if mc:
         lines.append(f"Monte Carlo, {mc['samples']} samples:")
+        chain = mc.get("samples_chain") or ""
+        on = [w for k, w in _CHAIN_WORDS if k in chain]
+        if on:
+            lines.append(f"  every sample solved on {' and '.join(on)} (model.samples_chain)")
         for metric, qs in (mc.get("percentiles") or {}).items():
             vals = ", ".join(f"{q} {figure(v)}" for q, v in qs.items() if v is not None)
             unit = unit_of(metric)

@@ -38,7 +38,8 @@ Torsion
 -------
 The crank gear turns the eccentrics through the shaft: the segment between
 the gear and the nearer eccentric carries the whole crank moment, the one
-between the eccentrics the farther eccentric's. The twist of eccentric
+between the eccentrics the farther eccentric's (a gear between the
+eccentrics twists each through its own segment only). The twist of eccentric
 ``c`` against the gear is
 
     theta_c = sum_c' M_c' Phi(nearer of z_c, z_c' to the gear),
@@ -215,6 +216,8 @@ class Crankshaft:
         out = np.zeros((2, 2))
         for c in range(2):
             for k in range(2):
+                if (zs[c] - zg) * (zs[k] - zg) < 0.0:
+                    continue  # the gear between them: no segment carries both moments
                 nearer = zs[c] if abs(zs[c] - zg) <= abs(zs[k] - zg) else zs[k]
                 out[c, k] = self.torsion_flexibility(nearer)
         return out

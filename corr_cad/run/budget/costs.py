@@ -18,7 +18,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from corr_cad.run.budget.costs_bodies import elastic_terms
+from corr_cad.run.budget.costs_bodies import elastic_terms, stage_terms
 from corr_cad.run.budget.costs_datasheet import datasheet_size
 from corr_cad.run.budget.costs_friction import friction_seconds
 from corr_cad.run.budget.costs_measured import measured_points, measured_stage
@@ -189,7 +189,7 @@ def _forces(scene, env):
     # The solution (every (position, roller) array) is kept for the later
     # stages: 133-194 bytes a cell measured (36 000 and 120 855 positions).
     key, cells = _force_cells(scene)
-    m, s, f = elastic_terms(scene)
+    m, s, f = stage_terms(scene)
     mem, sec = 240 * cells + m, 0.05 + 1e-6 * cells * f + s
     return Cost(memory=mem, keeps=220 * cells, seconds=sec, knobs=(key,))
 
@@ -236,7 +236,7 @@ def _datasheet(scene, env):
     R = _rollers(scene)
     positions, levels, solved, _ = datasheet_size(scene)
     cells = positions * R
-    m, s, f = elastic_terms(scene)
+    m, s, f = stage_terms(scene)
     memory = 20 * MB + cells * (600 + 16 * levels) + solved * (600 * R + 40) + m
     return Cost(
         memory=memory,

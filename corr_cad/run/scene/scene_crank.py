@@ -115,6 +115,7 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
             )
         except CorrCadError as exc:
             raise SceneError(f"[bearings.crank] {exc}") from exc
+        _check_support(support, dflt, brg_v["rollers"] is not None, brg_v["pitch_diameter"])
     for key in ("eccentric_positions", "support_positions"):
         v = shaft_v[key]
         if v is not None and len(v) != 2:
@@ -135,6 +136,7 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
         )
     except CorrCadError as exc:
         raise SceneError(f"[crankshaft] {exc}") from exc
+    _check_layout(shaft, design, needle, dflt, derived)
     shaft_src = (
         "scene"
         if not any(s.startswith("[crankshaft]") for s in derived)
@@ -154,3 +156,70 @@ def _parse(values: dict, data: dict, design, bearing) -> CrankSupport:
         bearing_source=brg_src,
         derived=tuple(derived),
     )
+
+
+def _check_layout(shaft: Crankshaft, design, needle: float | None, dflt: dict, derived) -> None:
+    """The shaft the files draw: each eccentric journal under its own row's cam, the shaft
+    inside the journal (``d <= d_e - 2 e``), the needles between the journal and the cam's
+    bore (``d_e + 2 D <= 2 R_bore``). One line naming the key the scene gave."""
+    w, t, e = design.roller_length, design.frame_thickness, design.eccentricity
+    bore = 2.0 * design.cam_bore_radius
+    tol = 1e-9
+    given_de = "[crankshaft] eccentric_diameter" not in derived
+    d, d_e = shaft.shaft_diameter, shaft.eccentric_diameter
+    if needle is not None and d_e + 2.0 * needle > bore + tol:
+        raise SceneError(
+            f"[crankshaft] eccentric_diameter = {d_e:g}: the needles ({needle:g} mm) must fit "
+            f"between the journal and the cam's bore ({bore:g} mm): allowed range is "
+            f"(0, {bore - 2.0 * needle:g}] mm, e.g. {dflt['eccentric_diameter']:g}"
+        )
+    if d > d_e - 2.0 * e + tol:
+        if given_de:
+            raise SceneError(
+                f"[crankshaft] eccentric_diameter = {d_e:g}: the journal must hold the shaft "
+                f"(shaft_diameter {d:g} + 2 e = {d + 2.0 * e:g} mm at least), e.g. "
+                f"{max(dflt['eccentric_diameter'], d + 2.0 * e):g}"
+            )
+        raise SceneError(
+            f"[crankshaft] shaft_diameter = {d:g}: the shaft must lie inside the eccentric "
+            f"journal (diameter {d_e:g} mm at eccentricity {e:g} mm): allowed range is "
+            f"(0, {d_e - 2.0 * e:g}] mm, e.g. {math.floor(0.8 * (d_e - 2.0 * e)):g}"
+        )
+    spans = ((0.0, w), (w + t, 2.0 * w + t))
+    for name, z, (lo, hi) in zip("AB", shaft.eccentric_positions, spans, strict=True):
+        if not lo - tol <= z <= hi + tol:
+            raise SceneError(
+                f"[crankshaft] eccentric_positions = {list(shaft.eccentric_positions)}: "
+                f"eccentric {name} must lie under row {name}'s cam, z in [{lo:g}, {hi:g}] mm, "
+                f"e.g. {dflt['eccentric_positions']!r}"
+            )
+
+
+def _check_support(support: SupportBearing, dflt: dict, rollers_given: bool, pitch_given) -> None:
+    """A support bearing that can be built: its rollers side by side on the pitch circle
+    (``d_m sin(pi / Z) > D``) and its inner raceway on the shaft (``d_m - D >= d``)."""
+    n, D, dm = support.rollers, support.roller_diameter, support.pitch_diameter
+    shaft = dflt["shaft_diameter"]  # the scene's, or the derived one
+    pitch = f"{dm:g}" + (
+        "" if pitch_given is not None else f" (derived from the {shaft:g} mm shaft)"
+    )
+    if dm * math.sin(math.pi / n) <= D:
+        most = math.ceil(math.pi / math.asin(min(1.0, D / dm))) - 1
+        if not rollers_given or most < 3:  # name the pitch circle: no count fits, or derived
+            least = D / math.sin(math.pi / n)
+            how = " (derived)" if not rollers_given else ""
+            raise SceneError(
+                f"[bearings.crank] pitch_diameter = {pitch}: the {n} rollers of {D:g} mm{how} "
+                f"do not fit on it; allowed range is ({least:.4g}, 5000] mm, e.g. "
+                f"{max(dflt['pitch_diameter'], math.ceil(least + 1.0), shaft + D):g}"
+            )
+        raise SceneError(
+            f"[bearings.crank] rollers = {n}: {n} rollers of {D:g} mm do not fit on the pitch "
+            f"circle of {dm:g} mm; allowed range is [3, {most}], e.g. {min(dflt['rollers'], most)}"
+        )
+    if dm - D < shaft - 1e-9:
+        raise SceneError(
+            f"[bearings.crank] pitch_diameter = {pitch}: the inner raceway ({dm - D:g} mm) must "
+            f"sit on the shaft ({shaft:g} mm): allowed range is [{shaft + D:g}, 5000] mm, e.g. "
+            f"{max(dflt['pitch_diameter'], shaft + D):g}"
+        )

@@ -184,6 +184,8 @@ def _montecarlo(ctx: RunContext) -> None:
         )
         if k in summary
     }
+    if samples_chain(s) is not None:  # the console says what the samples solve on
+        ctx.manifest["montecarlo"]["samples_chain"] = samples_chain(s)
     add_as_built(ctx)  # the datasheet's page gives the figures as built beside the nominal
     gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
     allowed = s.checks.max_binding_probability
