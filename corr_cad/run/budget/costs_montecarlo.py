@@ -26,6 +26,7 @@ __all__ = [
     "DRIVE_FORCE_SECONDS",
     "drive_seconds",
     "CHAIN_FACTORS",
+    "CHAIN_FORCE_SECONDS",
     "chain_factor",
     "WORKER_ANON_BYTES",
     "NUMBA_WORKER_BYTES",
@@ -112,10 +113,25 @@ def chain_factor(scene, part: str) -> float:
     return f
 
 
+#: The rigid chain's force metrics, seconds a cell, without the compiled force pass
+#: (:data:`DRIVE_FORCE_SECONDS` before it): the samples on a crankshaft or elastic bodies
+#: solve on the chain's own solver, not the force pass, and :data:`CHAIN_FACTORS`' force
+#: factors were measured against this.
+CHAIN_FORCE_SECONDS = {
+    "nonlinear": (1.4e-6, 2.4e-6, 6.4e-6),
+    "palmgren": (1.0e-6, 1.4e-6, 3.8e-6),
+}
+
+
 def drive_seconds(scene, table: dict) -> float:
     """Seconds a cell of the drive's Monte Carlo for the scene's contact law, bearings and
-    chain (``table``: :data:`DRIVE_FORCE_SECONDS` or :data:`DRIVE_DATASHEET_SECONDS`)."""
+    chain (``table``: :data:`DRIVE_FORCE_SECONDS` or :data:`DRIVE_DATASHEET_SECONDS`; on
+    a crankshaft or elastic bodies the force metrics start from
+    :data:`CHAIN_FORCE_SECONDS`)."""
     part = "datasheet" if table is DRIVE_DATASHEET_SECONDS else "force"
+    chain = getattr(scene, "crank", None) is not None or scene.solver.bodies == "elastic"
+    if part == "force" and chain:
+        table = CHAIN_FORCE_SECONDS
     return table[scene.solver.contact_model][_bearing_case(scene)] * chain_factor(scene, part)
 
 
