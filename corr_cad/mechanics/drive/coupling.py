@@ -410,10 +410,6 @@ def _chain(solver, idx: np.ndarray):
     return order, src, shift
 
 
-def _row_slices(N: int) -> tuple[slice, slice]:
-    return slice(0, N // 2), slice(N // 2, N)
-
-
 def _one_needle_count(solver) -> bool:
     """The cams fixed, or both on needle bearings of one needle count (the compiled
     Newton's)."""
