@@ -250,3 +250,22 @@ def test_support_bearings_modified_life_beside_the_needles(tmp_path):
         assert f"life L10m support_bearing_{i} " in r.stdout
         assert f"Modified life L10m, support bearing {i}" in (out / "datasheet.html").read_text()
     assert "support bearings ([bearings.crank])" in ml["definition"]
+
+
+@pytest.mark.parametrize(
+    "crank,words",
+    [
+        ({"type": "cylindrical", "clearance": 0.01}, "diametral clearance 10 um)"),
+        ({"type": "cylindrical", "clearance": -0.004}, "diametral clearance -4 um: a preload)"),
+        ({"type": "tapered_pair", "clearance": -0.002}, "axial end play of the pair -2 um: a "),
+        ({"type": "tapered_pair"}, "axial end play of the pair 0 um)"),
+    ],
+)
+def test_console_crank_line_says_the_support_bearings_fit(crank, words):
+    """The console's crank line says the support bearings' clearance, and a preload as one."""
+    from corr_cad.run.console import crank_lines
+
+    scene = parse_scene(_drive(bearings={"crank": crank}))
+    line = crank_lines(scene.crank.as_dict())[0]
+    assert words in line, line
+    assert "e-0" not in line and "e+0" not in line

@@ -99,8 +99,11 @@ def crank_lines(c: dict | None) -> list[str]:
     sh, sup = c["crankshaft"], c["support_bearings"][0]
     kind = sup["type"]
     if kind != "rigid":
+        play = round(1e3 * sup["clearance_mm"], 3) + 0.0  # um; no "-0"
+        fit = f"{sup['clearance_meaning']} {play:g} um" + (": a preload" if play < 0 else "")
         kind += (
-            f" ({sup['rollers_per_row']} x {sup['rows']} rollers {sup['roller_diameter_mm']:g} mm)"
+            f" ({sup['rollers_per_row']} x {sup['rows']} rollers {sup['roller_diameter_mm']:g} mm,"
+            f" {fit})"
         )
     z1, z2 = sh["support_positions_mm"]
     out = [
