@@ -212,6 +212,36 @@ def test_binding_is_the_zero_moment_preload_pressure_of_both_rows(bearing):
     assert free["binding_pressure_MPa"][0] == 0.0 and free["binds"][0] == 0.0
 
 
+@pytest.mark.parametrize("law", ["palmgren", "nonlinear"])
+def test_rows_that_just_touch_press_nothing(law):
+    """Row B's rollers 1 um small and cam A's phase 0.003 deg off: at some grid positions
+    the rigid rows' free intervals just meet, and the zero-moment solve leaves the rollers
+    there forces below the solver's idle force (1e-9 N against kilonewtons under load:
+    round-off of zero, 1e-236 N under Palmgren's law, 6.5e-118 MPa as a Hertz pressure).
+    They touch without load: the binding pressure is 0, cams fixed or on needles."""
+    from corr_cad.mechanics.drive.drive import _IDLE_FORCE
+
+    ea, eb = ME(cam_phase_error=math.radians(0.003)), ME(roller_radius_error=-0.001)
+    cfg = DatasheetMC(_spec(), positions_per_mesh=2)
+    grid = drive_grid(DESIGN, ea, eb, (), 2)
+    for bearing in (None, NEEDLES, replace(NEEDLES, diametral_clearance=0.005)):
+        drive = {"bearing": bearing, "contact_model": law}
+        got, ok = drive_datasheet_samples(DESIGN, [(ea, eb)], cfg, grid, math.pi, drive)
+        assert ok
+        assert got["binding_pressure_MPa"][0] == 0.0 and got["binds"][0] == 0.0, bearing
+    solver = DriveSolver(DESIGN, DESIGN.tooth_count * grid, errors=ea, errors_b=eb)
+    geo = solver.geo_joined
+    a = np.where(geo.loadable, geo.advance, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(geo.loadable, -geo.gap, np.inf) / a
+    touching = np.min(np.where(a > 0, t, np.inf), axis=1) <= np.max(
+        np.where(a < 0, t, -np.inf), axis=1
+    )
+    assert touching.any()  # the case: positions whose zero-moment equilibrium is solved
+    F = solver.solve(0.0)[1][touching]
+    assert 0.0 < F.max() <= _IDLE_FORCE
+
+
 def test_monte_carlo_with_the_datasheet_metrics_is_independent_of_chunking():
     tol = {
         "roller_radius": Distribution("normal", 0.001),
