@@ -50,6 +50,7 @@ import functools
 
 import numpy as np
 
+from corr_cad.mechanics import contact
 from corr_cad.mechanics.datasheet import span_errors
 from corr_cad.mechanics.drive.drive import _IDLE_FORCE
 from corr_cad.mechanics.row.windup import crank_angles_of
@@ -233,12 +234,17 @@ def _preload_pressure(solver, sols: dict, moments: dict) -> tuple[np.ndarray, bo
     if not np.all(first[4] <= limit):
         starts = [sols[k] if every else _take(sols[k], idx) for k in near]
         zero = restart_missed(sub, 0.0, first, starts)
-    res = sub._build(0.0, *zero)
-    peak = [np.maximum(np.maximum(r.p_cam, r.p_slot), r.p_gear).max(axis=1) for r in res.rows]
+    # The cam, slot and ring pressures of both rows as DriveSolver._build gives them (the
+    # same elementwise expressions; the half-width factors the compliance's own).
+    F, geo, comp = zero[1], sub.geo_joined, sub.comp
+    length = solver.design.roller_length
+    p_cam = contact.max_pressure(F, comp.cj, length)
+    p_slot = contact.max_pressure(np.abs(geo.rho_s * F), comp.cs, length)
+    p_gear = contact.max_pressure(geo.rho_n * F, comp.cn, length)
+    peak = np.maximum(np.maximum(p_cam, p_slot), p_gear).max(axis=1)
     # Rollers below the solver's idle force touch without load (drive._IDLE_FORCE: round-off
     # of rows that just touch): no pressure.
-    touching = np.max(zero[1], axis=1) <= _IDLE_FORCE
-    out[idx] = np.where(touching, 0.0, np.maximum(*peak))
+    out[idx] = np.where(np.max(F, axis=1) <= _IDLE_FORCE, 0.0, peak)
     return out, bool(np.all(zero[4] <= limit))
 
 
