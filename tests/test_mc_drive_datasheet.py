@@ -395,15 +395,18 @@ def test_a_cam_that_unloads_on_its_needles_settles(compiled):
     assert res.bearing_load[0, 0] < 1e-6 < res.bearing_load[1, 0]  # cam A unloaded
 
 
-def test_positions_once_missed_from_the_rigid_start_settle_there():
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+def test_positions_once_missed_from_the_rigid_start_settle_there(law):
     """Needles with a clearance, a drive with play, +-3 % of T_R: from the rigid start the
     residual's line search finds no descent at some positions (both cams adrift in their
     clearances); the energy's line search settles them there. Every moment reaches
     equilibrium (moment M0, each cam's needles carrying its rollers' resultant), and
-    :func:`_solve_all` (larger moments warm-started) gives the rigid start's equilibrium."""
+    :func:`_solve_all` (each sign's largest moment from the rigid start, its smallest
+    from that solution scaled, the one between from both interpolated) gives the rigid
+    start's equilibrium at every moment, under either contact law."""
     from corr_cad.tolerance.mc_drive_datasheet import _solve_all
 
-    solver, moments, bearing = _play_drive()
+    solver, moments, bearing = _play_drive(law)
     first = {k: solver.solve(m) for k, m in moments.items()}
     assert all(np.all(s[4] <= 1e-9) for s in first.values())
     sols, ok = _solve_all(solver, moments)
@@ -465,9 +468,9 @@ def test_the_linear_start_gives_the_rigid_start_s_metrics(monkeypatch, clearance
         np.testing.assert_allclose(linear[name], v, rtol=1e-9, atol=1e-12, err_msg=name)
 
 
-def _play_drive():
+def _play_drive(law: str = "nonlinear"):
     """The compiled drive of four roller-radius samples with play, needles with a 3 um
-    clearance, and moments of +-3 % and +-50 % of T_R."""
+    clearance, and moments of +-3 %, +-50 % and +-25 % of T_R."""
     from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
     from corr_cad.tolerance.montecarlo_drive import stacked_geometry
 
@@ -476,8 +479,11 @@ def _play_drive():
     phi = DESIGN.tooth_count * grid
     pairs = _pairs(4, -0.004, 0.004)
     geo = stacked_geometry(DESIGN, phi, pairs, math.pi)
-    solver = CompiledDriveSolver(DESIGN, np.tile(phi, 4), geometry=geo, bearing=bearing)
+    solver = CompiledDriveSolver(
+        DESIGN, np.tile(phi, 4), geometry=geo, bearing=bearing, contact_model=law
+    )
     moments = {0: 0.03 * T_R / 26, 1: -0.03 * T_R / 26, 2: 0.5 * T_R / 26, 3: -0.5 * T_R / 26}
+    moments.update({4: 0.25 * T_R / 26, 5: -0.25 * T_R / 26})
     return solver, moments, bearing
 
 
