@@ -66,12 +66,13 @@ DRIVE_FORCE_SECONDS = {
 }
 #: The drive's datasheet pass (both rows, six windup torques and the zero-moment
 #: preload a grid position, :mod:`corr_cad.tolerance.mc_drive_datasheet`), seconds a
-#: (sample, grid position, roller), in the same three cases: the samples above with
-#: the datasheet metrics (104 grid positions) less their force metrics, 17.9, 27.2,
-#: 59.2 ms a sample (paper's law) and 14.8, 18.1, 23.6 ms (Palmgren's).
+#: (sample, grid position, roller), in the same three cases: CPU time of 30 prototype
+#: samples under the same tolerance with the datasheet metrics (104 grid positions)
+#: less their force metrics, load average 7.3 on 2 cores: 12.9, 17.8, 18.9 ms a sample
+#: (paper's law) and 5.2, 10.4, 10.4 ms (Palmgren's).
 DRIVE_DATASHEET_SECONDS = {
-    "nonlinear": (5.7e-6, 8.4e-6, 17.5e-6),
-    "palmgren": (4.8e-6, 5.7e-6, 6.1e-6),
+    "nonlinear": (4.8e-6, 6.6e-6, 7.0e-6),
+    "palmgren": (1.9e-6, 3.8e-6, 3.9e-6),
 }
 
 
