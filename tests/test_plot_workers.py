@@ -170,3 +170,19 @@ def test_the_main_process_never_imports_matplotlib_for_the_plot_workers_figures(
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.strip().splitlines()[-1]) == {"matplotlib": False, "here": True}
     assert _files(tmp_path / "workers") == _files(tmp_path / "here")
+
+
+def test_the_estimate_counts_the_plot_workers_and_no_pool_for_few_samples():
+    from corr_cad.run.budget.resources import PLOT_WORKER_BYTES, estimate
+
+    few = _scene(1)
+    two, four = estimate(few, 2, "process"), estimate(few, 4, "process")
+    serial = estimate(few, 1, "serial")
+    # No pool worker: one plot worker on two cores, two on four; the main process as serial.
+    assert two.worker_memory == PLOT_WORKER_BYTES
+    assert four.worker_memory == 2 * PLOT_WORKER_BYTES
+    assert serial.worker_memory == 0.0
+    assert two.main_memory == serial.main_memory
+    assert two.stages["montecarlo"].seconds == serial.stages["montecarlo"].seconds
+    many = estimate(_scene(2000), 2, "process")  # the pool's two workers, and the plot worker
+    assert many.worker_memory > 3 * PLOT_WORKER_BYTES
