@@ -52,8 +52,8 @@ def plot_plan(stages: list[str], cores: int) -> tuple[int, tuple[str, ...]]:
 
     ``cores``: the cores the run may use (``--workers``, by default all). The plot
     workers and the main process never outnumber them: on two cores one worker draws
-    the datasheet's figures one after the other, on four or more two draw them side by
-    side.
+    the datasheet's figures one after the other, on three or more two draw them side
+    by side.
 
     >>> plot_plan(["undercut", "montecarlo"], 2)
     (1, ('corr_cad.export.plots_tolerance',))

@@ -595,9 +595,10 @@ def _assembly(ctx: RunContext) -> None:
     )
     res = {"ring": ring, **res}
     write_json(ctx.out / "assembly.json", res)
-    from corr_cad.export.datasheet_plots import assembly_png
+    from corr_cad.run.stages.plot_workers import draw
 
-    assembly_png(res, ctx.out / "assembly.png", s.design)
+    plots = "corr_cad.export.datasheet_plots"  # by a plot worker where the CLI started one
+    draw(ctx.plotter, plots, "assembly_png", res, ctx.out / "assembly.png", s.design).result()
     ctx.files.extend(["assembly.json", "assembly.png"])
     ctx.manifest["assembly"] = {
         k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")
