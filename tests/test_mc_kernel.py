@@ -252,7 +252,8 @@ def test_a_dead_worker_is_one_line_and_exit_2(tmp_path):
     scene.write_text(
         '[load]\ninput_torque = 1.1e5\n[export]\nformats = ["montecarlo"]\n'
         "[tolerances]\ncam_radius = { uniform = 0.002 }\n"
-        "[montecarlo]\nsamples = 100\npositions = 36\n"
+        # enough samples for the pool (costs_montecarlo.pool_pays): fewer run here
+        "[montecarlo]\nsamples = 4000\npositions = 36\n"
     )
     out = tmp_path / "out"
     out.mkdir()

@@ -680,7 +680,9 @@ def test_second_run_waits_or_is_refused(reference_runs, tmp_path):
 @pytest.mark.slow
 def test_pool_workers_die_with_a_killed_main_process(tmp_path):
     scene = tmp_path / "mc.toml"
-    scene.write_text(MC_SCENE.replace("samples = 8", "samples = 400"))
+    # Enough samples for the pool to pay (costs_montecarlo.pool_pays: fewer run in the
+    # main process, with no pool); the plot worker is among the children too.
+    scene.write_text(MC_SCENE.replace("samples = 8", "samples = 20000"))
     p = start(scene, "--out", tmp_path / "o", "--quiet", "--workers", "2")
     main = psutil.Process(p.pid)
     deadline = time.monotonic() + 600  # ends a hung test only

@@ -17,7 +17,7 @@ from corr_cad.geometry.design import GearDesign
 from corr_cad.mechanics.contact import PRESSURE_BOUND_MPA
 from corr_cad.tolerance.montecarlo import COUNT_METRICS, metric_percentile
 
-__all__ = ["montecarlo_png", "sweep_png"]
+__all__ = ["montecarlo_png", "ranked_montecarlo_png", "sweep_png"]
 
 plt = plots.plt
 
@@ -167,6 +167,12 @@ def _layout(fig, panels: int):
     cells = [fig.add_subplot(gs[r, c]) for r in range(3) for c in range(3)]
     sens = fig.add_subplot(gs[:2, 3])  # its legend below, in the column's last cell
     return cells[:panels], sens, cells[panels] if panels < 9 else None, cells[panels + 1 :]
+
+
+def ranked_montecarlo_png(metrics: dict, *args) -> Path:
+    """:func:`montecarlo_png` of every metric the sensitivity ranks (:data:`ORDER`;
+    ``binds`` shown as a probability): what the Monte Carlo stage draws."""
+    return montecarlo_png({k: v for k, v in metrics.items() if k in ORDER}, *args)
 
 
 def montecarlo_png(

@@ -215,7 +215,14 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     state["staging"] = staging
     concurrent = _concurrent_stages(args, scene)
     task_s = max((c.task_seconds for c in est.stages.values()), default=0.0)
-    with _executor(args, scene, concurrent, task_s) as executor, staging as stage:
+    from corr_cad.run.pipeline import scene_plan
+    from corr_cad.run.stages.plot_workers import plot_pool
+
+    cores = 0 if args.executor != "process" else args.workers or os.cpu_count() or 1
+    from corr_cad.run.stages.concurrent import kill_pool
+
+    plots = plot_pool(_start_pool, kill_pool, scene_plan(scene), cores)
+    with _executor(args, scene, concurrent, task_s) as executor, plots as plotter, staging as stage:
         # Printed with --quiet too (the user must know), once the run is
         # accepted: a refused run prints only its one error line.
         for warning in scene.warnings + _executor_warnings(args, scene) + ((slow,) if slow else ()):
@@ -231,6 +238,7 @@ def _run(args: argparse.Namespace, state: dict) -> int:
             concurrent_stages=concurrent,
             budget=budget,
             estimate=est,
+            plotter=plotter,
         )
     from corr_cad.run.console import failed_checks, summary_lines
 
@@ -370,20 +378,12 @@ def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
     all cores), when the scene has other work to overlap it with
     (:mod:`corr_cad.run.stages.concurrent`).
     """
-    from corr_cad.run.pipeline import plan
+    from corr_cad.run.pipeline import scene_plan
     from corr_cad.run.stages.concurrent import worker_stages
 
     if args.executor != "process" or (args.workers or os.cpu_count() or 1) < 2:
         return False
-    stages = plan(
-        scene.formats,
-        checks=bool(scene.checks.active()),
-        measured=scene.measured_profile is not None or scene.measured_profile_b is not None,
-        interference_method=scene.interference_method,
-        datasheet_checks=bool(scene.checks.datasheet_active()),
-        first_stage=scene.first_stage is not None,
-    )
-    return bool(worker_stages(stages))
+    return bool(worker_stages(scene_plan(scene)))
 
 
 @contextlib.contextmanager
@@ -397,8 +397,11 @@ def _executor(
     sets a floor under the stall time-out.
     """
     from corr_cad.errors import SceneError
+    from corr_cad.run.budget.costs_montecarlo import pool_pays
 
     needs = {"montecarlo", "allocation", "sweeps", "sizing"} & set(scene.formats)
+    if args.executor == "process" and "montecarlo" in needs and not pool_pays(scene):
+        needs.discard("montecarlo")  # its samples run in the main process
     if args.executor == "dask":
         if not args.scheduler:
             raise SceneError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")

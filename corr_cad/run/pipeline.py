@@ -29,7 +29,15 @@ from corr_cad.run.stages.stages_geometry import (  # noqa: F401  (re-exported)
     interference_allowance,
 )
 
-__all__ = ["STAGES", "FORMAT_TARGETS", "plan", "run_scene", "RunContext", "StageFailure"]
+__all__ = [
+    "STAGES",
+    "FORMAT_TARGETS",
+    "plan",
+    "scene_plan",
+    "run_scene",
+    "RunContext",
+    "StageFailure",
+]
 
 
 @dataclass(frozen=True)
@@ -166,8 +174,22 @@ def _run_stages(ctx: RunContext, stages: list[str], concurrent: bool) -> list[di
             # Before the caller removes the staging folder: no worker may write
             # into it afterwards.
             kill_pool(ctx.executor)
+        if ctx.plotter is not None:  # nor a plot worker (a drawing of the failed stage)
+            kill_pool(ctx.plotter)
         raise
     return [timings[name] for name in stages]
+
+
+def scene_plan(scene: Scene) -> list[str]:
+    """The stages a run of ``scene`` runs, in order (:func:`~corr_cad.run.stages.stages.plan`)."""
+    return plan(
+        scene.formats,
+        checks=bool(scene.checks.active()),
+        measured=scene.measured_profile is not None or scene.measured_profile_b is not None,
+        interference_method=scene.interference_method,
+        datasheet_checks=bool(scene.checks.datasheet_active()),
+        first_stage=scene.first_stage is not None,
+    )
 
 
 def _executor_kind(executor) -> str:
@@ -184,6 +206,7 @@ def run_scene(
     concurrent_stages: bool = False,
     budget=None,
     estimate=None,
+    plotter=None,
 ) -> dict:
     """Run the stages ``scene`` needs, writing into ``out`` (a staging folder).
 
@@ -196,6 +219,8 @@ def run_scene(
     ``budget`` (:class:`~corr_cad.run.budget.resources.Budget`, default the scene's
     ``[budget]``) and its ``estimate``: without an estimate the scene is
     checked against the budget first (:func:`~corr_cad.run.budget.resources.check_scene`).
+    ``plotter``: plot workers (:func:`~corr_cad.run.stages.plot_workers.plot_pool`) that
+    draw some stages' PNGs; the same bytes as drawn here.
 
     >>> import tempfile, pathlib
     >>> from corr_cad import GearDesign, run_scene
@@ -208,16 +233,13 @@ def run_scene(
     True
     """
     ctx = RunContext(
-        scene=scene, out=Path(out), progress=progress or (lambda m: None), executor=executor
+        scene=scene,
+        out=Path(out),
+        progress=progress or (lambda m: None),
+        executor=executor,
+        plotter=plotter,
     )
-    stages = plan(
-        scene.formats,
-        checks=bool(scene.checks.active()),
-        measured=scene.measured_profile is not None or scene.measured_profile_b is not None,
-        interference_method=scene.interference_method,
-        datasheet_checks=bool(scene.checks.datasheet_active()),
-        first_stage=scene.first_stage is not None,
-    )
+    stages = scene_plan(scene)
     from corr_cad.run.budget.resources import budget_for, check_scene
 
     budget = budget or budget_for(scene)

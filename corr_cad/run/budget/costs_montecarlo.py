@@ -33,6 +33,9 @@ __all__ = [
     "kept_bytes_per_sample",
     "datasheet_pass",
     "sample_work",
+    "POOL_MIN_SECONDS",
+    "sample_seconds_one_core",
+    "pool_pays",
 ]
 
 MB = 1024.0**2
@@ -252,5 +255,53 @@ def datasheet_pass(scene, samples: int, workers: int) -> tuple[float, int]:
     R = scene.design.roller_count
     if scene.solver.drive:  # the drive's kernels load from the cache (compiled ahead)
         per = drive_seconds(scene, DRIVE_DATASHEET_SECONDS)
-        return 1.0 + samples * grid * R * per / max(workers, 1), grid
-    return 8.0 + samples * grid * R * 1e-6 / max(workers, 1), grid
+        return DRIVE_DATASHEET_FIXED_S + samples * grid * R * per / max(workers, 1), grid
+    return DATASHEET_COMPILE_S + samples * grid * R * 1e-6 / max(workers, 1), grid
+
+
+#: The datasheet pass's fixed seconds: the drive's kernels loaded from the cache; the
+#: paper's row's kernel compiled once per process (:func:`datasheet_pass`).
+DRIVE_DATASHEET_FIXED_S = 1.0
+DATASHEET_COMPILE_S = 8.0
+#: Estimated sample work (seconds on one core, :func:`sample_seconds_one_core`) from which
+#: a Monte Carlo's samples go to the process pool. Below it the pool cannot pay for itself:
+#: a worker pays its own start before its first sample (its imports, numba and the kernels
+#: from the cache: 0.35-0.5 s of CPU measured on the prototype drive) while the main
+#: process loads the same kernels for the nominal pass, and one chunk leaves the other
+#: workers idle. Decided from the scene alone, never from a timer; the files are the same
+#: bytes on either executor.
+POOL_MIN_SECONDS = 1.0
+
+
+def sample_seconds_one_core(scene) -> float:
+    """The estimated seconds of a Monte Carlo's samples on one core, their fixed costs
+    (kernels loaded or compiled, the process's imports) left out: the force metrics and,
+    where asked, the datasheet pass (the estimate's own figures)."""
+    from corr_cad.tolerance.mc_chunks import CELL_SECONDS
+    from corr_cad.tolerance.montecarlo import KERNEL_MIN_WORK
+
+    mc = scene.montecarlo
+    n, pos, R = mc["samples"], mc["positions"], scene.design.roller_count
+    if scene.solver.drive:
+        force = n * pos * R * drive_seconds(scene, DRIVE_FORCE_SECONDS)
+    else:
+        force = n * pos * R * CELL_SECONDS[n * pos >= KERNEL_MIN_WORK]
+    sheet, grid = datasheet_pass(scene, n, 1)
+    if grid:
+        sheet -= DRIVE_DATASHEET_FIXED_S if scene.solver.drive else DATASHEET_COMPILE_S
+    return force + sheet
+
+
+def pool_pays(scene) -> bool:
+    """Do the scene's Monte Carlo samples go to the process pool (else the main process)?
+    From :data:`POOL_MIN_SECONDS` of estimated sample work on one core.
+
+    >>> from corr_cad.run.scene.scene import parse_scene
+    >>> few = {"tolerances": {"roller_radius": {"normal": 0.001}}, "montecarlo": {"samples": 10}}
+    >>> pool_pays(parse_scene(few))
+    False
+    >>> many = {**few, "montecarlo": {"samples": 100_000}}
+    >>> pool_pays(parse_scene(many))
+    True
+    """
+    return sample_seconds_one_core(scene) >= POOL_MIN_SECONDS

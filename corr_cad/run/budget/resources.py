@@ -263,6 +263,24 @@ def _stages(scene) -> list[str]:
     )
 
 
+#: A plot worker (:mod:`corr_cad.run.stages.plot_workers`): its own pages at their peak
+#: (the forked interpreter's copied pages, matplotlib's objects, a figure's canvas; the
+#: library files are counted once, as the run's): 65 MB drawing ``montecarlo.png`` and
+#: 78 MB the datasheet's two figures (unique set size, the prototype drive on 40 needles),
+#: and a margin.
+PLOT_WORKER_BYTES = 90 * 1024.0**2
+
+
+def _samples_here(scene, aside: set) -> bool:
+    """Does ``corr-cad run`` solve the Monte Carlo's samples in the main process (no pool
+    started: few samples, :func:`~corr_cad.run.budget.costs_montecarlo.pool_pays`, and no
+    other stage that needs the pool)?"""
+    from corr_cad.run.budget.costs_montecarlo import pool_pays
+
+    others = {"allocation", "sweeps", "sizing"} & set(scene.formats)
+    return not pool_pays(scene) and not others and not aside
+
+
 def estimate(scene, workers: int | None = None, executor: str = "process") -> Estimate:
     """Memory, time, output, vertex and triangle estimates of ``scene``'s run.
 
@@ -270,6 +288,7 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
     default), ``serial`` or ``dask`` (the samples solved elsewhere).
     """
     from corr_cad.run.stages.concurrent import worker_stages
+    from corr_cad.run.stages.plot_workers import plot_plan
 
     workers = workers or default_workers()
     stages = _stages(scene)
@@ -279,6 +298,10 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
     aside = set()
     if executor == "process" and workers >= 2:
         aside = set(worker_stages(stages))
+    if executor == "process" and "montecarlo" in costs and _samples_here(scene, aside):
+        costs["montecarlo"] = ESTIMATORS["montecarlo"](
+            scene, replace(env, workers=1, local_workers=0)
+        )
     libs = {lib for n, c in costs.items() if n not in aside for lib in c.libraries}
     base = BASE_BYTES + BASE_BYTES_PER_TOOTH * scene.design.tooth_count
     base += sum(LIBRARY_BYTES[lib] for lib in libs)
@@ -290,6 +313,8 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
             main, peak_stage = base + kept + c.memory, name
         kept += c.keeps
     workers_mem = max((c.workers for c in costs.values()), default=0.0)
+    plotters = plot_plan(stages, workers if executor == "process" else 0)[0]
+    workers_mem += plotters * PLOT_WORKER_BYTES
     for name in aside:  # a pool worker repeats the profile stages, then runs this one
         c = costs[name]
         own = sum(LIBRARY_BYTES[lib] for lib in c.libraries)

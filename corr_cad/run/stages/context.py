@@ -108,6 +108,8 @@ class RunContext:
     estimate: object = None
     #: The run's :class:`~corr_cad.run.budget.resources.Budget` (None: the default).
     budget: object = None
+    #: The plot workers (:mod:`corr_cad.run.stages.plot_workers`; None: draw here).
+    plotter: object = None
 
 
 @dataclass(frozen=True)

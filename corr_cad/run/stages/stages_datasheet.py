@@ -432,17 +432,33 @@ def _model_meta(s, tables=None) -> dict:
 
 
 def _datasheet_files(ctx: RunContext) -> None:
-    from corr_cad.export.datasheet_io import write_datasheet_files
-    from corr_cad.export.datasheet_plots import hysteresis_png, transmission_error_png
+    from corr_cad.export.datasheet_sheet import as_built
+    from corr_cad.run.stages.plot_workers import wait
 
     ds = ctx.results.datasheet
-    s = ctx.scene
     meta = _meta(ctx)
-    from corr_cad.export.datasheet_sheet import as_built
-
     whole = {"whole_drive": meta["whole_drive"]} if "whole_drive" in meta else {}
     meta.update(as_built(ctx.manifest.get("montecarlo")))  # the Monte Carlo ran first
-    names = write_datasheet_files(ds, ctx.out, meta)
+    ff = ctx.results.friction
+    loop = None
+    if ff is not None and ff.hysteresis is not None:
+        loop = ff.hysteresis["loop"]
+    drawings = _datasheet_drawings(ctx, whole)
+    try:  # while the figures are drawn: the other files
+        figs = _datasheet_tables(ctx, meta, whole, loop)
+    finally:
+        wait(drawings)  # datasheet.html embeds them
+    _datasheet_html(ctx, {**meta, **ds.figures(), **figs})
+    if ctx.scene.assembly:
+        _assembly(ctx)
+
+
+def _datasheet_drawings(ctx: RunContext, whole: dict) -> list:
+    """The datasheet's PNGs, handed to the plot workers where the CLI started them
+    (:mod:`corr_cad.run.stages.plot_workers`), else drawn here, now."""
+    from corr_cad.run.stages.plot_workers import draw
+
+    ds, s, out = ctx.results.datasheet, ctx.scene, ctx.out
     ring = ring_description(ctx)
     note = (
         f"measured ring {ring['file']}, other parts nominal"
@@ -450,33 +466,49 @@ def _datasheet_files(ctx: RunContext) -> None:
         else ""
     )
     ff = ctx.results.friction
-    width = None
+    width = loop = None
     if ff is not None and ff.hysteresis is not None:
         width = float(np.max(ff.hysteresis["width_at_rated"]) * ARCMIN_PER_RAD)
-    loop = ff.hysteresis["loop"] if width is not None else None
-    elastic = s.solver.bodies == "elastic"
-    hysteresis_png(
-        ds,
-        ctx.out / "hysteresis.png",
-        s.design,
-        note,
-        width,
-        loop,
-        whole.get("whole_drive"),
-        elastic,
-    )
+        loop = ff.hysteresis["loop"]
     te_note = note
     if ring["profile"] == "nominal" and not ring.get("errors_applied"):
         te_note = (
             "the exact nominal geometry, no manufacturing error: a perfect drive's "
             "transmission error, not an as-built one's"
         )
-    transmission_error_png(ds, ctx.out / "transmission_error.png", s.design, te_note)
-    ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
+    plots, pool = "corr_cad.export.datasheet_plots", ctx.plotter
+    elastic = s.solver.bodies == "elastic"
+    hysteresis = (ds, out / "hysteresis.png", s.design, note, width, loop)
+    drawings = [
+        draw(pool, plots, "hysteresis_png", *hysteresis, whole.get("whole_drive"), elastic),
+        draw(
+            pool,
+            plots,
+            "transmission_error_png",
+            ds,
+            out / "transmission_error.png",
+            s.design,
+            te_note,
+        ),
+    ]
     if ds.compliance_budget is not None:  # with [crankshaft] / [bearings.crank]
-        from corr_cad.export.compliance_plot import compliance_png
+        budget = (ds.compliance_budget, out / "compliance.png", s.design)
+        drawings.append(draw(pool, "corr_cad.export.compliance_plot", "compliance_png", *budget))
+    if ff is not None:
+        efficiency = (ff, out / "efficiency.png", note)
+        drawings.append(draw(pool, "corr_cad.export.friction_io", "efficiency_png", *efficiency))
+    return drawings
 
-        compliance_png(ds.compliance_budget, ctx.out / "compliance.png", s.design)
+
+def _datasheet_tables(ctx: RunContext, meta: dict, whole: dict, loop) -> dict:
+    """The datasheet's files but its PNGs and page, and the manifest's section; returns
+    the friction and losses figures."""
+    from corr_cad.export.datasheet_io import write_datasheet_files
+
+    ds, s = ctx.results.datasheet, ctx.scene
+    names = write_datasheet_files(ds, ctx.out, meta)
+    ctx.files.extend([*names, "hysteresis.png", "transmission_error.png", "datasheet.html"])
+    if ds.compliance_budget is not None:
         ctx.files.append("compliance.png")
     ctx.manifest["datasheet"] = {**ds.figures(), "ring": ring_description(ctx)}
     if whole:  # the console's block gives the whole drive's play beside the second stage's
@@ -492,7 +524,7 @@ def _datasheet_files(ctx: RunContext) -> None:
         ctx.files.extend(write_losses_files(ctx.results.losses, ctx.out, s.name))
     if ff is not None:
         from corr_cad.export.files import write_json
-        from corr_cad.export.friction_io import efficiency_png, write_friction_files
+        from corr_cad.export.friction_io import write_friction_files
 
         write_json(ctx.out / "datasheet.json", {**meta, **ds.figures(), **figs})
         ctx.files.extend(write_friction_files(ff, ctx.out))
@@ -500,14 +532,11 @@ def _datasheet_files(ctx: RunContext) -> None:
             from corr_cad.export.friction_io import write_hysteresis_csv
 
             ctx.files.append(write_hysteresis_csv(loop, ctx.out))
-        efficiency_png(ff, ctx.out / "efficiency.png", note)
         ctx.files.append("efficiency.png")
         ctx.manifest["datasheet"].update(figs)
     if s.solver.drive or s.solver.contact_law != "paper":
         ctx.manifest["datasheet"].update(_model_meta(s, ctx.results.bodies))
-    _datasheet_html(ctx, {**meta, **ds.figures(), **figs})
-    if s.assembly:
-        _assembly(ctx)
+    return figs
 
 
 def _datasheet_html(ctx: RunContext, sheet: dict) -> None:
@@ -566,9 +595,10 @@ def _assembly(ctx: RunContext) -> None:
     )
     res = {"ring": ring, **res}
     write_json(ctx.out / "assembly.json", res)
-    from corr_cad.export.datasheet_plots import assembly_png
+    from corr_cad.run.stages.plot_workers import draw
 
-    assembly_png(res, ctx.out / "assembly.png", s.design)
+    plots = "corr_cad.export.datasheet_plots"  # by a plot worker where the CLI started one
+    draw(ctx.plotter, plots, "assembly_png", res, ctx.out / "assembly.png", s.design).result()
     ctx.files.extend(["assembly.json", "assembly.png"])
     ctx.manifest["assembly"] = {
         k: res[k] for k in ("ring", "target_backlash_arcmin", "chosen_class_um", "reason")

@@ -20,6 +20,7 @@ from corr_cad.run.stages.context import (
     psi_contact_limit,
     scene_errors,
 )
+from corr_cad.run.stages.plot_workers import draw, wait
 from corr_cad.run.stages.stages_drive import samples_chain
 
 #: Monte Carlos of one allocation search, typically (a first one at 0, the
@@ -98,6 +99,7 @@ def _sweep_model(ctx: RunContext) -> dict | None:
 def _montecarlo(ctx: RunContext) -> None:
     from corr_cad.export.files import atomic_writer, write_json
     from corr_cad.run.progress import Progress
+    from corr_cad.run.stages.stages_datasheet import add_as_built
     from corr_cad.tolerance.checks import evaluate_failure_probability
     from corr_cad.tolerance.montecarlo import monte_carlo
 
@@ -111,7 +113,8 @@ def _montecarlo(ctx: RunContext) -> None:
         bar.update(done - bar.done)
 
     executor, nominal_of = _nominal_ahead(ctx, mc_cfg["positions"], sheet)
-    with _plots_ahead(_local_pool(ctx)), atomic_writer(ctx.out / "montecarlo.csv") as f:
+    ahead = _local_pool(ctx) and ctx.plotter is None  # else drawn by a plot worker
+    with _plots_ahead(ahead), atomic_writer(ctx.out / "montecarlo.csv") as f:
         res = monte_carlo(
             s.design,
             s.load.input_torque,
@@ -154,11 +157,11 @@ def _montecarlo(ctx: RunContext) -> None:
     if s.life:
         summary["life_h"] = _life_under_tolerances(ctx)
     write_json(ctx.out / "montecarlo_summary.json", summary)
-
-    from corr_cad.export import plots_tolerance
-
-    plots_tolerance.montecarlo_png(  # every metric the sensitivity ranks (binds: a probability)
-        {k: v for k, v in res.metrics.items() if k in plots_tolerance.ORDER},
+    picture = draw(  # in a plot worker where the CLI started one, while this goes on
+        ctx.plotter,
+        "corr_cad.export.plots_tolerance",
+        "ranked_montecarlo_png",
+        res.metrics,
         checks,
         ctx.out / "montecarlo.png",
         summary,
@@ -168,44 +171,45 @@ def _montecarlo(ctx: RunContext) -> None:
         s.tolerances,
         s.montecarlo["binding_pressure_MPa"] if "binds" in res.metrics else None,
     )
-    ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
-    from corr_cad.run.stages.stages_datasheet import add_as_built
-
-    ctx.manifest["montecarlo"] = {
-        k: summary[k]
-        for k in (
-            "samples",
-            "failure_probability",
-            "percentiles",
-            "nominal",
-            "sensitivity",
-            "binding_probability",
-            "life_h",
-        )
-        if k in summary
-    }
-    if samples_chain(s) is not None:  # the console says what the samples solve on
-        ctx.manifest["montecarlo"]["samples_chain"] = samples_chain(s)
-    add_as_built(ctx)  # the datasheet's page gives the figures as built beside the nominal
-    gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
-    allowed = s.checks.max_binding_probability
-    if allowed is not None:
-        b = summary["binding_probability"]
-        gate["max_binding_probability"] = {
-            "probability": b["probability"],
-            "allowed": allowed,
-            "passed": bool(b["probability"] <= allowed),
-            "standard_error": b["standard_error"],
-            "wilson_interval": b["wilson_interval"],
-        }
-    if gate:
-        ctx.manifest.setdefault("checks", {})["montecarlo"] = gate
-        for name, g in gate.items():
-            state = "pass" if g["passed"] else "FAIL"
-            ctx.progress(
-                f"      check montecarlo {name}: {state} (failure probability "
-                f"{figure(g['probability'])}, allowed {figure(g['allowed'])})"
+    try:  # while the figure is drawn: the manifest's section and the gates
+        ctx.manifest["montecarlo"] = {
+            k: summary[k]
+            for k in (
+                "samples",
+                "failure_probability",
+                "percentiles",
+                "nominal",
+                "sensitivity",
+                "binding_probability",
+                "life_h",
             )
+            if k in summary
+        }
+        if samples_chain(s) is not None:  # the console says what the samples solve on
+            ctx.manifest["montecarlo"]["samples_chain"] = samples_chain(s)
+        add_as_built(ctx)  # the datasheet's page gives the figures as built beside the nominal
+        gate = evaluate_failure_probability(summary["failure_probability"], s.checks)
+        allowed = s.checks.max_binding_probability
+        if allowed is not None:
+            b = summary["binding_probability"]
+            gate["max_binding_probability"] = {
+                "probability": b["probability"],
+                "allowed": allowed,
+                "passed": bool(b["probability"] <= allowed),
+                "standard_error": b["standard_error"],
+                "wilson_interval": b["wilson_interval"],
+            }
+        if gate:
+            ctx.manifest.setdefault("checks", {})["montecarlo"] = gate
+            for name, g in gate.items():
+                state = "pass" if g["passed"] else "FAIL"
+                ctx.progress(
+                    f"      check montecarlo {name}: {state} (failure probability "
+                    f"{figure(g['probability'])}, allowed {figure(g['allowed'])})"
+                )
+    finally:
+        wait([picture])
+    ctx.files.extend(["montecarlo.csv", "montecarlo_summary.json", "montecarlo.png"])
 
 
 def _drive_model_meta(s, sheet) -> dict:
