@@ -181,6 +181,13 @@ def _block_nominal(design, phi: np.ndarray, psi_limit: float, n: int, model: str
         d = np.tile(directions, (n, 1, 1))
         R = design.roller_count
         parts = {"fields": fields, "directions": d}
+        loadable = fields["loadable"]
+        template = np.empty((5, *d.shape[:2]))  # the bearing Newton's geometry but the gaps
+        template[0] = np.where(loadable, fields["advance"], 0.0)
+        template[1] = np.where(loadable, fields["arm"], 0.0)
+        template[2] = 0.0
+        template[3], template[4] = d[..., 0], d[..., 1]
+        parts["template"] = template
         K = None
         if model == "palmgren":
             tiled = RollerGeometry(
@@ -247,7 +254,14 @@ def _block_solver(design, angles: np.ndarray, pairs: list, psi_limit: float, dri
     bearing = drive.get("bearing")
     bearings = (bearing, bearing if drive.get("bearing_b") is None else drive["bearing_b"])
     return ForcePassDriveSolver.on_block(
-        design, np.tile(angles, n), geo, comp, bearings, shared["directions"], rows_of
+        design,
+        np.tile(angles, n),
+        geo,
+        comp,
+        bearings,
+        shared["directions"],
+        rows_of,
+        shared["template"],
     )
 
 

@@ -292,19 +292,24 @@ class ForcePassDriveSolver(CompiledDriveSolver):
         self._given_directions = directions
         self._arrays = None
         self._rows = None
+        self._template = None
         super().__init__(*args, **kwargs)
 
     @classmethod
-    def on_block(cls, design, crank_angles, geometry, comp, bearings, directions, rows=None):
+    def on_block(
+        cls, design, crank_angles, geometry, comp, bearings, directions, rows=None, template=None
+    ):
         """The solver of a Monte Carlo block from its parts, as the constructor would make
         them (the same attributes, the same bits) without building what a block shares
         again: ``geometry`` both rows joined (P, 2R) (``drive_numerics.joined``), ``comp``
         its compliance, ``directions`` (P, 2R, 2); ``rows``: each row's ``(n, K)``
-        contiguous (P, R, 2) and (P, R) where the caller keeps them. The eccentrics fixed,
-        the bodies rigid, the default tolerance."""
+        contiguous (P, R, 2) and (P, R) where the caller keeps them; ``template``: the
+        bearing Newton's geometry (5, P, 2R) (:meth:`kernel_geometry`) but the gaps,
+        where the caller keeps it (read, never written). The eccentrics fixed, the bodies
+        rigid, the default tolerance."""
         self = cls.__new__(cls)
         self._given_directions = directions
-        self._arrays, self._rows = None, rows
+        self._arrays, self._rows, self._template = None, rows, template
         self.design = design
         self.crank_angles = crank_angles
         self.errors = row_errors(None, None)
@@ -324,8 +329,22 @@ class ForcePassDriveSolver(CompiledDriveSolver):
         """:func:`~corr_cad.mechanics.drive.drive_kernel.loadable_arrays` of the joined
         geometry, made once for the rigid start, the bearing Newton and the free interval."""
         if self._arrays is None:
-            self._arrays = loadable_arrays(self.geo_joined)
+            t, geo = self._template, self.geo_joined
+            if t is None:
+                self._arrays = loadable_arrays(geo)
+            else:  # the advance and arm are the template's (the nominal's, tiled)
+                self._arrays = (t[0], t[1], np.where(geo.loadable, geo.gap, -1e300))
         return self._arrays
+
+    def kernel_geometry(self) -> np.ndarray:
+        """The bearing Newton's geometry (5, P, 2R): advance, arm, gap (as
+        :func:`~corr_cad.mechanics.drive.drive_kernel.loadable_arrays`), ``n_x``, ``n_y``."""
+        a_c, a_m, h0 = self.block_arrays
+        if self._template is None:
+            return np.ascontiguousarray(np.stack([a_c, a_m, h0, self.n[..., 0], self.n[..., 1]]))
+        g = self._template.copy()
+        g[2] = h0
+        return g
 
     def _row_arrays(self, c: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``c``'s directions (P, R, 2) and Palmgren factors (P, R), contiguous."""
