@@ -279,3 +279,64 @@ def test_monte_carlo_files_are_the_search_s_byte_for_byte(case, tmp_path):
     for name, want in hashes.items():
         # The templates (the paper's row) keep every byte; the drive's CSV too.
         assert _digest(out / name, text is None) == want, name
+
+
+def _golden_over_every_line(c, A, M, B, N, fg, fy):
+    """``free_play._golden_centre`` as it was before it dropped lines: every width over
+    every line (the kernel's own ``_width``, run as Python)."""
+    from corr_cad.mechanics.drive import free_play
+
+    def width(y):
+        return free_play._width.py_func(y, A, M, len(A), B, N, len(B), fg, fy, len(fg))
+
+    ratio = free_play._RATIO
+    lo, hi = -c, c
+    x1, x2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    f1, f2 = width(x1)[0], width(x2)[0]
+    for _ in range(free_play._GOLDEN):
+        if f1 >= f2:
+            hi, x2, f2 = x2, x1, f1
+            x1 = hi - ratio * (hi - lo)
+            f1 = width(x1)[0]
+        else:
+            lo, x1, f1 = x1, x2, f2
+            x2 = lo + ratio * (hi - lo)
+            f2 = width(x2)[0]
+    y = 0.5 * (lo + hi)
+    _, xl, xr = width(y)
+    if math.isfinite(xl + xr):
+        return 0.5 * (xl + xr), y
+    return (xl if math.isfinite(xl) else xr if math.isfinite(xr) else 0.0), y
+
+
+@pytest.mark.parametrize("seed", [1, 4, 6, 8, 12, 13, 16, 17, 18])
+def test_a_preloaded_row_s_start_is_the_golden_section_over_every_line_bit_for_bit(seed):
+    """The golden section keeps, once its bracket is small, only the lines that can bound
+    the slice within it (``free_play._active``): each preloaded row's start is the one
+    the search over every line gives, bit for bit (so its cam's Newton and the backlash
+    are too)."""
+    from corr_cad.mechanics.drive.free_play import FLAT, free_rows
+
+    solver, clearance = _drive(seed)
+    geo = solver.geo_joined
+    g = np.where(geo.loadable, geo.gap, -np.inf)
+    held = 0
+    for sl in (slice(0, R), slice(R, 2 * R)):
+        gr, nr = g[:, sl], solver.n[:, sl]
+        rev, fwd, centre = free_rows(gr, nr, clearance / 2, DESIGN.eccentricity, True)
+        for p in np.flatnonzero(~(fwd > rev))[::3]:
+            gg, nx, ny = gr[p], nr[p, :, 0], nr[p, :, 1]
+            ok = np.isfinite(gg)
+            right, left, flat = ok & (nx > FLAT), ok & (nx < -FLAT), ok & (np.abs(nx) <= FLAT)
+            want = _golden_over_every_line(
+                clearance / 2,
+                -gg[right] / nx[right],
+                -ny[right] / nx[right],
+                -gg[left] / nx[left],
+                -ny[left] / nx[left],
+                gg[flat],
+                ny[flat],
+            )
+            assert tuple(centre[p]) == want, p
+            held += 1
+    assert held > 0
