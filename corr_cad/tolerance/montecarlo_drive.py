@@ -209,6 +209,41 @@ def _block_nominal(design, phi: np.ndarray, psi_limit: float, n: int, model: str
     return cache[n]
 
 
+def _stacked_gaps(design, errs: list, g0: RollerGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """``solver_geometry._error_gaps`` of one row of each sample (``errs``, none with a
+    profile deviation, each with its slots' fit: ``row_errors``'), (n, P, R) each, in one
+    pass: the same elementwise arithmetic on the same values (each sample's scalars as
+    Python computes them there), each sample's branch taken by selection; zeros for a
+    sample without errors (as :func:`stacked_geometry` gives it)."""
+    from corr_cad.geometry import kinematics as kin
+
+    R, e, L, z = design.roller_count, design.eccentricity, design.link_length, design.tooth_count
+    psi, s, rho_n, rho_s = g0.psi, g0.s, g0.rho_n, g0.rho_s
+
+    def col(values):  # one value a sample, (n, 1, 1)
+        return np.asarray(values, dtype=float)[:, None, None]
+
+    dr = np.stack([err.roller_errors(R) for err in errs])[:, None, :] + 0.0 * psi
+    delta = np.stack([err.slot_errors(R) for err in errs])[:, None, :]
+    g_j = col([err.cam_radius_error for err in errs]) + dr
+    slots = np.array([bool(np.any(d)) for d in delta])
+    bent = np.array([bool(err.eccentricity_error or err.cam_phase_error) for err in errs]) | slots
+    if bent.any():
+        e_act = [e + err.eccentricity_error for err in errs]
+        s_slot = s
+        if slots.any():
+            s_slot = np.where(slots[:, None, None], kin.centre_distance(psi + z * delta, e, L), s)
+        ang = psi - delta + col([err.cam_phase_error for err in errs])
+        root = np.sqrt(
+            s_slot**2 + col([x**2 for x in e_act]) - 2.0 * s_slot * col(e_act) * np.cos(ang)
+        )
+        g_j = np.where(bent[:, None, None], g_j + L - root, g_j)
+    clearance_slot = col([0.5 * err.slot_clearance for err in errs]) - dr
+    gap = g_j + rho_n * dr - np.abs(rho_s) * clearance_slot
+    some = np.array([err.any for err in errs])[:, None, None]
+    return np.where(some, gap, 0.0), np.where(some, dr, 0.0)
+
+
 def _block_solver(design, angles: np.ndarray, pairs: list, psi_limit: float, drive):
     """The force pass's solver of the samples ``pairs`` (eccentrics fixed, bodies rigid):
     :class:`~corr_cad.mechanics.drive.drive_rigid.ForcePassDriveSolver` on the joined
@@ -227,18 +262,26 @@ def _block_solver(design, angles: np.ndarray, pairs: list, psi_limit: float, dri
     theta = np.arange(R) * design.slot_pitch_rad
     r, Rj = design.roller_radius, design.cam_radius
     gap, k_roller, k_cam = (np.empty((n * P, 2 * R)) for _ in range(3))
-    for k, (ea, eb) in enumerate(pairs):
-        rows = slice(k * P, (k + 1) * P)
-        for c, err in enumerate(row_errors(ea, eb)):
-            g0, cols = nominal[c], slice(c * R, (c + 1) * R)
-            if err.any:
-                gc, dr = _error_gaps(design, err, phis[c], theta, g0.psi, g0.s, g0.rho_n, g0.rho_s)
+    errors = [row_errors(ea, eb) for ea, eb in pairs]
+    for c in range(2):
+        g0, cols = nominal[c], slice(c * R, (c + 1) * R)
+        errs = [x[c] for x in errors]
+        if all(err.profile_deviation is None for err in errs):
+            gc, dr = _stacked_gaps(design, errs, g0)
+            gap[:, cols] = gc.reshape(n * P, R)
+            k_roller[:, cols] = (1.0 / (r + dr)).reshape(n * P, R)
+        else:  # a profile deviation is a function of each sample's own: one at a time
+            for k, err in enumerate(errs):
+                rows = slice(k * P, (k + 1) * P)
+                if err.any:
+                    gc, dr = _error_gaps(
+                        design, err, phis[c], theta, g0.psi, g0.s, g0.rho_n, g0.rho_s
+                    )
+                else:
+                    gc, dr = np.zeros_like(g0.psi), np.zeros_like(g0.psi)
                 gap[rows, cols] = gc
                 k_roller[rows, cols] = 1.0 / (r + dr)
-            else:
-                gap[rows, cols] = 0.0
-                k_roller[rows, cols] = 1.0 / (r + np.zeros_like(g0.psi))
-            k_cam[rows, cols] = 1.0 / (Rj + err.cam_radius_error)
+        k_cam[:, cols] = np.repeat([1.0 / (Rj + err.cam_radius_error) for err in errs], P)[:, None]
     geo = RollerGeometry(**shared["fields"], gap=gap, k_roller=k_roller, k_cam=k_cam)
     if model == "palmgren":
         comp = PalmgrenCompliance.__new__(PalmgrenCompliance)
