@@ -214,3 +214,27 @@ def test_the_block_solver_from_shared_parts_is_the_constructor_s_bit_for_bit(law
     full = _block_metrics(ref.result(1.1e5), own, 26.0, n, P)
     for name, value in full.items():
         assert np.array_equal(lean[name], value), name
+
+
+def test_a_position_s_rigid_start_is_its_own_whatever_came_before_it():
+    """The breakpoints' sort starts from the last position's order; equal breakpoints (a
+    nominal drive's: every gap 0, every roller's breakpoint at 0) keep the rollers' order,
+    so each position's rigid start has the same bits alone as after any other's."""
+    from corr_cad.mechanics.drive.drive_rigid import ForcePassDriveSolver, rigid_palmgren
+    from corr_cad.tolerance.montecarlo_drive import stacked_geometry
+
+    angles = cycle_angles(12)
+    pairs = [_errors(1), (None, None), _errors(2), (None, None)]
+
+    def rigid(which):
+        geometry = stacked_geometry(DESIGN, angles, which, np.pi)
+        solver = ForcePassDriveSolver(
+            DESIGN, np.tile(angles, len(which)), geometry=geometry, contact_model="palmgren"
+        )
+        return rigid_palmgren(solver.geo_joined, solver.comp, 1.1e5, solver.rtol)[:2]
+
+    tau, F = rigid(pairs)
+    for k, pair in enumerate(pairs):
+        own = slice(k * len(angles), (k + 1) * len(angles))
+        alone = rigid([pair])
+        assert np.array_equal(alone[0], tau[own]) and np.array_equal(alone[1], F[own]), k
