@@ -15,6 +15,14 @@ solved by one :class:`DriveSolver`. Every position's solve (the rigid
 Newton-bisection, the bearing Newton and its line search, the free interval)
 is its own, so a sample's metrics are those of solving it alone
 (``tests/test_montecarlo_drive.py``); the block only shares numpy's overhead.
+With the eccentrics fixed and the bodies rigid (the force pass,
+:class:`~corr_cad.mechanics.drive.drive_rigid.ForcePassDriveSolver`) a block's solver
+is made from what every block shares, built once a run (:func:`_block_nominal`: the
+nominal rows joined and tiled, their directions, the contact law's factors of their
+curvature ratios, the bearing Newton's geometry but the gaps), and each sample's
+gaps and curvatures (:func:`_stacked_gaps`, one pass over the block); its metrics
+are read off the forces in a few passes (:func:`_lean_metrics`). Both give the bits
+the constructor and the full result give (``tests/test_drive_rigid.py``).
 
 The load path beyond the contacts (:func:`chain_solver`): ``drive``'s ``crank``
 (the crankshaft on its support bearings) and ``bodies`` (the elastic ring, frame

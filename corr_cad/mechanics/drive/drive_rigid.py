@@ -21,6 +21,13 @@ the bearing Newton takes to its own tolerance from there, to that tolerance.
 (:func:`corr_cad.tolerance.montecarlo_drive.drive_chunk`): the compiled drive solver
 with this start, the block's rollers' directions given (the nominal ones, tiled) and
 the force metrics' arrays alone (:meth:`ForcePassDriveSolver.force_metrics_result`).
+A block's solver is made from its parts (:meth:`ForcePassDriveSolver.on_block`),
+keeps the kernels' inputs it makes once (:attr:`~ForcePassDriveSolver.block_arrays`,
+:meth:`~ForcePassDriveSolver.kernel_geometry`) and finds the free interval on them
+(:meth:`~ForcePassDriveSolver.free_interval`), the same bits as the compiled solver's.
+The breakpoints' sort of the linear start begins at the last position's order (equal
+breakpoints kept in roller order, so the order, and the sums, are unique), a few
+moves a position instead of a few hundred.
 """
 
 from __future__ import annotations

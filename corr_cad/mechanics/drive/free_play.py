@@ -27,6 +27,11 @@ Both are solved exactly rather than searched:
 A preloaded row (no feasible ``y``) keeps the least-pressed ``v`` as a start
 for its cam's own equilibrium (:meth:`~corr_cad.mechanics.drive.drive.DriveSolver._row_centre`):
 the golden-section maximum of the slice's width, one evaluation an iteration.
+Once the bracket is small (:data:`_PRUNE` iterations) the width is taken over the
+lines that can bound the slice within it alone (:func:`_active`: a line that another
+lies below at both ends of the bracket by far more than round-off is never the
+bound there), which gives every width, and so the start, bit for bit
+(``tests/test_free_play.py``).
 
 One position costs a few microseconds: about the force solve's own cost per
 position. The answers agree with the golden-section and bisection search this
