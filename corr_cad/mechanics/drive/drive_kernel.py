@@ -15,10 +15,9 @@ the numpy one to the bearing Newton's tolerance; the drive's Monte Carlo
 uses it (``tests/test_montecarlo_drive.py``).
 
 The bearing Newton (:func:`bearing_newton`) sums in scalars, each cam's rollers in
-turn, and the convergence test's scales on the way (:func:`_converged`), in the order
-of one loop over both cams: the same bits, no scratch array a call. Its time is
-mostly the contact law's powers (``Q^(1/0.9)``, one a loaded roller or needle and
-evaluation).
+turn, in the order of one loop over both cams (the same bits), and allocates no
+scratch array a call. Its time is mostly the contact law's powers (``Q^(1/0.9)``,
+one a loaded roller or needle and evaluation).
 """
 
 from __future__ import annotations
@@ -110,7 +109,7 @@ def _copy2(dst, src):
 
 
 @_jit
-def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r, e):
+def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r):
     """Roller overlaps, forces and stiffnesses at ``(tau, u)`` of position ``p``, and
     the residual ``r`` (5,) less the needles' share (:func:`_needles` adds it).
 
@@ -122,10 +121,9 @@ def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r, e):
     R = N // 2
     first = math.isnan(prev[0, 0])
     r0 = -target  # the sums in scalars, each cam's rollers in turn (one loop's order)
-    sm = abs(target)
     for c in range(2):
         ux, uy = u[c, 0], u[c, 1]
-        rx, ry, sf = 0.0, 0.0, 0.0
+        rx, ry = 0.0, 0.0
         for i in range(c * R, (c + 1) * R):
             a, h0 = geo[0, p, i], geo[2, p, i]
             nx, ny = geo[3, p, i], geo[4, p, i]
@@ -141,16 +139,13 @@ def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r, e):
                     F, k = _invert_one(h, start, T, p, i)
             else:
                 F, k = _palmgren(h, K[p, i])
-            gross = (abs(a * tau) + abs(h0) + abs(nu)) * k if h0 > -1e300 else 0.0
-            w[0, i], w[1, i], w[2, i], w[3, i] = h, F, k, gross
-            am = geo[1, p, i]
-            r0 += am * F
+            w[0, i], w[1, i], w[2, i] = h, F, k
+            w[3, i] = (abs(a * tau) + abs(h0) + abs(nu)) * k if h0 > -1e300 else 0.0
+            r0 += geo[1, p, i] * F
             rx += F * nx
             ry += F * ny
-            sm += (abs(am) + e) * abs(F) + abs(am) * gross
-            sf += F + gross
-        r[1 + 2 * c], r[2 + 2 * c], r[6 + c] = rx, ry, sf
-    r[0], r[5] = r0, sm
+        r[1 + 2 * c], r[2 + 2 * c] = rx, ry
+    r[0] = r0
 
 
 @_jit
@@ -162,7 +157,7 @@ def _needles(u, dirs, bear, Q, kq, gq, r):
         ux, uy = u[c, 0], u[c, 1]
         norm_u = math.sqrt(ux**2 + uy**2)
         half, coef, gross = bear[c, 0], bear[c, 1], norm_u + bear[c, 2]
-        rx, ry, sf = r[1 + 2 * c], r[2 + 2 * c], r[6 + c]
+        rx, ry = r[1 + 2 * c], r[2 + 2 * c]
         for j in range(Z):
             ex, ey = dirs[c, j, 0], dirs[c, j, 1]
             d = -(ux * ex + uy * ey) - half
@@ -171,19 +166,7 @@ def _needles(u, dirs, bear, Q, kq, gq, r):
             gq[c, j] = k * gross
             rx -= q * ex
             ry -= q * ey
-            sf += q + k * gross
-        r[1 + 2 * c], r[2 + 2 * c], r[6 + c] = rx, ry, sf
-
-
-@_jit
-def _converged(r):
-    """:func:`_relative` of a state :func:`_state` and :func:`_needles` made: from the
-    scales they summed on the way (``r[5:8]``), in the same order, the same bits."""
-    rel = abs(r[0]) / (r[5] + 1e-300)
-    top = max(r[6], r[7])
-    for c in range(2):
-        rel = max(rel, math.sqrt(r[1 + 2 * c] ** 2 + r[2 + 2 * c] ** 2) / (top + 1e-300))
-    return rel
+        r[1 + 2 * c], r[2 + 2 * c] = rx, ry
 
 
 @_jit
@@ -235,7 +218,7 @@ def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rto
     for c in range(2):
         if tiny[c]:
             ut[c, 0], ut[c, 1] = 0.0, 0.0
-    _state(p, t, ut, geo, law, T, K, slope0, target, w, wt, rt, e)  # the idle cams centred
+    _state(p, t, ut, geo, law, T, K, slope0, target, w, wt, rt)  # the idle cams centred
     centred = np.zeros(2, dtype=np.bool_)
     for c in range(2):
         pressed = 0.0
@@ -305,14 +288,14 @@ def _solve5(J, b, x):
 
 
 @_jit
-def _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out, e):
+def _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out):
     """The energy's slope ``r(x + a d) . d`` along ``d`` at step ``a``; the state there in
     ``out = (u, w, r, Q, kq, gq)``."""
     ut, wt, rt, Qt, kqt, gqt = out
     for c in range(2):
         ut[c, 0] = u[c, 0] + a * d[1 + 2 * c]
         ut[c, 1] = u[c, 1] + a * d[2 + 2 * c]
-    _state(p, t + a * d[0], ut, geo, law, T, K, slope0, target, w, wt, rt, e)
+    _state(p, t + a * d[0], ut, geo, law, T, K, slope0, target, w, wt, rt)
     _needles(ut, dirs, bear, Qt, kqt, gqt, rt)
     s = 0.0
     for k in range(5):
@@ -321,7 +304,7 @@ def _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out,
 
 
 @_jit
-def _energy_search(p, t, u, d, r, geo, law, T, K, slope0, target, w, bear, dirs, out, e):
+def _energy_search(p, t, u, d, r, geo, law, T, K, slope0, target, w, bear, dirs, out):
     """drive_numerics.energy_search at one position: the step ``a`` along ``d`` (its state
     in ``out``), 0 where ``d`` is no descent direction or no step lowers the energy."""
     s0 = 0.0
@@ -330,11 +313,11 @@ def _energy_search(p, t, u, d, r, geo, law, T, K, slope0, target, w, bear, dirs,
     if not s0 < 0.0:
         return 0.0
     a = 1.0
-    if not _slope_at(p, t, u, d, 1.0, geo, law, T, K, slope0, target, w, bear, dirs, out, e) <= 0.0:
+    if not _slope_at(p, t, u, d, 1.0, geo, law, T, K, slope0, target, w, bear, dirs, out) <= 0.0:
         lo, hi = 0.0, 1.0
         for _ in range(60):
             mid = 0.5 * (lo + hi)
-            s = _slope_at(p, t, u, d, mid, geo, law, T, K, slope0, target, w, bear, dirs, out, e)
+            s = _slope_at(p, t, u, d, mid, geo, law, T, K, slope0, target, w, bear, dirs, out)
             if s < 0.0:
                 lo = mid
                 if s >= 0.1 * s0:
@@ -344,7 +327,7 @@ def _energy_search(p, t, u, d, r, geo, law, T, K, slope0, target, w, bear, dirs,
         a = lo
         if not a > 0.0:
             return 0.0
-        _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out, e)
+        _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out)
     return a
 
 
@@ -378,13 +361,13 @@ def bearing_newton(
     wt = np.empty((4, N))
     Q, kq, gq = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
     Qt, kqt, gqt = np.empty((2, Z)), np.empty((2, Z)), np.empty((2, Z))
-    r, rt = np.empty(8), np.empty(8)  # the residual (5,) and its scales (3,)
+    r, rt = np.empty(5), np.empty(5)
     u, ut = np.empty((2, 2)), np.empty((2, 2))
     J, b, step, dd = np.empty((5, 5)), np.empty(5), np.empty(5), np.empty(5)
     ls = (
         np.empty((2, 2)),
         np.empty((4, N)),
-        np.empty(8),
+        np.empty(5),
         np.empty((2, Z)),
         np.empty((2, Z)),
         np.empty((2, Z)),
@@ -393,7 +376,7 @@ def bearing_newton(
     tmp = (
         np.empty((2, 2)),
         np.empty((4, N)),
-        np.empty(8),
+        np.empty(5),
         np.empty((2, Z)),
         np.empty((2, Z)),
         np.empty((2, Z)),
@@ -417,7 +400,7 @@ def bearing_newton(
                 u[c, 0], u[c, 1] = -px / mag * depth, -py / mag * depth
             else:
                 u[c, 0], u[c, 1] = 0.0, 0.0
-        _state(p, t, u, geo, law, T, K, slope0, target, nan_prev, w, r, e)
+        _state(p, t, u, geo, law, T, K, slope0, target, nan_prev, w, r)
         _needles(u, dirs, bear, Q, kq, gq, r)
         idle = False
         if target == 0.0:
@@ -425,7 +408,7 @@ def bearing_newton(
             for i in range(N):
                 fmax = max(fmax, w[1, i])
             idle = fmax <= _IDLE
-        done = idle or _converged(r) <= rtol
+        done = idle or _relative(r, w, geo, p, Q, gq, target, e) <= rtol
         # Each state not converged gets the idle cams settled (one call site: the
         # compiler inlines it once), then a Newton step while steps are left.
         for it in range(max_iter + 1):
@@ -502,7 +485,7 @@ def bearing_newton(
                 for c in range(2):
                     ut[c, 0] = u[c, 0] + alpha * step[1 + 2 * c]
                     ut[c, 1] = u[c, 1] + alpha * step[2 + 2 * c]
-                _state(p, tt, ut, geo, law, T, K, slope0, target, w, wt, rt, e)
+                _state(p, tt, ut, geo, law, T, K, slope0, target, w, wt, rt)
                 _needles(ut, dirs, bear, Qt, kqt, gqt, rt)
                 ok = _merit(rt, sm, sf) <= (1.0 - 1e-4 * alpha) * m0
                 if ok:
@@ -510,7 +493,7 @@ def bearing_newton(
                 alpha *= 0.5
             if not ok:  # no decrease of the merit: an exact line search on the energy
                 ae = _energy_search(
-                    p, t, u, dd, r, geo, law, T, K, slope0, target, w, bear, dirs, ls, e
+                    p, t, u, dd, r, geo, law, T, K, slope0, target, w, bear, dirs, ls
                 )
                 if not ae > 0.0:  # no descent: the position keeps its state
                     break
@@ -528,7 +511,7 @@ def bearing_newton(
             _copy2(Q, Qt)
             _copy2(kq, kqt)
             _copy2(gq, gqt)
-            done = _converged(r) <= rtol
+            done = _relative(r, w, geo, p, Q, gq, target, e) <= rtol
         tau[p] = t
         for i in range(N):
             F0[p, i] = w[1, i]

@@ -27,11 +27,6 @@ Both are solved exactly rather than searched:
 A preloaded row (no feasible ``y``) keeps the least-pressed ``v`` as a start
 for its cam's own equilibrium (:meth:`~corr_cad.mechanics.drive.drive.DriveSolver._row_centre`):
 the golden-section maximum of the slice's width, one evaluation an iteration.
-Once the bracket is small (:data:`_PRUNE` iterations) the width is taken over the
-lines that can bound the slice within it alone (:func:`_active`: a line that another
-lies below at both ends of the bracket by far more than round-off is never the
-bound there), which gives every width, and so the start, bit for bit
-(``tests/test_free_play.py``).
 
 One position costs a few microseconds: about the force solve's own cost per
 position. The answers agree with the golden-section and bisection search this
@@ -71,60 +66,14 @@ def _width(y, A, M, nr, B, N, nl, fg, fy, nf):
 
 
 @_jit
-def _active(lo, hi, c, A, M, n):
-    """Moves to the front of ``A``, ``M`` the lines ``A + M y`` that may be the lowest
-    somewhere on ``[lo, hi]`` (in their order); returns how many. A line that
-    the lowest at ``lo`` or the lowest at ``hi`` lies below at both ends by ``1e-12``
-    of their terms (far above either's round-off) lies below it everywhere between, in
-    floating point too: the minimum over the lines kept is the minimum over all, bit
-    for bit, at every ``y`` of ``[lo, hi]``."""
-    j1, j2 = 0, 0
-    for k in range(n):
-        if A[k] + M[k] * lo < A[j1] + M[j1] * lo:
-            j1 = k
-        if A[k] + M[k] * hi < A[j2] + M[j2] * hi:
-            j2 = k
-    a1, m1, a2, m2 = A[j1], M[j1], A[j2], M[j2]
-    m = 0
-    for k in range(n):
-        a, s = A[k], M[k]
-        out = False
-        for aj, mj in ((a1, m1), (a2, m2)):
-            marg = 1e-12 * (abs(aj) + abs(a) + (abs(mj) + abs(s)) * c)
-            below_lo = aj + mj * lo < a + s * lo - marg
-            below_hi = aj + mj * hi < a + s * hi - marg
-            out = out or (below_lo and below_hi)
-        if not out:
-            A[m], M[m] = a, s
-            m += 1
-    return m
-
-
-#: The golden-section iteration after which the lines that cannot bound the slice
-#: within the bracket are dropped (the bracket then 2 % of the clearance's span).
-_PRUNE = 8
-
-
-@_jit
 def _golden_centre(c, A, M, nr, B, N, nl, fg, fy, nf):
     """The least-pressed ``v`` of a preloaded row: the golden-section argmax of the
-    slice's width over ``[-c, c]`` (concave) and its slice's middle; a Newton's start.
-    After :data:`_PRUNE` iterations the lines that cannot bound the slice within the
-    bracket are dropped (:func:`_active`; ``A, M, B, N`` are reordered in place): every
-    width is the one over all lines, bit for bit, at a fraction of the cost."""
+    slice's width over ``[-c, c]`` (concave) and its slice's middle; a Newton's start."""
     lo, hi = -c, c
     x1, x2 = hi - _RATIO * (hi - lo), lo + _RATIO * (hi - lo)
     f1 = _width(x1, A, M, nr, B, N, nl, fg, fy, nf)[0]
     f2 = _width(x2, A, M, nr, B, N, nl, fg, fy, nf)[0]
-    for it in range(_GOLDEN):
-        if it == _PRUNE:  # every later point lies within [lo, hi] (widened by round-off)
-            pad = 1e-9 * (hi - lo)
-            nr = _active(lo - pad, hi + pad, c, A, M, nr)
-            for k in range(nl):  # the left lines' maximum: the minimum of -x_l's
-                B[k], N[k] = -B[k], -N[k]
-            nl = _active(lo - pad, hi + pad, c, B, N, nl)
-            for k in range(nl):
-                B[k], N[k] = -B[k], -N[k]
+    for _ in range(_GOLDEN):
         if f1 >= f2:
             hi, x2, f2 = x2, x1, f1
             x1 = hi - _RATIO * (hi - lo)
