@@ -155,3 +155,86 @@ def test_the_shared_nominal_rows_are_each_caller_s_own_from_threads():
 
     with ThreadPoolExecutor(3) as pool:
         assert all(pool.map(ask, range(300)))
+
+
+@pytest.mark.parametrize("law", ["nonlinear", "palmgren"])
+@pytest.mark.parametrize("clearance", [None, 0.005])
+def test_the_block_solver_from_shared_parts_is_the_constructor_s_bit_for_bit(law, clearance):
+    """The Monte Carlo's block solver (``montecarlo_drive._block_solver``: the nominal rows
+    joined and tiled once a run, each sample's gaps and curvatures written in) holds the
+    constructor's geometry, compliance, directions and kernel inputs, and gives the same
+    bits: the solution, the free interval and the metrics (``_lean_metrics`` against
+    ``_block_metrics`` of the full solver's result)."""
+    from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver, loadable_arrays
+    from corr_cad.mechanics.drive.drive_rigid import ForcePassDriveSolver
+    from corr_cad.mechanics.row.solver_geometry import RollerGeometry
+    from corr_cad.tolerance.montecarlo_drive import (
+        _block_metrics,
+        _block_solver,
+        _lean_metrics,
+        stacked_geometry,
+    )
+
+    bearing = None if clearance is None else EccentricBearing(40, 6.0, 12.0, clearance)
+    angles = cycle_angles(36)
+    z = DESIGN.roller_count
+    odd = ManufacturingErrors(  # the frame's slot angles and an eccentricity error too
+        eccentricity_error=0.001,
+        slot_angle_errors=tuple(np.linspace(-1e-4, 1e-4, z)),
+        cam_phase_error=3e-4,
+    )
+    pairs = [_errors(seed) for seed in range(3)] + [(odd, None), (None, None)]
+    n, P = len(pairs), len(angles)
+    block = _block_solver(DESIGN, angles, pairs, np.pi, {"bearing": bearing, "contact_model": law})
+    ref = ForcePassDriveSolver(
+        DESIGN,
+        np.tile(angles, n),
+        geometry=stacked_geometry(DESIGN, angles, pairs, np.pi),
+        bearing=bearing,
+        contact_model=law,
+    )
+    for name in RollerGeometry.__dataclass_fields__:
+        assert np.array_equal(getattr(block.geo_joined, name), getattr(ref.geo_joined, name)), name
+    if law == "palmgren":
+        for name in ("K", "slope0", "cj", "cn", "cs"):
+            assert np.array_equal(getattr(block.comp, name), getattr(ref.comp, name)), name
+    assert np.array_equal(block.n, ref.n)
+    for got, want in zip(block.block_arrays, loadable_arrays(ref.geo_joined), strict=True):
+        assert np.array_equal(got, want)
+    stacked = np.stack([*loadable_arrays(ref.geo_joined), ref.n[..., 0], ref.n[..., 1]])
+    assert np.array_equal(block.kernel_geometry(), stacked)
+    got, want = block.solve(1.1e5), ref.solve(1.1e5)
+    for k in (0, 1, 2, 4):
+        assert np.array_equal(got[k], want[k]), k
+    interval = block.free_interval(solve=False)
+    own = CompiledDriveSolver.free_interval(ref, solve=False)  # the compiled solver's steps
+    for x, y in zip(interval, own, strict=True):
+        assert np.array_equal(x, y)
+    lean = _lean_metrics(block, got[1], interval, 26.0, n, P)
+    full = _block_metrics(ref.result(1.1e5), own, 26.0, n, P)
+    for name, value in full.items():
+        assert np.array_equal(lean[name], value), name
+
+
+def test_a_position_s_rigid_start_is_its_own_whatever_came_before_it():
+    """The breakpoints' sort starts from the last position's order; equal breakpoints (a
+    nominal drive's: every gap 0, every roller's breakpoint at 0) keep the rollers' order,
+    so each position's rigid start has the same bits alone as after any other's."""
+    from corr_cad.mechanics.drive.drive_rigid import ForcePassDriveSolver, rigid_palmgren
+    from corr_cad.tolerance.montecarlo_drive import stacked_geometry
+
+    angles = cycle_angles(12)
+    pairs = [_errors(1), (None, None), _errors(2), (None, None)]
+
+    def rigid(which):
+        geometry = stacked_geometry(DESIGN, angles, which, np.pi)
+        solver = ForcePassDriveSolver(
+            DESIGN, np.tile(angles, len(which)), geometry=geometry, contact_model="palmgren"
+        )
+        return rigid_palmgren(solver.geo_joined, solver.comp, 1.1e5, solver.rtol)[:2]
+
+    tau, F = rigid(pairs)
+    for k, pair in enumerate(pairs):
+        own = slice(k * len(angles), (k + 1) * len(angles))
+        alone = rigid([pair])
+        assert np.array_equal(alone[0], tau[own]) and np.array_equal(alone[1], F[own]), k

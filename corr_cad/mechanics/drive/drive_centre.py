@@ -88,7 +88,13 @@ def _centres(gap, n, v, law, T, K, slope0, rtol):
 
 
 def row_centres(
-    solver, c: int, idx: np.ndarray, v: np.ndarray, rtol: float, table: np.ndarray | None
+    solver,
+    c: int,
+    idx: np.ndarray,
+    v: np.ndarray,
+    rtol: float,
+    table: np.ndarray | None,
+    rows: tuple | None = None,
 ) -> np.ndarray:
     """:meth:`DriveSolver._row_centre` compiled: row ``c``'s cam centres (len(idx), 2) at
     positions ``idx`` from the starts ``v``; ``table``: the paper's law's contacts (11,
@@ -97,6 +103,14 @@ def row_centres(
     R, geo, comp = solver.R, solver.geo_joined, solver.comp
     P, N = geo.gap.shape
     sl = slice(c * R, (c + 1) * R)
+    if rows is not None and table is None:  # the row's gaps, directions and factors given
+        gap, n, K = rows
+        if len(idx) < P:
+            gap, n, K = gap[idx], n[idx], K[idx]
+        gap, n, K = (np.ascontiguousarray(x, dtype=float) for x in (gap, n, K))
+        out = np.array(v, dtype=float)
+        _centres(gap, n, out, 1, np.zeros((11, 1, 1)), K, K, float(rtol))
+        return out
     gap = np.ascontiguousarray(np.where(geo.loadable, geo.gap, -1e300)[idx][:, sl])
     n = np.ascontiguousarray(solver.n[idx][:, sl])
     if table is None:

@@ -13,6 +13,11 @@ agree with the numpy inversion to round-off (a roller stops when it has
 settled, not when the slowest has), so a drive solved with it agrees with
 the numpy one to the bearing Newton's tolerance; the drive's Monte Carlo
 uses it (``tests/test_montecarlo_drive.py``).
+
+The bearing Newton (:func:`bearing_newton`) sums in scalars, each cam's rollers in
+turn, in the order of one loop over both cams (the same bits), and allocates no
+scratch array a call. Its time is mostly the contact law's powers (``Q^(1/0.9)``,
+one a loaded roller or needle and evaluation).
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ from corr_cad.mechanics.drive.drive import DRIVE_RTOL, DriveSolver
 from corr_cad.mechanics.drive.drive_laws import _invert_one, _palmgren
 from corr_cad.mechanics.row.mc_kernel import _jit
 
-__all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve"]
+__all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve", "loadable_arrays"]
 
 
 @_jit
@@ -115,29 +120,32 @@ def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r):
     N = geo.shape[2]
     R = N // 2
     first = math.isnan(prev[0, 0])
-    for k in range(5):
-        r[k] = 0.0
-    r[0] = -target
-    for i in range(N):
-        c = 0 if i < R else 1
-        a, h0 = geo[0, p, i], geo[2, p, i]
-        nu = geo[3, p, i] * u[c, 0] + geo[4, p, i] * u[c, 1]
-        h = a * tau + h0 + nu
-        if law == 0:
-            if not h > 0.0:
-                F, k = 0.0, 0.0
+    r0 = -target  # the sums in scalars, each cam's rollers in turn (one loop's order)
+    for c in range(2):
+        ux, uy = u[c, 0], u[c, 1]
+        rx, ry = 0.0, 0.0
+        for i in range(c * R, (c + 1) * R):
+            a, h0 = geo[0, p, i], geo[2, p, i]
+            nx, ny = geo[3, p, i], geo[4, p, i]
+            nu = nx * ux + ny * uy
+            h = a * tau + h0 + nu
+            if law == 0:
+                if not h > 0.0:
+                    F, k = 0.0, 0.0
+                else:
+                    start = h / slope0[p, i]
+                    if not first and prev[1, i] > 0.0:
+                        start = max(prev[1, i] + (h - prev[0, i]) * prev[2, i], 0.0)
+                    F, k = _invert_one(h, start, T, p, i)
             else:
-                start = h / slope0[p, i]
-                if not first and prev[1, i] > 0.0:
-                    start = max(prev[1, i] + (h - prev[0, i]) * prev[2, i], 0.0)
-                F, k = _invert_one(h, start, T, p, i)
-        else:
-            F, k = _palmgren(h, K[p, i])
-        w[0, i], w[1, i], w[2, i] = h, F, k
-        w[3, i] = (abs(a * tau) + abs(h0) + abs(nu)) * k if h0 > -1e300 else 0.0
-        r[0] += geo[1, p, i] * F
-        r[1 + 2 * c] += F * geo[3, p, i]
-        r[2 + 2 * c] += F * geo[4, p, i]
+                F, k = _palmgren(h, K[p, i])
+            w[0, i], w[1, i], w[2, i] = h, F, k
+            w[3, i] = (abs(a * tau) + abs(h0) + abs(nu)) * k if h0 > -1e300 else 0.0
+            r0 += geo[1, p, i] * F
+            rx += F * nx
+            ry += F * ny
+        r[1 + 2 * c], r[2 + 2 * c] = rx, ry
+    r[0] = r0
 
 
 @_jit
@@ -146,15 +154,19 @@ def _needles(u, dirs, bear, Q, kq, gq, r):
     ``sum_j Q_j e_j`` from the cams' force residuals ``r[1:5]``."""
     Z = dirs.shape[1]
     for c in range(2):
-        norm_u = math.sqrt(u[c, 0] ** 2 + u[c, 1] ** 2)
+        ux, uy = u[c, 0], u[c, 1]
+        norm_u = math.sqrt(ux**2 + uy**2)
+        half, coef, gross = bear[c, 0], bear[c, 1], norm_u + bear[c, 2]
+        rx, ry = r[1 + 2 * c], r[2 + 2 * c]
         for j in range(Z):
             ex, ey = dirs[c, j, 0], dirs[c, j, 1]
-            d = -(u[c, 0] * ex + u[c, 1] * ey) - bear[c, 0]
-            q, k = _palmgren(d, bear[c, 1])
+            d = -(ux * ex + uy * ey) - half
+            q, k = _palmgren(d, coef)
             Q[c, j], kq[c, j] = q, k
-            gq[c, j] = k * (norm_u + bear[c, 2])
-            r[1 + 2 * c] -= q * ex
-            r[2 + 2 * c] -= q * ey
+            gq[c, j] = k * gross
+            rx -= q * ex
+            ry -= q * ey
+        r[1 + 2 * c], r[2 + 2 * c] = rx, ry
 
 
 @_jit
@@ -163,15 +175,19 @@ def _relative(r, w, geo, p, Q, gq, target, e):
     N = w.shape[1]
     R = N // 2
     sm = abs(target)
-    sf = np.zeros(2)
-    for i in range(N):
+    sf0, sf1 = 0.0, 0.0  # the cams' force scales (scalars: no array a call)
+    for i in range(R):
         sm += (abs(geo[1, p, i]) + e) * abs(w[1, i]) + abs(geo[1, p, i]) * w[3, i]
-        sf[0 if i < R else 1] += w[1, i] + w[3, i]
-    for c in range(2):
-        for j in range(Q.shape[1]):
-            sf[c] += Q[c, j] + gq[c, j]
+        sf0 += w[1, i] + w[3, i]
+    for i in range(R, N):
+        sm += (abs(geo[1, p, i]) + e) * abs(w[1, i]) + abs(geo[1, p, i]) * w[3, i]
+        sf1 += w[1, i] + w[3, i]
+    for j in range(Q.shape[1]):
+        sf0 += Q[0, j] + gq[0, j]
+    for j in range(Q.shape[1]):
+        sf1 += Q[1, j] + gq[1, j]
     rel = abs(r[0]) / (sm + 1e-300)
-    top = max(sf[0], sf[1])  # an unloaded cam: against the loaded one's forces (drive._scales)
+    top = max(sf0, sf1)  # an unloaded cam: against the loaded one's forces (drive._scales)
     for c in range(2):
         rel = max(rel, math.sqrt(r[1 + 2 * c] ** 2 + r[2 + 2 * c] ** 2) / (top + 1e-300))
     return rel
@@ -185,16 +201,19 @@ def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rto
     ut, wt, rt, Qt, kqt, gqt = tmp
     N = w.shape[1]
     R = N // 2
+    carried0, carried1 = 0.0, 0.0
+    for i in range(R):
+        carried0 += w[1, i]
+    for j in range(Q.shape[1]):
+        carried0 += Q[0, j]
+    for i in range(R, N):
+        carried1 += w[1, i]
+    for j in range(Q.shape[1]):
+        carried1 += Q[1, j]
+    if not (carried0 <= rtol * sf or carried1 <= rtol * sf):
+        return False  # both cams carry: nothing to settle (no scratch made)
     tiny = np.zeros(2, dtype=np.bool_)
-    for c in range(2):
-        carried = 0.0
-        for i in range(c * R, (c + 1) * R):
-            carried += w[1, i]
-        for j in range(Q.shape[1]):
-            carried += Q[c, j]
-        tiny[c] = carried <= rtol * sf
-    if not (tiny[0] or tiny[1]):
-        return False
+    tiny[0], tiny[1] = carried0 <= rtol * sf, carried1 <= rtol * sf
     _copy2(ut, u)
     for c in range(2):
         if tiny[c]:
@@ -401,19 +420,27 @@ def bearing_newton(
                 break
             for k in range(25):
                 J[k // 5, k % 5] = 0.0
-            for i in range(N):
-                c = 0 if i < R else 1
-                ac, am, kf = geo[0, p, i], geo[1, p, i], w[2, i]
-                nx, ny = geo[3, p, i], geo[4, p, i]
-                J[0, 0] += am * ac * kf
-                J[0, 1 + 2 * c] += am * kf * nx
-                J[0, 2 + 2 * c] += am * kf * ny
-                J[1 + 2 * c, 0] += ac * kf * nx
-                J[2 + 2 * c, 0] += ac * kf * ny
-                J[1 + 2 * c, 1 + 2 * c] += kf * nx * nx
-                J[1 + 2 * c, 2 + 2 * c] += kf * nx * ny
-                J[2 + 2 * c, 1 + 2 * c] += kf * ny * nx
-                J[2 + 2 * c, 2 + 2 * c] += kf * ny * ny
+            # Each cam's rollers in turn, the sums in scalars (the same order as one
+            # loop over both cams: J[0, 0] runs over row A's rollers, then row B's).
+            j00 = 0.0
+            for c in range(2):
+                a, d = 1 + 2 * c, 2 + 2 * c
+                j0a, j0d, ja0, jd0, jaa, jad, jda, jdd = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+                for i in range(c * R, (c + 1) * R):
+                    ac, am, kf = geo[0, p, i], geo[1, p, i], w[2, i]
+                    nx, ny = geo[3, p, i], geo[4, p, i]
+                    j00 += am * ac * kf
+                    j0a += am * kf * nx
+                    j0d += am * kf * ny
+                    ja0 += ac * kf * nx
+                    jd0 += ac * kf * ny
+                    jaa += kf * nx * nx
+                    jad += kf * nx * ny
+                    jda += kf * ny * nx
+                    jdd += kf * ny * ny
+                J[0, a], J[0, d], J[a, 0], J[d, 0] = j0a, j0d, ja0, jd0
+                J[a, a], J[a, d], J[d, a], J[d, d] = jaa, jad, jda, jdd
+            J[0, 0] = j00
             for c in range(2):
                 a, d = 1 + 2 * c, 2 + 2 * c
                 for j in range(Z):
@@ -500,23 +527,27 @@ def bearing_newton(
             rel_out[p] = np.inf
 
 
+def loadable_arrays(geo) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The advance and arm (0 where a roller cannot load) and the gap (-1e300 there),
+    contiguous (P, N), as the kernels take them."""
+    return (
+        np.ascontiguousarray(np.where(geo.loadable, geo.advance, 0.0)),
+        np.ascontiguousarray(np.where(geo.loadable, geo.arm, 0.0)),
+        np.ascontiguousarray(np.where(geo.loadable, geo.gap, -1e300)),
+    )
+
+
 def bearing_solve(solver, target: float, tau, F, iterations: int, max_iter: int, rtol: float):
     """:meth:`DriveSolver._with_bearings <corr_cad.mechanics.drive.drive.DriveSolver>` compiled:
     ``(tau, F, u, Qs, rel, iterations)`` from the rigid solution ``tau``, ``F``; ``rtol``:
     the relative residual each position reaches (``drive.DRIVE_RTOL``)."""
     geo, comp = solver.geo_joined, solver.comp
     P, N = F.shape
-    g = np.ascontiguousarray(
-        np.stack(
-            [
-                np.where(geo.loadable, geo.advance, 0.0),
-                np.where(geo.loadable, geo.arm, 0.0),
-                np.where(geo.loadable, geo.gap, -1e300),
-                solver.n[..., 0],
-                solver.n[..., 1],
-            ]
-        )
-    )
+    if hasattr(solver, "kernel_geometry"):  # a Monte Carlo block's, from what it keeps
+        g = solver.kernel_geometry()
+    else:
+        g = np.stack([*loadable_arrays(geo), solver.n[..., 0], solver.n[..., 1]])
+        g = np.ascontiguousarray(g)
     explicit = getattr(comp, "explicit", False)
     if explicit:
         law, T, K = 1, np.zeros((11, 1, 1)), np.ascontiguousarray(comp.K, dtype=float)

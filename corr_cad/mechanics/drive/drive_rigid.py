@@ -21,6 +21,13 @@ the bearing Newton takes to its own tolerance from there, to that tolerance.
 (:func:`corr_cad.tolerance.montecarlo_drive.drive_chunk`): the compiled drive solver
 with this start, the block's rollers' directions given (the nominal ones, tiled) and
 the force metrics' arrays alone (:meth:`ForcePassDriveSolver.force_metrics_result`).
+A block's solver is made from its parts (:meth:`ForcePassDriveSolver.on_block`),
+keeps the kernels' inputs it makes once (:attr:`~ForcePassDriveSolver.block_arrays`,
+:meth:`~ForcePassDriveSolver.kernel_geometry`) and finds the free interval on them
+(:meth:`~ForcePassDriveSolver.free_interval`), the same bits as the compiled solver's.
+The breakpoints' sort of the linear start begins at the last position's order (equal
+breakpoints kept in roller order, so the order, and the sums, are unique), a few
+moves a position instead of a few hundred.
 """
 
 from __future__ import annotations
@@ -31,8 +38,13 @@ from types import SimpleNamespace
 import numpy as np
 
 from corr_cad.mechanics import contact
-from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
+from corr_cad.mechanics.drive.drive import DRIVE_RTOL
+from corr_cad.mechanics.drive.drive_centre import row_centres
+from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver, loadable_arrays
+from corr_cad.mechanics.drive.drive_numerics import row_errors
+from corr_cad.mechanics.drive.free_play import free_rows
 from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.row.solver_numerics import _RTOL
 
 __all__ = ["ForcePassDriveSolver", "rigid_palmgren"]
 
@@ -56,8 +68,9 @@ def _moment(p, tau, a_c, a_m, h0, K, F):
 
 
 @_jit
-def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order):
-    """``solver_numerics._linear_tau`` of position ``p`` (``bp``, ``order``: scratch)."""
+def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order, key):
+    """``solver_numerics._linear_tau`` of position ``p`` (``bp``, ``order``, ``key``: scratch;
+    ``order`` the last position's order of the breakpoints, a start)."""
     N = a_c.shape[1]
     const, s_left, i_down = 0.0, 0.0, 0.0
     for i in range(N):
@@ -73,16 +86,24 @@ def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order):
             i_down += a_m[p, i] * h0[p, i] / k0[p, i]
     i_left = i_down + const
     # The breakpoints' order, by insertion (a few dozen rollers; numba's argsort costs
-    # seconds of compile time).
+    # seconds of compile time): by breakpoint, equal ones by roller (a stable sort's
+    # order), from ``order`` as the last position left it (``order[0] < 0``: none), which
+    # the next position's differs from in a few places only. The order is unique, so
+    # whatever the start, the sums below run in the same order.
+    if N > 0 and order[0] < 0:
+        for j in range(N):
+            order[j] = j
     for j in range(N):
-        order[j] = j
+        key[j] = bp[order[j]]
     for j in range(1, N):
-        i, t = order[j], bp[order[j]]
+        i, t = order[j], key[j]
         m = j - 1
-        while m >= 0 and bp[order[m]] > t:
+        while m >= 0 and (key[m] > t or (key[m] == t and order[m] > i)):
             order[m + 1] = order[m]
+            key[m + 1] = key[m]
             m -= 1
         order[m + 1] = i
+        key[m + 1] = t
     # The sums of the "down" rollers after each breakpoint: totals less the running sums.
     sd_tot, id_tot = s_left, i_down
     su, iu, sd_cum, id_cum = 0.0, 0.0, 0.0, 0.0
@@ -163,10 +184,10 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
     the steps, bisections and stops are ``_nested``'s with its bracket."""
     P, N = a_c.shape
     F, Ft, Fc = np.empty(N), np.empty(N), np.empty(N)  # at tau, at a trial, at a step
-    bp, order = np.empty(N), np.empty(N, dtype=np.int64)
+    bp, key, order = np.empty(N), np.empty(N), np.full(N, -1, dtype=np.int64)
     most = 0
     for p in range(P):
-        tau = _linear_tau(p, a_c, a_m, h0, k0, target, bp, order)
+        tau = _linear_tau(p, a_c, a_m, h0, k0, target, bp, order, key)
         mom, dmom, scale = _moment(p, tau, a_c, a_m, h0, K, F)
         res = mom - target
         if math.isnan(res):
@@ -249,15 +270,14 @@ def _rigid(a_c, a_m, h0, K, k0, target, rtol, max_iter, tau_out, F_out):
     return most
 
 
-def rigid_palmgren(geo, comp, target: float, rtol: float):
+def rigid_palmgren(geo, comp, target: float, rtol: float, arrays=None):
     """``(tau, F, iterations)`` of the rigid drive under Palmgren's law (``comp``: a
     :class:`~corr_cad.mechanics.palmgren.PalmgrenCompliance`), as
     ``solver_numerics._solve_positions`` gives them; None where a position has no
-    bracket (that solver raises the error)."""
+    bracket (that solver raises the error). ``arrays``: :func:`loadable_arrays` of
+    ``geo`` where the caller has them."""
     P, N = geo.gap.shape
-    a_c = np.ascontiguousarray(np.where(geo.loadable, geo.advance, 0.0))
-    a_m = np.ascontiguousarray(np.where(geo.loadable, geo.arm, 0.0))
-    h0 = np.ascontiguousarray(np.where(geo.loadable, geo.gap, -1e300))
+    a_c, a_m, h0 = loadable_arrays(geo) if arrays is None else arrays
     K = np.ascontiguousarray(np.broadcast_to(comp.K, (P, N)), dtype=float)
     k0 = np.ascontiguousarray(np.broadcast_to(comp.slope0, (P, N)), dtype=float)
     tau, F = np.empty(P), np.empty((P, N))
@@ -277,7 +297,104 @@ class ForcePassDriveSolver(CompiledDriveSolver):
 
     def __init__(self, *args, directions: np.ndarray | None = None, **kwargs):
         self._given_directions = directions
+        self._arrays = None
+        self._rows = None
+        self._template = None
         super().__init__(*args, **kwargs)
+
+    @classmethod
+    def on_block(
+        cls, design, crank_angles, geometry, comp, bearings, directions, rows=None, template=None
+    ):
+        """The solver of a Monte Carlo block from its parts, as the constructor would make
+        them (the same attributes, the same bits) without building what a block shares
+        again: ``geometry`` both rows joined (P, 2R) (``drive_numerics.joined``), ``comp``
+        its compliance, ``directions`` (P, 2R, 2); ``rows``: each row's ``(n, K)``
+        contiguous (P, R, 2) and (P, R) where the caller keeps them; ``template``: the
+        bearing Newton's geometry (5, P, 2R) (:meth:`kernel_geometry`) but the gaps,
+        where the caller keeps it (read, never written). The eccentrics fixed, the bodies
+        rigid, the default tolerance."""
+        self = cls.__new__(cls)
+        self._given_directions = directions
+        self._arrays, self._rows, self._template = None, rows, template
+        self.design = design
+        self.crank_angles = crank_angles
+        self.errors = row_errors(None, None)
+        self.geo = None  # the rows apart: only DriveSolver.result reads them
+        self.geo_joined = geometry
+        self.comp = comp
+        self.bearings = tuple(bearings)
+        self.rtol = _RTOL
+        self.R = design.roller_count
+        self.n = directions
+        self.crank = None
+        self.bodies = None
+        return self
+
+    @property
+    def block_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`~corr_cad.mechanics.drive.drive_kernel.loadable_arrays` of the joined
+        geometry, made once for the rigid start, the bearing Newton and the free interval."""
+        if self._arrays is None:
+            t, geo = self._template, self.geo_joined
+            if t is None:
+                self._arrays = loadable_arrays(geo)
+            else:  # the advance and arm are the template's (the nominal's, tiled)
+                self._arrays = (t[0], t[1], np.where(geo.loadable, geo.gap, -1e300))
+        return self._arrays
+
+    def kernel_geometry(self) -> np.ndarray:
+        """The bearing Newton's geometry (5, P, 2R): advance, arm, gap (as
+        :func:`~corr_cad.mechanics.drive.drive_kernel.loadable_arrays`), ``n_x``, ``n_y``."""
+        a_c, a_m, h0 = self.block_arrays
+        if self._template is None:
+            return np.ascontiguousarray(np.stack([a_c, a_m, h0, self.n[..., 0], self.n[..., 1]]))
+        g = self._template.copy()
+        g[2] = h0
+        return g
+
+    def _row_arrays(self, c: int) -> tuple[np.ndarray, np.ndarray]:
+        """Row ``c``'s directions (P, R, 2) and Palmgren factors (P, R), contiguous."""
+        if self._rows is None:
+            P, N = self.geo_joined.gap.shape
+            K = np.broadcast_to(self.comp.K, (P, N))
+            self._rows = [
+                (np.ascontiguousarray(self.n[:, sl]), np.ascontiguousarray(K[:, sl], dtype=float))
+                for sl in (slice(0, self.R), slice(self.R, 2 * self.R))
+            ]
+        return self._rows[c]
+
+    def free_interval(self, solve: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`DriveSolver.free_interval` (the same steps, the same bits) on the arrays the
+        solver keeps, under Palmgren's law with a clearance on both cams; else the
+        compiled solver's own."""
+        bearings = self.bearings
+        if (
+            solve
+            or not getattr(self.comp, "explicit", False)
+            or any(b is None or not b.diametral_clearance > 0.0 for b in bearings)
+        ):
+            return super().free_interval(solve)
+        R, geo, e = self.R, self.geo_joined, self.design.eccentricity
+        h0 = self.block_arrays[2]
+        revs, fwds = [], []
+        for c, sl in enumerate((slice(0, R), slice(R, 2 * R))):
+            half = 0.5 * bearings[c].diametral_clearance
+            n_row, K_row = self._row_arrays(c)
+            g = np.where(geo.loadable[:, sl], geo.gap[:, sl], -np.inf)
+            rev, fwd, v0 = free_rows(g, n_row, half, e, True)
+            locked = ~(fwd > rev)
+            if np.any(locked):  # as DriveSolver.free_interval: the cam's own centre
+                idx = np.flatnonzero(locked)
+                rows = (h0[:, sl], n_row, K_row)
+                v = row_centres(self, c, idx, v0[idx], DRIVE_RTOL, None, rows)
+                arc = np.sqrt(np.maximum(half * half - v[:, 1] ** 2, 0.0))
+                reach = np.abs(v[:, 1]) <= half
+                fwd[idx] = np.where(reach, (v[:, 0] + arc) / e, -np.inf)
+                rev[idx] = np.where(reach, (v[:, 0] - arc) / e, np.inf)
+            revs.append(rev)
+            fwds.append(fwd)
+        return np.maximum(*revs), np.minimum(*fwds)
 
     def _directions(self, geometry):
         if self._given_directions is not None:
@@ -289,7 +406,7 @@ class ForcePassDriveSolver(CompiledDriveSolver):
         law (:func:`corr_cad.mechanics.drive.drive_rigid.rigid_palmgren`)."""
         if not getattr(self.comp, "explicit", False):
             return super().solve_contacts(target)
-        rigid = rigid_palmgren(self.geo_joined, self.comp, target, self.rtol)
+        rigid = rigid_palmgren(self.geo_joined, self.comp, target, self.rtol, self.block_arrays)
         if rigid is None:  # no bracket somewhere: the numpy solver says where
             return super().solve_contacts(target)
         tau, F, iterations = rigid
