@@ -288,9 +288,9 @@ def rigid_palmgren(geo, comp, target: float, rtol: float, arrays=None):
 class ForcePassDriveSolver(CompiledDriveSolver):
     """:class:`CompiledDriveSolver` whose rigid start is compiled too under Palmgren's law
     (:func:`corr_cad.mechanics.drive.drive_rigid.rigid_palmgren`): the Monte Carlo's force pass.
-    The rigid start agrees with the numpy one to round-off, not bit for bit; the datasheet
-    pass keeps the numpy start, whose zero-moment preload of a nominal drive is round-off
-    itself (a pressure of 1e-118 MPa that the summary prints to 12 digits).
+    The rigid start agrees with the numpy one to round-off, not bit for bit; the Monte
+    Carlo's datasheet pass starts its largest torques from it too
+    (:mod:`corr_cad.tolerance.mc_drive_datasheet`).
 
     ``directions``: the rollers' ``n_k`` (P, 2R, 2) when the caller has them (the samples
     of a block share the nominal ones: the same bits as computed from the stacked rows)."""
