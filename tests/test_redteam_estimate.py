@@ -90,3 +90,23 @@ def test_the_monte_carlo_console_says_what_the_samples_solve_on(chain, said):
         assert not any("every sample solved on" in x for x in lines)
     else:
         assert lines[i + 1] == said
+
+
+@pytest.mark.parametrize("formats", [["forces", "datasheet"], ["datasheet"], ["forces"]])
+def test_the_fe_reduction_is_counted_once_a_run(monkeypatch, tmp_path, formats):
+    """A run reduces the bodies in its first stage that solves on them; the datasheet after
+    the forces reads the tables they cached, so the run's estimate counts 10 s once."""
+    from dataclasses import replace
+
+    from corr_cad.run.budget.resources import estimate
+
+    monkeypatch.setenv("CORR_CAD_CACHE_DIR", str(tmp_path))  # an empty cache
+    scene = replace(_scene("elastic", True), formats=tuple(formats))
+    uncached = estimate(scene, workers=1, executor="serial")
+    monkeypatch.setattr(costs_bodies, "_cached", lambda scene: True)
+    cached = estimate(scene, workers=1, executor="serial")
+    reduction = costs_bodies.BODIES_SECONDS - costs_bodies.BODIES_CACHED_SECONDS
+    assert uncached.seconds - cached.seconds == pytest.approx(reduction, rel=1e-12)
+    if "forces" in formats and "datasheet" in formats:  # the datasheet reads the tables
+        sheet = uncached.stages["datasheet"].seconds - cached.stages["datasheet"].seconds
+        assert sheet == pytest.approx(0.0, abs=1e-12)
