@@ -222,7 +222,10 @@ def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
             continue
         piece = _Piece(seg)
         dense = DenseSampling.build(seg.points, seg.derivative, 0.0, 1.0, 2048)
-        nodes = _spline_nodes(piece, 0.5 * tol, 4096)
+        # Bisected from the segment's two ends: as few spans as the tolerance
+        # allows (each written several times over in every STEP file that holds
+        # the gear).
+        nodes = _spline_nodes(piece, 0.5 * tol, 4096, start=2)
         for round_ in range(_REFINE_ROUNDS + 1):
             spl = _piece_spline(piece, nodes)
             f, b = _measure_spline(piece, dense, nodes, spl)
