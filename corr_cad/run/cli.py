@@ -214,6 +214,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     staging = StagingDir(out, formats=scene.formats)
     state["staging"] = staging
     concurrent = _concurrent_stages(args, scene)
+    if concurrent:
+        from corr_cad.run.stages.concurrent import make_ahead
+
+        make_ahead(scene)  # before the pool forks: its workers inherit what it makes
     task_s = max((c.task_seconds for c in est.stages.values()), default=0.0)
     with _executor(args, scene, concurrent, task_s) as executor, staging as stage:
         # Printed with --quiet too (the user must know), once the run is
