@@ -1,4 +1,4 @@
-"""Work the STEP pool worker and the main process share is done once, counted (no timer).
+"""Work a run need not do, counted (no timer): shared work done once, fewer cyclic collections.
 
 With ``[first_stage]`` the gears' measured outlines feed the DXF, the solids and
 the drive in the main process and the STEP stage's exact volumes in the pool
@@ -62,3 +62,19 @@ def test_gear_outlines_are_made_once_for_the_main_process_and_the_step_worker(tm
         # The STEP worker's own B-splines (the main process draws no STEP).
         assert made[(False, teeth, "spline_gear")] == 1
     assert (tmp_path / "out" / "crank_gear.step").is_file()
+
+
+def test_a_command_runs_with_fewer_cyclic_collections_and_restores_the_threshold(monkeypatch):
+    """``cli.main`` raises the youngest generation's threshold while the command
+    runs (the collections a run pays for) and leaves the caller's as it was."""
+    import gc
+
+    from corr_cad.run import cli
+
+    seen = []
+    monkeypatch.setattr(cli, "_main", lambda argv: seen.append(gc.get_threshold()) or 0)
+    before = gc.get_threshold()
+    assert cli.main([]) == 0
+    assert seen == [(max(before[0], cli.GC_THRESHOLD0), *before[1:])]
+    assert seen[0][0] >= 10_000
+    assert gc.get_threshold() == before
