@@ -12,6 +12,7 @@ rotations.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -132,8 +133,16 @@ def approximate_gear(g: GearTeeth, tolerance: float) -> GearOutline:
     >>> o = approximate_gear(GearTeeth(18, 1.5, math.radians(20), 0.5), 0.001)
     >>> o.within_tolerance, sorted(o.deviation_by_kind)
     (True, ['fillet', 'involute', 'root', 'tip'])
+
+    Made once per process for the same gear and tolerance (the last eight kept):
+    the outline is read-only, shared by the DXF, the meshes and the STEP stage,
+    and by a pool worker forked after the main process made it.
     """
-    tol = float(tolerance)
+    return _approximate_gear(g, float(tolerance))
+
+
+@functools.lru_cache(maxsize=8)
+def _approximate_gear(g: GearTeeth, tol: float) -> GearOutline:
     piece, kinds = [], []
     fwd_max = bwd_max = 0.0
     by_kind: dict[str, float] = {}
@@ -156,9 +165,11 @@ def approximate_gear(g: GearTeeth, tolerance: float) -> GearOutline:
     # Tooth 0 runs from -pitch/2 to +pitch/2; its copies turn by whole pitches (a
     # rotation moves a point by round-off, 1e-13 mm, off the exact outline).
     verts = np.concatenate([rotate_by_polar_angle(tooth, k * pitch) for k in range(g.teeth)])
+    kind_arr = np.array(kinds * g.teeth)
+    verts.flags.writeable = kind_arr.flags.writeable = False  # shared: see approximate_gear
     return GearOutline(
         verts,
-        np.array(kinds * g.teeth),
+        kind_arr,
         max(fwd_max, bwd_max),
         fwd_max,
         bwd_max,
@@ -222,7 +233,10 @@ def spline_gear(g: GearTeeth, tolerance: float) -> GearSplines:
             continue
         piece = _Piece(seg)
         dense = DenseSampling.build(seg.points, seg.derivative, 0.0, 1.0, 2048)
-        nodes = _spline_nodes(piece, 0.5 * tol, 4096)
+        # Bisected from the segment's two ends: as few spans as the tolerance
+        # allows (each written several times over in every STEP file that holds
+        # the gear).
+        nodes = _spline_nodes(piece, 0.5 * tol, 4096, start=2)
         for round_ in range(_REFINE_ROUNDS + 1):
             spl = _piece_spline(piece, nodes)
             f, b = _measure_spline(piece, dense, nodes, spl)

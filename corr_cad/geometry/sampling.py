@@ -267,10 +267,11 @@ def _greedy_biarc_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndar
     return np.array(nodes)
 
 
-def _spline_nodes(curve: ProfileCurve, tol: float, budget: int) -> np.ndarray:
-    """Spline nodes by bisection until the parametric error is within 0.7 tol."""
+def _spline_nodes(curve: ProfileCurve, tol: float, budget: int, start: int = 9) -> np.ndarray:
+    """Spline nodes by bisection, from ``start`` evenly spaced ones, until the
+    parametric error is within 0.7 tol."""
     t_a, t_b = curve.piece_t_range
-    t_nodes = np.linspace(t_a, t_b, 9)
+    t_nodes = np.linspace(t_a, t_b, start)
     for _ in range(60):
         spl = _piece_spline(curve, t_nodes)
         u = (np.arange(_SPAN_SAMPLES) + 0.5) / _SPAN_SAMPLES

@@ -214,6 +214,10 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     staging = StagingDir(out, formats=scene.formats)
     state["staging"] = staging
     concurrent = _concurrent_stages(args, scene)
+    if concurrent:
+        from corr_cad.run.stages.concurrent import make_ahead
+
+        make_ahead(scene)  # before the pool forks: its workers inherit what it makes
     task_s = max((c.task_seconds for c in est.stages.values()), default=0.0)
     from corr_cad.run.pipeline import scene_plan
     from corr_cad.run.stages.plot_workers import plot_pool
@@ -527,7 +531,16 @@ def _dispatch(args: argparse.Namespace, state: dict) -> int:
     return _new(args)
 
 
+#: The youngest generation's collection threshold while a command runs (Python's
+#: default 700): a run allocates millions of small objects (meshes, plots, STEP
+#: read-back), and the default threshold spent 0.7 s of 15 s of CPU in 1,042
+#: cyclic collections on ``templates/compound.toml`` with every format, 0.25 s
+#: in 69 at this one. Memory is freed by reference counting as before.
+GC_THRESHOLD0 = 10_000
+
+
 def main(argv: list[str] | None = None) -> int:
+    import gc
     import signal
 
     import corr_cad._startup as _startup
@@ -537,7 +550,9 @@ def main(argv: list[str] | None = None) -> int:
     interrupts.clear()
     handlers: dict = {}
     hook, stdout, shown = sys.unraisablehook, sys.stdout, progress.enabled()
+    threshold = gc.get_threshold()
     try:
+        gc.set_threshold(max(threshold[0], GC_THRESHOLD0), *threshold[1:])
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
                 now = signal.getsignal(sig)
@@ -558,6 +573,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.unraisablehook = hook
         sys.stdout = stdout
         progress.set_enabled(shown)  # a --quiet call leaves the next one its progress
+        gc.set_threshold(*threshold)
         for sig, previous in handlers.items():
             # The command's start-up guard says "previous outputs left": wrong once the
             # run is over, so a Ctrl-C while the process exits is ignored instead.

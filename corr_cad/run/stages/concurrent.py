@@ -36,7 +36,13 @@ from pathlib import Path
 from corr_cad.run.stages.context import RunContext
 from corr_cad.run.stages.stages import STAGES
 
-__all__ = ["WORKER_STAGES", "worker_stages", "run_stage_in_worker", "kill_pool"]
+__all__ = [
+    "WORKER_STAGES",
+    "worker_stages",
+    "run_stage_in_worker",
+    "kill_pool",
+    "make_ahead",
+]
 
 #: Stages that may run in a pool worker: heavy, and independent of every other
 #: target stage (they need only the cheap profile stages, which the worker
@@ -88,6 +94,23 @@ def run_stage_in_worker(scene, out: str, name: str) -> tuple[dict, list[str], fl
     seconds = time.perf_counter() - t0
     sections = {k: v for k, v in ctx.manifest.items() if k not in before}
     return sections, list(ctx.files), seconds
+
+
+def make_ahead(scene) -> None:
+    """Before the pool forks its workers: what a worker stage needs and the main
+    process makes anyway, made once here so that the workers inherit it.
+
+    The first stage's gear outlines (:func:`~corr_cad.geometry.gear_outline.approximate_gear`,
+    kept per process): the STEP stage's exact volumes and the main process's
+    DXF, solids and drive stages read the same ones, at the scene's tolerance.
+    """
+    fs = scene.first_stage
+    if fs is None or "step" not in scene.formats or scene.chord_tolerance != scene.tolerance:
+        return
+    from corr_cad.geometry.gear_outline import approximate_gear
+
+    for part in ("pinion", "wheel", "crank_gear"):
+        approximate_gear(getattr(fs, part), scene.tolerance)
 
 
 def kill_pool(pool) -> None:

@@ -78,8 +78,16 @@ def _mesh_files(ctx: RunContext) -> None:
     for angle in s.assembly_angles_deg:
         placed, _ = _placed_solids(ctx, solids, angle, stack=stack)
         parts = {k: mesh.to_trimesh(v) for k, v in placed.items()}
+        # Closed and consistently wound depend on the triangles alone (vertex
+        # indices), which a placement (a rotation and a move) keeps: a copy of
+        # a mesh checked here (the rollers, the rings, the plates, the wheels) is
+        # checked once, with the first of its instances.
+        checked = set()
         for name, tm in parts.items():
-            mesh.check_mesh(tm, name)
+            key = (len(tm.vertices), tm.faces.tobytes())
+            if key not in checked:
+                mesh.check_mesh(tm, name)
+                checked.add(key)
         for fmt in fmts:
             fname = f"assembly_{angle_tag(angle)}.{fmt}"
             mesh.write_mesh(parts, ctx.out / fname, fmt)
@@ -244,9 +252,9 @@ def _freecad_step_file(ctx: RunContext, shapes, placements, parts, tag: str, rep
 
 
 def _profile_edge_count(spline) -> int:
-    from corr_cad.geometry.sampling import spline_bezier_spans
+    from corr_cad.export.step_profile import profile_edge_spans
 
-    return int(len(spline_bezier_spans(spline)[0]))
+    return len(profile_edge_spans(spline))
 
 
 def _box_corners(box: np.ndarray) -> np.ndarray:
