@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 from corr_cad.bounds import show
 from corr_cad.errors import SceneError
 from corr_cad.run.budget.costs import ESTIMATORS, LIBRARY_BYTES, WORKER_BYTES, Cost, Env
-from corr_cad.run.budget.costs_bodies import reduction_seconds
+from corr_cad.run.budget.costs_bodies import reduce_once
 from corr_cad.run.scene.limits import (  # noqa: F401  (re-exported: the limits are part of this interface)
     MAX_MESH_TRIANGLES,
     MAX_PROFILE_VERTICES,
@@ -265,10 +265,8 @@ def _stages(scene) -> list[str]:
 
 
 #: A plot worker (:mod:`corr_cad.run.stages.plot_workers`): its own pages at their peak
-#: (the forked interpreter's copied pages, matplotlib's objects, a figure's canvas; the
-#: library files are counted once, as the run's): 65 MB drawing ``montecarlo.png`` and
-#: 78 MB the datasheet's two figures (unique set size, the prototype drive on 40 needles),
-#: and a margin.
+#: (its copied pages, matplotlib's objects, a canvas; the libraries counted as the run's):
+#: 65 MB drawing ``montecarlo.png``, 78 MB the datasheet's two (unique set size), a margin.
 PLOT_WORKER_BYTES = 90 * 1024.0**2
 
 
@@ -296,9 +294,7 @@ def estimate(scene, workers: int | None = None, executor: str = "process") -> Es
     sizes = scene_size(scene)  # computed once per scene, with the structural check
     env = _env(scene, workers, executor, sizes)
     costs = {name: ESTIMATORS.get(name, _unknown)(scene, env) for name in stages}
-    if "forces" in costs and "datasheet" in costs:  # the forces reduce the bodies, once
-        sheet = costs["datasheet"]
-        costs["datasheet"] = replace(sheet, seconds=sheet.seconds - reduction_seconds(scene))
+    reduce_once(scene, costs)
     aside = set()
     if executor == "process" and workers >= 2:
         aside = set(worker_stages(stages))
