@@ -32,14 +32,14 @@ import numpy as np
 
 from corr_cad.mechanics import contact
 from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit, _jit_inner
 
 __all__ = ["ForcePassDriveSolver", "rigid_palmgren"]
 
 _EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
 
 
-@_jit
+@_jit_inner
 def _moment(p, tau, a_c, a_m, h0, K, F):
     """Forces ``F`` (N,) at ``tau`` of position ``p``; ``(moment, dmoment/dtau, scale)``."""
     mom, dmom, scale = 0.0, 0.0, 0.0
@@ -55,7 +55,7 @@ def _moment(p, tau, a_c, a_m, h0, K, F):
     return mom, dmom, scale
 
 
-@_jit
+@_jit_inner
 def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order):
     """``solver_numerics._linear_tau`` of position ``p`` (``bp``, ``order``: scratch)."""
     N = a_c.shape[1]
@@ -127,7 +127,7 @@ def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order):
     return tau
 
 
-@_jit
+@_jit_inner
 def _walk(p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft):
     """The bracket's trials ``tau0 + side step0 4^k`` from trial ``k`` on (``stepk`` its step),
     as ``_nested`` tries them, each only where needed: ``(0, ...)`` at the first trial
