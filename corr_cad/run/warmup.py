@@ -278,14 +278,17 @@ def warm_up(
     and a progress line every 5 s while one compiles (its time left from the estimate at
     the machine's load): ``{group: (compiled, seconds)}`` (CPU seconds of a compiled
     group, wall seconds of a loaded one). Groups of different :data:`CHAINS` compile in up
-    to ``workers`` processes (default: the machine's cores) where more than one chain
-    lacks its cache."""
+    to ``workers`` processes (default: the cores the one-minute load average leaves idle)
+    where more than one chain lacks its cache."""
     names = [g[0] for g in GROUPS] if groups is None else groups
     lacking = set(missing())
     todo = [n for n in names if n in lacking]
     chains = [[n for n in chain if n in todo] for chain in CHAINS]
     chains = [c for c in chains if c]
-    workers = min(workers or os.cpu_count() or 1, len(chains))
+    if workers is None:  # the cores the machine's load leaves idle
+        _, load, cpus = load_factor(1)
+        workers = max(1, int(cpus - load + 0.5))
+    workers = min(workers, len(chains))
     out: dict[str, tuple[bool, float]] = {}
     for i, name in enumerate(names, 1):
         about = compile_seconds([name])
@@ -309,10 +312,10 @@ def warm_up(
     return {n: out[n] for n in names}
 
 
-def command() -> int:
+def command(workers: int | None = None) -> int:
     """``corr-cad warm-up``: every kernel group compiled or loaded, one line each."""
     t0 = time.perf_counter()
-    done = warm_up(say=lambda m: print(m, flush=True))
+    done = warm_up(say=lambda m: print(m, flush=True), workers=workers)
     compiled = [n for n, (c, _) in done.items() if c]
     cpu = sum(t for c, t in done.values() if c)
     print(
