@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 DRIVE_MC = """[export]
@@ -144,3 +146,34 @@ def test_an_index_older_than_its_source_is_missing(tmp_path, monkeypatch):
     for name in names[:1]:
         os.utime(tmp_path / f"free_play.{name}-1.py311.nbi", (stamp, stamp))
     assert warmup.missing(group) == ["free-play kernel"]
+
+
+def test_the_chains_hold_every_group_once():
+    from corr_cad.run.warmup import CHAINS, GROUPS
+
+    assert sorted(n for c in CHAINS for n in c) == sorted(g[0] for g in GROUPS)
+
+
+@pytest.mark.slow
+def test_a_warm_up_in_processes_from_an_empty_cache_compiles_every_group_once(tmp_path):
+    """From an empty cache the warm-up compiles every group, its chains in parallel
+    processes (where the machine's load leaves cores idle, as here asked for two); a
+    second ``corr-cad warm-up`` compiles nothing (numba's own record)."""
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    code = "from corr_cad.run import warmup; warmup.command(workers=2)"
+    first = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(ROOT), **env},
+    )
+    assert first.returncode == 0, first.stderr
+    assert "5 of 5 groups compiled" in first.stdout, first.stdout
+    assert "compiling in 2 processes" in first.stdout, first.stdout
+    assert first.stdout.count("      compiled: ") == 3, first.stdout  # one line per chain
+    again = _cli("warm-up", cwd=tmp_path, NUMBA_DEBUG_CACHE="1", **env)
+    assert again.returncode == 0, again.stderr
+    assert "0 of 5 groups compiled" in again.stdout, again.stdout
+    record = again.stdout + again.stderr
+    assert "[cache] data loaded" in record and "[cache] data saved" not in record, record

@@ -3,13 +3,15 @@
 numba compiles a kernel at its first call and keeps the machine code on disk
 (``cache=True``: ``__pycache__`` beside the module, or ``NUMBA_CACHE_DIR``); a
 later process loads it in milliseconds. The first run after an install (or
-after an upgrade, which changes the sources) pays the compile: about 15 s of CPU
-for all the kernels on one core. :func:`missing` reads the cache's index files
-(no numba import: a run that needs no kernel pays nothing for the check);
-:func:`warm_up` runs each group of kernels once on a tiny problem through the
-code paths the stages use, so that every signature a run needs is compiled and
-cached (``corr-cad warm-up``; a run whose scene uses a group that is missing
-does the same before its stages, with a line that says so).
+after an upgrade, which changes the sources) pays the compile: about 12 s of CPU
+for the kernels every drive run uses, 6 s more for the elastic bodies'.
+:func:`missing` reads the cache's index files (no numba import: a run that needs
+no kernel pays nothing for the check); :func:`warm_up` runs each group of kernels
+once on a tiny problem through the code paths the stages use, so that every
+signature a run needs is compiled and cached (``corr-cad warm-up``; a run whose
+scene uses a group that is missing does the same before its stages, with a line
+that says so). Groups that share no kernel compile in parallel processes where
+the machine has the cores (:data:`CHAINS`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import os
 import re
 import time
 from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
 from corr_cad.run.progress import heartbeat, load_factor
@@ -35,25 +38,35 @@ __all__ = [
 
 _MECHANICS = Path(__file__).resolve().parents[1] / "mechanics"
 
-#: Kernel groups: (name, modules, about how many seconds they take to compile on one
-#: quiet core, what uses them). A module is named by its file's stem, as numba names
+#: Kernel groups: (name, modules, about how many seconds of CPU they take to compile on
+#: one quiet core, in this order, from an empty cache: ``corr-cad bench --study drive``'s
+#: "compile" rows; what uses them). A module is named by its file's stem, as numba names
 #: its cache files, wherever it sits under ``corr_cad/mechanics/`` (:func:`source`).
 GROUPS = (
-    ("Monte Carlo kernel", ("mc_kernel",), 12, "the paper's row, large Monte Carlos"),
-    ("datasheet windup kernel", ("mc_windup_kernel",), 8, "datasheet metrics in a Monte Carlo"),
-    ("free-play kernel", ("free_play",), 4, "the drive's backlash with a bearing clearance"),
+    ("Monte Carlo kernel", ("mc_kernel",), 4, "the paper's row, large Monte Carlos"),
+    ("datasheet windup kernel", ("mc_windup_kernel",), 1, "datasheet metrics in a Monte Carlo"),
+    ("free-play kernel", ("free_play",), 1, "the drive's backlash with a bearing clearance"),
     (
         "drive kernels",
         ("drive_laws", "drive_kernel", "drive_centre", "drive_rigid"),
-        15,
+        7,
         "the drive's Monte Carlo, allocation, design",
     ),
     (
         "bodies kernels",
         ("coupling_kernel", "coupling_newton"),
-        5,
+        6,
         'the elastic ring, frame and cams ([solver] bodies = "elastic")',
     ),
+)
+
+#: Groups whose runs share no kernel but a few small ones (the contact laws), in the order
+#: each chain compiles them: the datasheet's windup calls the Monte Carlo kernel's row
+#: solve, the drive's Monte Carlo the free-play kernel. Chains compile in parallel.
+CHAINS = (
+    ("Monte Carlo kernel", "datasheet windup kernel"),
+    ("free-play kernel", "drive kernels"),
+    ("bodies kernels",),
 )
 
 _JIT = re.compile(r"^@_jit\s*\ndef (\w+)", re.M)
@@ -216,35 +229,99 @@ def scene_groups(scene) -> list[str]:
     return []  # a small Monte Carlo of the paper's row runs the numpy solver
 
 
-def warm_up(
-    groups: list[str] | None = None, say: Callable[[str], None] = print
-) -> dict[str, tuple[bool, float]]:
-    """Compile (or load) the kernel ``groups`` (all by default) and say so, one line each
-    and a progress line every 5 s while one compiles (its time left from the estimate at
-    the machine's load): ``{group: (compiled, seconds)}``."""
-    names = [g[0] for g in GROUPS] if groups is None else groups
-    todo = set(missing())
-    out = {}
-    for i, name in enumerate(names, 1):
-        compiling = name in todo
-        about = compile_seconds([name])
-        what = f"compiling, about {about} s on one core" if compiling else "loading from cache"
-        say(f"kernels {i}/{len(names)}: {name} ({what})")
-        t0 = time.perf_counter()
-        expected = about * load_factor(1)[0] if compiling else None
-        with heartbeat(f"      kernels {i}/{len(names)}", expected):  # a line every 5 s
-            _RUNS[name]()
-        out[name] = (compiling, time.perf_counter() - t0)
+def _chain(names: list[str]) -> list[tuple[str, float]]:
+    """Run the groups ``names`` in order in this (worker) process: ``[(name, CPU s)]``."""
+    out = []
+    for name in names:
+        c0 = time.process_time()
+        _RUNS[name]()
+        out.append((name, time.process_time() - c0))
     return out
 
 
-def command() -> int:
+def _parallel(chains: list[list[str]], workers: int, say: Callable[[str], None], out: dict) -> None:
+    """The ``chains`` of groups compiled in ``workers`` fresh processes, the longest first
+    (numba's disk cache is shared; each process writes its kernels' files whole), a line
+    as each chain is done."""
+    import multiprocessing
+
+    chains = sorted(chains, key=compile_seconds, reverse=True)
+    busy = [0] * workers  # each chain goes to the worker free first
+    for chain in chains:
+        busy[busy.index(min(busy))] += compile_seconds(chain)
+    about = max(busy)
+    t0 = time.perf_counter()
+    ctx = multiprocessing.get_context("spawn")  # no numba state forked from this process
+    with (
+        ProcessPoolExecutor(workers, mp_context=ctx) as pool,
+        heartbeat("      kernels", about * load_factor(workers)[0]),
+    ):
+        pending = {pool.submit(_chain, c) for c in chains}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                result = future.result()
+                out.update((name, (True, cpu)) for name, cpu in result)
+                say(
+                    f"      compiled: {', '.join(n for n, _ in result)} "
+                    f"({sum(c for _, c in result):.1f} s of CPU; "
+                    f"{time.perf_counter() - t0:.0f} s after the start)"
+                )
+
+
+def warm_up(
+    groups: list[str] | None = None,
+    say: Callable[[str], None] = print,
+    workers: int | None = None,
+) -> dict[str, tuple[bool, float]]:
+    """Compile (or load) the kernel ``groups`` (all by default) and say so, one line each
+    and a progress line every 5 s while one compiles (its time left from the estimate at
+    the machine's load): ``{group: (compiled, seconds)}`` (CPU seconds of a compiled
+    group, wall seconds of a loaded one). Groups of different :data:`CHAINS` compile in up
+    to ``workers`` processes (default: the cores the one-minute load average leaves idle)
+    where more than one chain lacks its cache."""
+    names = [g[0] for g in GROUPS] if groups is None else groups
+    lacking = set(missing())
+    todo = [n for n in names if n in lacking]
+    chains = [[n for n in chain if n in todo] for chain in CHAINS]
+    chains = [c for c in chains if c]
+    if workers is None:  # the cores the machine's load leaves idle
+        _, load, cpus = load_factor(1)
+        workers = max(1, int(cpus - load + 0.5))
+    workers = min(workers, len(chains))
+    out: dict[str, tuple[bool, float]] = {}
+    for i, name in enumerate(names, 1):
+        about = compile_seconds([name])
+        if name in todo and workers > 1:
+            what = f"compiling in {workers} processes, about {about} s of CPU"
+        elif name in todo:
+            what = f"compiling, about {about} s on one core"
+        else:
+            what = "loading from cache"
+        say(f"kernels {i}/{len(names)}: {name} ({what})")
+        if name in todo and workers > 1:
+            continue  # compiled below, with the other chains
+        t0, c0 = time.perf_counter(), time.process_time()
+        expected = about * load_factor(1)[0] if name in todo else None
+        with heartbeat(f"      kernels {i}/{len(names)}", expected):  # a line every 5 s
+            _RUNS[name]()
+        seconds = time.process_time() - c0 if name in todo else time.perf_counter() - t0
+        out[name] = (name in todo, seconds)
+    if workers > 1:
+        _parallel(chains, workers, say, out)
+    return {n: out[n] for n in names}
+
+
+def command(workers: int | None = None) -> int:
     """``corr-cad warm-up``: every kernel group compiled or loaded, one line each."""
-    done = warm_up(say=lambda m: print(m, flush=True))
+    t0 = time.perf_counter()
+    done = warm_up(say=lambda m: print(m, flush=True), workers=workers)
     compiled = [n for n, (c, _) in done.items() if c]
-    seconds = sum(t for _, t in done.values())
+    cpu = sum(t for c, t in done.values() if c)
     print(
-        f"kernels ready in {seconds:.0f} s: {len(compiled)} of {len(done)} groups compiled"
+        f"kernels ready in {time.perf_counter() - t0:.0f} s"
+        f"{f' ({cpu:.0f} s of CPU compiling)' if compiled else ''}: {len(compiled)} of "
+        f"{len(done)} groups compiled"
         f"{' (' + ', '.join(compiled) + ')' if compiled else ''}, the rest loaded from cache",
         flush=True,
     )
@@ -260,6 +337,6 @@ def compile_ahead(scene, say: Callable[[str], None]) -> None:
         return
     say(
         f"compiling the numerical kernels once after install ({', '.join(todo)}): about "
-        f"{compile_seconds(todo)} s on one core; 'corr-cad warm-up' does it ahead"
+        f"{compile_seconds(todo)} s of CPU; 'corr-cad warm-up' does it ahead"
     )
     warm_up(todo, say=lambda m: say(f"      {m}"))

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit, _jit_inner
 
 __all__ = ["column", "influence_kernel", "prepare"]
 
@@ -61,7 +61,7 @@ def _frame_at(T, rho0, step, ra, sa, ka, rb, sb, kb):
     return v
 
 
-@_jit
+@_jit_inner
 def prepare(p, tb, xf, D0, FD):
     """What position ``p``'s columns share: each roller's frame coordinate ``xf`` (N,)
     (its radius, clipped to the table) and, within a row, the ring offset of read ``k``
@@ -83,7 +83,7 @@ def prepare(p, tb, xf, D0, FD):
         FD[q] = d - D0[q]
 
 
-@_jit
+@_jit_inner
 def column(p, j, tb, xf, D0, FD, Ct):
     """Column ``j`` of position ``p``'s matrix into row ``j`` of ``Ct`` (N, N), the matrix
     transposed (a column read and written in place; ``xf``, ``D0``, ``FD`` from

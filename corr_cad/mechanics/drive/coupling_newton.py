@@ -60,7 +60,7 @@ from corr_cad.mechanics.drive.drive_laws import (
     _invert_one,
     _palmgren,
 )
-from corr_cad.mechanics.row.mc_kernel import _approach, _jit
+from corr_cad.mechanics.row.mc_kernel import _approach, _jit, _jit_inner
 
 __all__ = ["overlap_newton"]
 
@@ -154,7 +154,7 @@ def _contact_table(comp, shape: tuple[int, int]) -> np.ndarray:
     return T
 
 
-@_jit
+@_jit_inner
 def _law(h, law, T, K, p, i, f0):
     """``(F, dF/dh)`` of roller ``i`` of position ``p`` at overlap ``h`` (the paper's law
     inverted by Newton from the force ``f0``, where positive)."""
@@ -165,7 +165,7 @@ def _law(h, law, T, K, p, i, f0):
     return _invert_one(h, f0 if f0 > 0.0 else h / K[p, i], T, p, i)
 
 
-@_jit
+@_jit_inner
 def _forward(f, T, p, i):
     """``(h, dh/dF)`` of roller ``i`` of position ``p`` under the paper's law at the force
     ``f``: the overlap ``G(f)`` the inversion (``drive_laws._invert_one``) solves for."""
@@ -176,7 +176,7 @@ def _forward(f, T, p, i):
     return vj + wn * vn + ws * vs, T[CJ, p, i] * sj + wn * T[CN, p, i] * sn + ws * T[CS, p, i] * ss
 
 
-@_jit
+@_jit_inner
 def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq, mode):
     """Forces, stiffnesses, ``C F``, the needles and the residuals at ``(y, tau, u)``:
     ``(r_M, scale_M, max |C F|, scale of the cams' balance)``; ``r`` (N,), ``rc`` (4,)
@@ -238,7 +238,7 @@ def _evaluate(p, y, tau, u, st, lz, F0, F, k, cf, r, rc, Q, kq, mode):
     return mom, scale + 1e-300, top, sf
 
 
-@_jit
+@_jit_inner
 def _merit(r, rm, sm, top, rc, sf):
     s = 0.0
     for i in range(r.shape[0]):
@@ -249,7 +249,7 @@ def _merit(r, rm, sm, top, rc, sf):
     return s / (top * top + 1e-300) + (rm / sm) ** 2 + (c / (sf * sf) if c > 0.0 else 0.0)
 
 
-@_jit
+@_jit_inner
 def _gauss(J, b, n):
     """Solve ``J x = b`` (the leading ``n``) in place by partial pivoting; False if
     singular."""
@@ -281,7 +281,7 @@ def _gauss(J, b, n):
     return True
 
 
-@_jit
+@_jit_inner
 def _settled(r, rm, sm, top, rc, sf, rtol, body_rtol):
     body = 0.0
     for i in range(r.shape[0]):
@@ -292,7 +292,7 @@ def _settled(r, rm, sm, top, rc, sf, rtol, body_rtol):
     return abs(rm) <= rtol * sm and body <= body_rtol * top and top > 0.0 and cams <= rtol * sf
 
 
-@_jit
+@_jit_inner
 def _seed(p, q, b, seq, a_c, g, on, n, tau, y, U, F):
     """Position ``p``'s start from position ``q``'s solution, its rollers' indices moved by
     ``seq[2, p]`` within each row; extrapolated linearly from ``b``'s before it where

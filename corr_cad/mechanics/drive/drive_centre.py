@@ -24,12 +24,12 @@ import math
 import numpy as np
 
 from corr_cad.mechanics.drive.drive_laws import _invert_one, _palmgren
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit, _jit_inner
 
 __all__ = ["row_centres"]
 
 
-@_jit
+@_jit_inner
 def _residual(p, gap, n, ux, uy, law, T, K, slope0, F, k):
     """Row forces ``F``, stiffnesses ``k`` (R,) at centre ``(ux, uy)`` of position ``p``;
     returns the residual ``sum F n`` and ``sum F``."""

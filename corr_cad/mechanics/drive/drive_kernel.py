@@ -28,7 +28,7 @@ import numpy as np
 
 from corr_cad.mechanics.drive.drive import DRIVE_RTOL, DriveSolver
 from corr_cad.mechanics.drive.drive_laws import _invert_one, _palmgren
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit, _jit_inner
 
 __all__ = ["CompiledInverse", "CompiledDriveSolver", "bearing_solve", "loadable_arrays"]
 
@@ -93,14 +93,14 @@ _IDLE = 1e-9  # drive._IDLE_FORCE
 _MAX_STEP = 1e-2  # drive._MAX_TAU_STEP, drive._MAX_U_STEP
 
 
-@_jit
+@_jit_inner
 def _copy1(dst, src):
     """``dst[:] = src`` as a loop (a slice assignment costs LLVM far more to compile)."""
     for i in range(dst.shape[0]):
         dst[i] = src[i]
 
 
-@_jit
+@_jit_inner
 def _copy2(dst, src):
     """``dst[:, :] = src`` as a loop."""
     for i in range(dst.shape[0]):
@@ -108,7 +108,7 @@ def _copy2(dst, src):
             dst[i, j] = src[i, j]
 
 
-@_jit
+@_jit_inner
 def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r):
     """Roller overlaps, forces and stiffnesses at ``(tau, u)`` of position ``p``, and
     the residual ``r`` (5,) less the needles' share (:func:`_needles` adds it).
@@ -148,7 +148,7 @@ def _state(p, tau, u, geo, law, T, K, slope0, target, prev, w, r):
     r[0] = r0
 
 
-@_jit
+@_jit_inner
 def _needles(u, dirs, bear, Q, kq, gq, r):
     """Each cam's needle loads ``Q`` (2, Z), stiffness and gross terms; subtracts
     ``sum_j Q_j e_j`` from the cams' force residuals ``r[1:5]``."""
@@ -169,7 +169,7 @@ def _needles(u, dirs, bear, Q, kq, gq, r):
         r[1 + 2 * c], r[2 + 2 * c] = rx, ry
 
 
-@_jit
+@_jit_inner
 def _relative(r, w, geo, p, Q, gq, target, e):
     """The residual relative to the round-off of its terms (drive.DriveSolver._relative)."""
     N = w.shape[1]
@@ -193,7 +193,7 @@ def _relative(r, w, geo, p, Q, gq, target, e):
     return rel
 
 
-@_jit
+@_jit_inner
 def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rtol, e, tmp):
     """Settle the cams that carry nothing (drive.DriveSolver._rest_idle_cams): True, and
     the settled state in ``u, w, r, Q, kq, gq``, when the position is then converged.
@@ -255,14 +255,14 @@ def _rest_idle(p, t, u, geo, law, T, K, slope0, target, w, r, Q, kq, gq, sf, rto
     return True
 
 
-@_jit
+@_jit_inner
 def _merit(r, sm, sf):
     return (r[0] / sm) ** 2 + (
         (r[1] / sf) ** 2 + (r[2] / sf) ** 2 + (r[3] / sf) ** 2 + (r[4] / sf) ** 2
     )
 
 
-@_jit
+@_jit_inner
 def _solve5(J, b, x):
     """``x = J^-1 b`` by Gaussian elimination with partial pivoting (J, b overwritten)."""
     n = 5
@@ -287,7 +287,7 @@ def _solve5(J, b, x):
         x[row] = s / J[row, row]
 
 
-@_jit
+@_jit_inner
 def _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out):
     """The energy's slope ``r(x + a d) . d`` along ``d`` at step ``a``; the state there in
     ``out = (u, w, r, Q, kq, gq)``."""
@@ -303,7 +303,7 @@ def _slope_at(p, t, u, d, a, geo, law, T, K, slope0, target, w, bear, dirs, out)
     return s
 
 
-@_jit
+@_jit_inner
 def _energy_search(p, t, u, d, r, geo, law, T, K, slope0, target, w, bear, dirs, out):
     """drive_numerics.energy_search at one position: the step ``a`` along ``d`` (its state
     in ``out``), 0 where ``d`` is no descent direction or no step lowers the energy."""

@@ -11,7 +11,7 @@ Palmgren's line contact ``delta = c Q^0.9`` solved for ``Q``
 
 from __future__ import annotations
 
-from corr_cad.mechanics.row.mc_kernel import _approach, _jit
+from corr_cad.mechanics.row.mc_kernel import _approach, _jit_inner
 
 __all__ = ["_invert_one", "_palmgren"]
 
@@ -22,7 +22,7 @@ CJ, K1, KC, UKJ, CN, WN, KG, UKN, CS, WS, UKS = range(11)
 _EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
 
 
-@_jit
+@_jit_inner
 def _invert_one(hi, f, T, p, i):
     """``(F, dF/dh)`` of roller ``i`` of position ``p`` at overlap ``hi > 0`` by Newton
     from ``f`` (``T`` (11, P, N): the contacts' table, a column per position and roller;
@@ -45,7 +45,7 @@ def _invert_one(hi, f, T, p, i):
     return f, (1.0 / dg if f > 0.0 else 0.0)
 
 
-@_jit
+@_jit_inner
 def _palmgren(d, c):
     """``(Q, dQ/d delta)`` of ``delta = c Q^0.9`` (both 0 for ``delta <= 0``)."""
     if not d > 0.0:

@@ -43,7 +43,7 @@ from corr_cad.mechanics.drive.drive_centre import row_centres
 from corr_cad.mechanics.drive.drive_kernel import CompiledDriveSolver, loadable_arrays
 from corr_cad.mechanics.drive.drive_numerics import row_errors
 from corr_cad.mechanics.drive.free_play import free_rows
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit, _jit_inner
 from corr_cad.mechanics.row.solver_numerics import _RTOL
 
 __all__ = ["ForcePassDriveSolver", "rigid_palmgren"]
@@ -51,7 +51,7 @@ __all__ = ["ForcePassDriveSolver", "rigid_palmgren"]
 _EXP = 0.9  # palmgren.PALMGREN_FORCE_EXPONENT
 
 
-@_jit
+@_jit_inner
 def _moment(p, tau, a_c, a_m, h0, K, F):
     """Forces ``F`` (N,) at ``tau`` of position ``p``; ``(moment, dmoment/dtau, scale)``."""
     mom, dmom, scale = 0.0, 0.0, 0.0
@@ -67,7 +67,7 @@ def _moment(p, tau, a_c, a_m, h0, K, F):
     return mom, dmom, scale
 
 
-@_jit
+@_jit_inner
 def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order, key):
     """``solver_numerics._linear_tau`` of position ``p`` (``bp``, ``order``, ``key``: scratch;
     ``order`` the last position's order of the breakpoints, a start)."""
@@ -148,7 +148,7 @@ def _linear_tau(p, a_c, a_m, h0, k0, target, bp, order, key):
     return tau
 
 
-@_jit
+@_jit_inner
 def _walk(p, side, tau0, k, stepk, cut, xpos, xneg, target, a_c, a_m, h0, K, Ft):
     """The bracket's trials ``tau0 + side step0 4^k`` from trial ``k`` on (``stepk`` its step),
     as ``_nested`` tries them, each only where needed: ``(0, ...)`` at the first trial

@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from corr_cad.mechanics.row.mc_kernel import _jit
+from corr_cad.mechanics.row.mc_kernel import _jit, _jit_inner
 
 __all__ = ["free_rows"]
 
@@ -51,7 +51,7 @@ _GOLDEN = 60
 _RATIO = 0.5 * (math.sqrt(5.0) - 1.0)
 
 
-@_jit
+@_jit_inner
 def _width(y, A, M, nr, B, N, nl, fg, fy, nf):
     """The slice's width at ``v_y = y`` (>= 0 where not empty), ``min(x_r - x_l, 1e300,
     -press)``, and its ends ``x_l``, ``x_r``."""
@@ -65,7 +65,7 @@ def _width(y, A, M, nr, B, N, nl, fg, fy, nf):
     return min(min(xr - xl, 1e300), -press), xl, xr
 
 
-@_jit
+@_jit_inner
 def _golden_centre(c, A, M, nr, B, N, nl, fg, fy, nf):
     """The least-pressed ``v`` of a preloaded row: the golden-section argmax of the
     slice's width over ``[-c, c]`` (concave) and its slice's middle; a Newton's start."""
@@ -95,7 +95,7 @@ def _golden_centre(c, A, M, nr, B, N, nl, fg, fy, nf):
     return x, y
 
 
-@_jit
+@_jit_inner
 def _feasible_y(c, tol, A, M, nr, B, N, nl, fg, fy, nf):
     """``[y1, y2]``: the ``y`` in ``[-c, c]`` whose slice is not empty to ``tol``
     (right lines ``A + M y``, left lines ``B + N y``, flat rollers ``fy y + fg <= tol``)."""
@@ -119,7 +119,7 @@ def _feasible_y(c, tol, A, M, nr, B, N, nl, fg, fy, nf):
     return y1, y2
 
 
-@_jit
+@_jit_inner
 def _envelope_max(c, y1, y2, A, M, n):
     """``max over [y1, y2] of min_k (A_k + M_k y) + sqrt(c^2 - y^2)`` (``inf`` for no line).
 

@@ -20,9 +20,13 @@ and for every chunking.
 from __future__ import annotations
 
 import math
+import os
+from contextlib import contextmanager
 
 import numba
 import numpy as np
+from numba.core import compiler, config
+from numba.core.registry import CPUDispatcher
 
 __all__ = ["solve_samples", "METRICS", "load_target"]
 
@@ -84,24 +88,84 @@ def load_target() -> None:
         pass
 
 
-def _jit(fn, **options):
-    """Compile with numba, cached on disk when numba finds a writable place.
+#: LLVM's optimisation levels (numba's default is 3): the kernels Python calls, and the
+#: helpers only compiled code calls (each caller links them in and optimises them again
+#: at its own level). Without ``fastmath`` LLVM reorders no floating-point arithmetic at
+#: any level: the same bits (docs/accuracy-and-speed.md, "Compiling the kernels").
+#: ``NUMBA_OPT`` set in the environment overrides both.
+OPT_LEVEL, INNER_OPT_LEVEL = 2, 1
+
+
+@contextmanager
+def _opt_level(level: int):
+    """numba's ``config.OPT`` at ``level`` while a kernel compiles (numba reads it as it
+    optimises each function and module), restored after: only the kernels' compiles see
+    it, which hold numba's compiler lock."""
+    if "NUMBA_OPT" in os.environ:
+        yield
+        return
+    saved = config.OPT
+    config.OPT = config._OptLevel(level)
+    try:
+        yield
+    finally:
+        config.OPT = saved
+
+
+def _compiler(level: int) -> type:
+    """numba's compiler, at optimisation ``level`` (:func:`_opt_level`)."""
+
+    class Compiler(compiler.Compiler):
+        def compile_extra(self, func):
+            with _opt_level(level):
+                return super().compile_extra(func)
+
+        def compile_ir(self, func_ir, lifted=(), lifted_from=None):
+            with _opt_level(level):
+                return super().compile_ir(func_ir, lifted, lifted_from)
+
+    Compiler.__qualname__ = Compiler.__name__ = f"Compiler{level}"
+    return Compiler
+
+
+_COMPILERS = {level: _compiler(level) for level in {OPT_LEVEL, INNER_OPT_LEVEL}}
+
+
+def _jit(fn, level: int = OPT_LEVEL, **options):
+    """Compile with numba at LLVM's optimisation ``level``, cached on disk when numba finds a
+    writable place.
 
     Without one (a read-only install, no writable home, no usable
     ``NUMBA_CACHE_DIR``) numba refuses ``cache=True`` at decoration; the
     kernel is then compiled in memory on every run (same machine code, same
     bits, ~4 s more).
     """
+    jit = {"nogil": True, "error_model": "numpy", "pipeline_class": _COMPILERS[level]}
+    jit.update(no_cfunc_wrapper=True, **options)  # no kernel is a C callback
     try:
-        return numba.njit(cache=True, nogil=True, error_model="numpy", **options)(fn)
+        return numba.njit(cache=True, **jit)(fn)
     except RuntimeError:  # "cannot cache function ...: no locator available"
-        return numba.njit(cache=False, nogil=True, error_model="numpy", **options)(fn)
+        return numba.njit(cache=False, **jit)(fn)
+
+
+class _InnerDispatcher(CPUDispatcher):
+    """A helper compiled without the wrapper Python calls it through: numba would jump
+    through a null pointer (the process dies); this says what to do instead."""
+
+    def __call__(self, *args, **kwargs):
+        raise TypeError(
+            f"{self.py_func.__module__}.{self.py_func.__qualname__} is compiled for compiled "
+            "callers only (@_jit_inner): decorate it with @_jit to call it from Python"
+        )
 
 
 def _jit_inner(fn):
-    """:func:`_jit` for a helper that only compiled code calls: without the wrappers that let
-    Python call it (about 0.1 s of compile each; the row's two kernels share nine helpers)."""
-    return _jit(fn, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+    """:func:`_jit` for a helper that only compiled code calls: without the wrapper that lets
+    Python call it (about 0.1 s of compile each), at :data:`INNER_OPT_LEVEL`; a call from
+    Python raises ``TypeError``."""
+    kernel = _jit(fn, INNER_OPT_LEVEL, no_cpython_wrapper=True)
+    kernel.__class__ = _InnerDispatcher  # same layout: only the Python call differs
+    return kernel
 
 
 # Rows of a position's per-roller table ``C`` (fields x rollers).

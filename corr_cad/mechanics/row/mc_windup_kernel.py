@@ -31,6 +31,7 @@ from corr_cad.mechanics.row.mc_kernel import (
     _free_ends,
     _invert,
     _jit,
+    _jit_inner,
     _relative_residual,
     _roller_pressure,
     _solve_position,
@@ -39,7 +40,7 @@ from corr_cad.mechanics.row.mc_kernel import (
 __all__ = ["windup_samples"]
 
 
-@_jit
+@_jit_inner
 def _preload_pressure(C, kc, gap, R, length, floor):
     """Gap-only preload pressure (MPa) at one position where the free rotation is empty.
 
