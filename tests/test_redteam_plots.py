@@ -109,3 +109,24 @@ def test_a_plot_module_that_fails_to_import_is_reported_as_in_a_serial_run(tmp_p
     assert pooled == serial
     code, err = pooled
     assert code == 3 and len(err) == 1 and "no-such-backend" in err[0], err
+
+
+def test_a_drawing_s_warning_reaches_the_run_s_warnings_not_the_worker_s_stderr(capfd):
+    """A plot worker printed its drawing's warnings on stderr at once (even in a run that
+    then failed, whose one line is its error); serially the CLI collects them and shows
+    them once the run has succeeded. They are now raised again here, with the result."""
+    import warnings
+    from concurrent.futures import ProcessPoolExecutor
+
+    from corr_cad.run.cli import _start_pool
+    from corr_cad.run.stages.plot_workers import draw
+
+    pool = _start_pool(ProcessPoolExecutor, 1)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert draw(pool, "warnings", "warn", "drawn with a warning").result() is None
+    finally:
+        pool.shutdown()
+    assert [(w.category, str(w.message)) for w in caught] == [(UserWarning, "drawn with a warning")]
+    assert "drawn with a warning" not in capfd.readouterr().err
