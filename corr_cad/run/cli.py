@@ -72,7 +72,7 @@ def _parser() -> argparse.ArgumentParser:
         "--scheduler", default=None, help="Dask scheduler address (with --executor dask)"
     )
     run.add_argument(
-        "--workers", type=int, default=None, help="process pool size (default: all cores)"
+        "--workers", type=int, default=None, help="process pool size (default: all usable cores)"
     )
     budget = run.add_argument_group("budget (overrides the scene's [budget])")
     budget.add_argument(
@@ -222,7 +222,7 @@ def _run(args: argparse.Namespace, state: dict) -> int:
     from corr_cad.run.pipeline import scene_plan
     from corr_cad.run.stages.plot_workers import plot_pool
 
-    cores = 0 if args.executor != "process" else args.workers or os.cpu_count() or 1
+    cores = 0 if args.executor != "process" else workers  # the usable cores, as estimated
     from corr_cad.run.stages.concurrent import kill_pool
 
     plots = plot_pool(_start_pool, kill_pool, scene_plan(scene), cores)
@@ -327,9 +327,10 @@ def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
     On Linux the kernel sends SIGKILL when the parent dies (PR_SET_PDEATHSIG);
     a daemon thread polling ``os.getppid()`` covers other platforms and the
     instant before the ``prctl`` call. Then the modules ``warm`` are imported
-    (:data:`WARM_MODULES`), which the tasks would otherwise import, and with
-    the kernels numba's CPU target is built
-    (:func:`~corr_cad.mechanics.row.mc_kernel.load_target`).
+    (:data:`WARM_MODULES`, or a plot worker's plot modules), which the tasks
+    would otherwise import, and with the kernels numba's CPU target is built
+    (:func:`~corr_cad.mechanics.row.mc_kernel.load_target`). A module that
+    fails to import is left to the task, whose error the stage reports.
     """
     import signal
     import threading
@@ -368,7 +369,12 @@ def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
     import importlib
 
     for name in warm:
-        importlib.import_module(name)
+        try:
+            importlib.import_module(name)
+        except Exception:  # noqa: BLE001 - raised again by the task that needs it
+            # An error here would break the pool ("a worker process died") after a
+            # traceback: the task's own import raises it in its stage, as serially.
+            return
     if "corr_cad.mechanics.row.mc_kernel" in warm:
         from corr_cad.mechanics.row.mc_kernel import load_target
 
@@ -378,14 +384,15 @@ def _worker_init(parent_pid: int, warm: tuple[str, ...] = ()) -> None:
 def _concurrent_stages(args: argparse.Namespace, scene) -> bool:
     """Run the STEP export in a pool worker beside the other stages?
 
-    With the process executor and two or more workers (``--workers``, default
-    all cores), when the scene has other work to overlap it with
-    (:mod:`corr_cad.run.stages.concurrent`).
+    With the process executor and two or more workers (``--workers``, default the
+    usable cores, ``default_workers``), when the scene has other work to overlap it
+    with (:mod:`corr_cad.run.stages.concurrent`).
     """
+    from corr_cad.run.budget.resources import default_workers
     from corr_cad.run.pipeline import scene_plan
     from corr_cad.run.stages.concurrent import worker_stages
 
-    if args.executor != "process" or (args.workers or os.cpu_count() or 1) < 2:
+    if args.executor != "process" or (args.workers or default_workers()) < 2:
         return False
     return bool(worker_stages(scene_plan(scene)))
 
@@ -433,9 +440,13 @@ def _executor(
         return
     from concurrent.futures import ProcessPoolExecutor
 
+    from corr_cad.run.budget.resources import default_workers
     from corr_cad.run.stages.concurrent import kill_pool
 
-    pool = _start_pool(ProcessPoolExecutor, args.workers, _warm_modules(scene))
+    # The usable cores (the affinity: taskset, a container's cpuset), as the estimate
+    # counts them; ProcessPoolExecutor's own default is os.cpu_count().
+    workers = args.workers or default_workers()
+    pool = _start_pool(ProcessPoolExecutor, workers, _warm_modules(scene))
     try:
         yield pool
     except BaseException:

@@ -16,6 +16,9 @@ What stays as in a serial run:
   (pickled), with the same matplotlib, forked from the same process;
 * errors: a plot function's error is raised in the main process, in the stage, where
   the CLI reports it as it would have;
+* warnings: a plot function's warnings are raised again in the main process when its
+  result is taken, where the CLI collects them (shown once the run has succeeded, never
+  printed by the worker);
 * interruption: the workers die with the main process (``cli._worker_init``), and a
   failed run kills them before its staging folder is removed
   (:func:`~corr_cad.run.pipeline.run_scene`, :func:`plot_pool`).
@@ -30,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import warnings
 
 __all__ = ["PLOT_MODULES", "QUIET_STAGES", "plot_plan", "plot_pool", "draw", "wait"]
 
@@ -100,6 +104,28 @@ def _draw(module: str, function: str, args: tuple, kwargs: dict):
     return getattr(importlib.import_module(module), function)(*args, **kwargs)
 
 
+def _draw_caught(module: str, function: str, args: tuple, kwargs: dict):
+    """In a plot worker: the drawing's return value and its warnings (message, category,
+    file, line), raised again in the main process (:class:`_Remote`)."""
+    with warnings.catch_warnings(record=True) as caught:
+        value = _draw(module, function, args, kwargs)
+    return value, [(str(w.message), w.category, w.filename, w.lineno) for w in caught]
+
+
+class _Remote:
+    """A figure a plot worker draws: :meth:`result` waits for it, raises its error or
+    its warnings here."""
+
+    def __init__(self, future) -> None:
+        self.future = future
+
+    def result(self):
+        value, caught = self.future.result()
+        for message, category, filename, lineno in caught:
+            warnings.warn_explicit(message, category, filename, lineno)
+        return value
+
+
 class _Drawn:
     """A figure drawn in the main process (the result of a future that is done)."""
 
@@ -116,7 +142,7 @@ def draw(pool, module: str, function: str, *args, **kwargs):
     value, or its error raised)."""
     if pool is None:
         return _Drawn(_draw(module, function, args, kwargs))
-    return pool.submit(_draw, module, function, args, kwargs)
+    return _Remote(pool.submit(_draw_caught, module, function, args, kwargs))
 
 
 def wait(drawings) -> None:
