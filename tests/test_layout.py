@@ -48,6 +48,7 @@ RUN_LAYERS = {
     "folder": 1,
     "stages": 2,
     "warmup": 2,
+    "pools": 2,
     "budget": 3,
     "pipeline": 4,
     "bench": 5,

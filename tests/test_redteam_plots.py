@@ -82,11 +82,16 @@ _FEW = _SCENE.replace("samples = 2000", "samples = 4")
 
 
 def _broken_matplotlib(folder, *extra) -> tuple[int, list[str]]:
-    """The CLI where matplotlib cannot be imported (an invalid ``MPLBACKEND``)."""
+    """The CLI where matplotlib cannot be imported (a broken install: a ``matplotlib``
+    package first on the path whose import raises)."""
     folder.mkdir()
     (folder / "s.toml").write_text(_FEW)
     (folder / "notes.txt").write_text("mine\n")
-    env = dict(os.environ, MPLBACKEND="no-such-backend")
+    fake = folder.parent / f"{folder.name}_site" / "matplotlib"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('matplotlib is broken here')\n")
+    path = os.pathsep.join(x for x in (str(fake.parent), os.environ.get("PYTHONPATH")) if x)
+    env = dict(os.environ, PYTHONPATH=path)
     done = subprocess.run(
         [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet", *extra],
         cwd=folder,
@@ -108,7 +113,31 @@ def test_a_plot_module_that_fails_to_import_is_reported_as_in_a_serial_run(tmp_p
     serial = _broken_matplotlib(tmp_path / "b", "--executor", "serial")
     assert pooled == serial
     code, err = pooled
-    assert code == 3 and len(err) == 1 and "no-such-backend" in err[0], err
+    assert code == 3 and len(err) == 1 and "matplotlib is broken here" in err[0], err
+
+
+def test_a_backend_the_user_set_for_other_programs_is_not_the_run_s(tmp_path):
+    """Every picture is drawn by Agg: an ``MPLBACKEND`` that matplotlib does not know (its
+    import fails) or another one leaves the run and its files as they are without it."""
+    digests = []
+    for backend in ("no-such-backend", "svg", None):
+        folder = tmp_path / str(backend)
+        folder.mkdir()
+        (folder / "s.toml").write_text(_FEW)
+        env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+        if backend:
+            env["MPLBACKEND"] = backend
+        done = subprocess.run(
+            [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+            cwd=folder,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert done.returncode == 0 and not done.stderr, done.stderr
+        digests.append((folder / "out" / "montecarlo.png").read_bytes())
+    assert digests[0] == digests[1] == digests[2]
 
 
 def test_a_drawing_s_warning_reaches_the_run_s_warnings_not_the_worker_s_stderr(capfd):

@@ -22,7 +22,7 @@ What stays as in a serial run:
   SIGTERM) while a worker stage runs, the pool's processes are killed and
   waited for *before* the staging folder is removed (so no worker writes
   into it afterwards); SIGKILL of the main process kills the workers through
-  ``cli._worker_init`` (``PR_SET_PDEATHSIG``).
+  ``pools._worker_init`` (``PR_SET_PDEATHSIG``).
 
 ``--executor serial``, ``--workers 1`` and Dask run every stage in the main
 process.

@@ -19,7 +19,7 @@ What stays as in a serial run:
 * warnings: a plot function's warnings are raised again in the main process when its
   result is taken, where the CLI collects them (shown once the run has succeeded, never
   printed by the worker);
-* interruption: the workers die with the main process (``cli._worker_init``), and a
+* interruption: the workers die with the main process (``pools._worker_init``), and a
   failed run kills them before its staging folder is removed
   (:func:`~corr_cad.run.pipeline.run_scene`, :func:`plot_pool`).
 
