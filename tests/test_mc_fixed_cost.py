@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from corr_cad.run.bench.bench_scaling import SCENE
-from corr_cad.run.cli import WARM_MODULES, _worker_init
+from corr_cad.run.pools import WARM_MODULES, _worker_init
 from corr_cad.run.pipeline import run_scene
 from corr_cad.run.scene.scene import parse_scene
 
@@ -155,7 +155,7 @@ _PROBE = textwrap.dedent(
 
     sys.meta_path.insert(0, Probe())
     from corr_cad.run.bench.bench_scaling import SCENE
-    from corr_cad.run.cli import WARM_MODULES, _worker_init
+    from corr_cad.run.pools import WARM_MODULES, _worker_init
     from corr_cad.run.pipeline import run_scene
     from corr_cad.run.scene.scene import parse_scene
 
@@ -193,7 +193,7 @@ _INIT = textwrap.dedent(
     """
     import os, sys
     import corr_cad.mechanics.row.mc_kernel as k
-    from corr_cad.run.cli import WARM_MODULES, _worker_init
+    from corr_cad.run.pools import WARM_MODULES, _worker_init
 
     calls = []
     k.load_target = lambda: calls.append(1)

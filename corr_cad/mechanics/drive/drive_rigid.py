@@ -301,6 +301,7 @@ class ForcePassDriveSolver(CompiledDriveSolver):
         self._rows = None
         self._template = None
         super().__init__(*args, **kwargs)
+        self._of = (self.geo_joined, self.n)
 
     @classmethod
     def on_block(
@@ -329,12 +330,21 @@ class ForcePassDriveSolver(CompiledDriveSolver):
         self.n = directions
         self.crank = None
         self.bodies = None
+        self._of = (geometry, directions)
         return self
+
+    def _own_parts(self) -> bool:
+        """Whether the solver still holds the geometry and directions it was made with, which
+        its kept arrays are of: the elastic bodies' coupling and the restarts swap in other
+        positions' (or a subset's), whose arrays are then made afresh and not kept."""
+        return self._of[0] is self.geo_joined and self._of[1] is self.n
 
     @property
     def block_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:func:`~corr_cad.mechanics.drive.drive_kernel.loadable_arrays` of the joined
         geometry, made once for the rigid start, the bearing Newton and the free interval."""
+        if not self._own_parts():
+            return loadable_arrays(self.geo_joined)
         if self._arrays is None:
             t, geo = self._template, self.geo_joined
             if t is None:
@@ -347,7 +357,7 @@ class ForcePassDriveSolver(CompiledDriveSolver):
         """The bearing Newton's geometry (5, P, 2R): advance, arm, gap (as
         :func:`~corr_cad.mechanics.drive.drive_kernel.loadable_arrays`), ``n_x``, ``n_y``."""
         a_c, a_m, h0 = self.block_arrays
-        if self._template is None:
+        if self._template is None or not self._own_parts():
             return np.ascontiguousarray(np.stack([a_c, a_m, h0, self.n[..., 0], self.n[..., 1]]))
         g = self._template.copy()
         g[2] = h0
@@ -355,14 +365,17 @@ class ForcePassDriveSolver(CompiledDriveSolver):
 
     def _row_arrays(self, c: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``c``'s directions (P, R, 2) and Palmgren factors (P, R), contiguous."""
-        if self._rows is None:
+        rows = self._rows if self._own_parts() else None
+        if rows is None:
             P, N = self.geo_joined.gap.shape
             K = np.broadcast_to(self.comp.K, (P, N))
-            self._rows = [
+            rows = [
                 (np.ascontiguousarray(self.n[:, sl]), np.ascontiguousarray(K[:, sl], dtype=float))
                 for sl in (slice(0, self.R), slice(self.R, 2 * self.R))
             ]
-        return self._rows[c]
+            if self._own_parts():
+                self._rows = rows
+        return rows[c]
 
     def free_interval(self, solve: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`DriveSolver.free_interval` (the same steps, the same bits) on the arrays the
