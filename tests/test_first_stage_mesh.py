@@ -171,3 +171,32 @@ def test_monte_carlo_gates_the_whole_drives_backlash(tmp_path):
     p = sum(w > 0.3 for w in whole) / len(whole)
     assert 0.0 < p < 1.0  # the case separates samples: the first stage's share decides
     assert summary["failure_probability"]["max_backlash_arcmin"] == pytest.approx(p, rel=1e-15)
+
+
+def test_the_solids_of_the_whole_drive_are_cut_at_the_chord_tolerance(tmp_path):
+    """With ``[first_stage]`` the drive's stage makes the part outlines at ``tolerance``;
+    the solids reuse them only where ``chord_tolerance`` is the same: at a coarser chord
+    the ring's STL is the one of outlines made at the chord tolerance."""
+    from corr_cad.export import mesh
+    from corr_cad.geometry.design import GearDesign
+    from corr_cad.geometry.parts import part_outlines
+    from corr_cad.geometry.profile import working_profile
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "templates" / "compound.toml").read_text()
+    text = text.replace(
+        text[text.index("formats = ") : text.index("\n", text.index("formats = "))],
+        'formats = ["stl"]\nchord_tolerance = 0.05',
+    )
+    (tmp_path / "s.toml").write_text(text)
+    r = subprocess.run(
+        [sys.executable, "-m", "corr_cad", "run", "s.toml", "--out", "out", "--quiet"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    design = GearDesign()  # the template's second stage is the prototype's
+    ring = part_outlines(design, working_profile(design), 0.05)["ring"]
+    want = mesh.write_mesh(mesh.to_trimesh(mesh.solid(ring)), tmp_path / "ring.stl", "stl")
+    assert (tmp_path / "out" / "inner_gear.stl").read_bytes() == want.read_bytes()

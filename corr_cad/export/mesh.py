@@ -385,14 +385,46 @@ def write_mesh(meshes: dict[str, trimesh.Trimesh] | trimesh.Trimesh, path: Path,
     if fmt == "3mf":
         # trimesh deflates (level 5) and stable_3mf re-deflates at level 5:
         # deflating once gives the same bytes at half the cost.
-        data = stable_3mf(
-            obj.export(file_type=fmt, compression=zipfile.ZIP_STORED), zipfile.ZIP_DEFLATED
-        )
+        data = stable_3mf(_stored_3mf(obj), zipfile.ZIP_DEFLATED)
     else:
         data = obj.export(file_type=fmt)
     with writing(path) as tmp:
         tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
     return path
+
+
+class _ListFlat(np.ndarray):
+    """An array whose ``flatten()`` is a list of Python numbers.
+
+    trimesh's 3MF writer formats each batch of ``vertices[i:j].flatten()`` with
+    ``str.format``: on Python floats that is about 1.7 times faster than on numpy
+    scalars, and the text is the same (both print the shortest round-trip repr).
+    """
+
+    def flatten(self, order="C"):  # noqa: D102 - see the class
+        return np.asarray(self).flatten(order).tolist()
+
+
+class _Listed:
+    """What trimesh's 3MF writer reads of a mesh: ``vertices``, ``faces`` as :class:`_ListFlat`."""
+
+    def __init__(self, m: trimesh.Trimesh) -> None:
+        self.vertices = np.asarray(m.vertices).view(_ListFlat)
+        self.faces = np.asarray(m.faces).view(_ListFlat)
+
+
+def _stored_3mf(obj: trimesh.Trimesh | trimesh.Scene) -> bytes:
+    """trimesh's 3MF archive of ``obj``, members stored (not deflated): its exact bytes,
+    made faster by handing its writer the meshes as :class:`_Listed` for the call."""
+    from trimesh.exchange.threemf import export_3MF
+
+    scene = obj if isinstance(obj, trimesh.Scene) else trimesh.Scene(obj)
+    geometry = scene.geometry
+    scene.geometry = {name: _Listed(m) for name, m in geometry.items()}
+    try:
+        return export_3MF(scene, compression=zipfile.ZIP_STORED)
+    finally:
+        scene.geometry = geometry
 
 
 def _scaled(mesh: trimesh.Trimesh, factor: float) -> trimesh.Trimesh:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy import optimize
@@ -176,7 +177,12 @@ def admissible_roller_radius(
         if e is None or cam_radius is None:
             raise TypeError("admissible_roller_radius(z, e, cam_radius) needs all three")
         z = design
+    return _admissible_roller_radius(int(z), float(e), float(cam_radius))
 
+
+@lru_cache(maxsize=256)
+def _admissible_roller_radius(z: int, e: float, cam_radius: float) -> float:
+    # A sweep asks this of the same (z, e, Rj) at each of its points (a pure function: cached).
     def h(r: float) -> float:
         return min_speed_factor(z, e, cam_radius + r, r)[0]
 

@@ -49,6 +49,8 @@ def drive(ctx: RunContext) -> None:
     outlines = ctx.results.outlines or part_outlines(
         s.design, ctx.results.working, tol, floating=rows is not None
     )
+    if tol == s.chord_tolerance:  # the solids stage's outlines: made once
+        ctx.results.outlines = outlines
     report = drive_mass_inertia(s.design, fs, profiles, outlines, rows)
     if s.load is not None:
         t_in = s.load.input_torque * fs.stage.pinion_teeth / fs.stage.crank_gear_teeth

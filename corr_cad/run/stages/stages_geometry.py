@@ -26,7 +26,10 @@ def _solids(ctx: RunContext) -> None:
     s = ctx.scene
     tol = s.chord_tolerance
     rows = needle_rows_of(ctx)
-    outlines = part_outlines(s.design, ctx.results.working, tol, floating=rows is not None)
+    # Made by the drive's stage at this tolerance where it ran, else here.
+    outlines = ctx.results.outlines or part_outlines(
+        s.design, ctx.results.working, tol, floating=rows is not None
+    )
     solids, meshes, report = {}, {}, {}
     for name, outline in outlines.items():
         solid = mesh.solid(outline)
