@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 
 from corr_cad.run.bench.bench_scaling import SCENE
-from corr_cad.run.pools import WARM_MODULES, _worker_init
 from corr_cad.run.pipeline import run_scene
+from corr_cad.run.pools import WARM_MODULES, _worker_init
 from corr_cad.run.scene.scene import parse_scene
 
 
