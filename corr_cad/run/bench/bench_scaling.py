@@ -1,7 +1,9 @@
 """How the Monte Carlo scales with workers: ``corr-cad bench --study montecarlo --workers``.
 
 For each worker count the prototype's Monte Carlo (four tolerances, the
-datasheet metrics, 36 positions a sample) runs through the real CLI
+datasheet metrics, 36 positions a sample), under the paper's row (``model``
+``paper``) and under the drive on 40 needles 6 x 12 mm with a 5 um diametral
+clearance, Palmgren's law (``model`` ``drive``), runs through the real CLI
 (``corr-cad run --workers N``) in a child process at two sample counts.
 From the Monte Carlo stage's own time (``manifest.json``) come the marginal
 rate (samples/s between the two runs), the fixed cost (the stage's time at
@@ -29,6 +31,7 @@ from pathlib import Path
 from corr_cad.run.bench.bench_common import _table, _write_csv
 
 __all__ = [
+    "DRIVE_SCENE",
     "SCENE",
     "amdahl_efficiency",
     "amdahl_serial_fraction",
@@ -45,6 +48,15 @@ SCENE = (
     "[checks]\nmax_lost_motion_arcmin = 3.0\n"
     "[montecarlo]\nsamples = {samples}\npositions = 36\n"
 )
+
+
+#: The same study under the drive (both rows, the cams on needles with their clearance).
+DRIVE_SCENE = SCENE + (
+    '[solver]\nmodel = "drive"\ncontact_law = "palmgren"\n[bearings.eccentric]\nneedles = 40\n'
+    "needle_diameter = 6.0\nneedle_length = 12.0\ndiametral_clearance = 0.005\n"
+)
+#: The sweep's models and their scenes.
+MODELS = {"paper": SCENE, "drive": DRIVE_SCENE}
 
 
 def default_worker_counts() -> list[int]:
@@ -75,7 +87,7 @@ def _stage_seconds(folder: Path) -> float:
     return next(s["seconds"] for s in manifest["stages"] if s["name"] == "montecarlo")
 
 
-def _one(samples: int, workers: int) -> tuple[float, dict, float]:
+def _one(samples: int, workers: int, text: str = SCENE) -> tuple[float, dict, float]:
     """Stage seconds, the measurement and the memory estimate of one run."""
     from corr_cad.run.bench.bench_resources import measure
     from corr_cad.run.budget.resources import estimate
@@ -83,7 +95,7 @@ def _one(samples: int, workers: int) -> tuple[float, dict, float]:
 
     folder = Path(tempfile.mkdtemp(prefix="corr-cad-bench-"))
     try:
-        scene = SCENE.replace("{samples}", str(samples))
+        scene = text.replace("{samples}", str(samples))
         (folder / "s.toml").write_text(scene)
         est = estimate(load_scene(folder / "s.toml"), workers, "process")
         got = measure(folder, scene, ("--workers", str(workers)), timeout=3600)
@@ -118,39 +130,12 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
     """Samples/s, parallel efficiency, fixed cost and peak memory per worker count."""
     counts = workers or default_worker_counts()
     small, large = (200, 4_000) if quick else (2_000, 100_000)
-    _one(small, counts[0])  # the kernels' cache, compiled once per installation
-    rows, base = [], None
-    mb = 1024.0**2
-    machine = machine_line()
-    for n in counts:
-        t_one, _, _ = _one(1, n)  # the fixed cost itself: the stage with one sample
-        t_small, _, _ = _one(small, n)
-        t_large, got, est = _one(large, n)
-        rate = (large - small) / max(t_large - t_small, 1e-9)
-        base = base or (n, rate)  # efficiency against the first count (1 by default)
-        fixed = max(t_small - small / rate, 0.0)
-        serial = amdahl_serial_fraction(fixed, large, base[1] / base[0], n)
-        rows.append(
-            [
-                machine,
-                n,
-                large,
-                t_large,
-                rate,
-                rate * base[0] / (n * base[1]),
-                fixed,
-                t_one,
-                got["tree"] / mb,
-                est / mb,
-                est / got["tree"],
-                serial,
-                amdahl_efficiency(serial, 16),
-                amdahl_efficiency(serial, 64),
-                os.getloadavg()[0],
-            ]
-        )
+    rows = []
+    for model, text in MODELS.items():
+        rows += _sweep(model, text, counts, small, large)
     header = [
         "machine",
+        "model",
         "workers",
         "samples",
         "stage_s",
@@ -170,4 +155,41 @@ def workers_sweep(out: Path, quick: bool = False, workers: list[int] | None = No
         "Monte Carlo workers sweep (4 tolerances, datasheet metrics, 36 positions)", header, rows
     )
     _write_csv(out, "montecarlo_workers.csv", header, rows)
+    return rows
+
+
+def _sweep(model: str, text: str, counts: list[int], small: int, large: int) -> list:
+    """The rows of one model's scene over the worker counts."""
+    _one(small, counts[0], text)  # the kernels' cache, compiled once per installation
+    rows, base = [], None
+    mb = 1024.0**2
+    machine = machine_line()
+    for n in counts:
+        t_one, _, _ = _one(1, n, text)  # the fixed cost itself: the stage with one sample
+        t_small, _, _ = _one(small, n, text)
+        t_large, got, est = _one(large, n, text)
+        rate = (large - small) / max(t_large - t_small, 1e-9)
+        base = base or (n, rate)  # efficiency against the first count (1 by default)
+        fixed = max(t_small - small / rate, 0.0)
+        serial = amdahl_serial_fraction(fixed, large, base[1] / base[0], n)
+        rows.append(
+            [
+                machine,
+                model,
+                n,
+                large,
+                t_large,
+                rate,
+                rate * base[0] / (n * base[1]),
+                fixed,
+                t_one,
+                got["tree"] / mb,
+                est / mb,
+                est / got["tree"],
+                serial,
+                amdahl_efficiency(serial, 16),
+                amdahl_efficiency(serial, 64),
+                os.getloadavg()[0],
+            ]
+        )
     return rows
