@@ -93,3 +93,23 @@ def test_bench_workers_flag_refuses_a_bad_count_in_one_line(tmp_path):
     assert r.returncode == 2
     assert "--workers: '0,2': worker counts from 1 to 1024, comma-separated" in r.stderr
     assert not (tmp_path / "b").exists()
+
+
+def test_bench_workers_sweep_runs_the_paper_s_row_and_the_drive_with_its_clearance():
+    """The sweep's two scenes: the same study under the paper's row and under the drive on
+    40 needles with a 5 um diametral clearance (what docs/budget.md says it sweeps)."""
+    import tomllib
+
+    from corr_cad.run.bench import bench_scaling
+    from corr_cad.run.scene.scene import parse_scene
+
+    assert list(bench_scaling.MODELS) == ["paper", "drive"]
+    scenes = {
+        k: parse_scene(tomllib.loads(v.replace("{samples}", "10")))
+        for k, v in bench_scaling.MODELS.items()
+    }
+    assert not scenes["paper"].solver.drive
+    drive = scenes["drive"]
+    assert drive.solver.drive and drive.solver.contact_model == "palmgren"
+    assert drive.bearing.needles == 40 and drive.bearing.diametral_clearance == 0.005
+    assert drive.tolerances.keys() == scenes["paper"].tolerances.keys()
