@@ -10,9 +10,11 @@ compares stderr, or counts its lines, compares it without them.
 
 from __future__ import annotations
 
+import json
 import re
+from pathlib import Path
 
-__all__ = ["PROGRESS_LINE", "is_progress_line", "without_progress"]
+__all__ = ["PROGRESS_LINE", "folder_files", "is_progress_line", "without_progress"]
 
 _DURATION = r"(?:\d+s|\d+m\d\ds|\d+h\d\dm)"
 _LEFT = rf"(?:(?:estimated )?{_DURATION}|\?) left"
@@ -33,3 +35,17 @@ def is_progress_line(line: str) -> bool:
 def without_progress(text: str) -> str:
     """``text`` (a captured stderr) without the progress channel's lines."""
     return "".join(line for line in text.splitlines(keepends=True) if not is_progress_line(line))
+
+
+def folder_files(out: Path) -> dict:
+    """Every file's bytes in the output folder ``out``; ``manifest.json`` without its
+    stages' timings (the one file two runs of a scene may write differently)."""
+    got = {}
+    for p in sorted(out.iterdir()):
+        if p.name == "manifest.json":
+            m = json.loads(p.read_text())
+            m.pop("stages", None)
+            got[p.name] = m
+        else:
+            got[p.name] = p.read_bytes()
+    return got

@@ -27,6 +27,7 @@ from corr_cad.run.bench.bench_scaling import SCENE
 from corr_cad.run.pipeline import run_scene
 from corr_cad.run.pools import WARM_MODULES, _worker_init
 from corr_cad.run.scene.scene import parse_scene
+from tests.helpers import folder_files
 
 
 def _scene(samples: int = 12):
@@ -38,19 +39,6 @@ def _scene(samples: int = 12):
 def _run(scene, out, executor=None) -> None:
     out.mkdir()
     run_scene(scene, out, executor=executor)
-
-
-def _files(out) -> dict:
-    """Every file's bytes; the manifest without its timings."""
-    got = {}
-    for p in sorted(out.iterdir()):
-        if p.name == "manifest.json":
-            m = json.loads(p.read_text())
-            m.pop("stages", None)
-            got[p.name] = m
-        else:
-            got[p.name] = p.read_bytes()
-    return got
 
 
 class _Recording(ThreadPoolExecutor):
@@ -73,7 +61,7 @@ def test_the_nominal_metrics_ride_in_the_pools_first_task_and_the_files_keep_the
         _run(scene, tmp_path / "pool", pool)
     # 12 samples, one chunk: the nominal metrics and the samples in one task
     assert pool.names == ["_with_nominal"]
-    assert _files(tmp_path / "pool") == _files(tmp_path / "serial")
+    assert folder_files(tmp_path / "pool") == folder_files(tmp_path / "serial")
     nominal = json.loads((tmp_path / "pool" / "montecarlo_summary.json").read_text())["nominal"]
     assert {"lost_motion_arcmin", "peak_gear_force"} <= set(nominal)
 
@@ -85,7 +73,7 @@ def test_with_several_chunks_only_the_first_carries_the_nominal_metrics(tmp_path
     with _Recording() as pool:
         _run(scene, tmp_path / "pool", pool)
     assert pool.names == ["_with_nominal", "_chunk_task", "_chunk_task"]
-    assert _files(tmp_path / "pool") == _files(tmp_path / "serial")
+    assert folder_files(tmp_path / "pool") == folder_files(tmp_path / "serial")
 
 
 @pytest.mark.slow
@@ -95,7 +83,7 @@ def test_warm_process_workers_write_the_serial_runs_bytes(tmp_path):
     init = (os.getpid(), WARM_MODULES)
     with ProcessPoolExecutor(2, initializer=_worker_init, initargs=init) as pool:
         _run(scene, tmp_path / "pool", pool)
-    assert _files(tmp_path / "pool") == _files(tmp_path / "serial")
+    assert folder_files(tmp_path / "pool") == folder_files(tmp_path / "serial")
 
 
 def test_workers_import_the_kernels_ahead_only_where_the_samples_use_them():
@@ -186,7 +174,7 @@ def test_on_a_process_pool_the_plot_imports_beside_the_samples_with_the_same_byt
     seen = json.loads(done.stdout.strip().splitlines()[-1])
     assert seen == {"pyplot": "corr-cad-import-plots", "scipy.stats": False, "numba": False}
     _run(_scene(), tmp_path / "serial")
-    assert _files(tmp_path / "pool") == _files(tmp_path / "serial")
+    assert folder_files(tmp_path / "pool") == folder_files(tmp_path / "serial")
 
 
 _INIT = textwrap.dedent(

@@ -28,6 +28,7 @@ from corr_cad.run.budget.costs_montecarlo import (
 )
 from corr_cad.run.scene.scene import parse_scene
 from corr_cad.run.stages.plot_workers import draw, wait
+from tests.helpers import folder_files
 
 #: The drive of the fixed-cost benchmark (``bench_drive._cli_fixed_cost``) with the
 #: datasheet too: Palmgren's law, 40 needles 6 x 12 mm with a 5 um clearance, one sample.
@@ -54,19 +55,6 @@ diametral_clearance = 0.005
 
 def _scene(samples: int = 1):
     return parse_scene(tomllib.loads(SCENE.replace("{samples}", str(samples))), name="s")
-
-
-def _files(out) -> dict:
-    """Every file's bytes; the manifest without its timings."""
-    got = {}
-    for p in sorted(out.iterdir()):
-        if p.name == "manifest.json":
-            m = json.loads(p.read_text())
-            m.pop("stages", None)
-            got[p.name] = m
-        else:
-            got[p.name] = p.read_bytes()
-    return got
 
 
 def test_few_samples_start_no_sample_pool_and_many_do():
@@ -111,7 +99,7 @@ def _cli(folder, *extra) -> dict:
         timeout=600,
     )
     assert done.returncode == 0, done.stderr
-    return _files(folder / "out")
+    return folder_files(folder / "out")
 
 
 @pytest.mark.slow
@@ -169,7 +157,7 @@ def test_the_main_process_never_imports_matplotlib_for_the_plot_workers_figures(
     )
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.strip().splitlines()[-1]) == {"matplotlib": False, "here": True}
-    assert _files(tmp_path / "workers") == _files(tmp_path / "here")
+    assert folder_files(tmp_path / "workers") == folder_files(tmp_path / "here")
 
 
 def test_the_estimate_counts_the_plot_workers_and_no_pool_for_few_samples():
